@@ -1,0 +1,1 @@
+"""The pitchside command line."""

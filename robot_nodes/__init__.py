@@ -1,0 +1,1 @@
+"""Robot nodes: each its own process, all talking over Zenoh through the runtime."""

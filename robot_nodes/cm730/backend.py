@@ -1,0 +1,42 @@
+"""What the cm730 node needs from a servo bus, real or simulated."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Protocol
+
+import numpy as np
+
+
+@dataclass(slots=True)
+class ImuReading:
+    orientation_xyzw: np.ndarray  # (4,) quaternion of the torso in the world (gravity-aligned) frame
+    angular_velocity: np.ndarray  # (3,) rad/s, torso frame
+    linear_acceleration: np.ndarray  # (3,) m/s^2, torso frame, includes gravity (+9.81 on z when upright)
+
+
+@dataclass(slots=True)
+class BusReading:
+    """One read of the whole bus; arrays are index-aligned with ServoBackend.joint_names."""
+
+    positions: np.ndarray  # rad
+    velocities: np.ndarray  # rad/s
+    efforts: np.ndarray  # Nm (or load fraction on servos that only report load)
+    imu: ImuReading | None = None
+    temperatures: np.ndarray | None = None  # deg C, per joint
+    voltage: float | None = None  # V
+    # joints that did not answer in this read (their values above are the last known ones)
+    missing: list[str] = field(default_factory=list)
+
+
+class ServoBackend(Protocol):
+    joint_names: list[str]
+
+    def read(self) -> BusReading: ...
+
+    def write_goals(self, names: list[str], positions: np.ndarray,
+                    velocities: np.ndarray | None = None, efforts: np.ndarray | None = None) -> None: ...
+
+    def set_torque(self, names: list[str], enabled: bool) -> None: ...
+
+    def close(self) -> None: ...

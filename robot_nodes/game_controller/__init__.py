@@ -1,0 +1,1 @@
+"""pitchside game_controller node."""

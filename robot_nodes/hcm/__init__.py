@@ -1,0 +1,1 @@
+"""pitchside hcm node."""

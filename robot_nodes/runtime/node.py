@@ -1,0 +1,354 @@
+"""Node: the shape every robot node has (Zenoh session, topics by name, timers, parameters, diagnostics)."""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import json
+import logging
+import signal
+import threading
+import time
+import traceback
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, ClassVar
+
+import zenoh
+
+import schemas
+from robot_nodes.runtime import keys
+from robot_nodes.runtime.actions import ActionClient, ActionServer, ServerGoal
+from robot_nodes.runtime.bus import BusConfig, open_session
+from robot_nodes.runtime.loop import EventLoop, Timer
+from robot_nodes.runtime.parameters import ParameterError, ParameterStore
+from robot_nodes.runtime.services import ServiceServer
+from schemas.codec import SchemaError
+
+log = logging.getLogger(__name__)
+
+
+@dataclass
+class NoParams:
+    """For nodes without parameters."""
+
+
+def stamp_now() -> Any:
+    """A builtin_interfaces/Time of the wall clock."""
+    t = time.time_ns()
+    return schemas.make("builtin_interfaces/msg/Time", sec=t // 1_000_000_000, nanosec=t % 1_000_000_000)
+
+
+def header(frame_id: str = "") -> Any:
+    return schemas.make("std_msgs/msg/Header", stamp=stamp_now(), frame_id=frame_id)
+
+
+class Publisher:
+    """Publishes one topic of the table; the type comes from the table, never from the caller."""
+
+    def __init__(self, node: Node, topic: str, robot: str) -> None:
+        self.topic = schemas.topic(topic)
+        self.key = keys.topic_key(robot, topic)
+        encoding = zenoh.Encoding("application/cdr").with_schema(self.topic.type)
+        self._pub = node.session.declare_publisher(self.key, encoding=encoding)
+        self._typename = schemas.codec.full_name(self.topic.type)
+        self.count = 0
+
+    def publish(self, msg: Any) -> None:
+        if msg.__msgtype__ != self._typename:
+            raise SchemaError(f"{self.topic.name} carries {self._typename}, not {msg.__msgtype__}")
+        self._pub.put(schemas.encode(msg))
+        self.count += 1
+
+    def publish_bytes(self, payload: bytes) -> None:
+        """Already-encoded CDR (relays, replay)."""
+        self._pub.put(payload)
+        self.count += 1
+
+    @property
+    def has_subscribers(self) -> bool:
+        return bool(self._pub.matching_status.matching)
+
+    def close(self) -> None:
+        self._pub.undeclare()
+
+
+class Subscription:
+    def __init__(self, node: Node, topic: str, handler: Callable[..., None], robot: str) -> None:
+        self.topic = schemas.topic(topic)
+        self.handler = handler
+        self.any_robot = robot == keys.ANY_ROBOT
+        self.count = 0
+        self.decode_errors = 0
+        self._node = node
+        call_soon = node.loop.call_soon
+        dispatch = self._dispatch
+        self._sub = node.session.declare_subscriber(
+            keys.topic_key(robot, topic),
+            lambda sample: call_soon(dispatch, str(sample.key_expr), sample.payload.to_bytes()),
+        )
+
+    def _dispatch(self, key: str, payload: bytes) -> None:
+        try:
+            msg = schemas.decode(payload, self.topic.type)
+        except SchemaError as exc:
+            self.decode_errors += 1
+            self._node.record_error(f"{self.topic.name}: {exc}")
+            return
+        self.count += 1
+        if self.any_robot:
+            self.handler(keys.split_topic_key(key)[0], msg)
+        else:
+            self.handler(msg)
+
+    def close(self) -> None:
+        self._sub.undeclare()
+
+
+class Node:
+    """Base of every robot node.
+
+    Subclasses set ``name`` and ``Params`` (a dataclass of ``param`` fields), and build their
+    publishers, subscriptions and timers in ``setup``. All callbacks run on the node's one loop
+    thread, so node code needs no locks.
+    """
+
+    name: ClassVar[str] = "node"
+    Params: ClassVar[type] = NoParams
+    diagnostics_period: ClassVar[float] = 1.0
+
+    def __init__(
+        self,
+        robot_id: str = "robot1",
+        bus: BusConfig | zenoh.Session | None = None,
+        params_file: Path | None = None,
+        overrides: dict[str, Any] | None = None,
+    ) -> None:
+        self.robot_id = robot_id
+        self.log = logging.getLogger(f"pitchside.{self.name}")
+        self._own_session = not isinstance(bus, zenoh.Session)
+        self.session: zenoh.Session = bus if isinstance(bus, zenoh.Session) else open_session(bus)
+        self.loop = EventLoop(self._on_callback_error)
+        self.parameters = ParameterStore(self.name, self.Params, params_file, overrides)
+        self.params = self.parameters.values
+        self.parameters.on_change(lambda changed: self.loop.call_soon(self.on_parameters_changed, changed))
+        self._publishers: list[Publisher] = []
+        self._subscriptions: list[Subscription] = []
+        self._timers: list[Timer] = []
+        self._declared: list[Any] = []
+        self.errors = 0
+        self.last_error = ""
+        self._diag_values: dict[str, str] = {}
+        self._thread: threading.Thread | None = None
+        self._started = time.monotonic()
+        self._closed = False
+        self._diag_pub = self.publisher("diagnostics")
+        self._declared.append(self.session.declare_queryable(keys.params_key(robot_id, self.name),
+                                                             self._on_params_query))
+        self._params_changed = self.session.declare_publisher(keys.params_changed_key(robot_id, self.name))
+        self.timer(1.0 / self.diagnostics_period, self._publish_diagnostics)
+        self.setup()
+
+    # -- for subclasses -------------------------------------------------------------------------------
+    def setup(self) -> None:
+        """Declare publishers, subscriptions and timers here."""
+
+    def on_parameters_changed(self, changed: dict[str, Any]) -> None:
+        """Called on the loop thread after parameters changed live."""
+
+    def on_shutdown(self) -> None:
+        """Last words before the session closes (e.g. switch motors off)."""
+
+    def publisher(self, topic: str) -> Publisher:
+        pub = Publisher(self, topic, self.robot_id)
+        self._publishers.append(pub)
+        return pub
+
+    def subscribe(self, topic: str, handler: Callable[..., None], robot: str | None = None) -> Subscription:
+        """handler(msg) for this robot's topic; with robot="*", handler(robot_id, msg) for every robot."""
+        sub = Subscription(self, topic, handler, robot or self.robot_id)
+        self._subscriptions.append(sub)
+        return sub
+
+    def timer(self, hz: float, callback: Callable[[], None], name: str | None = None) -> Timer:
+        t = Timer(self.loop, 1.0 / hz, callback, name or getattr(callback, "__name__", "timer"))
+        self._timers.append(t)
+        self.loop.add_timer(t) if self.loop.thread is None else self.loop.call_soon(self.loop.add_timer, t)
+        return t
+
+    def action_server(self, action: str, on_goal: Callable[[ServerGoal], str | None],
+                      on_cancel: Callable[[ServerGoal], None] | None = None,
+                      on_preempt: Callable[[ServerGoal], None] | None = None) -> ActionServer:
+        server = ActionServer(self.session, self.loop, self.robot_id, action, on_goal, on_cancel, on_preempt)
+        self._declared.append(server)
+        return server
+
+    def action_client(self, action: str, robot: str | None = None) -> ActionClient:
+        """Its callbacks run on this node's loop."""
+        client = ActionClient(self.session, robot or self.robot_id, action, self.loop)
+        self._declared.append(client)
+        return client
+
+    def service(self, name: str, handler: Callable[[Any], Any]) -> ServiceServer:
+        server = ServiceServer(self.session, self.loop, self.robot_id, name, handler)
+        self._declared.append(server)
+        return server
+
+    def set_diagnostic(self, key: str, value: Any) -> None:
+        self._diag_values[key] = str(value)
+
+    def record_error(self, message: str) -> None:
+        """Counted and shown in diagnostics; the node goes on."""
+        self.errors += 1
+        self.last_error = message
+        self.log.warning(message)
+
+    # -- running --------------------------------------------------------------------------------------
+    def spin(self) -> None:
+        """Runs the loop on this thread until shutdown()."""
+        try:
+            self.loop.run()
+        finally:
+            self._close()
+
+    def start(self) -> Node:
+        """Runs the loop on a background thread (tests, several nodes in one process)."""
+        self._thread = threading.Thread(target=self.spin, name=f"node-{self.name}", daemon=True)
+        self._thread.start()
+        return self
+
+    def shutdown(self) -> None:
+        if self.loop.stopped:
+            return
+        done = threading.Event()
+
+        def last_words() -> None:
+            try:
+                self.on_shutdown()
+            finally:
+                done.set()
+                self.loop.stop()
+
+        if self.loop.thread is None:
+            self.loop.stop()
+            self._close()
+            return
+        self.loop.call_soon(last_words)
+        if threading.current_thread() is not self.loop.thread:
+            done.wait(5.0)
+            if self._thread is not None:
+                self._thread.join(5.0)
+
+    def _close(self) -> None:
+        if self._closed:
+            return
+        self._closed = True
+        for item in [*self._subscriptions, *self._publishers]:
+            with contextlib.suppress(Exception):  # already gone with the session
+                item.close()
+        for item in self._declared:
+            with contextlib.suppress(Exception):
+                item.close() if hasattr(item, "close") else item.undeclare()
+        if self._own_session:
+            self.session.close()
+
+    # -- internals ------------------------------------------------------------------------------------
+    def _on_callback_error(self, where: str, exc: BaseException) -> None:
+        self.record_error(f"{where}: {type(exc).__name__}: {exc}")
+        self.log.debug("".join(traceback.format_exception(exc)))
+
+    def _publish_diagnostics(self) -> None:
+        uptime = time.monotonic() - self._started
+        values = {
+            "uptime_s": f"{uptime:.1f}",
+            "errors": str(self.errors),
+            "last_error": self.last_error,
+            "decode_errors": str(sum(s.decode_errors for s in self._subscriptions)),
+        }
+        for t in self._timers:
+            if t.callback != self._publish_diagnostics:
+                values[f"rate_hz/{t.name}"] = f"{t.ticks / max(uptime, 1e-3):.1f}"
+        values.update(self._diag_values)
+        level = 1 if self.last_error else 0
+        status = schemas.make(
+            "diagnostic_msgs/msg/DiagnosticStatus",
+            level=level,
+            name=f"{self.robot_id}/{self.name}",
+            message=self.last_error or "OK",
+            hardware_id=self.robot_id,
+            values=[schemas.make("diagnostic_msgs/msg/KeyValue", key=k, value=v) for k, v in values.items()],
+        )
+        self._diag_pub.publish(schemas.make("diagnostic_msgs/msg/DiagnosticArray", header=header(),
+                                            status=[status]))
+
+    def _on_params_query(self, query: zenoh.Query) -> None:
+        """Runs on a Zenoh thread: the store has its own lock, change callbacks go to the loop."""
+        reply: dict[str, Any]
+        try:
+            request = json.loads(query.payload.to_bytes()) if query.payload is not None else {"op": "list"}
+            op = request.get("op", "list")
+            if op == "list":
+                reply = {"ok": True}
+            elif op == "set":
+                changed = self.parameters.set(request.get("values", {}), request.get("revisions"))
+                reply = {"ok": True, "changed": sorted(changed)}
+                if changed:
+                    self._params_changed.put(json.dumps({"node": self.name, "changed": changed}))
+            elif op == "reset":
+                changed = self.parameters.reset(request.get("names"))
+                reply = {"ok": True, "changed": sorted(changed)}
+            elif op == "save":
+                path = self.parameters.save(Path(request["path"]) if request.get("path") else None)
+                reply = {"ok": True, "path": str(path)}
+            else:
+                reply = {"ok": False, "error": f"unknown parameter operation {op!r}"}
+        except (ParameterError, ValueError, TypeError, KeyError) as exc:
+            reply = {"ok": False, "error": str(exc)}
+        reply.update({"node": self.name, "robot": self.robot_id, "params": self.parameters.describe()})
+        query.reply(keys.params_key(self.robot_id, self.name), json.dumps(reply))
+
+
+def node_arguments(description: str) -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(description=description)
+    parser.add_argument("--robot-id", default="robot1", help="robot id in the Zenoh keys (default robot1)")
+    parser.add_argument("--connect", action="append", default=None,
+                        help="Zenoh endpoint to connect to (repeatable; default tcp/127.0.0.1:7447)")
+    parser.add_argument("--zenoh-config", default=None, help="a Zenoh JSON5 config file (overrides --connect)")
+    parser.add_argument("--params", type=Path, default=None, help="params.yaml of the robot")
+    parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                        help="override a parameter (YAML value syntax)")
+    parser.add_argument("--log-level", default="INFO")
+    return parser
+
+
+def parse_overrides(items: list[str]) -> dict[str, Any]:
+    import yaml
+
+    out = {}
+    for item in items:
+        name, sep, value = item.partition("=")
+        if not sep:
+            raise SystemExit(f"--set expects NAME=VALUE, got {item!r}")
+        out[name.strip()] = yaml.safe_load(value)
+    return out
+
+
+def run(node_cls: type[Node], argv: list[str] | None = None, **kwargs: Any) -> None:
+    """Process entry point of a node: parse arguments, spin, stop cleanly on SIGINT/SIGTERM."""
+    args = node_arguments(node_cls.__doc__ or node_cls.name).parse_args(argv)
+    logging.basicConfig(level=args.log_level, format=f"%(asctime)s %(levelname)s [{node_cls.name}] %(message)s")
+    bus = BusConfig(config_file=args.zenoh_config)
+    if args.connect:
+        bus.connect = args.connect
+    node = node_cls(robot_id=args.robot_id, bus=bus, params_file=args.params,
+                    overrides=parse_overrides(args.set), **kwargs)
+
+    def stop(signum: int, _frame: Any) -> None:
+        node.log.info("stopping on %s", signal.Signals(signum).name)
+        node.loop.call_soon(node.shutdown)
+
+    signal.signal(signal.SIGINT, stop)
+    signal.signal(signal.SIGTERM, stop)
+    node.log.info("%s up for robot %s", node_cls.name, args.robot_id)
+    node.spin()

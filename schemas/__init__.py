@@ -1,0 +1,21 @@
+"""Message definitions, the topic table and the CDR codec every pitchside process shares."""
+
+from schemas.codec import SchemaError, constants, decode, encode, make, message_class, msgdef, to_dict
+from schemas.topics import ACTIONS, SERVICES, TOPICS, Priority, Topic, topic
+
+__all__ = [
+    "ACTIONS",
+    "SERVICES",
+    "TOPICS",
+    "Priority",
+    "SchemaError",
+    "Topic",
+    "constants",
+    "decode",
+    "encode",
+    "make",
+    "message_class",
+    "msgdef",
+    "to_dict",
+    "topic",
+]

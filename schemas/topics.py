@@ -1,0 +1,101 @@
+"""The topic table: every topic pitchside nodes speak, and its message type.
+
+Nodes are exchangeable because only these names and types are fixed (thesis ch. 4).
+Zenoh key of a topic: ``pitchside/<robot_id>/<topic>``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import IntEnum
+
+
+class Priority(IntEnum):
+    """How important a topic is when bandwidth is short (telemetry budget)."""
+
+    CRITICAL = 0
+    STATE = 1
+    PERCEPTION = 2
+    BULK = 3
+
+
+@dataclass(frozen=True, slots=True)
+class Topic:
+    name: str
+    type: str
+    description: str
+    priority: Priority = Priority.STATE
+
+
+_HL = "humanoid_league_msgs/msg/"
+
+TOPICS: dict[str, Topic] = {
+    t.name: t
+    for t in (
+        Topic("joint_states", "sensor_msgs/msg/JointState", "measured joint positions, cm730 -> all"),
+        Topic("imu/data", "sensor_msgs/msg/Imu", "orientation, angular velocity, acceleration; cm730 -> hcm"),
+        Topic("servo_data", _HL + "AdditionalServoData", "servo temperatures and voltage", Priority.PERCEPTION),
+        Topic("motor_goals", "trajectory_msgs/msg/JointTrajectory", "joint goals, hcm -> cm730"),
+        Topic("walk_motor_goals", "trajectory_msgs/msg/JointTrajectory", "walking -> hcm"),
+        Topic("head_motor_goals", "trajectory_msgs/msg/JointTrajectory", "head behaviour -> hcm"),
+        Topic("record_motor_goals", "trajectory_msgs/msg/JointTrajectory", "animation recorder -> hcm"),
+        Topic("animation", _HL + "Animation", "keyframe animation steps, animation -> hcm"),
+        Topic("robot_state", _HL + "RobotControlState", "HCM state, hcm -> all", Priority.CRITICAL),
+        Topic("hcm_graph", "pitchside_msgs/msg/StateMachineGraph", "HCM states, transitions, history"),
+        Topic("cmd_vel", "geometry_msgs/msg/Twist", "walk command, behaviour/teleop -> walking"),
+        Topic("walk_odometry", "nav_msgs/msg/Odometry", "walking -> localization"),
+        Topic("walking_active", "std_msgs/msg/Bool", "walking tells the HCM it is stepping"),
+        Topic("gamestate", _HL + "GameState", "GameController state, game_controller -> all", Priority.CRITICAL),
+        Topic("paused", "std_msgs/msg/Bool", "penalty/pause, pause logic -> hcm", Priority.CRITICAL),
+        Topic("team_data", _HL + "TeamData", "teammates' data, mitecom -> all"),
+        Topic("strategy", _HL + "Strategy", "role and action, behaviour -> mitecom"),
+        Topic("speak", _HL + "Speak", "sentences for the speaker", Priority.PERCEPTION),
+        Topic("camera/image/compressed", "sensor_msgs/msg/CompressedImage", "JPEG camera image", Priority.BULK),
+        Topic("camera/camera_info", "sensor_msgs/msg/CameraInfo", "camera intrinsics", Priority.PERCEPTION),
+        Topic("ball_in_image", _HL + "BallsInImage", "ball candidates in the image", Priority.PERCEPTION),
+        Topic("goal_in_image", _HL + "GoalPartsInImage", "goal posts and bars in the image", Priority.PERCEPTION),
+        Topic("obstacles_in_image", _HL + "ObstaclesInImage", "obstacles in the image", Priority.PERCEPTION),
+        Topic("line_information_in_image", _HL + "LineInformationInImage", "field lines in the image",
+              Priority.PERCEPTION),
+        Topic("ball_relative", _HL + "BallRelative", "ball relative to the robot"),
+        Topic("obstacles_relative", _HL + "ObstaclesRelative", "obstacles relative to the robot",
+              Priority.PERCEPTION),
+        Topic("goal_relative", _HL + "GoalRelative", "goal relative to the robot", Priority.PERCEPTION),
+        Topic("position", _HL + "Position2D", "own position on the field"),
+        Topic("ground_truth", "pitchside_msgs/msg/GroundTruth", "simulation ground truth poses"),
+        Topic("diagnostics", "diagnostic_msgs/msg/DiagnosticArray", "node health, every node -> dashboard"),
+    )
+}
+
+
+@dataclass(frozen=True, slots=True)
+class Action:
+    name: str
+    type: str  # e.g. humanoid_league_msgs/action/PlayAnimation; _Goal/_Result/_Feedback appended
+
+
+@dataclass(frozen=True, slots=True)
+class Service:
+    name: str
+    type: str  # e.g. humanoid_league_msgs/srv/ManualPenalize; _Request/_Response appended
+
+
+ACTIONS: dict[str, Action] = {
+    a.name: a
+    for a in (
+        Action("animation", "humanoid_league_msgs/action/PlayAnimation"),
+        Action("kick", "humanoid_league_msgs/action/Kick"),
+    )
+}
+
+SERVICES: dict[str, Service] = {
+    s.name: s for s in (Service("manual_penalize", "humanoid_league_msgs/srv/ManualPenalize"),)
+}
+
+
+def topic(name: str) -> Topic:
+    """A topic of the table; KeyError names the unknown topic."""
+    try:
+        return TOPICS[name]
+    except KeyError:
+        raise KeyError(f"topic {name!r} is not in the topic table (schemas/topics.py)") from None

@@ -1,0 +1,1 @@
+"""The dashboard server: sources -> hub -> browser, recorder, control API."""
