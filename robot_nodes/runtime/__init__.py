@@ -10,6 +10,7 @@ from robot_nodes.runtime.actions import (
 )
 from robot_nodes.runtime.bus import BusConfig, open_router, open_session
 from robot_nodes.runtime.node import Node, Publisher, Subscription, header, run, stamp_now
+from robot_nodes.runtime.param_client import ParameterClient
 from robot_nodes.runtime.parameters import ParameterError, ParameterStore, param
 from robot_nodes.runtime.services import ServiceError, ServiceServer, call_service
 
@@ -21,6 +22,7 @@ __all__ = [
     "ClientGoal",
     "GoalStatus",
     "Node",
+    "ParameterClient",
     "ParameterError",
     "ParameterStore",
     "Publisher",

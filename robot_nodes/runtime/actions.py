@@ -10,6 +10,7 @@ from __future__ import annotations
 import enum
 import json
 import threading
+import time
 import uuid
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
@@ -23,6 +24,8 @@ if TYPE_CHECKING:
     from robot_nodes.runtime.loop import EventLoop
 
 GOAL_ID_BYTES = 16
+FEEDBACK = b"F"
+RESULT = b"R"
 
 
 class GoalStatus(enum.IntEnum):
@@ -53,7 +56,7 @@ class ServerGoal:
 
     def publish_feedback(self, feedback: Any) -> None:
         if not self.done:
-            self._server._feedback_pub.put(self.id + schemas.encode(feedback))
+            self._server._events.put(self.id + FEEDBACK + schemas.encode(feedback))
 
     def succeed(self, result: Any) -> None:
         self._end(GoalStatus.SUCCEEDED, result)
@@ -68,7 +71,7 @@ class ServerGoal:
         if self.done:
             return
         self.done = True
-        self._server._result_pub.put(self.id + bytes([status]) + schemas.encode(result))
+        self._server._events.put(self.id + RESULT + bytes([status]) + schemas.encode(result))
         if self._server.active is self:
             self._server.active = None
 
@@ -93,8 +96,7 @@ class ActionServer:
         self._on_cancel = on_cancel
         self._on_preempt = on_preempt
         self._loop = loop
-        self._feedback_pub = session.declare_publisher(keys.action_key(robot, action, "feedback"))
-        self._result_pub = session.declare_publisher(keys.action_key(robot, action, "result"))
+        self._events = session.declare_publisher(keys.action_key(robot, action, "events"))
         self._goal_q = session.declare_queryable(
             keys.action_key(robot, action, "goal"), lambda q: loop.call_soon(self._handle_goal, q)
         )
@@ -151,7 +153,7 @@ class ActionServer:
         self._reply(query, "cancel", {"accepted": True, "reason": ""})
 
     def close(self) -> None:
-        for item in (self._goal_q, self._cancel_q, self._feedback_pub, self._result_pub):
+        for item in (self._goal_q, self._cancel_q, self._events):
             item.undeclare()
 
 
@@ -205,10 +207,7 @@ class ActionClient:
         self._loop = loop
         self._goals: dict[bytes, ClientGoal] = {}
         self._lock = threading.Lock()
-        self._subs = [
-            session.declare_subscriber(keys.action_key(robot, action, "feedback"), self._on_feedback_sample),
-            session.declare_subscriber(keys.action_key(robot, action, "result"), self._on_result_sample),
-        ]
+        self._subs = [session.declare_subscriber(keys.action_key(robot, action, "events"), self._on_event)]
 
     def _dispatch(self, fn: Callable[..., None] | None, *args: Any) -> None:
         if fn is None:
@@ -226,6 +225,27 @@ class ActionClient:
         handle = ClientGoal(self, goal_id, on_feedback, on_result)
         with self._lock:
             self._goals[goal_id] = handle
+        payload = goal_id + schemas.encode(goal)
+        deadline = time.monotonic() + timeout
+
+        def on_done() -> None:
+            # no server answered: it may not be routed to us yet, so ask again until the timeout
+            if handle._verdict.is_set():
+                return
+            if time.monotonic() < deadline:
+                threading.Timer(0.05, ask).start()
+            else:
+                handle.accepted = False
+                handle.reason = f"no action server {self.action!r} for robot {self.robot!r}"
+                with self._lock:
+                    self._goals.pop(goal_id, None)
+                handle._verdict.set()
+                self._dispatch(on_verdict, handle)
+
+        def ask() -> None:
+            self._session.get(keys.action_key(self.robot, self.action, "goal"),
+                              zenoh.handlers.Callback(on_reply, on_done), payload=payload,
+                              timeout=max(0.05, deadline - time.monotonic()))
 
         def on_reply(reply: zenoh.Reply) -> None:
             if reply.ok is not None:
@@ -241,8 +261,7 @@ class ActionClient:
             handle._verdict.set()
             self._dispatch(on_verdict, handle)
 
-        self._session.get(keys.action_key(self.robot, self.action, "goal"), on_reply,
-                          payload=goal_id + schemas.encode(goal), timeout=timeout)
+        ask()
         return handle
 
     def _cancel(self, goal_id: bytes, timeout: float) -> bool:
@@ -253,27 +272,33 @@ class ActionClient:
                 return bool(json.loads(reply.ok.payload.to_bytes()).get("accepted"))
         return False
 
-    def _on_feedback_sample(self, sample: zenoh.Sample) -> None:
+    def _on_event(self, sample: zenoh.Sample) -> None:
         data = sample.payload.to_bytes()
+        kind = data[GOAL_ID_BYTES:GOAL_ID_BYTES + 1]
+        if kind == FEEDBACK:
+            self._on_feedback(data)
+        elif kind == RESULT:
+            self._on_result(data)
+
+    def _on_feedback(self, data: bytes) -> None:
         handle = self._goals.get(data[:GOAL_ID_BYTES])
         if handle is None:
             return
         try:
-            feedback = schemas.decode(data[GOAL_ID_BYTES:], self.feedback_type)
+            feedback = schemas.decode(data[GOAL_ID_BYTES + 1:], self.feedback_type)
         except schemas.SchemaError:
             return
         handle.feedback.append(feedback)
         self._dispatch(handle._on_feedback, feedback)
 
-    def _on_result_sample(self, sample: zenoh.Sample) -> None:
-        data = sample.payload.to_bytes()
+    def _on_result(self, data: bytes) -> None:
         with self._lock:
             handle = self._goals.pop(data[:GOAL_ID_BYTES], None)
-        if handle is None or len(data) < GOAL_ID_BYTES + 1:
+        if handle is None or len(data) < GOAL_ID_BYTES + 2:
             return
-        handle.status = GoalStatus(data[GOAL_ID_BYTES])
+        handle.status = GoalStatus(data[GOAL_ID_BYTES + 1])
         try:
-            handle.result = schemas.decode(data[GOAL_ID_BYTES + 1:], self.result_type)
+            handle.result = schemas.decode(data[GOAL_ID_BYTES + 2:], self.result_type)
         except schemas.SchemaError:
             handle.result = None
         handle._done.set()

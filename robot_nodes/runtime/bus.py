@@ -3,13 +3,16 @@
 from __future__ import annotations
 
 import json
+import logging
 import os
+import time
 from dataclasses import dataclass, field
 
 import zenoh
 
 DEFAULT_ROUTER = "tcp/127.0.0.1:7447"
 ENV_CONNECT = "PITCHSIDE_CONNECT"
+log = logging.getLogger(__name__)
 
 
 @dataclass(slots=True)
@@ -33,6 +36,9 @@ class BusConfig:
             conf.insert_json5("connect/endpoints", json.dumps(self.connect))
             conf.insert_json5("listen/endpoints", json.dumps(self.listen if self.mode != "client" else []))
             conf.insert_json5("scouting/multicast/enabled", "false")
+            # keep trying in the background: robots often boot before the router or the team PC
+            conf.insert_json5("connect/exit_on_failure", "false")
+            conf.insert_json5("connect/timeout_ms", "2000")
         return conf
 
 
@@ -41,8 +47,17 @@ def _env_endpoints() -> list[str]:
     return [e.strip() for e in value.split(",") if e.strip()]
 
 
-def open_session(bus: BusConfig | None = None) -> zenoh.Session:
-    return zenoh.open((bus or BusConfig()).to_zenoh())
+def open_session(bus: BusConfig | None = None, wait: bool = True) -> zenoh.Session:
+    """A peer opens at once; a client needs its router and, with wait, keeps trying until it is there."""
+    bus = bus or BusConfig()
+    while True:
+        try:
+            return zenoh.open(bus.to_zenoh())
+        except zenoh.ZError as exc:
+            if not wait:
+                raise
+            log.warning("Zenoh router %s not reachable yet (%s); retrying", ", ".join(bus.connect), exc)
+            time.sleep(0.5)
 
 
 def open_router(listen: list[str], connect: list[str] | None = None) -> zenoh.Session:

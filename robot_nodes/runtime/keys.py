@@ -6,8 +6,9 @@
     pitchside/<robot>/_srv/<service>               service queryable, CDR request/reply
     pitchside/<robot>/_action/<action>/goal        queryable: 16-byte goal id + CDR goal -> JSON verdict
     pitchside/<robot>/_action/<action>/cancel      queryable: 16-byte goal id -> JSON verdict
-    pitchside/<robot>/_action/<action>/feedback    16-byte goal id + CDR feedback
-    pitchside/<robot>/_action/<action>/result      16-byte goal id + 1 status byte + CDR result
+    pitchside/<robot>/_action/<action>/events      16-byte goal id + b"F" + CDR feedback, or
+                                                   16-byte goal id + b"R" + 1 status byte + CDR result
+                                                   (one key, so a result never overtakes its last feedback)
 """
 
 from __future__ import annotations
@@ -47,6 +48,6 @@ def service_key(robot: str, service: str) -> str:
 
 
 def action_key(robot: str, action: str, part: str) -> str:
-    if part not in ("goal", "cancel", "feedback", "result"):
+    if part not in ("goal", "cancel", "events"):
         raise ValueError(f"unknown action key part {part!r}")
     return f"{PREFIX}/{robot}/_action/{action}/{part}"

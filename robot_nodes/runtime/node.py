@@ -314,6 +314,8 @@ def node_arguments(description: str) -> argparse.ArgumentParser:
     parser.add_argument("--robot-id", default="robot1", help="robot id in the Zenoh keys (default robot1)")
     parser.add_argument("--connect", action="append", default=None,
                         help="Zenoh endpoint to connect to (repeatable; default tcp/127.0.0.1:7447)")
+    parser.add_argument("--mode", choices=["peer", "client"], default="peer",
+                        help="Zenoh mode: peer (direct links to other peers) or client (everything via the router)")
     parser.add_argument("--zenoh-config", default=None, help="a Zenoh JSON5 config file (overrides --connect)")
     parser.add_argument("--params", type=Path, default=None, help="params.yaml of the robot")
     parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
@@ -338,17 +340,26 @@ def run(node_cls: type[Node], argv: list[str] | None = None, **kwargs: Any) -> N
     """Process entry point of a node: parse arguments, spin, stop cleanly on SIGINT/SIGTERM."""
     args = node_arguments(node_cls.__doc__ or node_cls.name).parse_args(argv)
     logging.basicConfig(level=args.log_level, format=f"%(asctime)s %(levelname)s [{node_cls.name}] %(message)s")
-    bus = BusConfig(config_file=args.zenoh_config)
+    bus = BusConfig(config_file=args.zenoh_config, mode=args.mode)
     if args.connect:
         bus.connect = args.connect
-    node = node_cls(robot_id=args.robot_id, bus=bus, params_file=args.params,
-                    overrides=parse_overrides(args.set), **kwargs)
+    stop_requested: list[int] = []
+    holder: list[Node] = []
 
     def stop(signum: int, _frame: Any) -> None:
-        node.log.info("stopping on %s", signal.Signals(signum).name)
-        node.loop.call_soon(node.shutdown)
+        stop_requested.append(signum)
+        if holder:
+            holder[0].log.info("stopping on %s", signal.Signals(signum).name)
+            holder[0].loop.call_soon(holder[0].shutdown)
 
+    # handlers first: a signal that comes while the node is still starting must stop it cleanly too
     signal.signal(signal.SIGINT, stop)
     signal.signal(signal.SIGTERM, stop)
+    node = node_cls(robot_id=args.robot_id, bus=bus, params_file=args.params,
+                    overrides=parse_overrides(args.set), **kwargs)
+    holder.append(node)
+    if stop_requested:
+        node.shutdown()
+        return
     node.log.info("%s up for robot %s", node_cls.name, args.robot_id)
     node.spin()

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
@@ -47,10 +48,20 @@ class ServiceServer:
 
 
 def call_service(session: zenoh.Session, robot: str, service: str, request: Any, timeout: float = 5.0) -> Any:
-    """Blocking call; ServiceError with the server's reason on failure."""
+    """Blocking call; ServiceError with the server's reason on failure.
+
+    A server that just started may not be routed to us yet, so an empty answer is asked again until the timeout.
+    """
     _, response_type = _types(service)
-    for reply in session.get(keys.service_key(robot, service), payload=schemas.encode(request), timeout=timeout):
-        if reply.ok is not None:
-            return schemas.decode(reply.ok.payload.to_bytes(), response_type)
-        raise ServiceError(reply.err.payload.to_string() if reply.err is not None else "service error")
+    payload = schemas.encode(request)
+    deadline = time.monotonic() + timeout
+    while True:
+        remaining = max(0.05, deadline - time.monotonic())
+        for reply in session.get(keys.service_key(robot, service), payload=payload, timeout=remaining):
+            if reply.ok is not None:
+                return schemas.decode(reply.ok.payload.to_bytes(), response_type)
+            raise ServiceError(reply.err.payload.to_string() if reply.err is not None else "service error")
+        if time.monotonic() >= deadline:
+            break
+        time.sleep(0.05)
     raise ServiceError(f"no answer from service {service!r} of robot {robot!r} within {timeout} s")

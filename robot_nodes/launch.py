@@ -1,0 +1,162 @@
+"""Starts a robot's nodes as supervised processes: a node that dies is restarted, and why is logged.
+
+    python -m robot_nodes.launch --robot-id robot1 cm730 hcm animation
+
+Each node runs as ``python -m <module> --robot-id ... --connect ...``; Ctrl-C (SIGINT) or SIGTERM stops all.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+log = logging.getLogger("pitchside.launch")
+
+# node name -> python module run with -m; the set a robot is made of
+NODE_MODULES: dict[str, str] = {
+    "cm730": "robot_nodes.cm730",
+    "hcm": "robot_nodes.hcm",
+    "animation": "robot_nodes.animation",
+    "walking": "robot_nodes.walking",
+    "pause": "robot_nodes.hcm.pause",
+    "speaker": "robot_nodes.speaker",
+    "game_controller": "robot_nodes.game_controller",
+    "mitecom": "robot_nodes.mitecom",
+    "telemetry": "robot_nodes.telemetry",
+}
+
+
+@dataclass
+class NodeProcess:
+    """One supervised node: how to start it and what became of it."""
+
+    name: str
+    argv: list[str]
+    restart: bool = True
+    process: subprocess.Popen[bytes] | None = None
+    restarts: int = 0
+    last_exit: str = ""
+    started_at: float = 0.0
+    env: dict[str, str] = field(default_factory=dict)
+
+    def start(self) -> None:
+        env = {**os.environ, **self.env}
+        self.process = subprocess.Popen(self.argv, env=env)
+        self.started_at = time.monotonic()
+        log.info("started %s (pid %d)", self.name, self.process.pid)
+
+    @property
+    def pid(self) -> int | None:
+        return self.process.pid if self.process is not None else None
+
+
+def describe_exit(code: int) -> str:
+    if code < 0:
+        try:
+            return f"killed by {signal.Signals(-code).name}"
+        except ValueError:
+            return f"killed by signal {-code}"
+    return f"exited with code {code}"
+
+
+class Launcher:
+    """Keeps a set of node processes alive until stopped."""
+
+    def __init__(self, nodes: list[NodeProcess], restart_delay: float = 0.2, max_delay: float = 5.0) -> None:
+        self.nodes = nodes
+        self.restart_delay = restart_delay
+        self.max_delay = max_delay
+        self._stop = threading.Event()
+
+    def run(self) -> None:
+        for node in self.nodes:
+            node.start()
+        try:
+            while not self._stop.wait(0.05):
+                for node in self.nodes:
+                    self._check(node)
+        finally:
+            self._terminate_all()
+
+    def stop(self) -> None:
+        self._stop.set()
+
+    def _check(self, node: NodeProcess) -> None:
+        assert node.process is not None
+        code = node.process.poll()
+        if code is None:
+            return
+        node.last_exit = describe_exit(code)
+        if not node.restart:
+            log.warning("%s %s; not restarting", node.name, node.last_exit)
+            return
+        # back off when a node dies right after starting, so a broken node does not spin the CPU
+        lived = time.monotonic() - node.started_at
+        delay = self.restart_delay if lived > 5.0 else min(self.max_delay, self.restart_delay * 2 ** node.restarts)
+        log.error("%s (pid %d) %s after %.1f s; restarting in %.1f s", node.name, node.process.pid,
+                  node.last_exit, lived, delay)
+        if self._stop.wait(delay):
+            return
+        node.restarts = 0 if lived > 5.0 else node.restarts + 1
+        node.start()
+
+    def _terminate_all(self) -> None:
+        running = [n.process for n in self.nodes if n.process is not None and n.process.poll() is None]
+        for proc in running:
+            proc.send_signal(signal.SIGTERM)
+        deadline = time.monotonic() + 5.0
+        for proc in running:
+            try:
+                proc.wait(max(0.1, deadline - time.monotonic()))
+            except subprocess.TimeoutExpired:
+                log.warning("pid %d did not stop within 5 s; killing it", proc.pid)
+                proc.kill()
+                proc.wait()
+
+
+def node_command(module: str, robot_id: str, connect: list[str], params: Path | None = None,
+                 extra: list[str] | None = None) -> list[str]:
+    argv = [sys.executable, "-m", module, "--robot-id", robot_id]
+    for endpoint in connect:
+        argv += ["--connect", endpoint]
+    if params is not None:
+        argv += ["--params", str(params)]
+    return argv + (extra or [])
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("nodes", nargs="+", help=f"nodes to start: {', '.join(NODE_MODULES)} or a module path")
+    parser.add_argument("--robot-id", default="robot1")
+    parser.add_argument("--connect", action="append", default=None)
+    parser.add_argument("--params", type=Path, default=None)
+    args = parser.parse_args(argv)
+    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s [launch] %(message)s")
+    connect = args.connect or ["tcp/127.0.0.1:7447"]
+    launcher = Launcher([
+        NodeProcess(name, node_command(NODE_MODULES.get(name, name), args.robot_id, connect, args.params))
+        for name in args.nodes
+    ])
+    run_until_signal(launcher)
+
+
+def run_until_signal(launcher: Launcher) -> None:
+    def stop(signum: int, _frame: object) -> None:
+        log.info("stopping all nodes on %s", signal.Signals(signum).name)
+        launcher.stop()
+
+    signal.signal(signal.SIGINT, stop)
+    signal.signal(signal.SIGTERM, stop)
+    launcher.run()
+
+
+if __name__ == "__main__":
+    main()

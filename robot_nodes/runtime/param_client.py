@@ -1,0 +1,69 @@
+"""The caller's side of the parameter protocol (dashboard, tools, tests); see parameters.py for the wire format."""
+
+from __future__ import annotations
+
+import json
+import time
+from typing import Any
+
+import zenoh
+
+from robot_nodes.runtime import keys
+from robot_nodes.runtime.parameters import ParameterError
+
+
+class ParameterClient:
+    """Lists and sets the parameters of one robot's nodes over Zenoh."""
+
+    def __init__(self, session: zenoh.Session, robot: str, timeout: float = 3.0) -> None:
+        self.session = session
+        self.robot = robot
+        self.timeout = timeout
+
+    def _ask(self, node: str, request: dict[str, Any]) -> list[dict[str, Any]]:
+        replies = []
+        for reply in self.session.get(keys.params_key(self.robot, node), payload=json.dumps(request),
+                                      timeout=self.timeout):
+            if reply.ok is not None:
+                replies.append(json.loads(reply.ok.payload.to_bytes()))
+        return replies
+
+    def nodes(self) -> dict[str, list[dict[str, Any]]]:
+        """Every node of the robot that answers, with its parameter descriptions."""
+        return {r["node"]: r["params"] for r in self._ask("*", {"op": "list"})}
+
+    def describe(self, node: str) -> list[dict[str, Any]]:
+        return self._one(node, {"op": "list"})["params"]
+
+    def get(self, node: str, name: str) -> Any:
+        for p in self.describe(node):
+            if p["name"] == name:
+                return p["value"]
+        raise ParameterError(f"node {node!r} has no parameter {name!r}")
+
+    def set(self, node: str, values: dict[str, Any], revisions: dict[str, int] | None = None) -> dict[str, Any]:
+        """The node's reply; ParameterError with the node's own reason if it refused."""
+        request: dict[str, Any] = {"op": "set", "values": values}
+        if revisions:
+            request["revisions"] = revisions
+        return self._one(node, request)
+
+    def reset(self, node: str, names: list[str] | None = None) -> dict[str, Any]:
+        return self._one(node, {"op": "reset", "names": names or []})
+
+    def save(self, node: str, path: str | None = None) -> dict[str, Any]:
+        return self._one(node, {"op": "save", "path": path})
+
+    def _one(self, node: str, request: dict[str, Any]) -> dict[str, Any]:
+        # a node that just started may not be routed to us yet: ask again until the timeout
+        deadline = time.monotonic() + self.timeout
+        replies = self._ask(node, request)
+        while not replies and time.monotonic() < deadline:
+            time.sleep(0.05)
+            replies = self._ask(node, request)
+        if not replies:
+            raise ParameterError(f"node {node!r} of robot {self.robot!r} did not answer within {self.timeout} s")
+        reply = replies[0]
+        if not reply.get("ok"):
+            raise ParameterError(reply.get("error", "refused"))
+        return reply

@@ -1,0 +1,42 @@
+"""Small nodes that tests start as real processes: ``python -m tests.proc_nodes talker --connect ...``."""
+
+from __future__ import annotations
+
+import sys
+from dataclasses import dataclass
+
+import schemas
+from robot_nodes.runtime import Node, header, param, run
+
+
+@dataclass
+class TalkerParams:
+    rate_hz: float = param(200.0, range=(1.0, 2000.0), doc="messages per second")
+    label: str = param("talker", doc="written into header.frame_id")
+
+
+class Talker(Node):
+    """Publishes joint_states whose single position is a sequence number."""
+
+    name = "talker"
+    Params = TalkerParams
+
+    def setup(self) -> None:
+        self.seq = 0
+        self.pub = self.publisher("joint_states")
+        self.tick_timer = self.timer(self.params.rate_hz, self.tick)
+
+    def on_parameters_changed(self, changed: dict[str, object]) -> None:
+        if "rate_hz" in changed:
+            self.tick_timer.set_rate(self.params.rate_hz)
+
+    def tick(self) -> None:
+        self.seq += 1
+        self.pub.publish(schemas.make("sensor_msgs/msg/JointState", header=header(self.params.label),
+                                      name=["seq"], position=[float(self.seq)]))
+
+
+NODES = {"talker": Talker}
+
+if __name__ == "__main__":
+    run(NODES[sys.argv[1]], sys.argv[2:])

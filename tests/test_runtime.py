@@ -1,0 +1,269 @@
+"""The node runtime over real Zenoh on loopback: topics, parameters, actions, services, diagnostics."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+import zenoh
+
+import schemas
+from robot_nodes.runtime import (
+    ActionClient,
+    BusConfig,
+    GoalStatus,
+    Node,
+    ParameterClient,
+    ParameterError,
+    ServerGoal,
+    ServiceError,
+    call_service,
+    keys,
+    open_session,
+    param,
+)
+from tests.conftest import REPO
+from tests.waiting import wait_for
+
+
+class Listener(Node):
+    name = "listener"
+
+    def setup(self) -> None:
+        self.seqs: list[int] = []
+        self.diagnostics: list[object] = []
+        self.subscribe("joint_states", lambda msg: self.seqs.append(int(msg.position[0])))
+        self.subscribe("diagnostics", self.diagnostics.append)
+
+
+def start_talker(endpoint: str, *extra: str) -> subprocess.Popen[bytes]:
+    return subprocess.Popen([sys.executable, "-m", "tests.proc_nodes", "talker", "--connect", endpoint, *extra],
+                            cwd=REPO)
+
+
+@pytest.fixture
+def talker_process(router_endpoint: str) -> Iterator[subprocess.Popen[bytes]]:
+    proc = start_talker(router_endpoint)
+    yield proc
+    proc.terminate()
+    proc.wait(10)
+
+
+def test_two_processes_exchange_messages_in_order(bus: BusConfig, talker_process: subprocess.Popen[bytes]) -> None:
+    listener = Listener(bus=bus).start()
+    try:
+        wait_for(lambda: len(listener.seqs) >= 300, timeout=20, what="300 messages from the talker process")
+        seqs = list(listener.seqs)
+        assert seqs == list(range(seqs[0], seqs[0] + len(seqs))), "messages lost or out of order"
+    finally:
+        listener.shutdown()
+
+
+def test_terminated_node_exits_cleanly(router_endpoint: str) -> None:
+    proc = start_talker(router_endpoint)
+    with open_session(BusConfig(connect=[router_endpoint])) as session:
+        client = ParameterClient(session, "robot1")
+        wait_for(lambda: "talker" in client.nodes(), timeout=15, what="talker up")
+    proc.terminate()
+    assert proc.wait(10) == 0
+
+
+@dataclass
+class GainParams:
+    gain: float = param(1.0, range=(0.0, 2.0), doc="a gain")
+    mode: str = param("soft", choices=["soft", "hard"], doc="a mode")
+    enabled: bool = param(True, doc="a switch")
+    count: int = param(3, range=(0, 10), doc="a count")
+
+
+class Tunable(Node):
+    name = "tunable"
+    Params = GainParams
+
+    def setup(self) -> None:
+        self.seen_changes: list[dict[str, object]] = []
+
+    def on_parameters_changed(self, changed: dict[str, object]) -> None:
+        self.seen_changes.append(changed)
+
+
+def test_parameters_list_get_set_save_reload(bus: BusConfig, tmp_path: Path) -> None:
+    yaml_path = tmp_path / "params.yaml"
+    yaml_path.write_text("other_node:\n  x: 1\ntunable:\n  gain: 1.5\n")
+    node = Tunable(bus=bus, params_file=yaml_path).start()
+    try:
+        with open_session(bus) as session:
+            client = ParameterClient(session, "robot1")
+            listed = {p["name"]: p for p in client.describe("tunable")}
+            assert listed["gain"]["value"] == 1.5 and listed["gain"]["default"] == 1.0
+            assert listed["gain"]["range"] == [0.0, 2.0] and listed["mode"]["choices"] == ["soft", "hard"]
+            assert listed["gain"]["doc"] == "a gain"
+
+            client.set("tunable", {"gain": 0.25, "mode": "hard"})
+            assert client.get("tunable", "gain") == 0.25
+            wait_for(lambda: node.seen_changes, what="change callback")
+            assert node.params.mode == "hard"
+
+            with pytest.raises(ParameterError, match=r"out of range \[0.0, 2.0\]"):
+                client.set("tunable", {"gain": 7.0, "count": 4})
+            assert client.get("tunable", "gain") == 0.25 and client.get("tunable", "count") == 3
+            with pytest.raises(ParameterError, match="not one of"):
+                client.set("tunable", {"mode": "medium"})
+            with pytest.raises(ParameterError, match="must be an integer"):
+                client.set("tunable", {"count": 2.5})
+            with pytest.raises(ParameterError, match="no parameter 'nope'"):
+                client.set("tunable", {"nope": 1})
+
+            revision = {p["name"]: p["revision"] for p in client.describe("tunable")}["gain"]
+            client.set("tunable", {"gain": 0.5}, revisions={"gain": revision})
+            with pytest.raises(ParameterError, match="changed meanwhile"):
+                client.set("tunable", {"gain": 0.75}, revisions={"gain": revision})
+            assert client.get("tunable", "gain") == 0.5
+
+            client.save("tunable")
+    finally:
+        node.shutdown()
+    text = yaml_path.read_text()
+    assert "other_node" in text, "saving must keep the other nodes' sections"
+    reloaded = Tunable(bus=bus, params_file=yaml_path)
+    try:
+        assert reloaded.params.gain == 0.5 and reloaded.params.mode == "hard"
+    finally:
+        reloaded.shutdown()
+
+
+def test_out_of_range_value_in_yaml_is_refused(bus: BusConfig, tmp_path: Path) -> None:
+    yaml_path = tmp_path / "params.yaml"
+    yaml_path.write_text("tunable:\n  gain: 9\n")
+    with pytest.raises(ParameterError, match="out of range"):
+        Tunable(bus=bus, params_file=yaml_path)
+
+
+GOAL = "humanoid_league_msgs/action/PlayAnimation_Goal"
+RESULT = "humanoid_league_msgs/action/PlayAnimation_Result"
+FEEDBACK = "humanoid_league_msgs/action/PlayAnimation_Feedback"
+
+
+class Player(Node):
+    """Plays fake animations: 10 feedback steps at 50 Hz; refuses 'forbidden'."""
+
+    name = "player"
+
+    def setup(self) -> None:
+        self.active: ServerGoal | None = None
+        self.progress = 0
+        self.server = self.action_server("animation", self.on_goal, self.on_cancel)
+        self.timer(50, self.step)
+
+    def on_goal(self, goal: ServerGoal) -> str | None:
+        if goal.goal.animation == "forbidden":
+            return "animation 'forbidden' does not exist"
+        if self.active is not None and not self.active.done and not goal.goal.hcm:
+            return "busy; only an HCM goal may preempt"
+        self.active, self.progress = goal, 0
+        return None
+
+    def on_cancel(self, goal: ServerGoal) -> None:
+        goal.canceled(schemas.make(RESULT, successful=False, message="canceled"))
+
+    def step(self) -> None:
+        goal = self.active
+        if goal is None or goal.done:
+            return
+        self.progress += 1
+        goal.publish_feedback(schemas.make(FEEDBACK, percent_done=self.progress * 10.0))
+        if self.progress >= 10:
+            goal.succeed(schemas.make(RESULT, successful=True, message=goal.goal.animation))
+
+
+def test_actions_feedback_preemption_cancel_reject(bus: BusConfig) -> None:
+    player = Player(bus=bus).start()
+    try:
+        with open_session(bus) as session:
+            client = ActionClient(session, "robot1", "animation")
+            done = client.send_goal(schemas.make(GOAL, animation="wave"))
+            status, result = done.wait_result(10)
+            assert status == GoalStatus.SUCCEEDED and result.successful and result.message == "wave"
+            assert [round(f.percent_done) for f in done.feedback][-1] == 100
+            assert len(done.feedback) == 10
+
+            rejected = client.send_goal(schemas.make(GOAL, animation="forbidden"))
+            assert rejected.wait_accepted(5) is False and "does not exist" in rejected.reason
+
+            first = client.send_goal(schemas.make(GOAL, animation="long"))
+            assert first.wait_accepted(5)
+            polite = client.send_goal(schemas.make(GOAL, animation="other"))
+            assert polite.wait_accepted(5) is False and "busy" in polite.reason
+            preempting = client.send_goal(schemas.make(GOAL, animation="getup", hcm=True))
+            assert preempting.wait_accepted(5)
+            assert first.wait_result(5)[0] == GoalStatus.PREEMPTED
+            assert preempting.wait_result(10)[0] == GoalStatus.SUCCEEDED
+
+            to_cancel = client.send_goal(schemas.make(GOAL, animation="long"))
+            assert to_cancel.wait_accepted(5)
+            assert to_cancel.cancel()
+            status, result = to_cancel.wait_result(5)
+            assert status == GoalStatus.CANCELED and result.message == "canceled"
+            client.close()
+    finally:
+        player.shutdown()
+
+
+class Penalizer(Node):
+    name = "pause"
+
+    def setup(self) -> None:
+        self.service("manual_penalize", self.on_penalize)
+
+    def on_penalize(self, request: object) -> object:
+        value = request.penalize  # type: ignore[attr-defined]
+        if value > 2:
+            raise ValueError(f"penalize must be OFF, ON or SWITCH, not {value}")
+        return schemas.make("humanoid_league_msgs/srv/ManualPenalize_Response", penalized=value == 1)
+
+
+def test_service_call_and_refusal(bus: BusConfig) -> None:
+    node = Penalizer(bus=bus).start()
+    request = "humanoid_league_msgs/srv/ManualPenalize_Request"
+    try:
+        with open_session(bus) as session:
+            assert call_service(session, "robot1", "manual_penalize", schemas.make(request, penalize=1)).penalized
+            with pytest.raises(ServiceError, match="not 7"):
+                call_service(session, "robot1", "manual_penalize", schemas.make(request, penalize=7))
+            with pytest.raises(ServiceError, match="no answer"):
+                call_service(session, "robot9", "manual_penalize", schemas.make(request), timeout=0.5)
+    finally:
+        node.shutdown()
+
+
+def test_invalid_cdr_is_counted_in_diagnostics_and_node_survives(bus: BusConfig) -> None:
+    listener = Listener(bus=bus).start()
+    try:
+        with open_session(bus) as session:
+            key = keys.topic_key("robot1", "joint_states")
+            wait_for(lambda: listener.diagnostics, timeout=5, what="first diagnostics")
+            session.put(key, b"\x00\x01\x00\x00garbage that is not a JointState")
+            session.put(key, b"")
+
+            def decode_errors() -> int:
+                latest = listener.diagnostics[-1]
+                values = {kv.key: kv.value for kv in latest.status[0].values}  # type: ignore[attr-defined]
+                return int(values["decode_errors"])
+
+            wait_for(lambda: decode_errors() == 2, timeout=5, what="decode errors reported")
+            assert "not a valid sensor_msgs/msg/JointState" in listener.last_error
+            good = schemas.make("sensor_msgs/msg/JointState", name=["seq"], position=[42.0])
+            session.put(key, schemas.encode(good))
+            wait_for(lambda: 42 in listener.seqs, timeout=5, what="a valid message after garbage")
+    finally:
+        listener.shutdown()
+
+
+def test_session_config_has_no_multicast() -> None:
+    conf = BusConfig(connect=["tcp/127.0.0.1:1"]).to_zenoh()
+    assert '"enabled":false' in conf.get_json("scouting/multicast").replace(" ", "")
+    assert isinstance(conf, zenoh.Config)
