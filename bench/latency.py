@@ -1,0 +1,167 @@
+"""One-way latency of a 20-joint JointTrajectory between two processes, through the runtime and raw Zenoh.
+
+    python bench/latency.py [--seconds 5]
+
+The receiver (this process) and the publisher (a child process) share the machine clock; the publisher puts
+its send time into header.stamp. Raw Zenoh sends the very same CDR bytes without the runtime around them.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import struct
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+import zenoh
+
+import schemas
+from robot_nodes.runtime import BusConfig, Node, keys, open_router, open_session
+
+JOINTS = ["HeadPan", "HeadTilt", "LShoulderPitch", "LShoulderRoll", "LElbow", "RShoulderPitch", "RShoulderRoll",
+          "RElbow", "LHipYaw", "LHipRoll", "LHipPitch", "LKnee", "LAnklePitch", "LAnkleRoll", "RHipYaw",
+          "RHipRoll", "RHipPitch", "RKnee", "RAnklePitch", "RAnkleRoll"]
+TOPIC = "motor_goals"
+STAMP = struct.Struct("<iI")  # CDR: 4-byte encapsulation header, then header.stamp (sec, nanosec)
+
+
+def trajectory() -> object:
+    point = schemas.make("trajectory_msgs/msg/JointTrajectoryPoint", positions=[0.1] * 20, velocities=[0.5] * 20,
+                         effort=[1.0] * 20)
+    return schemas.make("trajectory_msgs/msg/JointTrajectory", joint_names=JOINTS, points=[point])
+
+
+def stamp_now(msg: object) -> None:
+    t = time.time_ns()
+    msg.header.stamp.sec, msg.header.stamp.nanosec = t // 1_000_000_000, t % 1_000_000_000  # type: ignore[attr-defined]
+
+
+class Sender(Node):
+    """Publishes a fresh-stamped trajectory at the benchmark rate (the runtime path: encode + put)."""
+
+    name = "latency_sender"
+
+    def __init__(self, hz: float, count: int, **kwargs: object) -> None:
+        self.hz, self.count, self.sent = hz, count, 0
+        super().__init__(**kwargs)  # type: ignore[arg-type]
+
+    def setup(self) -> None:
+        self.msg = trajectory()
+        self.pub = self.publisher(TOPIC)
+        self.timer(self.hz, self.tick)
+
+    def tick(self) -> None:
+        if self.sent >= self.count:
+            self.loop.call_soon(self.shutdown)
+            return
+        stamp_now(self.msg)
+        self.pub.publish(self.msg)
+        self.sent += 1
+
+
+def publisher_main(mode: str, hz: float, count: int, endpoint: str) -> None:
+    bus = BusConfig(connect=[endpoint])
+    time.sleep(1.0)  # let the receiver's subscription reach us
+    if mode == "runtime":
+        Sender(hz, count, robot_id="bench", bus=bus).spin()
+        return
+    session = open_session(bus)
+    pub = session.declare_publisher(keys.topic_key("bench", TOPIC))
+    msg = trajectory()
+    period = 1.0 / hz
+    next_due = time.monotonic()
+    for _ in range(count):
+        next_due += period
+        delay = next_due - time.monotonic()
+        if delay > 0:
+            time.sleep(delay)
+        stamp_now(msg)
+        pub.put(schemas.encode(msg))
+    session.close()
+
+
+class Receiver(Node):
+    name = "latency_receiver"
+
+    def setup(self) -> None:
+        self.latencies: list[float] = []
+        self.subscribe(TOPIC, self.on_goals)
+
+    def on_goals(self, msg: object) -> None:
+        stamp = msg.header.stamp  # type: ignore[attr-defined]
+        self.latencies.append((time.time_ns() - (stamp.sec * 1_000_000_000 + stamp.nanosec)) / 1e6)
+
+
+def measure(mode: str, hz: float, seconds: float, endpoint: str) -> list[float]:
+    count = int(hz * seconds)
+    bus = BusConfig(connect=[endpoint])
+    if mode == "runtime":
+        receiver = Receiver(robot_id="bench", bus=bus).start()
+        latencies = receiver.latencies
+    else:
+        latencies = []
+        session = open_session(bus)
+        lock = threading.Lock()
+
+        def on_sample(sample: zenoh.Sample) -> None:
+            sec, nanosec = STAMP.unpack_from(sample.payload.to_bytes(), 4)
+            with lock:
+                latencies.append((time.time_ns() - (sec * 1_000_000_000 + nanosec)) / 1e6)
+
+        sub = session.declare_subscriber(keys.topic_key("bench", TOPIC), on_sample)
+    child = subprocess.Popen([sys.executable, __file__, "--publisher", mode, "--hz", str(hz), "--count", str(count),
+                              "--connect", endpoint])
+    child.wait(seconds * 3 + 30)
+    time.sleep(0.3)
+    if mode == "runtime":
+        receiver.shutdown()
+    else:
+        sub.undeclare()
+        session.close()
+    return latencies[count // 10:] or latencies  # skip the warm-up tenth
+
+
+def percentile(values: list[float], q: float) -> float:
+    ordered = sorted(values)
+    return ordered[min(len(ordered) - 1, int(q * len(ordered)))]
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--seconds", type=float, default=5.0)
+    parser.add_argument("--publisher", choices=["runtime", "raw"])
+    parser.add_argument("--hz", type=float, default=100.0)
+    parser.add_argument("--count", type=int, default=0)
+    parser.add_argument("--connect", default="")
+    args = parser.parse_args()
+    if args.publisher:
+        publisher_main(args.publisher, args.hz, args.count, args.connect)
+        return
+    from tests.conftest import free_port
+
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    router = open_router([endpoint])
+    payload = len(schemas.encode(trajectory()))
+    print(f"payload: JointTrajectory with 20 joints, {payload} bytes CDR; {args.seconds:.0f} s per run")
+    results: dict[tuple[str, float], list[float]] = {}
+    for mode in ("raw", "runtime"):
+        for hz in (100.0, 1000.0):
+            lat = measure(mode, hz, args.seconds, endpoint)
+            results[(mode, hz)] = lat
+            print(f"{mode:8s} {hz:6.0f} Hz  n={len(lat):5d}  p50={statistics.median(lat):.3f} ms  "
+                  f"p99={percentile(lat, 0.99):.3f} ms  max={max(lat):.3f} ms")
+    router.close()
+    run_1k, raw_1k = results[("runtime", 1000.0)], results[("raw", 1000.0)]
+    p50, raw_p50 = statistics.median(run_1k), statistics.median(raw_1k)
+    print(f"RESULT latency p50_ms={p50:.3f} p99_ms={percentile(run_1k, 0.99):.3f} raw_p50_ms={raw_p50:.3f} "
+          f"ratio_p50={p50 / raw_p50:.2f}")
+
+
+if __name__ == "__main__":
+    main()
