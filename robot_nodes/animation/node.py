@@ -1,0 +1,204 @@
+"""The animation node: plays keyframe animations on request (PlayAnimation action) as ``animation`` messages to the HCM.
+
+Goals and preemption:
+* An HCM goal (``hcm=True``) preempts whatever runs; a non-HCM goal while an HCM animation runs is
+  rejected with a reason. A non-HCM goal while another non-HCM animation runs preempts it (the
+  newest request wins, e.g. the editor replaying a changed animation).
+* Unknown names, files that do not load and joints missing from ``joint_states`` are rejected
+  with the AnimationError text (file, keyframe, problem).
+* The curves start at the measured pose (``joint_states``). If none has arrived, the node waits
+  up to ``joint_states_wait_s`` and then starts from the first keyframe's goals (the robot jumps
+  there); joint_states arriving during the wait are used.
+
+Each ``animation`` message carries one JointTrajectory point with the positions (rad) of every
+joint the animation moves. Torque requests of the keyframes travel in ``effort``: empty = no
+torque request has applied yet (leave torque as it is); otherwise one value per joint, the
+requested torque fraction in [0, 1] (0.0 = torque off, 1.0 = on) or -1.0 for a joint without a
+request. Values are cumulative, so a lost message loses nothing.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import schemas
+from robot_nodes.animation.animation_file import Animation, AnimationError, check_joints
+from robot_nodes.animation.library import AnimationLibrary
+from robot_nodes.animation.player import INTERPOLATIONS, AnimationPlayer
+from robot_nodes.runtime import Node, ServerGoal, header, param
+
+REPO = Path(__file__).resolve().parents[2]
+NO_TORQUE_REQUEST = -1.0
+
+
+@dataclass
+class AnimationParams:
+    model: str = param("minibot", doc="robot model; its animations are in robots/<model>/animations/")
+    animation_dir: str = param("", doc="folder of animation files; empty = robots/<model>/animations/ of the repo")
+    search_path: str = param("", doc="more folders of animation files, separated by ':'")
+    rate_hz: float = param(100.0, range=(1.0, 1000.0), doc="how often the curves are sampled and sent to the HCM")
+    feedback_hz: float = param(20.0, range=(1.0, 1000.0), doc="how often percent_done goes to the client")
+    interpolation: str = param("spline", choices=list(INTERPOLATIONS),
+                               doc="spline = monotone cubic through the keyframes, linear = straight lines")
+    joint_states_wait_s: float = param(1.0, range=(0.0, 30.0),
+                                       doc="wait this long for joint_states, then start from the first keyframe")
+
+
+@dataclass
+class Playback:
+    """The goal being played."""
+
+    handle: ServerGoal
+    animation: Animation
+    source: str
+    hcm: bool
+    accepted_at: float
+    player: AnimationPlayer | None = None
+    started_at: float = 0.0
+    messages: int = 0
+    last_feedback: float = -1.0
+
+
+class AnimationNode(Node):
+    """Keyframe animation player: PlayAnimation action in, animation steps out to the HCM."""
+
+    name = "animation"
+    Params = AnimationParams
+
+    def setup(self) -> None:
+        self.library = AnimationLibrary(self.folders())
+        self.joint_positions: dict[str, float] | None = None
+        self.playback: Playback | None = None
+        self.pub = self.publisher("animation")
+        self.subscribe("joint_states", self.on_joint_states)
+        self.server = self.action_server("animation", self.on_goal, self.on_cancel)
+        self.tick_timer = self.timer(self.params.rate_hz, self.tick)
+        self._refresh_library()
+
+    # -- configuration ---------------------------------------------------------------------------------
+    def folders(self) -> list[Path]:
+        main = Path(self.params.animation_dir) if self.params.animation_dir else \
+            REPO / "robots" / self.params.model / "animations"
+        extra = [Path(p) for p in self.params.search_path.split(os.pathsep) if p.strip()]
+        return [main, *extra]
+
+    def on_parameters_changed(self, changed: dict[str, Any]) -> None:
+        if {"model", "animation_dir", "search_path"} & set(changed):
+            self.library.set_folders(self.folders())
+            self._refresh_library()
+        if "rate_hz" in changed:
+            self.tick_timer.set_rate(self.params.rate_hz)
+
+    def _refresh_library(self) -> None:
+        if self.library.refresh():
+            self.set_diagnostic("animations", len(self.library.names()))
+            for problem in self.library.problems:
+                self.record_error(problem)
+
+    # -- inputs ----------------------------------------------------------------------------------------
+    def on_joint_states(self, msg: Any) -> None:
+        positions = self.joint_positions if self.joint_positions is not None else {}
+        positions.update(zip(msg.name, (float(p) for p in msg.position), strict=False))
+        self.joint_positions = positions
+
+    def on_goal(self, handle: ServerGoal) -> str | None:
+        """None accepts the goal (the action server then preempts the running one); a string rejects it."""
+        name, hcm = str(handle.goal.animation), bool(handle.goal.hcm)
+        running = self.playback
+        if running is not None and running.hcm and not hcm and not running.handle.done:
+            return (f"HCM animation {running.animation.name!r} is running; only an HCM goal may "
+                    f"preempt it, {name!r} was not started")
+        self._refresh_library()
+        try:
+            anim, source = self.library.find(name)
+            if not anim.keyframes:
+                raise AnimationError(source, "has no keyframes, nothing to play")
+            if self.joint_positions is not None:
+                check_joints(anim, self.joint_positions, source)
+        except AnimationError as exc:
+            return str(exc)
+        playback = Playback(handle, anim, source, hcm, time.monotonic())
+        if self.joint_positions is not None:
+            self._begin(playback)
+        self.playback = playback
+        self.set_diagnostic("playing", anim.name)
+        self.log.info("playing %s (%s)%s", anim.name, source, " for the HCM" if hcm else "")
+        return None
+
+    def on_cancel(self, handle: ServerGoal) -> None:
+        if self.playback is not None and self.playback.handle is handle:
+            self.playback = None
+            self.set_diagnostic("playing", "")
+        handle.canceled(self._result(False, "canceled"))
+
+    # -- playing ---------------------------------------------------------------------------------------
+    def _begin(self, playback: Playback) -> None:
+        playback.player = AnimationPlayer(playback.animation, self.joint_positions, self.params.interpolation)
+        playback.started_at = time.monotonic()
+
+    def _result(self, successful: bool, message: str = "") -> Any:
+        return schemas.make("humanoid_league_msgs/action/PlayAnimation_Result", successful=successful,
+                            message=message)
+
+    def _end(self, playback: Playback) -> None:
+        if self.playback is playback:
+            self.playback = None
+            self.set_diagnostic("playing", "")
+
+    def tick(self) -> None:
+        playback = self.playback
+        if playback is None:
+            return
+        if playback.handle.done:  # ended by the action server (preempted) or by cancel
+            self._end(playback)
+            return
+        now = time.monotonic()
+        if playback.player is None and not self._start_when_ready(playback, now):
+            return
+        player = playback.player
+        assert player is not None
+        t = now - playback.started_at
+        finished = player.finished(t)
+        self.pub.publish(self._step(playback, player, t, finished))
+        playback.messages += 1
+        if finished or now - playback.last_feedback >= 1.0 / self.params.feedback_hz:
+            playback.last_feedback = now
+            playback.handle.publish_feedback(schemas.make("humanoid_league_msgs/action/PlayAnimation_Feedback",
+                                                          percent_done=player.percent_done(t)))
+        if finished:
+            playback.handle.succeed(self._result(True))
+            self._end(playback)
+
+    def _start_when_ready(self, playback: Playback, now: float) -> bool:
+        """Starts once joint_states are known or the wait is over; aborts if the robot lacks a joint."""
+        if self.joint_positions is not None:
+            try:
+                check_joints(playback.animation, self.joint_positions, playback.source)
+            except AnimationError as exc:
+                playback.handle.abort(self._result(False, str(exc)))
+                self._end(playback)
+                return False
+        elif now - playback.accepted_at < self.params.joint_states_wait_s:
+            return False
+        else:
+            self.log.warning("no joint_states after %.1f s: %s starts from its first keyframe",
+                             self.params.joint_states_wait_s, playback.animation.name)
+        self._begin(playback)
+        return True
+
+    def _step(self, playback: Playback, player: AnimationPlayer, t: float, last: bool) -> Any:
+        """One Animation message: positions at t (rad) and the torque requests applying by t."""
+        t = min(t, player.duration) if last else t
+        torque = player.torque_at(t)
+        effort = [min(max(torque[j], 0.0), 1.0) if j in torque else NO_TORQUE_REQUEST
+                  for j in player.joint_names] if torque else []
+        point = schemas.make("trajectory_msgs/msg/JointTrajectoryPoint", positions=player.positions(t),
+                             effort=effort)
+        trajectory = schemas.make("trajectory_msgs/msg/JointTrajectory", header=header(),
+                                  joint_names=list(player.joint_names), points=[point])
+        return schemas.make("humanoid_league_msgs/msg/Animation", header=header(), first=playback.messages == 0,
+                            last=last, hcm=playback.hcm, position=trajectory)
