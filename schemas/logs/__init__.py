@@ -1,0 +1,18 @@
+"""MCAP logs of pitchside: writing per-robot channels, reading pitchside logs and ROS 2 bags."""
+
+from schemas.logs.naming import BOOKMARK_TOPIC, LogError, channel_topic, log_series, rotated_path
+from schemas.logs.reader import Bookmark, ChannelInfo, LogMessage, LogReader
+from schemas.logs.writer import LogWriter
+
+__all__ = [
+    "BOOKMARK_TOPIC",
+    "Bookmark",
+    "ChannelInfo",
+    "LogError",
+    "LogMessage",
+    "LogReader",
+    "LogWriter",
+    "channel_topic",
+    "log_series",
+    "rotated_path",
+]
