@@ -138,7 +138,6 @@ class AnimationNode(Node):
     # -- playing ---------------------------------------------------------------------------------------
     def _begin(self, playback: Playback) -> None:
         playback.player = AnimationPlayer(playback.animation, self.joint_positions, self.params.interpolation)
-        playback.started_at = time.monotonic()
 
     def _result(self, successful: bool, message: str = "") -> Any:
         return schemas.make("humanoid_league_msgs/action/PlayAnimation_Result", successful=successful,
@@ -161,6 +160,8 @@ class AnimationNode(Node):
             return
         player = playback.player
         assert player is not None
+        if playback.messages == 0:
+            playback.started_at = now  # the animation's clock starts with its first step, sent at t=0
         t = now - playback.started_at
         finished = player.finished(t)
         self.pub.publish(self._step(playback, player, t, finished))
