@@ -1,0 +1,84 @@
+"""create_app(config): the dashboard's FastAPI app with its hub, sources, routers and the static web page."""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+from collections.abc import AsyncIterator
+from contextlib import asynccontextmanager
+
+from fastapi import FastAPI
+from fastapi.staticfiles import StaticFiles
+
+from server.config import ServerConfig
+from server.hub import Hub
+from server.routers import control, robots, sources, ws
+from server.sources import SourceError, SourceSet
+from server.sources.live import LiveZenohSource
+from server.sources.telemetry import TelemetrySource
+from server.state import ServerState
+from server.zenoh_link import ZenohLink
+
+log = logging.getLogger(__name__)
+
+
+def create_app(config: ServerConfig) -> FastAPI:
+    """The app; sources, the 3D view and plots start with the app's lifespan (uvicorn or TestClient)."""
+    hub = Hub(config.queue_size)
+    link = ZenohLink(config.bus, config.match_mode)
+    source_set = SourceSet([
+        LiveZenohSource(hub, link),
+        TelemetrySource(hub, config.telemetry_host, config.telemetry_port),
+    ])
+    state = ServerState(config, hub, source_set, link)
+
+    @asynccontextmanager
+    async def lifespan(_app: FastAPI) -> AsyncIterator[None]:
+        hub.bind(asyncio.get_running_loop())
+        wanted = {"live": bool(config.live_source) and not config.match_mode, "telemetry": config.telemetry_source}
+        for name, on in wanted.items():
+            if on:
+                try:
+                    await source_set.switch(name, True)
+                except SourceError as exc:
+                    log.warning("source %s not started: %s", name, exc)
+        await _start_views(state)
+        try:
+            yield
+        finally:
+            for view in state.views.values():
+                with contextlib.suppress(Exception):
+                    await view.stop()
+            await source_set.stop_all()
+            await asyncio.to_thread(link.close)
+
+    app = FastAPI(title="pitchside dashboard", lifespan=lifespan)
+    app.state.pitchside = state
+    for module in (robots, sources, control, ws):
+        app.include_router(module.router)
+    app.mount("/", StaticFiles(directory=config.web_dir, html=True), name="web")
+    return app
+
+
+async def _start_views(state: ServerState) -> None:
+    """The optional 3D robot (viser) and plots (rerun): heavy, so off unless the config asks for them."""
+    config = state.config
+    if config.robot3d:
+        from server.robot3d import Robot3DView
+
+        view = Robot3DView(state.hub, config)
+        try:
+            await view.start()
+            state.views["robot3d"] = view
+        except Exception as exc:  # a broken URDF must not take the dashboard down
+            log.warning("3D robot view not started: %s", exc)
+    if config.plots:
+        from server.plots import PlotFeed
+
+        plots = PlotFeed(state.hub, config)
+        try:
+            await plots.start()
+            state.views["plots"] = plots
+        except Exception as exc:
+            log.warning("plots not started: %s", exc)

@@ -1,0 +1,80 @@
+"""The dashboard server's configuration: one dataclass, built by the CLI or by tests."""
+
+from __future__ import annotations
+
+import ipaddress
+import secrets
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from robot_nodes.runtime.bus import BusConfig
+
+REPO = Path(__file__).resolve().parents[1]
+DEFAULT_URDF = REPO / "robots" / "minibot" / "urdf" / "minibot.urdf"
+WEB_DIR = REPO / "web"
+
+
+@dataclass(slots=True)
+class RobotDescription:
+    """Where the 3D view finds a robot's URDF and the folders its ``package://`` paths point to."""
+
+    urdf: Path = DEFAULT_URDF
+    packages: dict[str, Path] = field(default_factory=dict)
+
+
+@dataclass(slots=True)
+class ServerConfig:
+    """Everything the server needs to know at start; tests build it directly.
+
+    ``match_mode``: the server sends nothing to any robot. Then the live Zenoh source stays off (no Zenoh
+    session is opened at all, since even a subscriber sends declarations), only the passive UDP telemetry
+    listener runs, and every control endpoint answers 403.
+    """
+
+    match_mode: bool = False
+    host: str = "127.0.0.1"
+    port: int = 8080
+    token: str | None = None
+    bus: BusConfig = field(default_factory=BusConfig)
+    live_source: bool | None = None  # None: on outside match mode, off in match mode
+    telemetry_source: bool = True
+    telemetry_host: str = "0.0.0.0"
+    telemetry_port: int = 3940
+    queue_size: int = 2000  # frames per WebSocket client before the oldest are dropped
+    stale_after_s: float = 1.0
+    lost_after_s: float = 5.0
+    robot3d: bool = False
+    robot3d_port: int = 8081
+    robot3d_max_hz: float = 20.0
+    descriptions: dict[str, RobotDescription] = field(default_factory=dict)  # robot id or "*" -> description
+    plots: bool = False
+    plots_web_port: int = 9090
+    plots_grpc_port: int = 9876
+    plots_max_hz: float = 10.0
+    web_dir: Path = WEB_DIR
+
+    def __post_init__(self) -> None:
+        if self.live_source is None:
+            self.live_source = not self.match_mode
+        if self.match_mode and self.live_source:
+            raise ValueError("match mode and the live Zenoh source exclude each other: in match mode the server "
+                             "opens no Zenoh session (even a subscriber sends declarations to the robots)")
+        if self.needs_token and not self.token:
+            self.token = secrets.token_urlsafe(16)
+
+    @property
+    def needs_token(self) -> bool:
+        """Control needs a token unless the server is reachable from this machine only."""
+        return not is_loopback(self.host)
+
+    def description_for(self, robot: str) -> RobotDescription:
+        return self.descriptions.get(robot) or self.descriptions.get("*") or RobotDescription()
+
+
+def is_loopback(host: str) -> bool:
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False

@@ -1,0 +1,269 @@
+"""The one in-process hub: sources publish robot messages, subscribers (browsers, recorder) each get a bounded queue.
+
+Everything here runs on the server's asyncio loop thread; sources on other threads hand their messages over
+with ``Hub.publish_threadsafe`` (batched). A subscriber that does not read loses its oldest frames, so one
+slow browser never stalls the others and memory stays bounded by ``maxlen`` per subscriber.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import fnmatch
+import time
+from collections import deque
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+from typing import Any
+
+import schemas
+
+ANY = "*"
+# Big messages get their own short queue per subscriber: memory stays bounded by a few images, not thousands.
+BULK_TYPES = frozenset({"sensor_msgs/msg/CompressedImage", "sensor_msgs/msg/Image"})
+BULK_MAXLEN = 4
+
+
+@dataclass(slots=True, eq=False)
+class HubMessage:
+    """One robot message as a source saw it: decoded, or still CDR bytes (decoded on first use)."""
+
+    robot: str
+    topic: str
+    typename: str
+    stamp: float  # seconds since the epoch: the message's header stamp, else the time it was received
+    data: Any  # a decoded message, or CDR bytes
+    source: str  # "live", "telemetry", "replay", ...
+    received: float = field(default_factory=time.monotonic)
+    frame: str | bytes | None = None  # cache of the browser frame (server.protocol), built once for all clients
+
+    @property
+    def message(self) -> Any:
+        """The decoded message; schemas.SchemaError if CDR bytes do not decode as ``typename``."""
+        if isinstance(self.data, bytes | bytearray | memoryview):
+            self.data = schemas.decode(self.data, self.typename)
+        return self.data
+
+    @property
+    def cdr(self) -> bytes:
+        return bytes(self.data) if isinstance(self.data, bytes | bytearray | memoryview) else schemas.encode(self.data)
+
+
+@dataclass(slots=True)
+class Subscription:
+    """What a subscriber wants: robot id or "*", topic (exact, "*" or a glob like "camera/*"), optional rate cap."""
+
+    robot: str = ANY
+    topic: str = ANY
+    max_hz: float | None = None
+
+    def matches(self, msg: HubMessage) -> bool:
+        if self.robot != ANY and self.robot != msg.robot:
+            return False
+        if self.topic == ANY or self.topic == msg.topic:
+            return True
+        return "*" in self.topic and fnmatch.fnmatchcase(msg.topic, self.topic)
+
+
+class Subscriber:
+    """A bounded queue of hub messages for one consumer, rate-limited per (robot, topic) keeping the newest."""
+
+    def __init__(self, hub: Hub, name: str, maxlen: int) -> None:
+        self.hub = hub
+        self.name = name
+        self.subscriptions: list[Subscription] = []
+        self.delivered = 0
+        self.dropped = 0  # lost to the bounded queue (slow reader)
+        self.thinned = 0  # replaced by a newer message under a rate limit
+        self._queue: deque[HubMessage] = deque(maxlen=maxlen)
+        self._bulk: deque[HubMessage] = deque(maxlen=BULK_MAXLEN)
+        self._next_ok: dict[tuple[str, str], float] = {}
+        self._held: dict[tuple[str, str], HubMessage] = {}
+        self._wakeup = asyncio.Event()
+        self.closed = False
+
+    # -- what the consumer wants ----------------------------------------------------------------------
+    def subscribe(self, robot: str = ANY, topic: str = ANY, max_hz: float | None = None, replay_latest: bool = True
+                  ) -> Subscription:
+        """Adds (or updates) a subscription; the latest message of each matching stream is queued at once."""
+        self.unsubscribe(robot, topic)
+        sub = Subscription(robot, topic, max_hz if max_hz and max_hz > 0 else None)
+        self.subscriptions.append(sub)
+        if replay_latest:
+            for msg in self.hub.latest_matching(sub):
+                self._enqueue(msg)
+        return sub
+
+    def unsubscribe(self, robot: str = ANY, topic: str = ANY) -> None:
+        self.subscriptions = [s for s in self.subscriptions if not (s.robot == robot and s.topic == topic)]
+
+    def matching(self, msg: HubMessage) -> Subscription | None:
+        for sub in self.subscriptions:
+            if sub.matches(msg):
+                return sub
+        return None
+
+    # -- the hub side ---------------------------------------------------------------------------------
+    def offer(self, msg: HubMessage) -> None:
+        sub = self.matching(msg)
+        if sub is None:
+            return
+        if sub.max_hz is None:
+            self._enqueue(msg)
+            return
+        key = (msg.robot, msg.topic)
+        now = time.monotonic()
+        next_ok = self._next_ok.get(key, 0.0)
+        if now >= next_ok and key not in self._held:
+            self._next_ok[key] = now + 1.0 / sub.max_hz
+            self._enqueue(msg)
+            return
+        if key in self._held:
+            self.thinned += 1
+        else:
+            asyncio.get_running_loop().call_later(max(next_ok - now, 0.0), self._release, key, sub.max_hz)
+        self._held[key] = msg  # keep the newest until the stream may send again
+
+    def _release(self, key: tuple[str, str], max_hz: float) -> None:
+        msg = self._held.pop(key, None)
+        if msg is not None and not self.closed:
+            self._next_ok[key] = time.monotonic() + 1.0 / max_hz
+            self._enqueue(msg)
+
+    def _enqueue(self, msg: HubMessage) -> None:
+        queue = self._bulk if msg.typename in BULK_TYPES else self._queue
+        if len(queue) == queue.maxlen:
+            self.dropped += 1
+        queue.append(msg)
+        self._wakeup.set()
+
+    # -- the consumer side ----------------------------------------------------------------------------
+    def __len__(self) -> int:
+        return len(self._queue) + len(self._bulk)
+
+    def drain(self, limit: int = 256) -> list[HubMessage]:
+        """Up to ``limit`` queued messages, oldest first (images after the small messages)."""
+        out = []
+        while self._queue and len(out) < limit:
+            out.append(self._queue.popleft())
+        while self._bulk and len(out) < limit:
+            out.append(self._bulk.popleft())
+        self.delivered += len(out)
+        return out
+
+    async def wait(self, timeout: float | None = None) -> bool:
+        """True when messages are queued; False after ``timeout`` without any."""
+        if self._queue or self._bulk:
+            return True
+        self._wakeup.clear()
+        with contextlib.suppress(TimeoutError):
+            await asyncio.wait_for(self._wakeup.wait(), timeout)
+        return bool(self._queue or self._bulk)
+
+    def close(self) -> None:
+        self.closed = True
+        self.hub.unsubscribe(self)
+
+
+@dataclass(slots=True)
+class StreamStats:
+    """How one (robot, topic) stream arrives: enough for link health in the team overview."""
+
+    typename: str
+    source: str
+    count: int = 0
+    last_received: float = 0.0  # monotonic
+    rate_hz: float = 0.0
+    _window_start: float = 0.0
+    _window_count: int = 0
+
+    def seen(self, now: float, source: str) -> None:
+        self.count += 1
+        self.last_received = now
+        self.source = source
+        if self._window_count == 0:
+            self._window_start = now
+        self._window_count += 1
+        span = now - self._window_start
+        if span >= 1.0:
+            self.rate_hz = (self._window_count - 1) / span
+            self._window_start = now
+            self._window_count = 1
+
+    def current_rate(self, now: float) -> float:
+        """The measured rate, decaying to 0 once the stream is silent for longer than its period."""
+        age = now - self.last_received
+        if self.rate_hz <= 0 or age <= 2.0 / self.rate_hz:
+            return self.rate_hz
+        return 0.0 if age > 2.0 else min(self.rate_hz, 1.0 / age)
+
+
+@dataclass(slots=True)
+class RobotSeen:
+    """A robot discovered from what arrived."""
+
+    robot: str
+    first_seen: float  # wall clock
+    last_received: float = 0.0  # monotonic
+    streams: dict[str, StreamStats] = field(default_factory=dict)
+
+
+class Hub:
+    """Fans messages out to subscribers, remembers the latest message per (robot, topic) for late joiners."""
+
+    def __init__(self, default_maxlen: int = 2000) -> None:
+        self.default_maxlen = default_maxlen
+        self.subscribers: list[Subscriber] = []
+        self.latest: dict[tuple[str, str], HubMessage] = {}
+        self.robots: dict[str, RobotSeen] = {}
+        self.published = 0
+        self.decode_errors = 0  # messages whose CDR did not decode when a subscriber needed them
+        self.loop: asyncio.AbstractEventLoop | None = None
+        self._robot_listeners: list[Callable[[str], None]] = []
+
+    def bind(self, loop: asyncio.AbstractEventLoop) -> None:
+        """The loop whose thread owns the hub; sources on other threads hand messages to it."""
+        self.loop = loop
+
+    def subscribe(self, name: str = "", maxlen: int | None = None) -> Subscriber:
+        sub = Subscriber(self, name or f"subscriber{len(self.subscribers)}", maxlen or self.default_maxlen)
+        self.subscribers.append(sub)
+        return sub
+
+    def unsubscribe(self, sub: Subscriber) -> None:
+        if sub in self.subscribers:
+            self.subscribers.remove(sub)
+
+    def on_new_robot(self, listener: Callable[[str], None]) -> None:
+        self._robot_listeners.append(listener)
+
+    def publish(self, msg: HubMessage) -> None:
+        """On the loop thread only."""
+        now = msg.received
+        robot = self.robots.get(msg.robot)
+        if robot is None:
+            robot = self.robots[msg.robot] = RobotSeen(msg.robot, time.time())
+            for listener in self._robot_listeners:
+                listener(msg.robot)
+        robot.last_received = now
+        stats = robot.streams.get(msg.topic)
+        if stats is None:
+            stats = robot.streams[msg.topic] = StreamStats(msg.typename, msg.source)
+        stats.seen(now, msg.source)
+        self.latest[(msg.robot, msg.topic)] = msg
+        self.published += 1
+        for sub in self.subscribers:
+            sub.offer(msg)
+
+    def publish_many(self, msgs: Iterable[HubMessage]) -> None:
+        for msg in msgs:
+            self.publish(msg)
+
+    def publish_threadsafe(self, msgs: list[HubMessage]) -> None:
+        """From a source's thread: one loop wake-up per batch."""
+        if self.loop is None:
+            raise RuntimeError("hub is not bound to an event loop yet (Hub.bind)")
+        self.loop.call_soon_threadsafe(self.publish_many, msgs)
+
+    def latest_matching(self, sub: Subscription) -> list[HubMessage]:
+        return [m for m in self.latest.values() if sub.matches(m)]

@@ -1,0 +1,106 @@
+"""The control API (lab only): parameters, penalize, play animation. Refused in match mode; token off loopback.
+
+Everything here talks to robots over Zenoh (the server's ZenohLink), so every endpoint depends on
+``require_control``: 403 with the reason in match mode, 401 without the token when listening beyond loopback.
+"""
+
+from __future__ import annotations
+
+import asyncio
+from typing import Any, Literal
+
+from fastapi import APIRouter, Depends, HTTPException
+from pydantic import BaseModel
+
+import schemas
+from robot_nodes.runtime import ActionError, ServiceError, call_service
+from robot_nodes.runtime.actions import ActionClient
+from robot_nodes.runtime.param_client import ParameterClient
+from robot_nodes.runtime.parameters import ParameterError
+from server.deps import require_control
+from server.state import ServerState
+
+router = APIRouter(prefix="/api/robots/{robot}", tags=["control"])
+TIMEOUT_S = 3.0
+
+
+class ParameterWrite(BaseModel):
+    values: dict[str, Any]
+    revisions: dict[str, int] | None = None
+
+
+class PenalizeRequest(BaseModel):
+    penalize: Literal["on", "off", "switch"] = "on"
+
+
+class AnimationRequest(BaseModel):
+    animation: str
+    wait: bool = False  # wait for the result (else answer once the HCM accepted or rejected the goal)
+
+
+def _parameter_client(state: ServerState, robot: str) -> ParameterClient:
+    return ParameterClient(state.link.session(), robot, timeout=TIMEOUT_S)
+
+
+@router.get("/params")
+async def list_parameters(robot: str, state: ServerState = Depends(require_control)) -> dict[str, Any]:
+    """Every node of the robot that answers, with its parameters."""
+    return await asyncio.to_thread(lambda: _parameter_client(state, robot).nodes())
+
+
+@router.get("/params/{node}")
+async def get_parameters(robot: str, node: str, state: ServerState = Depends(require_control)
+                         ) -> list[dict[str, Any]]:
+    try:
+        return await asyncio.to_thread(lambda: _parameter_client(state, robot).describe(node))
+    except ParameterError as exc:
+        raise HTTPException(504, str(exc)) from exc
+
+
+@router.post("/params/{node}")
+async def set_parameters(robot: str, node: str, write: ParameterWrite, state: ServerState = Depends(require_control)
+                         ) -> dict[str, Any]:
+    """The node validates: out of range -> 422 with its reason, value unchanged."""
+    try:
+        return await asyncio.to_thread(lambda: _parameter_client(state, robot).set(node, write.values,
+                                                                                    write.revisions))
+    except ParameterError as exc:
+        raise HTTPException(422, str(exc)) from exc
+
+
+@router.post("/penalize")
+async def penalize(robot: str, request: PenalizeRequest, state: ServerState = Depends(require_control)
+                   ) -> dict[str, Any]:
+    consts = schemas.constants("humanoid_league_msgs/srv/ManualPenalize_Request")
+    msg = schemas.make("humanoid_league_msgs/srv/ManualPenalize_Request", penalize=consts[request.penalize.upper()])
+    try:
+        response = await asyncio.to_thread(
+            lambda: call_service(state.link.session(), robot, "manual_penalize", msg, timeout=TIMEOUT_S))
+    except ServiceError as exc:
+        raise HTTPException(504, str(exc)) from exc
+    return {"robot": robot, "penalized": bool(response.penalized)}
+
+
+@router.post("/animation")
+async def play_animation(robot: str, request: AnimationRequest, state: ServerState = Depends(require_control)
+                         ) -> dict[str, Any]:
+    goal = schemas.make("humanoid_league_msgs/action/PlayAnimation_Goal", animation=request.animation, hcm=False)
+
+    def send() -> dict[str, Any]:
+        client = ActionClient(state.link.session(), robot, "animation")
+        try:
+            handle = client.send_goal(goal, timeout=TIMEOUT_S)
+            if not handle.wait_accepted(TIMEOUT_S):
+                raise HTTPException(409, f"animation {request.animation!r} rejected: {handle.reason}")
+            if not request.wait:
+                return {"robot": robot, "animation": request.animation, "accepted": True}
+            status, result = handle.wait_result(60.0)
+            return {"robot": robot, "animation": request.animation, "accepted": True, "status": status.name,
+                    "result": schemas.to_dict(result)}
+        finally:
+            client.close()
+
+    try:
+        return await asyncio.to_thread(send)
+    except ActionError as exc:
+        raise HTTPException(504, str(exc)) from exc

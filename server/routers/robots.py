@@ -1,0 +1,49 @@
+"""GET /api/robots: the robots discovered from what arrived, when each was last heard, link health per stream."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from fastapi import APIRouter, Depends
+
+from server.deps import get_state
+from server.link_health import robots_info
+from server.state import ServerState
+
+router = APIRouter(prefix="/api", tags=["robots"])
+
+
+@router.get("/robots")
+def list_robots(state: ServerState = Depends(get_state)) -> list[dict[str, Any]]:
+    return robots_info(state)
+
+
+@router.get("/hub")
+def hub_status(state: ServerState = Depends(get_state)) -> dict[str, Any]:
+    """Counters of the hub and of every subscriber (queued, delivered, dropped): where frames go missing."""
+    hub = state.hub
+    return {
+        "published": hub.published,
+        "decode_errors": hub.decode_errors,
+        "subscribers": [
+            {"name": s.name, "queued": len(s), "delivered": s.delivered, "dropped": s.dropped, "thinned": s.thinned,
+             "subscriptions": [{"robot": x.robot, "topic": x.topic, "max_hz": x.max_hz} for x in s.subscriptions]}
+            for s in hub.subscribers
+        ],
+    }
+
+
+@router.get("/config")
+def dashboard_config(state: ServerState = Depends(get_state)) -> dict[str, Any]:
+    """What the page needs to know: match mode, whether control needs a token, where the 3D view and plots are."""
+    config = state.config
+    robot3d = state.views.get("robot3d")
+    plots = state.views.get("plots")
+    return {
+        "match_mode": config.match_mode,
+        "needs_token": config.needs_token,
+        "stale_after_s": config.stale_after_s,
+        "lost_after_s": config.lost_after_s,
+        "robot3d_port": robot3d.port if robot3d is not None else None,
+        "plots": plots.urls() if plots is not None else None,
+    }

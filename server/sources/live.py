@@ -1,0 +1,121 @@
+"""The live Zenoh source: joins the team's Zenoh network and feeds every topic message to the hub.
+
+Only subscribes (``pitchside/*/**``, topic keys only); never started in match mode, since even a Zenoh
+subscriber sends declarations to the robots it is connected to.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+import threading
+from collections import deque
+from typing import Any
+
+import zenoh
+
+import schemas
+from robot_nodes.runtime import keys
+from server.hub import Hub, HubMessage
+from server.sources import Source, SourceError
+from server.sources.stamps import stamp_of
+from server.zenoh_link import ZenohLink
+
+log = logging.getLogger(__name__)
+
+SUBSCRIBE_KEY = f"{keys.PREFIX}/*/**"
+MAX_PENDING = 50_000  # samples waiting for the event loop; beyond, the oldest go (the loop is overloaded)
+
+
+def typename_of(topic: str, encoding: str) -> str | None:
+    """The topic table's type, else the schema named by the Zenoh encoding ("application/cdr;pkg/msg/Type")."""
+    entry = schemas.TOPICS.get(topic)
+    if entry is not None:
+        return entry.type
+    _, sep, schema = encoding.partition(";")
+    if sep and schema:
+        try:
+            return schemas.codec.full_name(schema)
+        except schemas.SchemaError:
+            return None
+    return None
+
+
+class LiveZenohSource(Source):
+    """Zenoh callbacks append to a pending batch; the event loop drains it in one go."""
+
+    name = "live"
+
+    def __init__(self, hub: Hub, link: ZenohLink) -> None:
+        super().__init__()
+        self.hub = hub
+        self.link = link
+        self.received = 0
+        self.unknown = 0
+        self.overflow = 0
+        self._pending: deque[tuple[str, bytes, str]] = deque()
+        self._lock = threading.Lock()
+        self._scheduled = False
+        self._sub: zenoh.Subscriber | None = None
+        self._loop: asyncio.AbstractEventLoop | None = None
+
+    async def start(self) -> None:
+        if self.link.match_mode:
+            raise SourceError("the live Zenoh source cannot run in match mode: even a Zenoh subscriber sends "
+                              "declarations to the robots")
+        self._loop = asyncio.get_running_loop()
+        try:
+            session = await asyncio.to_thread(self.link.session)
+            self._sub = session.declare_subscriber(SUBSCRIBE_KEY, self._on_sample)
+        except zenoh.ZError as exc:
+            self.error = f"cannot join the Zenoh network: {exc}"
+            raise SourceError(self.error) from exc
+        self.error = ""
+        self.running = True
+
+    async def stop(self) -> None:
+        self.running = False
+        sub, self._sub = self._sub, None
+        if sub is not None:
+            with contextlib.suppress(zenoh.ZError):
+                sub.undeclare()
+
+    def _on_sample(self, sample: zenoh.Sample) -> None:
+        """On a Zenoh thread: keep it short."""
+        key = str(sample.key_expr)
+        if not keys.is_topic_key(key):
+            return
+        item = (key, sample.payload.to_bytes(), str(sample.encoding))
+        with self._lock:
+            if len(self._pending) >= MAX_PENDING:
+                self._pending.popleft()
+                self.overflow += 1
+            self._pending.append(item)
+            wake = not self._scheduled
+            self._scheduled = True
+        if wake and self._loop is not None:
+            with contextlib.suppress(RuntimeError):  # loop closed while shutting down
+                self._loop.call_soon_threadsafe(self._drain)
+
+    def _drain(self) -> None:
+        with self._lock:
+            batch = list(self._pending)
+            self._pending.clear()
+            self._scheduled = False
+        if not self.running:
+            return
+        for key, payload, encoding in batch:
+            robot, topic = keys.split_topic_key(key)
+            typename = typename_of(topic, encoding)
+            if typename is None:
+                self.unknown += 1
+                continue
+            self.received += 1
+            self.hub.publish(HubMessage(robot, topic, typename, stamp_of(payload, typename), payload, self.name))
+
+    def status(self) -> dict[str, Any]:
+        status = super().status()
+        status.update(received=self.received, unknown_topics=self.unknown, overflow=self.overflow,
+                      zenoh_open=self.link.is_open)
+        return status
