@@ -5,6 +5,9 @@ from __future__ import annotations
 import itertools
 import json
 import math
+import signal
+import subprocess
+import sys
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -47,9 +50,9 @@ class Body(Node):
             self.joint_states.publish(schemas.make("sensor_msgs/msg/JointState", name=list(self.positions),
                                                    position=list(self.positions.values())))
 
-    def play(self, animation: str, hcm: bool = False) -> ClientGoal:
+    def play(self, animation: str, hcm: bool = False, timeout: float = 10.0) -> ClientGoal:
         goal = schemas.make("humanoid_league_msgs/action/PlayAnimation_Goal", animation=animation, hcm=hcm)
-        return self.client.send_goal(goal, timeout=10.0)
+        return self.client.send_goal(goal, timeout=timeout)
 
 
 def write(folder: Path, filename: str, data: dict[str, Any] | str) -> Path:
@@ -238,3 +241,19 @@ def test_missing_default_folder_is_empty(bus: BusConfig) -> None:
         assert not node.library.problems
     finally:
         node.shutdown()
+
+
+def test_runs_as_its_own_process(router_endpoint: str, body: Body, animations: Path) -> None:
+    """``python -m robot_nodes.animation`` serves goals and stops cleanly on SIGTERM."""
+    repo = Path(__file__).resolve().parents[1]
+    proc = subprocess.Popen([sys.executable, "-m", "robot_nodes.animation", "--connect", router_endpoint,
+                             "--set", f"animation_dir={animations}", "--log-level", "WARNING"],
+                            cwd=repo, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    try:
+        goal = body.play("knee_bend", timeout=30.0)  # asks again until the process serves the action
+        assert goal.wait_accepted(35.0), goal.reason
+        assert goal.wait_result(30.0)[0] == GoalStatus.SUCCEEDED
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=20)
+    assert proc.returncode == 0, err.decode()
