@@ -36,6 +36,8 @@ TOPICS: dict[str, Topic] = {
         Topic("imu/data", "sensor_msgs/msg/Imu", "orientation, angular velocity, acceleration; cm730 -> hcm"),
         Topic("servo_data", _HL + "AdditionalServoData", "servo temperatures and voltage", Priority.PERCEPTION),
         Topic("motor_goals", "trajectory_msgs/msg/JointTrajectory", "joint goals, hcm -> cm730"),
+        Topic("motor_torque", "sensor_msgs/msg/JointState",
+              "torque per joint, hcm -> cm730: name lists joints, effort 1.0 = on, 0.0 = off (limp)"),
         Topic("walk_motor_goals", "trajectory_msgs/msg/JointTrajectory", "walking -> hcm"),
         Topic("head_motor_goals", "trajectory_msgs/msg/JointTrajectory", "head behaviour -> hcm"),
         Topic("record_motor_goals", "trajectory_msgs/msg/JointTrajectory", "animation recorder -> hcm"),
