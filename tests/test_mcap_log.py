@@ -375,3 +375,35 @@ def test_out_of_order_writes_come_back_in_time_order(tmp_path: Path) -> None:
     with LogReader(path) as reader:
         got = [m.log_time_ns for m in reader.messages(start_ns=middle)]
     assert got == sorted(t for t in stamps if t >= middle)
+
+
+# -- crash safety while the log is still open -----------------------------------------------------------
+
+
+def test_open_log_reads_everything_flushed_so_far(tmp_path: Path) -> None:
+    path = tmp_path / "live.mcap"
+    writer = LogWriter(path, flush_interval_s=None)
+    try:
+        for i in range(5):
+            writer.write("robot1", "joint_states", joint_state(i), log_time_ns=T0 + i)
+        with LogReader(path) as reader:  # 1 MiB chunk still open in memory: nothing on disk yet
+            assert list(reader.messages()) == []
+        writer.flush()
+        with LogReader(path) as reader:
+            assert [m.msg.header.frame_id for m in reader.messages()] == [f"base_{i}" for i in range(5)]
+            assert reader.warnings and not reader.indexed
+    finally:
+        writer.close()
+    with LogReader(path) as reader:
+        assert reader.indexed and not reader.warnings and reader.message_count == 5
+
+
+def test_flush_interval_writes_slow_streams_chunk_by_chunk(tmp_path: Path) -> None:
+    path = tmp_path / "slow.mcap"
+    with LogWriter(path, flush_interval_s=0.0) as writer:  # every write is past the interval
+        for i in range(3):
+            writer.write("robot1", "paused", schemas.make("std_msgs/msg/Bool", data=True), log_time_ns=T0 + i)
+            with LogReader(path) as reader:
+                assert reader.message_count == i + 1
+    with open(path, "rb") as f:
+        assert len(make_reader(f).get_summary().chunk_indexes) == 3

@@ -111,6 +111,8 @@ class LogReader:
             raise LogError(f"{self.path} is not a readable MCAP file: {exc}") from exc
         self._summary = summary
         self._channels = self._describe_channels(summary)
+        if on_progress is not None and self._recovery is None:
+            on_progress(1.0)  # the index was there: nothing to scan
 
     def _warn(self, text: str) -> None:
         log.warning("%s", text)
@@ -142,16 +144,19 @@ class LogReader:
     def _describe_channels(self, summary: Summary) -> dict[int, ChannelInfo]:
         counts = summary.statistics.channel_message_counts if summary.statistics else {}
         infos: dict[int, ChannelInfo] = {}
+        by_schema: dict[tuple[int, str], tuple[Decoder | None, str]] = {}  # many robots share a schema
         for cid, channel in summary.channels.items():
             schema = summary.schemas.get(channel.schema_id)
             robot_id, topic = split_channel(channel.topic, channel.metadata)
             typename = full_typename(schema.name) if schema else ""
-            problem = ""
-            try:
-                self._decoders[cid] = make_decoder(channel, schema)
-            except UndecodableChannel as exc:
-                self._decoders[cid] = None
-                problem = str(exc)
+            key = (channel.schema_id, channel.message_encoding)
+            if key not in by_schema:
+                try:
+                    by_schema[key] = (make_decoder(channel, schema), "")
+                except UndecodableChannel as exc:
+                    by_schema[key] = (None, str(exc))
+            self._decoders[cid], problem = by_schema[key]
+            if problem:
                 log.info("%s: channel %s yields raw bytes: %s", self.path.name, channel.topic, problem)
             infos[cid] = ChannelInfo(cid, robot_id, topic, typename, counts.get(cid, 0), channel.topic, problem)
         return infos

@@ -23,11 +23,12 @@ from mcap.records import (
     Schema,
     Statistics,
 )
-from mcap.stream_reader import breakup_chunk
+from mcap.stream_reader import breakup_chunk, get_chunk_data_stream
 from mcap.summary import Summary
 
 MAGIC = b"\x89MCAP0\r\n"
 _RECORD_HEAD = struct.Struct("<BQ")
+_MESSAGE_HEAD = struct.Struct("<HIQ")  # channel id, sequence, log time
 
 # Records a recovery pass needs; everything else (attachments, old indexes) is skipped.
 _READERS: dict[int, Callable[[ReadDataStream, int], McapRecord]] = {
@@ -63,6 +64,44 @@ def chunk_messages(stream: IO[bytes], index: ChunkIndex, validate_crc: bool = Fa
 
 
 @dataclass
+class ChunkContents:
+    """What a recovery pass needs from a chunk, found without building every message."""
+
+    definitions: list[McapRecord]  # schema and channel records
+    counts: dict[int, int]  # messages per channel
+    start: int
+    end: int
+
+
+def survey_chunk(chunk: Chunk) -> ChunkContents:
+    """Decompresses (CRC-checked) and walks the records of a chunk; ValueError if it is damaged."""
+    stream, length = get_chunk_data_stream(chunk, validate_crc=True)
+    data = memoryview(stream.read(length)) if length else memoryview(b"")
+    found = ChunkContents([], {}, 0, 0)
+    first = True
+    position = 0
+    while position < length:
+        if position + _RECORD_HEAD.size > length:
+            raise ValueError("chunk ends inside a record header")
+        opcode, size = _RECORD_HEAD.unpack_from(data, position)
+        body = position + _RECORD_HEAD.size
+        if body + size > length:
+            raise ValueError("chunk ends inside a record")
+        if opcode == Opcode.MESSAGE:
+            if size < _MESSAGE_HEAD.size:
+                raise ValueError("message record too short")
+            channel_id, _, log_time = _MESSAGE_HEAD.unpack_from(data, body)
+            found.counts[channel_id] = found.counts.get(channel_id, 0) + 1
+            found.start = log_time if first else min(found.start, log_time)
+            found.end = log_time if first else max(found.end, log_time)
+            first = False
+        elif opcode in (Opcode.SCHEMA, Opcode.CHANNEL):
+            found.definitions.append(_READERS[opcode](ReadDataStream(io.BytesIO(data[body:body + size])), size))
+        position = body + size
+    return found
+
+
+@dataclass
 class Recovery:
     """What one streaming pass over an unindexed file found."""
 
@@ -88,7 +127,7 @@ def recover_index(stream: IO[bytes], size: int, on_progress: Callable[[float], N
     last_chunk: ChunkIndex | None = None
     reported = -1.0
 
-    def note(record: McapRecord, chunk: ChunkIndex | None) -> None:
+    def note(record: McapRecord) -> None:
         if isinstance(record, Schema):
             summary.schemas[record.id] = record
         elif isinstance(record, Channel):
@@ -100,8 +139,7 @@ def recover_index(stream: IO[bytes], size: int, on_progress: Callable[[float], N
             stats.message_count += 1
             counts = stats.channel_message_counts
             counts[record.channel_id] = counts.get(record.channel_id, 0) + 1
-            if chunk is None:
-                found.loose_messages += 1
+            found.loose_messages += 1  # outside any chunk
 
     stream.seek(len(MAGIC))
     offset = len(MAGIC)
@@ -124,22 +162,28 @@ def recover_index(stream: IO[bytes], size: int, on_progress: Callable[[float], N
         body = stream.read(length)
         try:
             record = _READERS[opcode](ReadDataStream(io.BytesIO(body)), length) if opcode in _READERS else None
-            if isinstance(record, Chunk):
-                inner = breakup_chunk(record, validate_crc=True)
+            contents = survey_chunk(record) if isinstance(record, Chunk) else None
         except Exception as exc:  # a damaged record: keep what came before it
             found.problem = f"record at byte {offset} does not parse ({exc})"
             break
-        if isinstance(record, Chunk):
+        if isinstance(record, Chunk) and contents is not None:
             last_chunk = ChunkIndex(
-                message_start_time=record.message_start_time, message_end_time=record.message_end_time,
+                message_start_time=contents.start, message_end_time=contents.end,
                 chunk_start_offset=offset, chunk_length=_RECORD_HEAD.size + length, message_index_offsets={},
                 message_index_length=0, compression=record.compression, compressed_size=len(record.data),
                 uncompressed_size=record.uncompressed_size)
-            if any(isinstance(r, Message) for r in inner):
+            for definition in contents.definitions:
+                note(definition)
+            if contents.counts:
                 summary.chunk_indexes.append(last_chunk)
                 stats.chunk_count += 1
-            for r in inner:
-                note(r, last_chunk)
+                count = sum(contents.counts.values())
+                if stats.message_count == 0 or contents.start < stats.message_start_time:
+                    stats.message_start_time = contents.start
+                stats.message_end_time = max(stats.message_end_time, contents.end)
+                stats.message_count += count
+                for channel_id, n in contents.counts.items():
+                    stats.channel_message_counts[channel_id] = stats.channel_message_counts.get(channel_id, 0) + n
         elif isinstance(record, MessageIndex) and last_chunk is not None:
             last_chunk.message_index_offsets[record.channel_id] = offset
         elif isinstance(record, Metadata):
@@ -148,7 +192,7 @@ def recover_index(stream: IO[bytes], size: int, on_progress: Callable[[float], N
         elif isinstance(record, Footer):
             break
         elif record is not None:
-            note(record, None)
+            note(record)
         offset += _RECORD_HEAD.size + length
         found.complete_bytes = offset
     stats.schema_count = len(summary.schemas)

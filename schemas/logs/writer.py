@@ -188,7 +188,7 @@ class LogWriter:
         self.message_count += 1
         self._pending = 0 if file.tell() != before else self._pending + 1
         if (self._pending and self._flush_interval_s is not None
-                and time.monotonic() - file.last_write > self._flush_interval_s):
+                and time.monotonic() - file.last_write >= self._flush_interval_s):
             writer.flush()
             self._pending = 0
         if self._rotate_bytes is not None and file.tell() >= self._rotate_bytes:
