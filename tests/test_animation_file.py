@@ -8,6 +8,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from robot_nodes.animation import (
     Animation,
@@ -251,3 +253,45 @@ def test_keyframe_list_edits() -> None:
 def test_parse_text_source_name() -> None:
     with pytest.raises(AnimationError, match=r"^editor: invalid JSON at line 2, column 1"):
         parse_animation_text('{"name": "a",\n}', source="editor")
+
+
+json_values = st.recursive(
+    st.none() | st.booleans() | st.integers() | st.floats(allow_nan=True, allow_infinity=True) | st.text(max_size=8),
+    lambda children: st.lists(children, max_size=4) | st.dictionaries(st.text(max_size=8), children, max_size=4),
+    max_leaves=20,
+)
+keyframe_like = st.fixed_dictionaries({}, optional={
+    "goals": st.dictionaries(st.sampled_from(["LKnee", "RKnee", "HeadPan"]), json_values, max_size=3),
+    "duration": json_values, "pause": json_values, "torque": json_values, "name": json_values,
+    "stabilization_functions": json_values, "p": json_values})
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.fixed_dictionaries({}, optional={"name": st.text(max_size=5) | json_values,
+                                           "keyframes": st.lists(keyframe_like, max_size=4) | json_values,
+                                           "version": json_values, "author": json_values}))
+def test_fuzz_structured_input_gives_animation_or_animation_error(data: dict[str, object]) -> None:
+    try:
+        anim = parse_animation(data, source="fuzz.json")
+    except AnimationError as exc:
+        assert str(exc).startswith("fuzz.json: ")
+        return
+    assert isinstance(anim.name, str) and all(math.isfinite(kf.duration) for kf in anim.keyframes)
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.binary(max_size=200) | st.text(max_size=200).map(str.encode))
+def test_fuzz_bytes_give_animation_or_animation_error(raw: bytes) -> None:
+    try:
+        anim = parse_animation_text(raw, source="fuzz.json")
+    except AnimationError as exc:
+        assert str(exc).startswith("fuzz.json: ")
+        return
+    assert isinstance(anim, Animation)
+
+
+def test_pathological_json() -> None:
+    for text in ("[" * 100000 + "]" * 100000, '{"name": "a", "keyframes": [{"duration": 1e999}]}',
+                 '{"name": "a", "keyframes": [{"goals": {"J": ' + "9" * 400 + "}}]}"):
+        with pytest.raises(AnimationError):
+            parse_animation_text(text, source="x.json")

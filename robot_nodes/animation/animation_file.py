@@ -77,14 +77,18 @@ def _is_number(value: Any) -> bool:
 
 
 def _finite(value: Any) -> bool:
-    return _is_number(value) and math.isfinite(value)
+    """A number that fits a float and is not NaN or infinite (JSON allows 1e999 and huge integers)."""
+    try:
+        return _is_number(value) and math.isfinite(value)
+    except OverflowError:
+        return False
 
 
 def _time(raw: Mapping[str, Any], key: str, default: float, err: Any) -> float:
     value = raw.get(key, default)
     if not _is_number(value):
         raise err(f"{key} is not a number: {value!r}")
-    if not math.isfinite(value) or value < 0:
+    if not _finite(value) or value < 0:
         raise err(f"{key} must be a finite number >= 0 s, got {value!r}")
     return float(value)
 
@@ -99,7 +103,7 @@ def _numbers(raw: Mapping[str, Any], key: str, what: str, err: Any) -> dict[str,
     for joint, value in table.items():
         if not _is_number(value):
             raise err(f"{what} for joint {joint!r} is not a number: {value!r}")
-        if not math.isfinite(value):
+        if not _finite(value):
             raise err(f"{what} for joint {joint!r} is not finite: {value!r}")
         out[joint] = float(value)
     return out
@@ -174,6 +178,8 @@ def parse_animation_text(text: str | bytes, source: str = "<animation>") -> Anim
         raise AnimationError(source, f"invalid JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}") from exc
     except UnicodeDecodeError as exc:
         raise AnimationError(source, f"not UTF-8 text: {exc}") from exc
+    except RecursionError as exc:
+        raise AnimationError(source, "invalid JSON: nested too deeply") from exc
     return parse_animation(data, source)
 
 

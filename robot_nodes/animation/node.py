@@ -19,6 +19,7 @@ request. Values are cumulative, so a lost message loses nothing.
 
 from __future__ import annotations
 
+import math
 import os
 import time
 from dataclasses import dataclass
@@ -102,7 +103,9 @@ class AnimationNode(Node):
     # -- inputs ----------------------------------------------------------------------------------------
     def on_joint_states(self, msg: Any) -> None:
         positions = self.joint_positions if self.joint_positions is not None else {}
-        positions.update(zip(msg.name, (float(p) for p in msg.position), strict=False))
+        for joint, value in zip(msg.name, msg.position, strict=False):
+            if math.isfinite(value):  # a servo that did not answer must not put NaN into the curves
+                positions[joint] = float(value)
         self.joint_positions = positions
 
     def on_goal(self, handle: ServerGoal) -> str | None:
