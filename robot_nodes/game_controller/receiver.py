@@ -1,0 +1,245 @@
+"""GameController receiver node: GC state packets on UDP -> `gamestate`, and ALIVE return packets to the GC."""
+
+from __future__ import annotations
+
+import contextlib
+import socket
+import threading
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import schemas
+from robot_nodes.game_controller.packets import (
+    DATA_PORT,
+    RETURN_PORT,
+    SET_PIECES,
+    GameControlData,
+    GameControllerPacketError,
+    GameStateValue,
+    ReturnMessage,
+    SecondaryState,
+    build_return_packet,
+    parse_state_packet,
+)
+from robot_nodes.runtime import Node, header, param, run
+
+_RECV_SIZE = 2048  # larger than any GC packet, so oversized datagrams arrive whole and are rejected by size
+
+
+@dataclass
+class GameControllerParams:
+    team_number: int = param(1, range=(1, 255), doc="our team number as configured in the GameController")
+    player_number: int = param(1, range=(1, 20), doc="this robot's player number (1-based)")
+    listen_address: str = param("0.0.0.0", doc="address to receive GC packets on (0.0.0.0: every interface)")
+    listen_port: int = param(DATA_PORT, range=(1, 65535), doc="UDP port the GC broadcasts to")
+    return_port: int = param(RETURN_PORT, range=(1, 65535), doc="UDP port of the GC for return packets")
+    return_rate_hz: float = param(2.0, range=(0.1, 10.0), doc="rate of ALIVE return packets to the GC")
+    keepalive_hz: float = param(1.0, range=(0.1, 10.0), doc="republish an unchanged gamestate at this rate")
+    gc_timeout_s: float = param(5.0, range=(0.5, 60.0), doc="after this silence the GC counts as lost")
+
+
+def allowed_to_move(data: GameControlData, penalized: bool) -> bool:
+    """Robots may move in READY and PLAYING, but not while penalised, in a timeout or in a set piece's freeze."""
+    if penalized:
+        return False
+    if data.state == GameStateValue.READY:
+        return True
+    if data.state != GameStateValue.PLAYING:
+        return False
+    if data.secondary_state == SecondaryState.TIMEOUT:
+        return False
+    # set piece sub-phases 0 and 2 freeze every robot (referee places the ball / removes robots)
+    return not (data.secondary_state in SET_PIECES and data.secondary_state_info[1] in (0, 2))
+
+
+def gamestate_fields(data: GameControlData, team_number: int, player_number: int) -> dict[str, Any] | None:
+    """The GameState message fields for our team, None if the packet does not concern it."""
+    own = data.team(team_number)
+    rival = data.rival(team_number)
+    if own is None or rival is None:
+        return None
+    me = own.player(player_number)
+    penalized = me.penalized if me is not None else True
+    active = own.active_players(data.players_per_team)
+    mates = {n: p for n, p in active.items() if n != player_number}
+    return {
+        "game_state": int(data.state),
+        "secondary_state": int(data.secondary_state),
+        "secondary_state_team": data.secondary_state_info[0],
+        "secondary_state_mode": data.secondary_state_info[1],
+        "first_half": data.first_half,
+        "own_score": own.score,
+        "rival_score": rival.score,
+        "seconds_remaining": data.secs_remaining,
+        "secondary_seconds_remaining": data.secondary_time,
+        "has_kick_off": data.kick_off_team == team_number,
+        "penalized": penalized,
+        "seconds_till_unpenalized": me.secs_till_unpenalized if me is not None else 0,
+        "allowed_to_move": allowed_to_move(data, penalized),
+        "team_color": own.team_color,
+        "drop_in_team": data.drop_in_team == team_number,
+        "drop_in_time": data.drop_in_time,
+        "penalty_shot": own.penalty_shot,
+        "single_shots": own.single_shots,
+        "coach_message": own.coach_text,
+        "team_mates_with_penalty": sorted(n for n, p in mates.items() if p.penalized),
+        "team_mates_with_red_card": sorted(n for n, p in mates.items() if p.red_cards > 0),
+    }
+
+
+class GameControllerNode(Node):
+    """Listens to the RoboCup GameController and tells the team's nodes the game state."""
+
+    name = "game_controller"
+    Params = GameControllerParams
+
+    def setup(self) -> None:
+        self.gamestate_pub = self.publisher("gamestate")
+        self.packets = 0
+        self.bad_packets = 0
+        self.foreign_packets = 0
+        self.returns_sent = 0
+        self.gc_address: str | None = None
+        self.last_data: GameControlData | None = None
+        self._last_fields: dict[str, Any] | None = None
+        self._last_packet_time = 0.0
+        self._last_publish_time = 0.0
+        self._sock: socket.socket | None = None
+        self._reader: threading.Thread | None = None
+        self._stop_reader = threading.Event()
+        self._open_socket()
+        self._return_timer = self.timer(self.params.return_rate_hz, self._send_alive, "return_packets")
+        self.timer(10.0, self._keepalive, "keepalive")
+        self._update_diagnostics()
+
+    # -- socket ---------------------------------------------------------------------------------------------
+    def _open_socket(self) -> None:
+        sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        with contextlib.suppress(OSError):  # GCs broadcast; some systems need this to receive them
+            sock.setsockopt(socket.SOL_SOCKET, socket.SO_BROADCAST, 1)
+        sock.bind((self.params.listen_address, self.params.listen_port))
+        sock.settimeout(0.2)
+        self._sock = sock
+        self._stop_reader = threading.Event()
+        self._reader = threading.Thread(target=self._read, args=(sock, self._stop_reader),
+                                        name="gc-receiver", daemon=True)
+        self._reader.start()
+
+    def _close_socket(self) -> None:
+        self._stop_reader.set()
+        if self._reader is not None and self._reader is not threading.current_thread():
+            self._reader.join(2.0)
+        if self._sock is not None:
+            self._sock.close()
+        self._sock = None
+
+    def _read(self, sock: socket.socket, stop: threading.Event) -> None:
+        """Reader thread: only receives, the loop thread decodes."""
+        while not stop.is_set():
+            try:
+                data, addr = sock.recvfrom(_RECV_SIZE)
+            except TimeoutError:
+                continue
+            except OSError:
+                if stop.is_set():
+                    return
+                time.sleep(0.05)
+                continue
+            self.loop.call_soon(self._on_datagram, data, addr[0])
+
+    @property
+    def listen_port(self) -> int:
+        """The bound port (useful when listen_port was given as a free port)."""
+        return int(self._sock.getsockname()[1]) if self._sock is not None else 0
+
+    # -- packets --------------------------------------------------------------------------------------------
+    def _on_datagram(self, data: bytes, sender: str) -> None:
+        try:
+            packet = parse_state_packet(data)
+        except GameControllerPacketError as exc:
+            self.bad_packets += 1
+            self.record_error(f"bad GameController packet from {sender}: {exc}")
+            self._update_diagnostics()
+            return
+        fields = gamestate_fields(packet, self.params.team_number, self.params.player_number)
+        if fields is None:
+            self.foreign_packets += 1
+            self._update_diagnostics()
+            return
+        self.packets += 1
+        self.gc_address = sender
+        self.last_data = packet
+        self._last_packet_time = time.monotonic()
+        if fields != self._last_fields:
+            self._last_fields = fields
+            self._publish()
+        self._update_diagnostics()
+
+    def _publish(self) -> None:
+        if self._last_fields is None:
+            return
+        self.gamestate_pub.publish(schemas.make("humanoid_league_msgs/msg/GameState", header=header(),
+                                                **self._last_fields))
+        self._last_publish_time = time.monotonic()
+
+    def _keepalive(self) -> None:
+        """Republish an unchanged state so late joiners learn it; stop once the GC is lost."""
+        now = time.monotonic()
+        if self._last_fields is None or now - self._last_packet_time > self.params.gc_timeout_s:
+            return
+        if now - self._last_publish_time >= 1.0 / self.params.keepalive_hz:
+            self._publish()
+
+    def _send_alive(self) -> None:
+        if self.gc_address is None or self._sock is None:
+            return
+        if time.monotonic() - self._last_packet_time > self.params.gc_timeout_s:
+            return
+        packet = build_return_packet(self.params.team_number, self.params.player_number, ReturnMessage.ALIVE)
+        try:
+            self._sock.sendto(packet, (self.gc_address, self.params.return_port))
+            self.returns_sent += 1
+            self.set_diagnostic("return_packets_sent", self.returns_sent)
+        except OSError as exc:
+            self.record_error(f"cannot send return packet to {self.gc_address}:{self.params.return_port}: {exc}")
+
+    def send_return(self, message: ReturnMessage) -> bool:
+        """Ask the GC for a manual (un)penalty; False while no GC has been heard."""
+        if self.gc_address is None or self._sock is None:
+            return False
+        packet = build_return_packet(self.params.team_number, self.params.player_number, message)
+        self._sock.sendto(packet, (self.gc_address, self.params.return_port))
+        return True
+
+    def _update_diagnostics(self) -> None:
+        self.set_diagnostic("packets", self.packets)
+        self.set_diagnostic("bad_packets", self.bad_packets)
+        self.set_diagnostic("foreign_packets", self.foreign_packets)
+        self.set_diagnostic("return_packets_sent", self.returns_sent)
+        self.set_diagnostic("gc_address", self.gc_address or "")
+
+    # -- lifecycle ------------------------------------------------------------------------------------------
+    def on_parameters_changed(self, changed: dict[str, Any]) -> None:
+        if "return_rate_hz" in changed:
+            self._return_timer.set_rate(self.params.return_rate_hz)
+        if {"team_number", "player_number"} & set(changed):
+            self._last_fields = None  # the next packet is published whatever it says
+        if {"listen_address", "listen_port"} & set(changed):
+            self._close_socket()
+            try:
+                self._open_socket()
+            except OSError as exc:
+                self.record_error(f"cannot listen on {self.params.listen_address}:{self.params.listen_port}: {exc}")
+
+    def on_shutdown(self) -> None:
+        self._close_socket()
+
+
+def main() -> None:
+    run(GameControllerNode)
+
+
+if __name__ == "__main__":
+    main()

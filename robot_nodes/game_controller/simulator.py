@@ -1,0 +1,491 @@
+"""A simulated GameController: real v12 packets at 2 Hz, a game that runs by itself, commands by stdin or HTTP.
+
+Run: ``python -m robot_nodes.game_controller.simulator --teams 1 2 --http-port 8038``; in-process:
+``with SimulatedGameController(SimulatedGame(teams=(1, 2)), destinations=[("127.0.0.1", port)]) as gc: ...``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import dataclasses
+import json
+import logging
+import socket
+import sys
+import threading
+import time
+from dataclasses import dataclass, field
+from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+from typing import Any
+
+from robot_nodes.game_controller.packets import (
+    DATA_PORT,
+    MAX_NUM_PLAYERS,
+    RETURN_PORT,
+    GameControlData,
+    GameControllerPacketError,
+    GameStateValue,
+    Penalty,
+    ReturnMessage,
+    ReturnPacket,
+    RobotInfo,
+    TeamInfo,
+    build_state_packet,
+    parse_return_packet,
+)
+
+log = logging.getLogger("pitchside.gc_simulator")
+
+
+class CommandError(ValueError):
+    """A penalize/goal/state command the simulated GC cannot carry out; the message says why."""
+
+
+@dataclass
+class SimulatedGame:
+    """What game the simulated GC runs and how fast its phases pass."""
+
+    teams: tuple[int, int] = (1, 2)
+    team_colors: tuple[int, int] = (0, 1)
+    players_per_team: int = 4
+    game_type: int = 0
+    initial_s: float = 2.0  # 0 or less: stay in INITIAL until told
+    ready_s: float = 5.0
+    set_s: float = 2.0
+    half_s: int = 600
+    auto_progress: bool = True
+
+
+@dataclass
+class _Slot:
+    penalty: int = Penalty.NONE
+    secs: float = 0.0
+    yellow_cards: int = 0
+    red_cards: int = 0
+    goalkeeper: bool = False
+
+
+@dataclass
+class _Team:
+    number: int
+    color: int
+    score: int = 0
+    slots: list[_Slot] = field(default_factory=list)
+
+
+@dataclass(frozen=True, slots=True)
+class ReceivedReturn:
+    time: float  # monotonic
+    address: tuple[str, int]
+    packet: ReturnPacket
+
+
+class SimulatedGameController:
+    """Sends the game's state to each destination every 0.5 s and listens for return packets."""
+
+    def __init__(
+        self,
+        game: SimulatedGame | None = None,
+        destinations: list[tuple[str, int]] | None = None,
+        return_address: tuple[str, int] = ("127.0.0.1", RETURN_PORT),
+        rate_hz: float = 2.0,
+    ) -> None:
+        self.game = game or SimulatedGame()
+        if len(set(self.game.teams)) != 2:
+            raise CommandError(f"a game needs two different team numbers, got {self.game.teams}")
+        if not 1 <= self.game.players_per_team <= MAX_NUM_PLAYERS:
+            raise CommandError(f"players per team must be 1..{MAX_NUM_PLAYERS}")
+        self.destinations = list(destinations or [("127.0.0.1", DATA_PORT)])
+        self.rate_hz = rate_hz
+        self._lock = threading.Lock()
+        self._teams = [
+            _Team(number, color, slots=[
+                _Slot(penalty=Penalty.NONE if i < self.game.players_per_team else Penalty.SUBSTITUTE,
+                      goalkeeper=i == 0)
+                for i in range(MAX_NUM_PLAYERS)
+            ])
+            for number, color in zip(self.game.teams, self.game.team_colors, strict=True)
+        ]
+        self.state = GameStateValue.INITIAL
+        self.first_half = True
+        self.kick_off_team = self.game.teams[0]
+        self.secs_remaining = float(self.game.half_s)
+        self.packet_number = 0
+        self.packets_sent = 0
+        self.returns: list[ReceivedReturn] = []
+        self.bad_returns = 0
+        self._phase_started = time.monotonic()
+        self._last_tick = time.monotonic()
+        self._stop = threading.Event()
+        self._threads: list[threading.Thread] = []
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        with contextlib.suppress(OSError):
+            self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_BROADCAST, 1)
+        self.sock.bind(return_address)
+        self.sock.settimeout(0.2)
+        self._http: ThreadingHTTPServer | None = None
+
+    # -- running ---------------------------------------------------------------------------------------------
+    @property
+    def return_port(self) -> int:
+        """Where robots' return packets arrive (the bound port, also when 0 was asked for)."""
+        return int(self.sock.getsockname()[1])
+
+    def start(self) -> SimulatedGameController:
+        self._phase_started = self._last_tick = time.monotonic()
+        for target, name in ((self._send_loop, "gc-sim-send"), (self._receive_loop, "gc-sim-returns")):
+            t = threading.Thread(target=target, name=name, daemon=True)
+            t.start()
+            self._threads.append(t)
+        return self
+
+    def stop(self) -> None:
+        self._stop.set()
+        if self._http is not None:
+            self._http.shutdown()
+            self._http.server_close()
+        for t in self._threads:
+            t.join(2.0)
+        self.sock.close()
+
+    def __enter__(self) -> SimulatedGameController:
+        return self.start()
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
+
+    def _send_loop(self) -> None:
+        period = 1.0 / self.rate_hz
+        next_due = time.monotonic()
+        while not self._stop.is_set():
+            packet = self.tick()
+            for dest in self.destinations:
+                try:
+                    self.sock.sendto(packet, dest)
+                except OSError as exc:  # a robot that is not there yet must not stop the game
+                    log.debug("cannot send to %s: %s", dest, exc)
+            next_due += period
+            self._stop.wait(max(0.0, next_due - time.monotonic()))
+
+    def _receive_loop(self) -> None:
+        while not self._stop.is_set():
+            try:
+                data, addr = self.sock.recvfrom(2048)
+            except TimeoutError:
+                continue
+            except OSError:
+                if self._stop.is_set():
+                    return
+                time.sleep(0.05)
+                continue
+            try:
+                packet = parse_return_packet(data)
+            except GameControllerPacketError as exc:
+                self.bad_returns += 1
+                log.info("bad return packet from %s: %s", addr, exc)
+                continue
+            with self._lock:
+                self.returns.append(ReceivedReturn(time.monotonic(), addr, packet))
+                del self.returns[:-10000]
+                try:
+                    if packet.message == ReturnMessage.MAN_PENALISE:
+                        self._penalize(packet.team, packet.player, Penalty.MANUAL, 0)
+                    elif packet.message == ReturnMessage.MAN_UNPENALISE:
+                        self._unpenalize(packet.team, packet.player)
+                except CommandError as exc:
+                    log.info("ignored return packet from %s: %s", addr, exc)
+
+    # -- the game --------------------------------------------------------------------------------------------
+    def tick(self) -> bytes:
+        """Advances the clocks to now and returns the next packet (the send loop calls it every 0.5 s)."""
+        with self._lock:
+            now = time.monotonic()
+            dt = now - self._last_tick
+            self._last_tick = now
+            self._advance(now, dt)
+            data = self._snapshot(now)
+            self.packet_number = (self.packet_number + 1) % 256
+            self.packets_sent += 1
+        return build_state_packet(data)
+
+    def _advance(self, now: float, dt: float) -> None:
+        g = self.game
+        in_phase = now - self._phase_started
+        for team in self._teams:
+            for slot in team.slots:
+                if slot.penalty not in (Penalty.NONE, Penalty.SUBSTITUTE, Penalty.MANUAL) and slot.secs > 0:
+                    slot.secs = max(0.0, slot.secs - dt)
+                    if slot.secs == 0:
+                        slot.penalty = Penalty.NONE
+        if self.state == GameStateValue.PLAYING:
+            self.secs_remaining = max(0.0, self.secs_remaining - dt)
+            if self.secs_remaining == 0:
+                self._end_half()
+            return
+        if not g.auto_progress:
+            return
+        if self.state == GameStateValue.INITIAL and g.initial_s > 0 and in_phase >= g.initial_s:
+            self._enter(GameStateValue.READY)
+        elif self.state == GameStateValue.READY and in_phase >= g.ready_s:
+            self._enter(GameStateValue.SET)
+        elif self.state == GameStateValue.SET and in_phase >= g.set_s:
+            self._enter(GameStateValue.PLAYING)
+
+    def _end_half(self) -> None:
+        if self.first_half:
+            self.first_half = False
+            self.secs_remaining = float(self.game.half_s)
+            self.kick_off_team = self.game.teams[1]
+            self._enter(GameStateValue.READY if self.game.auto_progress else GameStateValue.INITIAL)
+        else:
+            self._enter(GameStateValue.FINISHED)
+
+    def _enter(self, state: GameStateValue) -> None:
+        self.state = state
+        self._phase_started = time.monotonic()
+
+    def _secondary_time(self, now: float) -> int:
+        left = {GameStateValue.READY: self.game.ready_s, GameStateValue.SET: self.game.set_s}.get(self.state)
+        return 0 if left is None else max(0, round(left - (now - self._phase_started)))
+
+    def _snapshot(self, now: float) -> GameControlData:
+        teams = tuple(
+            TeamInfo(
+                team_number=t.number, team_color=t.color, score=t.score,
+                players=tuple(RobotInfo(penalty=s.penalty, secs_till_unpenalized=min(255, round(s.secs)),
+                                        yellow_cards=s.yellow_cards, red_cards=s.red_cards,
+                                        goalkeeper=s.goalkeeper) for s in t.slots),
+            )
+            for t in self._teams
+        )
+        return GameControlData(
+            packet_number=self.packet_number,
+            players_per_team=self.game.players_per_team,
+            game_type=self.game.game_type,
+            state=self.state,
+            first_half=self.first_half,
+            kick_off_team=self.kick_off_team,
+            secs_remaining=round(self.secs_remaining),
+            secondary_time=self._secondary_time(now),
+            teams=(teams[0], teams[1]),
+        )
+
+    def _team(self, number: int) -> _Team:
+        for t in self._teams:
+            if t.number == number:
+                return t
+        raise CommandError(f"team {number} does not play in this game (teams {self.game.teams})")
+
+    def _slot(self, team: int, player: int) -> _Slot:
+        if not 1 <= player <= MAX_NUM_PLAYERS:
+            raise CommandError(f"player number must be 1..{MAX_NUM_PLAYERS}, got {player}")
+        return self._team(team).slots[player - 1]
+
+    def _penalize(self, team: int, player: int, penalty: int, seconds: float) -> None:
+        slot = self._slot(team, player)
+        slot.penalty, slot.secs = int(penalty), float(seconds)
+
+    def _unpenalize(self, team: int, player: int) -> None:
+        slot = self._slot(team, player)
+        slot.penalty, slot.secs = Penalty.NONE, 0.0
+
+    # -- commands (any thread) -------------------------------------------------------------------------------
+    def penalize(self, team: int, player: int, seconds: float = 30.0,
+                 penalty: int = Penalty.PICKUP_OR_INCAPABLE) -> None:
+        """Seconds > 0: the robot comes back by itself after that time; 0: until unpenalize()."""
+        if not 0 <= seconds <= 255:
+            raise CommandError(f"penalty seconds must be 0..255, got {seconds}")
+        if not 0 < int(penalty) <= 255:
+            raise CommandError(f"penalty code must be 1..255, got {penalty}")
+        with self._lock:
+            self._penalize(team, player, penalty, seconds)
+
+    def unpenalize(self, team: int, player: int) -> None:
+        with self._lock:
+            self._unpenalize(team, player)
+
+    def goal(self, team: int) -> None:
+        """Counts a goal; the other team kicks off after READY/SET, as the real GC does."""
+        with self._lock:
+            self._team(team).score += 1
+            if self.game.auto_progress and self.state == GameStateValue.PLAYING:
+                self.kick_off_team = next(n for n in self.game.teams if n != team)
+                self._enter(GameStateValue.READY)
+
+    def set_state(self, state: int | str) -> None:
+        try:
+            value = GameStateValue[state.upper()] if isinstance(state, str) else GameStateValue(state)
+        except (KeyError, ValueError):
+            raise CommandError(f"unknown game state {state!r}; one of {[s.name for s in GameStateValue]}") from None
+        with self._lock:
+            self._enter(value)
+
+    def returns_from(self, team: int, player: int) -> list[ReceivedReturn]:
+        with self._lock:
+            return [r for r in self.returns if r.packet.team == team and r.packet.player == player]
+
+    def status(self) -> dict[str, Any]:
+        with self._lock:
+            data = self._snapshot(time.monotonic())
+            returns = list(self.returns[-20:])
+        return {
+            "state": GameStateValue(data.state).name,
+            "first_half": data.first_half,
+            "kick_off_team": data.kick_off_team,
+            "secs_remaining": data.secs_remaining,
+            "secondary_time": data.secondary_time,
+            "packets_sent": self.packets_sent,
+            "destinations": [f"{h}:{p}" for h, p in self.destinations],
+            "return_port": self.return_port,
+            "teams": [
+                {
+                    "team": t.team_number,
+                    "color": t.team_color,
+                    "score": t.score,
+                    "players": [dataclasses.asdict(p) | {"number": i + 1} for i, p in enumerate(t.players)],
+                }
+                for t in data.teams
+            ],
+            "returns": [
+                {"age_s": round(time.monotonic() - r.time, 3), "address": f"{r.address[0]}:{r.address[1]}",
+                 "team": r.packet.team, "player": r.packet.player,
+                 "message": ReturnMessage(r.packet.message).name if r.packet.message in ReturnMessage._value2member_map_
+                 else r.packet.message}
+                for r in returns
+            ],
+            "return_count": len(self.returns),
+            "bad_returns": self.bad_returns,
+        }
+
+    def execute(self, line: str) -> str:
+        """One text command (stdin): penalize T P [S] | unpenalize T P | goal T | state NAME | status."""
+        words = line.split()
+        if not words:
+            return ""
+        cmd, args = words[0].lower(), words[1:]
+        try:
+            if cmd == "penalize" and len(args) in (2, 3):
+                self.penalize(int(args[0]), int(args[1]), float(args[2]) if len(args) == 3 else 30.0)
+            elif cmd == "unpenalize" and len(args) == 2:
+                self.unpenalize(int(args[0]), int(args[1]))
+            elif cmd == "goal" and len(args) == 1:
+                self.goal(int(args[0]))
+            elif cmd == "state" and len(args) == 1:
+                self.set_state(args[0])
+            elif cmd == "status":
+                return json.dumps(self.status(), indent=1)
+            else:
+                return ("commands: penalize TEAM PLAYER [SECONDS] | unpenalize TEAM PLAYER | goal TEAM | "
+                        "state NAME | status")
+        except (CommandError, ValueError) as exc:
+            return f"error: {exc}"
+        return "ok"
+
+    # -- HTTP API --------------------------------------------------------------------------------------------
+    def serve_http(self, port: int, host: str = "127.0.0.1") -> int:
+        """Starts the HTTP API on a thread; returns the bound port."""
+        self._http = ThreadingHTTPServer((host, port), _make_handler(self))
+        t = threading.Thread(target=self._http.serve_forever, name="gc-sim-http", daemon=True)
+        t.start()
+        self._threads.append(t)
+        return int(self._http.server_address[1])
+
+
+def _make_handler(gc: SimulatedGameController) -> type[BaseHTTPRequestHandler]:
+    class Handler(BaseHTTPRequestHandler):
+        """POST /penalize {team, player, seconds}, /unpenalize, /goal {team}, /state {state}; GET /status."""
+
+        def log_message(self, fmt: str, *args: Any) -> None:
+            log.debug(fmt, *args)
+
+        def _reply(self, code: int, body: dict[str, Any]) -> None:
+            payload = json.dumps(body).encode()
+            self.send_response(code)
+            self.send_header("Content-Type", "application/json")
+            self.send_header("Content-Length", str(len(payload)))
+            self.end_headers()
+            self.wfile.write(payload)
+
+        def do_GET(self) -> None:
+            if self.path.rstrip("/") == "/status":
+                self._reply(200, gc.status())
+            else:
+                self._reply(404, {"error": f"no such endpoint GET {self.path}"})
+
+        def do_POST(self) -> None:
+            try:
+                length = int(self.headers.get("Content-Length") or 0)
+                body = json.loads(self.rfile.read(length) or b"{}")
+                if not isinstance(body, dict):
+                    raise CommandError("the body must be a JSON object")
+                path = self.path.rstrip("/")
+                if path == "/penalize":
+                    gc.penalize(int(body["team"]), int(body["player"]), float(body.get("seconds", 30)),
+                                int(body.get("penalty", Penalty.PICKUP_OR_INCAPABLE)))
+                elif path == "/unpenalize":
+                    gc.unpenalize(int(body["team"]), int(body["player"]))
+                elif path == "/goal":
+                    gc.goal(int(body["team"]))
+                elif path == "/state":
+                    gc.set_state(body["state"])
+                else:
+                    self._reply(404, {"error": f"no such endpoint POST {self.path}"})
+                    return
+            except KeyError as exc:
+                self._reply(400, {"error": f"missing field {exc}"})
+                return
+            except (CommandError, ValueError, TypeError) as exc:
+                self._reply(400, {"error": str(exc)})
+                return
+            self._reply(200, {"ok": True, "status": gc.status()})
+
+    return Handler
+
+
+def _address(text: str, default_port: int) -> tuple[str, int]:
+    host, _, port = text.rpartition(":")
+    return (host, int(port)) if host else (text, default_port)
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description="Simulated RoboCup Humanoid League GameController (v12 packets)")
+    parser.add_argument("--teams", type=int, nargs=2, default=[1, 2], metavar=("HOME", "AWAY"))
+    parser.add_argument("--players-per-team", type=int, default=4)
+    parser.add_argument("--to", action="append", default=None, metavar="HOST[:PORT]",
+                        help=f"destination (repeatable; default 127.0.0.1:{DATA_PORT}; a broadcast address works too)")
+    parser.add_argument("--port", type=int, default=DATA_PORT, help="port for destinations given without one")
+    parser.add_argument("--return-address", default=f"0.0.0.0:{RETURN_PORT}", help="where return packets arrive")
+    parser.add_argument("--http-port", type=int, default=None, help="serve the HTTP API on this port (127.0.0.1)")
+    parser.add_argument("--initial", type=float, default=2.0, help="seconds in INITIAL (0: wait for a command)")
+    parser.add_argument("--ready", type=float, default=5.0)
+    parser.add_argument("--set", dest="set_s", type=float, default=2.0)
+    parser.add_argument("--half", type=int, default=600, help="seconds per half")
+    parser.add_argument("--manual", action="store_true", help="do not progress the states by time")
+    args = parser.parse_args(argv)
+    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s [gc-sim] %(message)s")
+    game = SimulatedGame(teams=(args.teams[0], args.teams[1]), players_per_team=args.players_per_team,
+                         initial_s=args.initial, ready_s=args.ready, set_s=args.set_s, half_s=args.half,
+                         auto_progress=not args.manual)
+    destinations = [_address(d, args.port) for d in (args.to or ["127.0.0.1"])]
+    gc = SimulatedGameController(game, destinations, _address(args.return_address, RETURN_PORT))
+    gc.start()
+    if args.http_port is not None:
+        log.info("HTTP API on http://127.0.0.1:%d", gc.serve_http(args.http_port))
+    log.info("sending to %s, return packets on port %d; type 'help' for commands",
+             ", ".join(f"{h}:{p}" for h, p in destinations), gc.return_port)
+    try:
+        for line in sys.stdin:
+            reply = gc.execute(line)
+            if reply:
+                print(reply, flush=True)
+        while True:  # stdin closed (e.g. started in the background): keep the game going
+            time.sleep(3600)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        gc.stop()
+
+
+if __name__ == "__main__":
+    main()
