@@ -22,7 +22,8 @@ def arguments() -> argparse.ArgumentParser:
     p.add_argument("--no-live", action="store_true", help="do not join the Zenoh network at start")
     p.add_argument("--no-telemetry", action="store_true", help="do not listen for UDP telemetry")
     p.add_argument("--telemetry-host", default="0.0.0.0")
-    p.add_argument("--telemetry-port", type=int, default=3940)
+    p.add_argument("--telemetry-port", type=int, default=5800)
+    p.add_argument("--telemetry-key", default=None, help="team telemetry key (hex or a file; default: dev key)")
     p.add_argument("--token", default=None, help="control token (default: random, printed, when not on loopback)")
     p.add_argument("--robot3d", action="store_true", help="serve the 3D robot view (viser)")
     p.add_argument("--robot3d-port", type=int, default=8081)
@@ -57,7 +58,7 @@ def config_from(args: argparse.Namespace) -> ServerConfig:
         return ServerConfig(match_mode=args.match, host=args.host, port=args.port, token=args.token, bus=bus,
                             live_source=False if (args.no_live or args.match) else None,
                             telemetry_source=not args.no_telemetry, telemetry_host=args.telemetry_host,
-                            telemetry_port=args.telemetry_port, robot3d=args.robot3d,
+                            telemetry_port=args.telemetry_port, telemetry_key=args.telemetry_key, robot3d=args.robot3d,
                             robot3d_port=args.robot3d_port, descriptions=descriptions, plots=args.plots,
                             plots_web_port=args.plots_port)
     except ValueError as exc:

@@ -29,7 +29,7 @@ def create_app(config: ServerConfig) -> FastAPI:
     link = ZenohLink(config.bus, config.match_mode)
     source_set = SourceSet([
         LiveZenohSource(hub, link),
-        TelemetrySource(hub, config.telemetry_host, config.telemetry_port),
+        TelemetrySource(hub, config.telemetry_host, config.telemetry_port, config.telemetry_key),
     ])
     state = ServerState(config, hub, source_set, link)
 

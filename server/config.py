@@ -39,7 +39,8 @@ class ServerConfig:
     live_source: bool | None = None  # None: on outside match mode, off in match mode
     telemetry_source: bool = True
     telemetry_host: str = "0.0.0.0"
-    telemetry_port: int = 3940
+    telemetry_port: int = 5800  # robot_nodes.telemetry.datagram.DEFAULT_PORT
+    telemetry_key: str | None = None  # team key (hex or a file); None: the development key
     queue_size: int = 2000  # frames per WebSocket client before the oldest are dropped
     stale_after_s: float = 1.0
     lost_after_s: float = 5.0
