@@ -1,0 +1,298 @@
+"""TelemetryNode: the robot's one-way UDP link to the team PC (the only traffic a match allows)."""
+
+from __future__ import annotations
+
+import math
+import socket
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+import schemas
+from robot_nodes.runtime import Node, Subscription, param
+from robot_nodes.telemetry.budget import ByteBudget, Frame, Stream
+from robot_nodes.telemetry.datagram import (
+    DEFAULT_PORT,
+    MAX_TOPIC_STREAM,
+    OVERVIEW_HASH,
+    OVERVIEW_STREAM,
+    TABLE_HASH,
+    TABLE_STREAM,
+    DatagramWriter,
+    Kind,
+    RobotOverview,
+    Sealer,
+    StreamInfo,
+    encode_stream_tables,
+    load_key,
+)
+from robot_nodes.telemetry.images import ImageError, shrink_jpeg
+from schemas.codec import schema_hash
+from schemas.topics import Priority, topic
+
+IMAGE_TOPIC = "camera/image/compressed"
+OVERVIEW_SOURCES = ("robot_state", "gamestate", "position", "ball_relative", "servo_data")
+PUMP_HZ = 100.0
+
+DEFAULT_TOPICS = ",".join((
+    "robot_state:10", "gamestate:5", "paused:5", "joint_states:10", "imu/data:10", "position:10",
+    "ball_relative:10", "obstacles_relative:5", "goal_relative:5", "team_data:2", "strategy:2",
+    "walk_odometry:5", "cmd_vel:5", "diagnostics:1", "servo_data:1", "hcm_graph:1",
+    "camera/image/compressed:2", "camera/camera_info:0.2", "ball_in_image:5", "goal_in_image:2",
+    "obstacles_in_image:2", "line_information_in_image:1",
+))
+
+
+def parse_topics(spec: str) -> dict[str, float]:
+    """``"robot_state:10,gamestate:5"`` -> {topic: max Hz}; ValueError names the bad entry."""
+    rates: dict[str, float] = {}
+    for item in (s.strip() for s in spec.split(",")):
+        if not item:
+            continue
+        name, _, hz = item.rpartition(":")
+        try:
+            rate = float(hz)
+            topic(name)
+        except (ValueError, KeyError) as exc:
+            raise ValueError(f"telemetry topic entry {item!r}: expected <topic>:<max Hz> of the topic table "
+                             f"({exc})") from None
+        if not 0.0 < rate <= 1000.0 or not math.isfinite(rate):
+            raise ValueError(f"telemetry topic entry {item!r}: rate must be in (0, 1000] Hz")
+        rates[name] = rate
+    return rates
+
+
+def parse_destination(spec: str) -> tuple[str, int]:
+    """``host:port`` or ``[v6]:port`` (port defaults to 5800)."""
+    host, sep, port = spec.strip().rpartition(":")
+    if not sep or "]" in port:
+        host, port = spec.strip(), str(DEFAULT_PORT)
+    host = host.strip("[]")
+    if not host or not port.isdigit() or not 0 < int(port) < 65536:
+        raise ValueError(f"telemetry destination {spec!r} is not host:port")
+    return host, int(port)
+
+
+@dataclass
+class TelemetryParams:
+    destination: str = param(f"127.0.0.1:{DEFAULT_PORT}", doc="host:port of the team PC's telemetry listener")
+    team_key: str = param("", doc="team key: 64 hex characters or a file holding them; empty = dev key")
+    encrypt: bool = param(True, doc="encrypt payloads (off: authenticated only, readable in Wireshark)")
+    topics: str = param(DEFAULT_TOPICS, doc="comma-separated <topic>:<max Hz> of the topic table")
+    budget_bytes_per_s: int = param(200_000, range=(2_000, 100_000_000), doc="UDP payload bytes/s, all streams")
+    overview_hz: float = param(10.0, range=(0.5, 50.0), doc="rate of the overview datagram")
+    image_max_width: int = param(320, range=(0, 4096), doc="downscale camera JPEGs to this width; 0 passes through")
+    image_quality: int = param(60, range=(10, 95), doc="JPEG quality of downscaled camera images")
+    table_period_s: float = param(1.0, range=(0.1, 10.0), doc="how often the stream table is announced")
+
+
+class _OverviewState:
+    """What the overview datagram needs, kept from the subscriptions."""
+
+    def __init__(self) -> None:
+        self.overview = RobotOverview()
+        self.pose_at: float | None = None
+        self.ball_at: float | None = None
+        self._penalty_states = {v for k, v in schemas.constants("humanoid_league_msgs/msg/RobotControlState").items()
+                                if k in ("PENALTY", "PENALTY_ANIMATION")}
+        self._gc_penalized = False
+
+    def update(self, name: str, msg: Any) -> None:
+        o = self.overview
+        if name == "robot_state":
+            o.hcm_state = msg.state
+        elif name == "gamestate":
+            o.gamestate_known = True
+            o.game_state, o.secondary_state = msg.game_state, msg.secondary_state
+            o.own_score, o.rival_score, o.seconds_remaining = msg.own_score, msg.rival_score, msg.seconds_remaining
+            self._gc_penalized = bool(msg.penalized)
+        elif name == "position":
+            o.pose_known = True
+            o.pose_x, o.pose_y, o.pose_theta = msg.pose.x, msg.pose.y, msg.pose.theta
+            o.pose_confidence = msg.confidence
+            self.pose_at = time.monotonic()
+        elif name == "ball_relative":
+            o.ball_known = True
+            o.ball_x, o.ball_y, o.ball_confidence = msg.ball_relative.x, msg.ball_relative.y, msg.confidence
+            self.ball_at = time.monotonic()
+        elif name == "servo_data":
+            temps = [(t.temperature, t.header.frame_id) for t in msg.temperature if math.isfinite(t.temperature)]
+            if temps:
+                o.hottest_servo_temperature, o.hottest_servo = max(temps)
+            volts = np.asarray(msg.voltage, dtype=float)
+            if volts.size:
+                o.battery_voltage = float(np.mean(volts))
+        o.penalized = self._gc_penalized or o.hcm_state in self._penalty_states
+
+    def encode(self) -> bytes:
+        now = time.monotonic()
+        o = self.overview
+        o.pose_age_ms = int((now - self.pose_at) * 1000) if self.pose_at is not None else 65535
+        o.ball_age_ms = int((now - self.ball_at) * 1000) if self.ball_at is not None else 65535
+        return o.encode()
+
+
+class TelemetryNode(Node):
+    """Sends chosen topics, an overview every tick and the stream table to the team PC over one-way UDP."""
+
+    name = "telemetry"
+    Params = TelemetryParams
+
+    def setup(self) -> None:
+        self._writer = DatagramWriter(load_key(self.params.team_key), self.robot_id, self.params.encrypt)
+        self._socket = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self._socket.setblocking(False)
+        self._address = self._resolve(self.params.destination)
+        self.budget = ByteBudget(self.params.budget_bytes_per_s)
+        self._rates: dict[str, float] = {}
+        self._last_taken: dict[Any, float] = {}
+        self._stream_ids: dict[str, int] = {}
+        self._schema: dict[int, tuple[Kind, int]] = {OVERVIEW_STREAM: (Kind.OVERVIEW, OVERVIEW_HASH),
+                                                     TABLE_STREAM: (Kind.STREAM_TABLE, TABLE_HASH)}
+        self._subs: dict[str, Subscription] = {}
+        self._overview = _OverviewState()
+        self.datagrams_sent = 0
+        self.bytes_sent = 0
+        self.send_errors = 0
+        self.rate_skipped = 0
+        self._apply_topics(self.params.topics)
+        for name in OVERVIEW_SOURCES:
+            self._ensure_subscribed(name)
+        self._announce_table()
+        self._overview_timer = self.timer(self.params.overview_hz, self._send_overview, "overview")
+        self._table_timer = self.timer(1.0 / self.params.table_period_s, self._announce_table, "stream_table")
+        self.timer(PUMP_HZ, self._pump, "pump")
+        self.timer(1.0, self._report, "report")
+
+    # -- configuration --------------------------------------------------------------------------------
+    def _resolve(self, destination: str) -> tuple[str, int]:
+        host, port = parse_destination(destination)
+        family, _, _, _, address = socket.getaddrinfo(host, port, type=socket.SOCK_DGRAM)[0]
+        if family != self._socket.family:
+            self._socket.close()
+            self._socket = socket.socket(family, socket.SOCK_DGRAM)
+            self._socket.setblocking(False)
+        return address[:2]
+
+    def _apply_topics(self, spec: str) -> None:
+        rates = parse_topics(spec)
+        for name in rates:
+            if name not in self._stream_ids:
+                sid = len(self._stream_ids) + 1  # ids are never reused within a boot
+                if sid > MAX_TOPIC_STREAM:
+                    raise ValueError("too many telemetry streams")
+                self._stream_ids[name] = sid
+                self._schema[sid] = (Kind.MESSAGE, schema_hash(topic(name).type))
+            self._ensure_subscribed(name)
+        for name in set(self._rates) - set(rates):
+            for key in [k for k in self.budget.streams if k[0] == self._stream_ids[name]]:
+                self.budget.remove(key)
+            if name not in OVERVIEW_SOURCES and name in self._subs:
+                self._subs.pop(name).close()
+        self._rates = rates
+
+    def _ensure_subscribed(self, name: str) -> None:
+        if name not in self._subs:
+            self._subs[name] = self.subscribe(name, lambda msg, name=name: self._on_message(name, msg))
+
+    def on_parameters_changed(self, changed: dict[str, Any]) -> None:
+        try:
+            if "topics" in changed:
+                self._apply_topics(changed["topics"])
+                self._announce_table()
+            if "destination" in changed:
+                self._address = self._resolve(changed["destination"])
+            if "team_key" in changed:
+                self._writer.sealer = Sealer(load_key(changed["team_key"]))
+        except (ValueError, OSError) as exc:
+            self.record_error(f"telemetry parameters not applied: {exc}")
+        if "budget_bytes_per_s" in changed:
+            self.budget.set_rate(changed["budget_bytes_per_s"])
+            self._announce_table()
+        if "overview_hz" in changed:
+            self._overview_timer.set_rate(changed["overview_hz"])
+        if "table_period_s" in changed:
+            self._table_timer.set_rate(1.0 / changed["table_period_s"])
+
+    def streams(self) -> list[StreamInfo]:
+        """The stream table as announced now."""
+        return [StreamInfo(self._stream_ids[n], n, schemas.codec.full_name(topic(n).type),
+                           self._schema[self._stream_ids[n]][1], int(topic(n).priority), hz)
+                for n, hz in self._rates.items()]
+
+    # -- input ----------------------------------------------------------------------------------------
+    def _on_message(self, name: str, msg: Any) -> None:
+        if name in OVERVIEW_SOURCES:
+            self._overview.update(name, msg)
+        hz = self._rates.get(name)
+        if hz is None:
+            return
+        sub = msg.status[0].name if name == "diagnostics" and msg.status else ""  # one limit per node's status
+        key = (self._stream_ids[name], sub)
+        now = time.monotonic()
+        if now - self._last_taken.get(key, -math.inf) < 0.9 / hz:  # 10% slack: a 10 Hz publisher's jitter
+            self.rate_skipped += 1
+            return
+        self._last_taken[key] = now
+        prepare = (lambda: self._prepare_image(msg)) if name == IMAGE_TOPIC else (lambda: schemas.encode(msg))
+        self.budget.offer(key, topic(name).priority, prepare)
+        self._pump()
+
+    def _prepare_image(self, msg: Any) -> bytes | None:
+        """Runs only when the image is about to be sent: superseded images are never re-encoded."""
+        if self.params.image_max_width <= 0:
+            return schemas.encode(msg)
+        raw = bytes(msg.data)
+        try:
+            data = shrink_jpeg(raw, self.params.image_max_width, self.params.image_quality)
+        except ImageError as exc:
+            self.record_error(str(exc))
+            return None
+        if data is not raw:
+            msg = schemas.make("sensor_msgs/msg/CompressedImage", header=msg.header, format="jpeg",
+                               data=np.frombuffer(data, dtype=np.uint8))
+        return schemas.encode(msg)
+
+    # -- output ---------------------------------------------------------------------------------------
+    def _send_overview(self) -> None:
+        self.budget.offer((OVERVIEW_STREAM, ""), Priority.CRITICAL, self._overview.encode)
+        self._pump()
+
+    def _announce_table(self) -> None:
+        for i, body in enumerate(encode_stream_tables(self.streams(), self.params.budget_bytes_per_s)):
+            self.budget.offer((TABLE_STREAM, i), Priority.CRITICAL, lambda body=body: body)
+        self._pump()
+
+    def _pump(self) -> None:
+        self.budget.pump(self._send_fragment)
+
+    def _send_fragment(self, stream: Stream, frame: Frame, index: int) -> int:
+        sid = stream.key[0]
+        kind, schema = self._schema[sid]
+        if index == 0:
+            frame.frame_id = self._writer.new_frame(sid)
+        self._writer.encrypt = self.params.encrypt
+        datagram = self._writer.fragment(kind, sid, schema, frame.frame_id, frame.payload_size, frame.fragments,
+                                         index)
+        try:
+            self._socket.sendto(datagram, self._address)
+        except OSError as exc:  # full socket buffer, unreachable network: the datagram is lost like on air
+            self.send_errors += 1
+            if self.send_errors == 1 or self.send_errors % 1000 == 0:
+                self.record_error(f"telemetry send to {self._address}: {exc} ({self.send_errors} errors)")
+        self.datagrams_sent += 1
+        self.bytes_sent += len(datagram)
+        return len(datagram)
+
+    def _report(self) -> None:
+        self.set_diagnostic("datagrams_sent", self.datagrams_sent)
+        self.set_diagnostic("bytes_sent", self.bytes_sent)
+        self.set_diagnostic("send_errors", self.send_errors)
+        self.set_diagnostic("rate_skipped", self.rate_skipped)
+        self.set_diagnostic("superseded", sum(s.superseded for s in self.budget.streams.values()))
+        self.set_diagnostic("backlog_datagrams", self.budget.backlog())
+
+    def on_shutdown(self) -> None:
+        self._socket.close()
