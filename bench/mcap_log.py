@@ -83,9 +83,9 @@ def main() -> None:
             plain.get_summary()
             for t in targets:
                 start = time.perf_counter()
-                items = plain.iter_decoded_messages(starting_at=t)
+                decoded = plain.iter_decoded_messages(starting_at=t)
                 for _ in range(READ_AFTER_SEEK):
-                    next(items, None)
+                    next(decoded, None)
                 base.append((time.perf_counter() - start) * 1e3)
 
     seek_p50, seek_max = statistics.median(ours), max(ours)

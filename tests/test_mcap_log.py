@@ -19,7 +19,7 @@ from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
 import schemas
-from schemas.mcap_log import BOOKMARK_TOPIC, LogError, LogReader, LogWriter, log_series
+from schemas.mcap_log import BOOKMARK_TOPIC, LogError, LogReader, LogSeriesReader, LogWriter, log_series
 
 REPO = Path(__file__).resolve().parents[1]
 T0 = 1_700_000_000_000_000_000
@@ -319,8 +319,10 @@ def test_rotation_by_size_gives_files_that_each_open(tmp_path: Path) -> None:
     path = tmp_path / "game.mcap"
     messages = mixed_messages(400)
     with LogWriter(path, chunk_size=4000, rotate_bytes=20_000, compression="none") as writer:
-        for robot, topic, msg, t in messages:
+        for i, (robot, topic, msg, t) in enumerate(messages):
             writer.write(robot, topic, msg, log_time_ns=t)
+            if i % 150 == 0:
+                writer.add_bookmark(f"mark {i}", t)
         written = list(writer.paths)
     files = log_series(path)
     assert files == written and len(files) >= 3
@@ -328,7 +330,10 @@ def test_rotation_by_size_gives_files_that_each_open(tmp_path: Path) -> None:
     seen: list[int] = []
     previous_end = 0
     for file in files:
-        assert file.stat().st_size < 20_000 + 4000 + 4000
+        with open(file, "rb") as f:  # the data section stays within rotate_bytes (slack: message indexes)
+            f.seek(-(8 + 29), 2)
+            summary_start = int.from_bytes(f.read(29)[9:17], "little")
+        assert 20_000 - 4000 - 1000 < summary_start < 20_000 + 1000 or file == files[-1]
         with LogReader(file) as reader:
             assert reader.indexed and not reader.warnings
             assert reader.start_ns > previous_end
@@ -337,6 +342,18 @@ def test_rotation_by_size_gives_files_that_each_open(tmp_path: Path) -> None:
         with open(file, "rb") as f:
             assert sum(1 for _ in make_reader(f, decoder_factories=[DecoderFactory()]).iter_decoded_messages()) > 0
     assert seen == [t for *_, t in messages]
+
+    progress: list[float] = []
+    with LogSeriesReader(path, on_progress=progress.append) as series:
+        assert series.message_count == len(messages) and not series.warnings
+        assert series.start_ns == messages[0][3] and series.end_ns == messages[-1][3]
+        counts = {(c.robot_id, c.topic): c.message_count for c in series.channels()}
+        expected = sum(1 for robot, topic, *_ in messages if (robot, topic) == ("robot1", "joint_states"))
+        assert counts[("robot1", "joint_states")] == expected
+        middle = messages[len(messages) // 2][3]
+        assert [m.log_time_ns for m in series.messages(start_ns=middle)] == [t for *_, t in messages if t >= middle]
+        assert [b.name for b in series.bookmarks()] == [f"mark {i}" for i in range(0, len(messages), 150)]
+    assert progress[-1] == 1.0
 
 
 # -- (f) seeking -----------------------------------------------------------------------------------------

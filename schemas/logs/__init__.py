@@ -2,6 +2,7 @@
 
 from schemas.logs.naming import BOOKMARK_TOPIC, LogError, channel_topic, log_series, rotated_path
 from schemas.logs.reader import Bookmark, ChannelInfo, LogMessage, LogReader
+from schemas.logs.series import LogSeriesReader
 from schemas.logs.writer import LogWriter
 
 __all__ = [
@@ -11,6 +12,7 @@ __all__ = [
     "LogError",
     "LogMessage",
     "LogReader",
+    "LogSeriesReader",
     "LogWriter",
     "channel_topic",
     "log_series",

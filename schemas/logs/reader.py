@@ -180,8 +180,8 @@ class LogReader:
 
     @property
     def message_count(self) -> int:
-        stats = self._summary.statistics
-        return stats.message_count if stats else 0
+        """Messages on data channels (what messages() yields without filters)."""
+        return sum(c.message_count for c in self.channels())
 
     @property
     def start_ns(self) -> int:

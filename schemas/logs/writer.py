@@ -66,9 +66,12 @@ class LogWriter:
     Channel topic is ``/<robot_id>/<topic>`` with metadata ``{"robot_id", "topic"}``; message
     encoding ``cdr``, schemas ``ros2msg`` with the full definition text. Files are chunked and
     fully indexed (statistics, chunk and message indexes), rotated to ``<stem>_001.mcap`` ...
-    when a file passes ``rotate_bytes`` (the file may exceed it by up to one chunk plus its
-    summary). A chunk is written as soon as it is full, or at the next write after
-    ``flush_interval_s`` has passed, so a crash loses at most the last chunk.
+    before a file passes ``rotate_bytes`` (only its summary, i.e. repeated schemas, channels and
+    indexes, and an incompressible chunk's overhead can go beyond).
+
+    Crash safety: a chunk goes to the operating system as soon as it is full, or at the next
+    write once ``flush_interval_s`` has passed since the last one (or on ``flush()``), so a
+    crashed process loses at most the chunk being filled. Thread-safe.
     """
 
     def __init__(
@@ -191,7 +194,8 @@ class LogWriter:
                 and time.monotonic() - file.last_write >= self._flush_interval_s):
             writer.flush()
             self._pending = 0
-        if self._rotate_bytes is not None and file.tell() >= self._rotate_bytes:
+        # Rotate when the next full chunk might not fit, so a file stays within rotate_bytes plus its summary.
+        if self._rotate_bytes is not None and file.tell() + self._chunk_size >= self._rotate_bytes:
             self._finish_file()
             self._open_next()
 
