@@ -218,6 +218,10 @@ class Node:
         self._thread.start()
         return self
 
+    def request_shutdown(self) -> None:
+        """What SIGINT/SIGTERM call: a node with last duties (e.g. the HCM sitting down) overrides it."""
+        self.shutdown()
+
     def shutdown(self) -> None:
         if self.loop.stopped:
             return
@@ -350,7 +354,7 @@ def run(node_cls: type[Node], argv: list[str] | None = None, **kwargs: Any) -> N
         stop_requested.append(signum)
         if holder:
             holder[0].log.info("stopping on %s", signal.Signals(signum).name)
-            holder[0].loop.call_soon(holder[0].shutdown)
+            holder[0].loop.call_soon(holder[0].request_shutdown)
 
     # handlers first: a signal that comes while the node is still starting must stop it cleanly too
     signal.signal(signal.SIGINT, stop)
