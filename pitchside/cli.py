@@ -35,7 +35,7 @@ def main(argv: list[str] | None = None) -> None:
         print(f"pitchside: unknown command {command!r}\n\n{usage()}", file=sys.stderr)
         raise SystemExit(2)
     module = importlib.import_module(COMMANDS[command][0])
-    entry: Callable[[list[str]], None] = module.main
+    entry: Callable[[list[str]], None] = getattr(module, "main", None) or module.serve
     sys.argv = [f"pitchside {command}", *rest]
     entry(rest)
 
