@@ -110,6 +110,22 @@ def test_pitchside_log_decodes_with_plain_mcap_ros2(tmp_path: Path) -> None:
         assert_same(msg, theirs)
 
 
+def test_pitchside_log_reads_with_rosbags_anyreader(tmp_path: Path) -> None:
+    """The ROS 2 side: rosbags (as `ros2 bag` would) reads the bare file, our own types included."""
+    from rosbags.highlevel import AnyReader
+
+    messages = mixed_messages(20)
+    path = tmp_path / "for_ros.mcap"
+    write_log(path, messages)
+    with AnyReader([path]) as reader:
+        got = [(c.topic, t, reader.deserialize(raw, c.msgtype)) for c, t, raw in reader.messages()]
+    assert [(topic, t) for topic, t, _ in got] == [(f"/{r}/{topic}", t) for r, topic, _, t in messages]
+    games = [(msg, theirs) for (_, topic, msg, _), (_, _, theirs) in zip(messages, got, strict=True)
+             if topic == "gamestate"]
+    assert games and all(ours.coach_message == theirs.coach_message for ours, theirs in games)
+    assert all(list(ours.team_mates_with_penalty) == list(theirs.team_mates_with_penalty) for ours, theirs in games)
+
+
 def test_cdr_bytes_take_their_type_from_the_topic_table(tmp_path: Path) -> None:
     path = tmp_path / "bytes.mcap"
     state = schemas.make("humanoid_league_msgs/msg/RobotControlState", state=3)
