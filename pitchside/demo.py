@@ -1,0 +1,89 @@
+"""`pitchside demo`: the simulated world, its robots' nodes, a simulated GameController and the dashboard.
+
+Everything runs on this machine: a Zenoh router inside this process, the other parts as supervised processes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import socket
+import sys
+from pathlib import Path
+
+from pitchside.robot import MOTION_NODES, available, robot_nodes
+from robot_nodes.launch import Launcher, NodeProcess, run_until_signal
+from robot_nodes.runtime.bus import open_router
+
+REPO = Path(__file__).resolve().parents[1]
+log = logging.getLogger("pitchside.demo")
+
+
+def port_is_free(port: int, kind: int = socket.SOCK_STREAM) -> bool:
+    with socket.socket(socket.AF_INET, kind) as s:
+        try:
+            s.bind(("127.0.0.1", port))
+        except OSError:
+            return False
+        return True
+
+
+def free_port(preferred: int, kind: int = socket.SOCK_STREAM) -> int:
+    if port_is_free(preferred, kind):
+        return preferred
+    with socket.socket(socket.AF_INET, kind) as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def demo_processes(robots: int, endpoint: str, http_port: int, telemetry_port: int, model: str,
+                   match: bool, gc_ports: list[int]) -> list[NodeProcess]:
+    py = sys.executable
+    connect = ["--connect", endpoint]
+    processes = [NodeProcess("world", [py, "-m", "robot_nodes.cm730.world_node", "--robots", str(robots),
+                                       *connect, "--params", str(REPO / "robots" / model / "params.yaml")])]
+    per_robot = available([*MOTION_NODES, "walking", "game_controller", "telemetry"])
+    for i in range(1, robots + 1):
+        robot_id = f"robot{i}"
+        extra = {
+            "game_controller": ["--set", f"player_number={i}", "--set", f"listen_port={gc_ports[i - 1]}"],
+            "telemetry": ["--set", f"destination=127.0.0.1:{telemetry_port}"],
+        }
+        processes += robot_nodes(robot_id, [endpoint], model, per_robot, extra)
+    gc = [py, "-m", "robot_nodes.game_controller.simulator", "--players-per-team", str(max(robots, 4))]
+    for port in gc_ports:
+        gc += ["--to", f"127.0.0.1:{port}"]
+    processes.append(NodeProcess("gamecontroller", gc))
+    server = [py, "-m", "server", "--port", str(http_port), "--telemetry-port", str(telemetry_port),
+              "--urdf", str(REPO / "robots" / model / "urdf" / f"{model}.urdf"), "--robot3d", "--plots", *connect]
+    if match:
+        server.append("--match")
+    processes.append(NodeProcess("server", server))
+    return processes
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(prog="pitchside demo", description=__doc__)
+    parser.add_argument("--robots", type=int, default=1, help="robots in the world (default 1)")
+    parser.add_argument("--port", type=int, default=8080, help="dashboard port (a free one if taken)")
+    parser.add_argument("--model", default="minibot")
+    parser.add_argument("--match", action="store_true", help="dashboard in match mode (telemetry only)")
+    args = parser.parse_args(argv)
+    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s [demo] %(message)s")
+    endpoint = f"tcp/127.0.0.1:{free_port(7447)}"
+    http_port = free_port(args.port)
+    telemetry_port = free_port(5800, socket.SOCK_DGRAM)
+    gc_ports = [free_port(3838 + i, socket.SOCK_DGRAM) for i in range(args.robots)]
+    router = open_router([endpoint])
+    launcher = Launcher(demo_processes(args.robots, endpoint, http_port, telemetry_port, args.model, args.match,
+                                       gc_ports))
+    print(f"\n  pitchside demo: open http://127.0.0.1:{http_port}/  (Zenoh router {endpoint}; Ctrl-C stops)\n",
+          flush=True)
+    try:
+        run_until_signal(launcher)
+    finally:
+        router.close()
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,54 @@
+"""`pitchside robot`: one robot's nodes as supervised processes (the simulated robot by default)."""
+
+from __future__ import annotations
+
+import argparse
+import logging
+from pathlib import Path
+
+from robot_nodes.launch import NODE_MODULES, Launcher, NodeProcess, node_command, run_until_signal
+from robot_nodes.runtime.bus import DEFAULT_ROUTER
+
+REPO = Path(__file__).resolve().parents[1]
+MOTION_NODES = ["hcm", "animation", "pause", "speaker"]
+
+
+def params_file(model: str) -> Path:
+    return REPO / "robots" / model / "params.yaml"
+
+
+def robot_nodes(robot_id: str, connect: list[str], model: str, names: list[str],
+                extra: dict[str, list[str]] | None = None) -> list[NodeProcess]:
+    """The supervised processes of one robot; extra[name] adds arguments to that node."""
+    params = params_file(model)
+    processes = []
+    for name in names:
+        module = NODE_MODULES[name]
+        args = list((extra or {}).get(name, []))
+        processes.append(NodeProcess(f"{robot_id}/{name}", node_command(
+            module, robot_id, connect, params if params.exists() else None, args)))
+    return processes
+
+
+def available(names: list[str]) -> list[str]:
+    """Nodes whose module exists in this checkout (parts of the stack may still be missing)."""
+    import importlib.util
+
+    return [n for n in names if importlib.util.find_spec(NODE_MODULES[n]) is not None]
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(prog="pitchside robot", description=__doc__)
+    parser.add_argument("--robot-id", default="robot1")
+    parser.add_argument("--model", default="minibot", help="robot description folder under robots/")
+    parser.add_argument("--connect", action="append", default=None, help=f"Zenoh endpoint (default {DEFAULT_ROUTER})")
+    parser.add_argument("--nodes", default=",".join(["cm730", *MOTION_NODES, "walking"]),
+                        help="comma-separated nodes to start")
+    args = parser.parse_args(argv)
+    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s [robot] %(message)s")
+    names = available([n.strip() for n in args.nodes.split(",") if n.strip()])
+    run_until_signal(Launcher(robot_nodes(args.robot_id, args.connect or [DEFAULT_ROUTER], args.model, names)))
+
+
+if __name__ == "__main__":
+    main()
