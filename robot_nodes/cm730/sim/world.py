@@ -1,0 +1,371 @@
+"""SimWorld: one MuJoCo world (field, ball, N robots) and a RobotHandle per robot that acts like its servo bus."""
+
+from __future__ import annotations
+
+import math
+import threading
+from dataclasses import dataclass
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from robot_nodes.cm730.backend import BusReading, ImuReading
+from robot_nodes.cm730.sim.field import KID_SIZE, FieldDimensions
+from robot_nodes.cm730.sim.scene import MINIBOT_URDF, PhysicsConfig, Placement, build_world, default_placements
+
+# a stand pose with slightly bent knees (Wolfgang sign conventions; the knee is straight at +-0.2618)
+STAND_POSE: dict[str, float] = {
+    "HeadPan": 0.0, "HeadTilt": 0.0,
+    "LShoulderPitch": 0.0, "LShoulderRoll": 0.0, "LElbow": -0.8,
+    "RShoulderPitch": 0.0, "RShoulderRoll": 0.0, "RElbow": 0.8,
+    "LHipYaw": 0.0, "LHipRoll": 0.0, "LHipPitch": 0.35, "LKnee": 0.9618, "LAnklePitch": -0.35, "LAnkleRoll": 0.0,
+    "RHipYaw": 0.0, "RHipRoll": 0.0, "RHipPitch": -0.35, "RKnee": -0.9618, "RAnklePitch": 0.35, "RAnkleRoll": 0.0,
+}
+
+POSTURES = ("standing", "front", "back")
+
+
+@dataclass
+class ImuNoise:
+    """Standard deviations of the simulated IMU's white noise."""
+
+    gyro: float = 0.005  # rad/s
+    accel: float = 0.05  # m/s^2
+    orientation: float = 0.002  # rad, small rotation about a random axis
+
+
+@dataclass
+class ServoThermal:
+    """A first-order servo temperature: heats with torque squared, cools towards the room."""
+
+    ambient: float = 25.0  # deg C
+    heat_per_nm2: float = 0.013  # K/s per Nm^2
+    time_constant: float = 300.0  # s
+
+
+class SimError(Exception):
+    """Bad input to the simulation (unknown joint, robot or posture)."""
+
+
+class SimWorld:
+    """A Humanoid League kid-size field with a ball and ``n_robots`` Minibots (robot1..robotN).
+
+    Not thread-safe by itself: code that steps it from one thread and reads it from another holds ``lock``.
+    """
+
+    def __init__(self, n_robots: int = 1, placements: list[Placement] | None = None,
+                 urdf: Path = MINIBOT_URDF, field: FieldDimensions = KID_SIZE,
+                 physics: PhysicsConfig | None = None, imu_noise: ImuNoise | None = None,
+                 seed: int = 0) -> None:
+        if n_robots < 1 or n_robots > 30:
+            raise SimError(f"n_robots must be 1..30, got {n_robots}")
+        placements = placements or default_placements(n_robots)
+        if len(placements) < n_robots:
+            raise SimError(f"{n_robots} robots need {n_robots} placements, got {len(placements)}")
+        self.field = field
+        self.physics = physics or PhysicsConfig()
+        self.model, prefixes = build_world(n_robots, placements, urdf, field, self.physics)
+        self.data = mujoco.MjData(self.model)
+        self.lock = threading.RLock()
+        self.rng = np.random.default_rng(seed)
+        self.imu_noise = imu_noise or ImuNoise()
+        self.thermal = ServoThermal()
+        m = self.model
+        self._goal = np.zeros(m.nu)  # where each servo is told to go
+        self._speed_limit = np.zeros(m.nu)  # no-load speed of each servo, rad/s
+        self._gain = m.actuator_gainprm[:, 0].copy()
+        self._bias = m.actuator_biasprm[:, :3].copy()
+        self._max_force = m.actuator_forcerange[:, 1].copy()
+        self._slewing = False
+        self._pushes: list[tuple[float, int, np.ndarray]] = []  # (end time, body, force)
+        self.robots = [RobotHandle(self, i, prefix) for i, prefix in enumerate(prefixes)]
+        for handle in self.robots:
+            self._speed_limit[handle._act] = handle.max_velocity
+        self._vmax = self._speed_limit.copy()
+        self.temperatures = np.full(m.nu, self.thermal.ambient)
+        self._ball_body = m.body("ball").id
+        self._ball_qadr = m.jnt_qposadr[m.joint("ball").id]
+        self._ball_dadr = m.jnt_dofadr[m.joint("ball").id]
+        for handle in self.robots:
+            handle.set_pose(placements[handle.index].x, placements[handle.index].y, placements[handle.index].yaw)
+        mujoco.mj_forward(m, self.data)
+
+    # -- time ------------------------------------------------------------------------------------------
+    @property
+    def time(self) -> float:
+        """Simulated seconds since the start."""
+        return float(self.data.time)
+
+    @property
+    def timestep(self) -> float:
+        return float(self.model.opt.timestep)
+
+    def step(self, n: int = 1) -> None:
+        """Advances physics by n steps; servos slew towards their goals at their speed limit."""
+        m, d = self.model, self.data
+        dt = m.opt.timestep
+        remaining = n
+        while remaining > 0:
+            if self._pushes:
+                self._apply_pushes()
+            if self._slewing:
+                ctrl = d.ctrl
+                delta = np.clip(self._goal - ctrl, -self._vmax * dt, self._vmax * dt)
+                ctrl += delta
+                self._slewing = bool(np.any(np.abs(self._goal - ctrl) > 1e-9))
+                chunk = 1
+            else:
+                chunk = remaining if not self._pushes else max(1, min(remaining, self._push_steps_left()))
+            mujoco.mj_step(m, d, nstep=chunk)
+            remaining -= chunk
+        self._heat(n * dt)
+
+    def step_for(self, seconds: float) -> None:
+        self.step(max(1, round(seconds / self.timestep)))
+
+    # -- ball --------------------------------------------------------------------------------------------
+    def ball_position(self) -> np.ndarray:
+        """Ground truth ball centre in field coordinates (m)."""
+        return self.data.xpos[self._ball_body].copy()
+
+    def set_ball(self, x: float, y: float, velocity: tuple[float, float] = (0.0, 0.0)) -> None:
+        q = self.data.qpos
+        q[self._ball_qadr:self._ball_qadr + 7] = [x, y, self.field.ball_diameter / 2, 1, 0, 0, 0]
+        v = self.data.qvel
+        v[self._ball_dadr:self._ball_dadr + 6] = [velocity[0], velocity[1], 0, 0, 0, 0]
+        mujoco.mj_forward(self.model, self.data)
+
+    def robot(self, robot_id: str) -> RobotHandle:
+        for handle in self.robots:
+            if handle.robot_id == robot_id:
+                return handle
+        raise SimError(f"no robot {robot_id!r} in this world (have {[r.robot_id for r in self.robots]})")
+
+    # -- internals ---------------------------------------------------------------------------------------
+    def _push_steps_left(self) -> int:
+        end = min(p[0] for p in self._pushes)
+        return max(1, math.ceil((end - self.data.time) / self.model.opt.timestep - 1e-9))
+
+    def _apply_pushes(self) -> None:
+        d = self.data
+        d.xfrc_applied[:, :3] = 0.0
+        self._pushes = [p for p in self._pushes if p[0] > d.time + 1e-9]
+        for _end, body, force in self._pushes:
+            d.xfrc_applied[body, :3] += force
+
+    def _heat(self, dt: float) -> None:
+        th = self.thermal
+        torque = self.data.actuator_force
+        cooling = (self.temperatures - th.ambient) / th.time_constant
+        self.temperatures += dt * (th.heat_per_nm2 * torque * torque - cooling)
+
+
+class RobotHandle:
+    """One robot of a SimWorld, seen like its servo bus (the ServoBackend calls) plus simulation extras."""
+
+    def __init__(self, world: SimWorld, index: int, prefix: str) -> None:
+        m = world.model
+        self.world = world
+        self.index = index
+        self.prefix = prefix
+        self.robot_id = prefix.rstrip("/")
+        acts = [i for i in range(m.nu) if m.actuator(i).name.startswith(prefix)]
+        self.joint_names: list[str] = [m.actuator(i).name[len(prefix):] for i in acts]
+        self._act = np.array(acts)
+        jnt = [m.actuator_trnid[i, 0] for i in acts]
+        self._qadr = np.array([m.jnt_qposadr[j] for j in jnt])
+        self._dadr = np.array([m.jnt_dofadr[j] for j in jnt])
+        self._index = {name: i for i, name in enumerate(self.joint_names)}
+        self.lower = np.array([m.jnt_range[j, 0] for j in jnt])
+        self.upper = np.array([m.jnt_range[j, 1] for j in jnt])
+        self.max_effort = np.array([m.actuator_forcerange[i, 1] for i in acts])
+        self.max_velocity = np.array([_speed_of(name) for name in self.joint_names])
+        root = m.joint(prefix + "root").id
+        self._root_qadr = m.jnt_qposadr[root]
+        self._root_dadr = m.jnt_dofadr[root]
+        self.base_body = m.body(prefix + "base_link").id
+        self.torso_body = m.body(prefix + "torso").id
+        self.head_body = m.body(prefix + "head").id
+        self.camera_id = m.camera(prefix + "head_camera").id
+        self._bodies = [b for b in range(m.nbody) if m.body(b).name.startswith(prefix)]
+        self._geoms = [g for g in range(m.ngeom) if m.geom_bodyid[g] in set(self._bodies)]
+        sensor = {kind: m.sensor(prefix + kind) for kind in ("imu_quat", "imu_gyro", "imu_accel")}
+        self._quat_adr = sensor["imu_quat"].adr[0]
+        self._gyro_adr = sensor["imu_gyro"].adr[0]
+        self._accel_adr = sensor["imu_accel"].adr[0]
+        self.torque_enabled = np.ones(len(acts), dtype=bool)
+        self.voltage_nominal = 15.2
+
+    # -- the ServoBackend calls --------------------------------------------------------------------------
+    def read(self) -> BusReading:
+        w, d = self.world, self.world.data
+        efforts = d.actuator_force[self._act].copy()
+        return BusReading(
+            positions=d.qpos[self._qadr].copy(),
+            velocities=d.qvel[self._dadr].copy(),
+            efforts=efforts,
+            imu=self.imu(),
+            temperatures=w.temperatures[self._act].copy(),
+            voltage=float(self.voltage_nominal - 0.02 * np.abs(efforts).sum()),
+        )
+
+    def imu(self) -> ImuReading:
+        """Torso IMU with white noise as configured in world.imu_noise."""
+        d, noise, rng = self.world.data, self.world.imu_noise, self.world.rng
+        w, x, y, z = d.sensordata[self._quat_adr:self._quat_adr + 4]
+        quat = np.array([x, y, z, w])
+        if noise.orientation > 0:
+            quat = _quat_mul_xyzw(quat, _small_rotation(rng.normal(0.0, noise.orientation, 3)))
+        gyro = d.sensordata[self._gyro_adr:self._gyro_adr + 3] + rng.normal(0.0, noise.gyro, 3)
+        accel = d.sensordata[self._accel_adr:self._accel_adr + 3] + rng.normal(0.0, noise.accel, 3)
+        return ImuReading(quat / np.linalg.norm(quat), gyro, accel)
+
+    def write_goals(self, names: list[str], positions: np.ndarray, velocities: np.ndarray | None = None,
+                    efforts: np.ndarray | None = None) -> None:
+        """Goal positions (rad), clipped to the joint limits. velocities: rad/s speed limit (0 = the servo's
+        maximum); efforts: torque limit in Nm (<= 0 or NaN = the servo's maximum)."""
+        idx = self._indices(names)
+        positions = np.asarray(positions, dtype=float)
+        if positions.shape != (len(idx),) or not np.all(np.isfinite(positions)):
+            raise SimError(f"need {len(idx)} finite goal positions, got {positions!r}")
+        w = self.world
+        acts = self._act[idx]
+        w._goal[acts] = np.clip(positions, self.lower[idx], self.upper[idx])
+        if velocities is not None:
+            v = np.asarray(velocities, dtype=float)
+            top = self.max_velocity[idx]
+            v = np.where(np.isfinite(v) & (v > 0), np.minimum(np.abs(v), top), top)
+            w._vmax[acts] = v
+        if efforts is not None:
+            e = np.asarray(efforts, dtype=float)
+            e = np.where(np.isfinite(e) & (e > 0), np.minimum(e, self.max_effort[idx]), self.max_effort[idx])
+            w.model.actuator_forcerange[acts, 0] = -e
+            w.model.actuator_forcerange[acts, 1] = e
+        w._slewing = True
+
+    def set_torque(self, names: list[str], enabled: bool) -> None:
+        """Torque off makes a joint really limp (no stiffness, only gearbox damping and friction).
+        Torque on holds the present position, as a Dynamixel does."""
+        idx = self._indices(names)
+        w, m, d = self.world, self.world.model, self.world.data
+        acts = self._act[idx]
+        if enabled:
+            m.actuator_gainprm[acts, 0] = w._gain[acts]
+            m.actuator_biasprm[acts, :3] = w._bias[acts]
+            here = np.clip(d.qpos[self._qadr[idx]], self.lower[idx], self.upper[idx])
+            d.ctrl[acts] = here
+            w._goal[acts] = here
+        else:
+            m.actuator_gainprm[acts, 0] = 0.0
+            m.actuator_biasprm[acts, :3] = 0.0
+        self.torque_enabled[idx] = enabled
+
+    def close(self) -> None:
+        """The world outlives its robots; nothing to release."""
+
+    # -- simulation extras ------------------------------------------------------------------------------
+    def apply_push(self, force_xyz: tuple[float, float, float], duration: float) -> None:
+        """A force (N, field frame) on the torso's centre of mass for ``duration`` simulated seconds."""
+        w = self.world
+        w._pushes.append((w.time + duration, self.torso_body, np.asarray(force_xyz, dtype=float)))
+        w._apply_pushes()
+
+    def set_pose(self, x: float, y: float, yaw: float = 0.0, posture: str = "standing",
+                 joints: dict[str, float] | None = None) -> None:
+        """Puts the robot at rest at (x, y, yaw) on the field: standing on its soles, or lying on its front
+        or back; joints (default STAND_POSE) are also its new goals, with torque on."""
+        if posture not in POSTURES:
+            raise SimError(f"posture must be one of {POSTURES}, got {posture!r}")
+        w, m, d = self.world, self.world.model, self.world.data
+        pose = dict(STAND_POSE)
+        pose.update(joints or {})
+        names = list(pose)
+        idx = self._indices(names)
+        values = np.clip(np.array([pose[n] for n in names]), self.lower[idx], self.upper[idx])
+        d.qpos[self._qadr[idx]] = values
+        d.qvel[self._dadr] = 0.0
+        d.qvel[self._root_dadr:self._root_dadr + 6] = 0.0
+        pitch = {"standing": 0.0, "front": math.pi / 2, "back": -math.pi / 2}[posture]
+        quat = _quat_mul_wxyz(_yaw_wxyz(yaw), np.array([math.cos(pitch / 2), 0.0, math.sin(pitch / 2), 0.0]))
+        d.qpos[self._root_qadr:self._root_qadr + 7] = [x, y, 1.0, *quat]
+        mujoco.mj_kinematics(m, d)
+        lowest = self._lowest_point()
+        d.qpos[self._root_qadr + 2] = 1.0 - lowest + 0.002
+        self.set_torque(self.joint_names, True)
+        w._goal[self._act[idx]] = values
+        d.ctrl[self._act[idx]] = values
+        mujoco.mj_forward(m, d)
+
+    def torso_pose(self) -> tuple[np.ndarray, np.ndarray]:
+        """Ground truth (position xyz, orientation xyzw) of base_link in the field frame."""
+        d = self.world.data
+        w, x, y, z = d.xquat[self.base_body]
+        return d.xpos[self.base_body].copy(), np.array([x, y, z, w])
+
+    def pose2d(self) -> tuple[float, float, float]:
+        """Ground truth (x, y, yaw) on the field."""
+        d = self.world.data
+        xmat = d.xmat[self.base_body].reshape(3, 3)
+        return float(d.xpos[self.base_body, 0]), float(d.xpos[self.base_body, 1]), math.atan2(xmat[1, 0], xmat[0, 0])
+
+    def uprightness(self) -> float:
+        """z component of the torso's up axis in the world: 1 upright, 0 lying, -1 upside down."""
+        return float(self.world.data.xmat[self.torso_body].reshape(3, 3)[2, 2])
+
+    # -- internals ---------------------------------------------------------------------------------------
+    def _indices(self, names: list[str]) -> np.ndarray:
+        unknown = [n for n in names if n not in self._index]
+        if unknown:
+            raise SimError(f"unknown joint(s) {unknown} (known: {self.joint_names})")
+        return np.array([self._index[n] for n in names], dtype=int)
+
+    def _lowest_point(self) -> float:
+        """Lowest z of the robot's collision geoms (boxes and cylinders exactly enough for placing)."""
+        m, d = self.world.model, self.world.data
+        lowest = math.inf
+        for g in self._geoms:
+            pos, mat, size = d.geom_xpos[g], d.geom_xmat[g].reshape(3, 3), m.geom_size[g]
+            kind = m.geom_type[g]
+            if kind == mujoco.mjtGeom.mjGEOM_BOX:
+                extent = np.abs(mat[2]) @ size
+            elif kind == mujoco.mjtGeom.mjGEOM_CYLINDER:
+                axis_z = abs(mat[2, 2])
+                extent = size[1] * axis_z + size[0] * math.sqrt(max(0.0, 1 - axis_z * axis_z))
+            else:
+                extent = m.geom_rbound[g]
+            lowest = min(lowest, pos[2] - extent)
+        return lowest
+
+
+def _speed_of(joint: str) -> float:
+    """No-load speed (rad/s) of the servo model at 14.8 V, as in the URDF's velocity limits."""
+    if "Knee" in joint:
+        return 3.87
+    if "Hip" in joint or "Ankle" in joint:
+        return 5.76
+    return 8.17
+
+
+def _yaw_wxyz(yaw: float) -> np.ndarray:
+    return np.array([math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)])
+
+
+def _quat_mul_wxyz(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    out = np.zeros(4)
+    mujoco.mju_mulQuat(out, a, b)
+    return out
+
+
+def _quat_mul_xyzw(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    w = _quat_mul_wxyz(np.array([a[3], *a[:3]]), np.array([b[3], *b[:3]]))
+    return np.array([w[1], w[2], w[3], w[0]])
+
+
+def _small_rotation(v: np.ndarray) -> np.ndarray:
+    """xyzw quaternion of a rotation vector."""
+    angle = float(np.linalg.norm(v))
+    if angle < 1e-12:
+        return np.array([0.0, 0.0, 0.0, 1.0])
+    axis = v / angle
+    return np.array([*(axis * math.sin(angle / 2)), math.cos(angle / 2)])
