@@ -1,0 +1,317 @@
+"""Mixed-team communication node: this robot's state to its teammates over UDP, theirs into `team_data`."""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import socket
+import threading
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import schemas
+from robot_nodes.mitecom import codec as mitecom_codec
+from robot_nodes.mitecom import protobuf_codec
+from robot_nodes.mitecom.codec import MitecomError, Orientation
+from robot_nodes.mitecom.protobuf_codec import TeamMessageError
+from robot_nodes.mitecom.report import HCM_PENALTY, NOT_TOLD, SeenRobot, TeammateReport
+from robot_nodes.runtime import Node, header, param, run
+
+_RECV_SIZE = 65535
+_ROBOT_MAGENTA, _ROBOT_CYAN = 2, 3  # ObstacleRelative colours
+_BLUE = 0  # GameState.BLUE
+
+
+@dataclass
+class MitecomParams:
+    codec: str = param("mitecom", choices=["mitecom", "protobuf"], doc="wire format of the team messages")
+    team_id: int = param(1, range=(0, 65535), doc="team number; Mitecom messages of other teams are ignored")
+    player_id: int = param(1, range=(1, 255), doc="this robot's id in the team messages")
+    send_rate_hz: float = param(2.0, range=(0.2, 10.0), doc="team messages per second")
+    listen_address: str = param("0.0.0.0", doc="address to receive teammates' messages on")
+    port: int = param(mitecom_codec.DEFAULT_PORT, range=(1, 65535), doc="UDP port this robot listens on")
+    peers: str = param("127.0.0.1", doc="comma-separated host[:port] to send to (port defaults to `port`)")
+    broadcast: bool = param(False, doc="also send to 255.255.255.255:port (real fields; not needed on loopback)")
+    teammate_timeout_s: float = param(2.0, range=(0.2, 60.0), doc="a silent teammate is dropped after this")
+    max_data_age_s: float = param(1.0, range=(0.1, 10.0), doc="perception older than this is not sent")
+    orientation: str = param("degrees", choices=["degrees", "milliradians"],
+                             doc="Mitecom heading unit: the spec's degrees, or milliradians as Bit-Bots sent")
+    walking_speed_estimate: float = param(0.15, range=(0.01, 2.0), doc="m/s used to estimate the time to the ball")
+    max_kicking_distance: float = param(2.0, range=(0.0, 20.0), doc="m, how far this robot can kick")
+
+
+def parse_peers(text: str, default_port: int) -> list[tuple[str, int]]:
+    """'a, b:1234' -> [(a, default_port), (b, 1234)]; ValueError names a bad entry."""
+    out = []
+    for item in (p.strip() for p in text.split(",")):
+        if not item:
+            continue
+        host, sep, port = item.rpartition(":")
+        if not sep:
+            host, port = item, str(default_port)
+        if not host or not port.isdigit() or not 1 <= int(port) <= 65535:
+            raise ValueError(f"bad peer {item!r}, expected host or host:port")
+        out.append((host, int(port)))
+    return out
+
+
+class MitecomNode(Node):
+    """Tells teammates where this robot is, what it sees and plans; collects what they tell (team_data)."""
+
+    name = "mitecom"
+    Params = MitecomParams
+
+    def setup(self) -> None:
+        self.team_data_pub = self.publisher("team_data")
+        self.latest: dict[str, tuple[float, Any]] = {}
+        for topic in ("position", "ball_relative", "strategy", "robot_state", "cmd_vel", "walk_odometry",
+                      "obstacles_relative", "gamestate", "goal_relative"):
+            self.subscribe(topic, lambda msg, t=topic: self._remember(t, msg))
+        self.mates: dict[int, tuple[float, TeammateReport]] = {}
+        self.sent = 0
+        self.received = 0
+        self.malformed = 0
+        self.other_teams = 0
+        self.send_errors = 0
+        self._destinations: list[tuple[str, int]] = []
+        self._sock: socket.socket | None = None
+        self._reader: threading.Thread | None = None
+        self._stop_reader = threading.Event()
+        self._update_destinations()
+        self._open_socket()
+        self._send_timer = self.timer(self.params.send_rate_hz, self._tick, "team_messages")
+
+    # -- inputs ---------------------------------------------------------------------------------------------
+    def _remember(self, topic: str, msg: Any) -> None:
+        self.latest[topic] = (time.monotonic(), msg)
+
+    def _fresh(self, topic: str, max_age: float | None = None) -> Any:
+        item = self.latest.get(topic)
+        if item is None:
+            return None
+        if max_age is not None and time.monotonic() - item[0] > max_age:
+            return None
+        return item[1]
+
+    def own_report(self) -> TeammateReport:
+        """This robot's message, from the newest data of its topics."""
+        age = self.params.max_data_age_s
+        position = self._fresh("position", age)
+        ball = self._fresh("ball_relative", age)
+        strategy = self._fresh("strategy")
+        robot_state = self._fresh("robot_state")
+        gamestate = self._fresh("gamestate")
+        cmd_vel = self._fresh("cmd_vel", age)
+        odometry = self._fresh("walk_odometry", age)
+        obstacles = self._fresh("obstacles_relative", age)
+        goal = self._fresh("goal_relative", age)
+
+        state = robot_state.state if robot_state is not None else None
+        if state is None and gamestate is not None and gamestate.penalized:
+            state = HCM_PENALTY
+        ball_xy = (ball.ball_relative.x, ball.ball_relative.y) if ball is not None else None
+        speed = None
+        if odometry is not None:
+            speed = math.hypot(odometry.twist.twist.linear.x, odometry.twist.twist.linear.y)
+        elif cmd_vel is not None:
+            speed = math.hypot(cmd_vel.linear.x, cmd_vel.linear.y)
+        team_color = gamestate.team_color if gamestate is not None else None
+        opponents: list[SeenRobot] = []
+        teammates: list[SeenRobot] = []
+        if obstacles is not None and team_color is not None:
+            own_colour = _ROBOT_CYAN if team_color == _BLUE else _ROBOT_MAGENTA
+            for o in obstacles.obstacles:
+                if o.color in (_ROBOT_MAGENTA, _ROBOT_CYAN):
+                    (teammates if o.color == own_colour else opponents).append(
+                        SeenRobot(o.position.x, o.position.y, float(o.confidence)))
+        return TeammateReport(
+            robot_id=self.params.player_id,
+            team_id=self.params.team_id,
+            role=strategy.role if strategy is not None else None,
+            action=strategy.action if strategy is not None else None,
+            state=state,
+            offensive_side=strategy.offensive_side if strategy is not None else None,
+            position=(position.pose.x, position.pose.y, position.pose.theta) if position is not None else None,
+            position_confidence=float(position.confidence) if position is not None else 0.0,
+            ball=ball_xy,
+            ball_confidence=float(ball.confidence) if ball is not None else 0.0,
+            oppgoal=((goal.left_post.x + goal.right_post.x) / 2, (goal.left_post.y + goal.right_post.y) / 2)
+            if goal is not None else None,
+            oppgoal_confidence=float(goal.confidence) if goal is not None else 0.0,
+            opponents=tuple(opponents),
+            teammates=tuple(teammates),
+            walking_speed=speed,
+            walk_command=(cmd_vel.linear.x, cmd_vel.linear.y, cmd_vel.angular.z) if cmd_vel is not None else None,
+            time_to_ball=math.hypot(*ball_xy) / self.params.walking_speed_estimate if ball_xy else None,
+            max_kicking_distance=self.params.max_kicking_distance,
+            team_color=team_color,
+        )
+
+    # -- wire -----------------------------------------------------------------------------------------------
+    @property
+    def _orientation(self) -> Orientation:
+        return Orientation.DEGREES if self.params.orientation == "degrees" else Orientation.MILLIRADIANS
+
+    def encode(self, report: TeammateReport) -> bytes:
+        if self.params.codec == "protobuf":
+            return protobuf_codec.encode(report)
+        return mitecom_codec.encode(report, self._orientation)
+
+    def decode(self, data: bytes) -> TeammateReport:
+        if self.params.codec == "protobuf":
+            return protobuf_codec.decode(data)
+        return mitecom_codec.decode(data, self._orientation)
+
+    def _update_destinations(self) -> None:
+        try:
+            destinations = parse_peers(self.params.peers, self.params.port)
+        except ValueError as exc:
+            self.record_error(f"peers: {exc}")
+            destinations = []
+        if self.params.broadcast:
+            destinations.append(("255.255.255.255", self.params.port))
+        self._destinations = destinations
+
+    def _open_socket(self) -> None:
+        sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        with contextlib.suppress(OSError):
+            sock.setsockopt(socket.SOL_SOCKET, socket.SO_BROADCAST, 1)
+        sock.bind((self.params.listen_address, self.params.port))
+        sock.settimeout(0.2)
+        self._sock = sock
+        self._stop_reader = threading.Event()
+        self._reader = threading.Thread(target=self._read, args=(sock, self._stop_reader), name="mitecom-receiver",
+                                        daemon=True)
+        self._reader.start()
+
+    def _close_socket(self) -> None:
+        self._stop_reader.set()
+        if self._reader is not None and self._reader is not threading.current_thread():
+            self._reader.join(2.0)
+        if self._sock is not None:
+            self._sock.close()
+        self._sock = None
+
+    def _read(self, sock: socket.socket, stop: threading.Event) -> None:
+        """Reader thread: only receives, the loop thread decodes."""
+        while not stop.is_set():
+            try:
+                data, _addr = sock.recvfrom(_RECV_SIZE)
+            except TimeoutError:
+                continue
+            except OSError:
+                if stop.is_set():
+                    return
+                time.sleep(0.05)
+                continue
+            self.loop.call_soon(self._on_datagram, data)
+
+    def _tick(self) -> None:
+        self._send()
+        self._publish_team_data()
+
+    def _send(self) -> None:
+        if self._sock is None:
+            return
+        try:
+            data = self.encode(self.own_report())
+        except (MitecomError, TeamMessageError) as exc:
+            self.record_error(f"cannot encode the team message: {exc}")
+            return
+        for dest in self._destinations:
+            try:
+                self._sock.sendto(data, dest)
+                self.sent += 1
+            except OSError as exc:  # a peer that is not up yet, or no route: the next tick tries again
+                self.send_errors += 1
+                self.set_diagnostic("last_send_error", f"{dest[0]}:{dest[1]}: {exc}")
+        self.set_diagnostic("sent", self.sent)
+
+    def _on_datagram(self, data: bytes) -> None:
+        try:
+            report = self.decode(data)
+        except (MitecomError, TeamMessageError) as exc:
+            self.malformed += 1
+            self.set_diagnostic("malformed", self.malformed)
+            self.record_error(f"malformed team message: {exc}")
+            return
+        if self.params.codec == "mitecom" and report.team_id != self.params.team_id:
+            self.other_teams += 1
+            self.set_diagnostic("other_teams", self.other_teams)
+            return
+        if report.robot_id > 255:
+            self.malformed += 1
+            self.record_error(f"team message from robot id {report.robot_id}: team_data holds ids up to 255")
+            return
+        if report.robot_id == self.params.player_id:
+            return  # our own message, back through broadcast or a peer list that names us
+        is_new = report.robot_id not in self.mates
+        self.mates[report.robot_id] = (time.monotonic(), report)
+        self.received += 1
+        self.set_diagnostic("received", self.received)
+        if is_new:
+            self._publish_team_data()
+
+    def _publish_team_data(self) -> None:
+        now = time.monotonic()
+        timeout = self.params.teammate_timeout_s
+        self.mates = {rid: item for rid, item in self.mates.items() if now - item[0] <= timeout}
+        self.set_diagnostic("teammates", len(self.mates))
+        self.team_data_pub.publish(team_data_message(
+            [(now - seen, report) for _rid, (seen, report) in sorted(self.mates.items())]))
+
+    # -- lifecycle ------------------------------------------------------------------------------------------
+    def on_parameters_changed(self, changed: dict[str, Any]) -> None:
+        if "send_rate_hz" in changed:
+            self._send_timer.set_rate(self.params.send_rate_hz)
+        if {"peers", "port", "broadcast"} & set(changed):
+            self._update_destinations()
+        if {"listen_address", "port"} & set(changed):
+            self._close_socket()
+            try:
+                self._open_socket()
+            except OSError as exc:
+                self.record_error(f"cannot listen on {self.params.listen_address}:{self.params.port}: {exc}")
+        if {"codec", "team_id"} & set(changed):
+            self.mates.clear()
+
+    def on_shutdown(self) -> None:
+        self._close_socket()
+
+
+def _position(xy: tuple[float, ...] | None, confidence: float) -> Any:
+    x, y, theta = (*xy, 0.0)[:3] if xy is not None else (0.0, 0.0, 0.0)
+    return schemas.make("humanoid_league_msgs/msg/Position2D",
+                        pose=schemas.make("geometry_msgs/msg/Pose2D", x=x, y=y, theta=theta),
+                        confidence=confidence if xy is not None else 0.0)
+
+
+def team_data_message(mates: list[tuple[float, TeammateReport]]) -> Any:
+    """TeamData from (age s, report) pairs; 255 / NaN where a teammate did not say."""
+    nan = float("nan")
+    return schemas.make(
+        "humanoid_league_msgs/msg/TeamData",
+        header=header(),
+        robot_ids=[r.robot_id for _, r in mates],
+        role=[NOT_TOLD if r.role is None else r.role for _, r in mates],
+        action=[0 if r.action is None else r.action for _, r in mates],
+        state=[NOT_TOLD if r.state is None else r.state for _, r in mates],
+        offensive_side=[NOT_TOLD if r.offensive_side is None else r.offensive_side for _, r in mates],
+        robot_positions=[_position(r.position, r.position_confidence) for _, r in mates],
+        ball_relative=[_position(r.ball, r.ball_confidence) for _, r in mates],
+        oppgoal_relative=[_position(r.oppgoal, r.oppgoal_confidence) for _, r in mates],
+        avg_walking_speeds=[nan if r.walking_speed is None else r.walking_speed for _, r in mates],
+        time_to_position_at_ball=[nan if r.time_to_ball is None else r.time_to_ball for _, r in mates],
+        max_kicking_distance=[nan if r.max_kicking_distance is None else r.max_kicking_distance for _, r in mates],
+        age=[age for age, _ in mates],
+    )
+
+
+def main() -> None:
+    run(MitecomNode)
+
+
+if __name__ == "__main__":
+    main()
