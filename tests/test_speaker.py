@@ -49,13 +49,15 @@ class Coach(Node):
 
 @pytest.fixture
 def coach(bus: BusConfig) -> Iterator[Coach]:
-    node = Coach(bus=bus).start()
+    node = Coach(bus=bus)
+    node.start()
     yield node
     node.shutdown()
 
 
 def start_speaker(bus: BusConfig, coach: Coach, **overrides: Any) -> SpeakerNode:
-    node = SpeakerNode(bus=bus, overrides={"output": "wav", **overrides}).start()
+    node = SpeakerNode(bus=bus, overrides={"output": "wav", **overrides})
+    node.start()
     wait_for(lambda: coach.speak_pub.has_subscribers, 10.0, what="speaker subscribed to speak")
     return node
 
@@ -65,6 +67,11 @@ def wavs(folder: Path) -> list[Path]:
     if not folder.is_dir():
         return []
     return sorted((f for f in folder.iterdir() if WAV_NAME.match(f.name)), key=lambda f: int(f.name.split("-")[0]))
+
+
+def wait_wavs(folder: Path, count: int, timeout: float, what: str) -> list[Path]:
+    """Waits until the folder holds exactly ``count`` utterance files."""
+    return wait_for(lambda: wavs(folder) if len(wavs(folder)) == count else [], timeout, what=what)
 
 
 def duration(path: Path) -> float:
@@ -149,7 +156,7 @@ def test_waiting_sentences_come_out_high_mid_low(bus: BusConfig, coach: Coach, t
         coach.say("mid priority sentence", MID)
         wait_for(lambda: len(speaker.queue) == 3, 10.0, what="three sentences waiting")
         assert speaker.current is not None and speaker.current.text == KICKOFF, "the kickoff ended too early"
-        files = wait_for(lambda: len(wavs(folder)) == 4 and wavs(folder), 60.0, what="four WAV files")
+        files = wait_wavs(folder, 4, 60.0, "four WAV files")
         assert files[0] == first and first.name.startswith("000001-low-the-referee")
         assert [f.name.split("-", 1)[1] for f in files[1:]] == [
             "high-high-priority-sentence.wav", "mid-mid-priority-sentence.wav", "low-low-priority-sentence.wav"]
@@ -157,8 +164,8 @@ def test_waiting_sentences_come_out_high_mid_low(bus: BusConfig, coach: Coach, t
         assert numbers == sorted(numbers) and len(set(numbers)) == 4
         assert duration(first) > 5.0
         assert all(duration(f) > 0.1 for f in files)
-        diag = wait_for(lambda: coach.diagnostics.get("spoken") == "4" and coach.diagnostics, 15.0,
-                        what="diagnostics counting four spoken sentences")
+        wait_for(lambda: coach.diagnostics.get("spoken") == "4", 15.0, what="diagnostics counting four spoken")
+        diag = coach.diagnostics
         assert diag["queue_high"] == diag["queue_mid"] == diag["queue_low"] == "0"
         assert diag["output"] == "wav" and diag["last_file"] == files[-1].name
     finally:
@@ -178,7 +185,7 @@ def test_rate_and_volume_change_live(bus: BusConfig, coach: Coach, tmp_path: Pat
         params.set("speaker", {"rate": 450, "volume": 20})
         assert params.get("speaker", "rate") == 450
         coach.say(sentence, MID)
-        files = wait_for(lambda: len(wavs(folder)) == 2 and wavs(folder), 30.0, what="the fast sentence")
+        files = wait_wavs(folder, 2, 30.0, "the fast sentence")
         fast = files[1]
         assert duration(fast) < 0.5 * duration(slow), (duration(fast), duration(slow))
         assert peak(fast) < 0.5 * peak(slow), (peak(fast), peak(slow))
@@ -247,3 +254,37 @@ def test_speaker_process(router_endpoint: str, coach: Coach, tmp_path: Path) -> 
         output = proc.communicate(timeout=20)[0].decode(errors="replace")
     assert proc.returncode == 0, output
 
+
+
+@needs_espeak
+@pytest.mark.skipif(has_sound_device(), reason="this machine has a sound card: device output would really play")
+@pytest.mark.timeout(90)
+def test_device_output_without_a_sound_card_is_an_error(bus: BusConfig, coach: Coach, tmp_path: Path) -> None:
+    speaker = start_speaker(bus, coach, output="device", folder=str(tmp_path))
+    try:
+        coach.say("corner kick", MID)
+        wait_for(lambda: "could not say 'corner kick'" in coach.diag_message, 20.0, what="the ALSA error reported")
+        assert coach.diagnostics["output"] == "device" and wavs(tmp_path) == []
+        speaker.parameters.set({"output": "auto"})  # what a simulation should use
+        coach.say("corner kick", MID)
+        assert wait_wavs(tmp_path, 1, 30.0, "auto output falling back to WAV")[0].name.endswith("-mid-corner-kick.wav")
+    finally:
+        speaker.shutdown()
+
+
+@needs_espeak
+@pytest.mark.timeout(90)
+def test_full_queue_drops_oldest_low_and_duplicates(bus: BusConfig, coach: Coach, tmp_path: Path) -> None:
+    speaker = start_speaker(bus, coach, folder=str(tmp_path), max_queue=2, rate=300)
+    try:
+        coach.say(KICKOFF, HIGH)
+        wait_wavs(tmp_path, 1, 30.0, "the kickoff sentence being played")
+        for text in ("one", "one", "two", "three"):
+            coach.say(text, LOW)
+        wait_for(lambda: speaker.dropped == 2, 10.0, what="a duplicate and the oldest low sentence dropped")
+        assert speaker.current is not None and speaker.current.text == KICKOFF, "the kickoff ended too early"
+        files = wait_wavs(tmp_path, 3, 60.0, "the two kept sentences")
+        assert [f.name.split("-", 1)[1] for f in files[1:]] == ["low-two.wav", "low-three.wav"]
+        wait_for(lambda: coach.diagnostics.get("dropped") == "2", 15.0, what="drops in diagnostics")
+    finally:
+        speaker.shutdown()

@@ -164,9 +164,10 @@ class Espeak:
         if self._cancelled.is_set():
             raise SpeechError("speaker is shutting down")
         message = err.decode(errors="replace").strip()
-        # espeak-ng exits 1 on an unknown voice; some of its errors only show on stderr
+        # espeak-ng exits 1 on an unknown voice, but 0 when ALSA has no device: then only stderr tells
         if process.returncode != 0 or "error" in message.lower():
-            raise SpeechError(f"espeak-ng failed (exit code {process.returncode}): {message or 'no message'}")
+            last = message.splitlines()[-1][:300] if message else "no message"
+            raise SpeechError(f"espeak-ng failed (exit code {process.returncode}): {last}")
 
     def cancel(self) -> None:
         self._cancelled.set()
