@@ -1,0 +1,245 @@
+"""The cm730 node: the servo bus on Zenoh (joint states, IMU, servo data out; motor goals and torque in).
+
+With the MuJoCo backend it also publishes what the simulated robot's head camera sees (JPEG image,
+camera info, ground-truth detections), its relative perceptions, its field position and the world's
+ground truth, standing in for camera, vision and localization nodes.
+"""
+
+from __future__ import annotations
+
+import importlib
+import io
+import math
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+import schemas
+from robot_nodes.cm730.backend import BusReading, ServoBackend
+from robot_nodes.runtime import Node, param
+
+OPTICAL_FRAME = "camera_optical_frame"
+FOOTPRINT_FRAME = "base_footprint"
+MAP_FRAME = "map"
+
+
+@dataclass
+class Cm730Params:
+    backend: str = param("mujoco", choices=["mujoco", "dynamixel"], doc="servo bus: simulated or real Dynamixel")
+    publish_rate: float = param(200.0, range=(1.0, 1000.0), doc="Hz of joint_states and imu/data")
+    servo_data_rate: float = param(5.0, range=(0.1, 50.0), doc="Hz of servo_data (temperatures, voltage)")
+    device: str = param("/dev/ttyUSB0", doc="dynamixel: serial port of the servo bus")
+    baudrate: int = param(1000000, range=(9600, 4500000), doc="dynamixel: bus baud rate")
+    real_time_factor: float = param(1.0, range=(0.0, 100.0), doc="mujoco: sim speed, 0 = as fast as possible")
+    imu_gyro_noise: float = param(0.005, range=(0.0, 1.0), doc="mujoco: gyro noise std dev, rad/s")
+    imu_accel_noise: float = param(0.05, range=(0.0, 5.0), doc="mujoco: accelerometer noise std dev, m/s^2")
+    imu_orientation_noise: float = param(0.002, range=(0.0, 0.5), doc="mujoco: orientation noise std dev, rad")
+    camera_rate: float = param(10.0, range=(0.1, 60.0), doc="mujoco: Hz of camera image and detections")
+    camera_width: int = param(320, range=(16, 640), doc="mujoco: image width, px")
+    camera_height: int = param(240, range=(16, 480), doc="mujoco: image height, px")
+    jpeg_quality: int = param(80, range=(10, 100), doc="mujoco: JPEG quality of camera/image/compressed")
+    render_camera: bool = param(True, doc="mujoco: render images (only while someone subscribes)")
+    detection_pixel_noise: float = param(0.0, range=(0.0, 50.0), doc="mujoco: std dev of image detections, px")
+    detection_relative_noise: float = param(0.0, range=(0.0, 2.0), doc="mujoco: std dev of relative positions, m")
+    position_noise: float = param(0.0, range=(0.0, 2.0), doc="mujoco: std dev of the own position, m")
+    yaw_noise: float = param(0.0, range=(0.0, 1.0), doc="mujoco: std dev of the own heading, rad")
+    detection_dropout: float = param(0.0, range=(0.0, 1.0), doc="mujoco: probability a detection is missed")
+    ground_truth_rate: float = param(20.0, range=(0.1, 200.0), doc="mujoco: Hz of ground_truth")
+
+
+class Cm730Node(Node):
+    """Servo bus node: publishes joint_states, imu/data, servo_data; applies motor_goals and motor_torque."""
+
+    name = "cm730"
+    Params = Cm730Params
+
+    def __init__(self, *args: Any, backend: ServoBackend | None = None, **kwargs: Any) -> None:
+        self._given_backend = backend
+        super().__init__(*args, **kwargs)
+
+    def setup(self) -> None:
+        p = self.params
+        self.backend: ServoBackend = self._given_backend or self._open_backend()
+        self.joint_names = list(self.backend.joint_names)
+        self._known = set(self.joint_names)
+        self.goals_applied = 0
+        self._sim = _sim_parts(self.backend)
+        self._apply_sim_params()
+        self.subscribe("motor_goals", self._on_motor_goals)
+        self.subscribe("motor_torque", self._on_motor_torque)
+        self._joint_pub = self.publisher("joint_states")
+        self._imu_pub = self.publisher("imu/data")
+        self._servo_pub = self.publisher("servo_data")
+        self._state_timer = self.timer(p.publish_rate, self._publish_state, name="joint_states")
+        self._servo_timer = self.timer(p.servo_data_rate, self._publish_servo_data, name="servo_data")
+        self._last: BusReading | None = None
+        self._camera = None
+        if self._sim is not None:
+            self._setup_sim()
+
+    # -- backends ----------------------------------------------------------------------------------------
+    def _open_backend(self) -> ServoBackend:
+        p = self.params
+        if p.backend == "mujoco":
+            from robot_nodes.cm730.sim_backend import MujocoBackend
+
+            return MujocoBackend.standalone(real_time_factor=p.real_time_factor)
+        # the Dynamixel backend lives in robot_nodes/cm730/dynamixel and is imported only when chosen
+        dynamixel = importlib.import_module("robot_nodes.cm730.dynamixel")
+        return dynamixel.open_backend(device=p.device, baudrate=p.baudrate)  # type: ignore[no-any-return]
+
+    def on_shutdown(self) -> None:
+        if self._sim is not None and self._camera is not None:
+            self._sim.runner.remove_camera(self._camera)
+        self.backend.close()
+
+    # -- motor commands ----------------------------------------------------------------------------------
+    def _on_motor_goals(self, msg: Any) -> None:
+        if not msg.points:
+            self.record_error("motor_goals without points")
+            return
+        point = msg.points[0]
+        names = list(msg.joint_names)
+        positions = np.asarray(point.positions, dtype=float)
+        if len(positions) != len(names):
+            self.record_error(f"motor_goals: {len(names)} joint names but {len(positions)} positions")
+            return
+        velocities = _optional(point.velocities, len(names))
+        efforts = _optional(point.effort, len(names))
+        keep = [i for i, n in enumerate(names) if n in self._known and math.isfinite(positions[i])]
+        if len(keep) < len(names):
+            bad = [n for i, n in enumerate(names) if i not in set(keep)]
+            self.record_error(f"motor_goals: skipped unknown joint(s) or non-finite goal(s) {bad}")
+        if not keep:
+            return
+        self.backend.write_goals([names[i] for i in keep], positions[keep],
+                                 velocities[keep] if velocities is not None else None,
+                                 efforts[keep] if efforts is not None else None)
+        self.goals_applied += 1
+
+    def _on_motor_torque(self, msg: Any) -> None:
+        names = list(msg.name)
+        efforts = np.asarray(msg.effort, dtype=float)
+        if len(efforts) != len(names):
+            self.record_error(f"motor_torque: {len(names)} names but {len(efforts)} efforts (1.0 on, 0.0 off)")
+            return
+        unknown = [n for n in names if n not in self._known]
+        if unknown:
+            self.record_error(f"motor_torque: skipped unknown joint(s) {unknown}")
+        on = [n for n, e in zip(names, efforts, strict=True) if n in self._known and e >= 0.5]
+        off = [n for n, e in zip(names, efforts, strict=True) if n in self._known and not e >= 0.5]
+        if on:
+            self.backend.set_torque(on, True)
+        if off:
+            self.backend.set_torque(off, False)
+
+    # -- bus state ---------------------------------------------------------------------------------------
+    def _publish_state(self) -> None:
+        reading = self.backend.read()
+        self._last = reading
+        stamp = _stamp(time.time())
+        hdr = schemas.make("std_msgs/msg/Header", stamp=stamp, frame_id="")
+        self._joint_pub.publish(schemas.make(
+            "sensor_msgs/msg/JointState", header=hdr, name=self.joint_names,
+            position=reading.positions.astype(float), velocity=reading.velocities.astype(float),
+            effort=reading.efforts.astype(float)))
+        if reading.imu is not None:
+            imu = reading.imu
+            q = imu.orientation_xyzw
+            cov = np.zeros(9)
+            self._imu_pub.publish(schemas.make(
+                "sensor_msgs/msg/Imu", header=schemas.make("std_msgs/msg/Header", stamp=stamp, frame_id="imu_frame"),
+                orientation=schemas.make("geometry_msgs/msg/Quaternion", x=q[0], y=q[1], z=q[2], w=q[3]),
+                orientation_covariance=cov, angular_velocity_covariance=cov, linear_acceleration_covariance=cov,
+                angular_velocity=_vector3(imu.angular_velocity),
+                linear_acceleration=_vector3(imu.linear_acceleration)))
+        self.set_diagnostic("missing_servos", ",".join(reading.missing))
+
+    def _publish_servo_data(self) -> None:
+        reading = self._last
+        if reading is None or reading.temperatures is None:
+            return
+        stamp = _stamp(time.time())
+        temps = [schemas.make("sensor_msgs/msg/Temperature",
+                              header=schemas.make("std_msgs/msg/Header", stamp=stamp, frame_id=name),
+                              temperature=float(t), variance=0.0)
+                 for name, t in zip(self.joint_names, reading.temperatures, strict=True)]
+        voltage = np.full(len(self.joint_names), reading.voltage if reading.voltage is not None else math.nan)
+        self._servo_pub.publish(schemas.make(
+            "humanoid_league_msgs/msg/AdditionalServoData",
+            header=schemas.make("std_msgs/msg/Header", stamp=stamp, frame_id=""), temperature=temps, voltage=voltage))
+
+    # -- simulation extras -------------------------------------------------------------------------------
+    def _setup_sim(self) -> None:
+        from robot_nodes.cm730.sim_topics import SimTopics
+
+        self._sim_topics = SimTopics(self)
+        self._camera = self._sim.runner.add_camera(
+            self._sim.robot, self._sim_topics.on_frame, self.params.camera_width, self.params.camera_height,
+            self.params.camera_rate, want_image=self._sim_topics.wants_image, noise=self._sim_topics.noise)
+        self.timer(self.params.ground_truth_rate, self._sim_topics.publish_ground_truth, name="ground_truth")
+
+    def _apply_sim_params(self) -> None:
+        if self._sim is None:
+            return
+        p = self.params
+        noise = self._sim.world.imu_noise
+        noise.gyro, noise.accel, noise.orientation = p.imu_gyro_noise, p.imu_accel_noise, p.imu_orientation_noise
+        self._sim.runner.set_real_time_factor(p.real_time_factor)
+
+    def on_parameters_changed(self, changed: dict[str, Any]) -> None:
+        if "publish_rate" in changed:
+            self._state_timer.set_rate(self.params.publish_rate)
+        if "servo_data_rate" in changed:
+            self._servo_timer.set_rate(self.params.servo_data_rate)
+        if self._sim is not None:
+            self._apply_sim_params()
+            self._sim_topics.apply_params()
+            if self._camera is not None:
+                self._camera.rate_hz = self.params.camera_rate
+                if {"camera_width", "camera_height"} & set(changed):
+                    self._camera.resize(self.params.camera_width, self.params.camera_height)
+
+
+@dataclass
+class _SimParts:
+    world: Any
+    robot: Any
+    runner: Any
+
+
+def _sim_parts(backend: ServoBackend) -> _SimParts | None:
+    """The simulation behind a MuJoCo backend (None for real hardware)."""
+    runner = getattr(backend, "runner", None)
+    robot = getattr(backend, "robot", None)
+    if runner is None or robot is None:
+        return None
+    return _SimParts(backend.world, robot, runner)  # type: ignore[attr-defined]
+
+
+def _optional(values: Any, n: int) -> np.ndarray | None:
+    """velocities/effort of a trajectory point: optional, but if given one per joint."""
+    if values is None or len(values) == 0:
+        return None
+    arr = np.asarray(values, dtype=float)
+    return arr if len(arr) == n else None
+
+
+def _stamp(t: float) -> Any:
+    ns = int(t * 1e9)
+    return schemas.make("builtin_interfaces/msg/Time", sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
+
+
+def _vector3(v: np.ndarray) -> Any:
+    return schemas.make("geometry_msgs/msg/Vector3", x=float(v[0]), y=float(v[1]), z=float(v[2]))
+
+
+def jpeg(image: np.ndarray, quality: int) -> bytes:
+    """JPEG bytes of an RGB image (Pillow)."""
+    from PIL import Image
+
+    buf = io.BytesIO()
+    Image.fromarray(image).save(buf, format="JPEG", quality=quality)
+    return buf.getvalue()

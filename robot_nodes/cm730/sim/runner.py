@@ -1,0 +1,167 @@
+"""SimRunner: steps a SimWorld in real time (or faster) on its own thread and renders head cameras on another."""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from robot_nodes.cm730.sim.perception import DetectionNoise, GroundTruthVision, Observation
+from robot_nodes.cm730.sim.world import RobotHandle, SimWorld
+
+log = logging.getLogger(__name__)
+
+MAX_LAG = 0.25  # s of wall time; further behind, the runner stops trying to catch up (and counts it)
+
+
+@dataclass
+class CameraFrame:
+    """One camera tick of one robot: its perception and, if someone wants it, the rendered image."""
+
+    robot: RobotHandle
+    observation: Observation
+    image: np.ndarray | None  # (h, w, 3) uint8 RGB
+    stamp: float  # wall clock (time.time()) when the world state was taken
+    width: int
+    height: int
+
+
+class CameraClient:
+    """A robot's camera subscription; change rate, size or noise through this handle."""
+
+    def __init__(self, runner: SimRunner, robot: RobotHandle, width: int, height: int, rate_hz: float,
+                 on_frame: Callable[[CameraFrame], None], want_image: Callable[[], bool],
+                 noise: DetectionNoise | None) -> None:
+        self.robot = robot
+        self.width = width
+        self.height = height
+        self.rate_hz = rate_hz
+        self.on_frame = on_frame
+        self.want_image = want_image
+        self.vision = GroundTruthVision(runner.world, robot, width, height, noise)
+        self.next_due = time.monotonic()
+        self.frames = 0
+        self.errors = 0
+
+    def resize(self, width: int, height: int) -> None:
+        self.width, self.height = width, height
+        self.vision.resize(width, height)
+
+
+class SimRunner:
+    """Physics on one thread at ``real_time_factor`` x real time (0: as fast as possible), cameras on another.
+
+    Both hold ``world.lock`` only while they touch the live MjData; cameras render from a snapshot.
+    """
+
+    def __init__(self, world: SimWorld, real_time_factor: float = 1.0, chunk: float = 0.004) -> None:
+        self.world = world
+        self.real_time_factor = real_time_factor
+        self.chunk_steps = max(1, round(chunk / world.timestep))
+        self.lag_resets = 0
+        self._stop = threading.Event()
+        self._clients: list[CameraClient] = []
+        self._clients_lock = threading.Lock()
+        self._physics: threading.Thread | None = None
+        self._cameras: threading.Thread | None = None
+        self._snapshot = mujoco.MjData(world.model)
+        self.render_error: str = ""
+
+    # -- control -----------------------------------------------------------------------------------------
+    def start(self) -> SimRunner:
+        self._physics = threading.Thread(target=self._run_physics, name="sim-physics", daemon=True)
+        self._cameras = threading.Thread(target=self._run_cameras, name="sim-cameras", daemon=True)
+        self._physics.start()
+        self._cameras.start()
+        return self
+
+    def stop(self) -> None:
+        self._stop.set()
+        for t in (self._physics, self._cameras):
+            if t is not None and t is not threading.current_thread():
+                t.join(5.0)
+
+    def set_real_time_factor(self, factor: float) -> None:
+        self.real_time_factor = max(0.0, factor)
+        self._rebase = True
+
+    def add_camera(self, robot: RobotHandle, on_frame: Callable[[CameraFrame], None], width: int = 320,
+                   height: int = 240, rate_hz: float = 10.0, want_image: Callable[[], bool] = lambda: True,
+                   noise: DetectionNoise | None = None) -> CameraClient:
+        """on_frame runs on the camera thread: keep it short, hand work to your own loop."""
+        client = CameraClient(self, robot, width, height, rate_hz, on_frame, want_image, noise)
+        with self._clients_lock:
+            self._clients.append(client)
+        return client
+
+    def remove_camera(self, client: CameraClient) -> None:
+        with self._clients_lock:
+            if client in self._clients:
+                self._clients.remove(client)
+
+    # -- threads -----------------------------------------------------------------------------------------
+    _rebase = True
+
+    def _run_physics(self) -> None:
+        world = self.world
+        wall0 = sim0 = 0.0
+        while not self._stop.is_set():
+            if self._rebase:
+                wall0, sim0, self._rebase = time.monotonic(), world.time, False
+            with world.lock:
+                world.step(self.chunk_steps)
+                sim_now = world.time
+            factor = self.real_time_factor
+            if factor <= 0:
+                time.sleep(0)  # let the node threads in
+                continue
+            due = wall0 + (sim_now - sim0) / factor
+            ahead = due - time.monotonic()
+            if ahead > 0:
+                self._stop.wait(ahead)
+            elif ahead < -MAX_LAG:
+                self.lag_resets += 1
+                self._rebase = True
+
+    def _run_cameras(self) -> None:
+        from robot_nodes.cm730.sim.camera import HeadCamera, RenderError
+
+        cameras: dict[tuple[int, int, int], HeadCamera] = {}
+        world = self.world
+        while not self._stop.is_set():
+            with self._clients_lock:
+                clients = list(self._clients)
+            now = time.monotonic()
+            due = [c for c in clients if c.next_due <= now]
+            if not due:
+                wake = min((c.next_due for c in clients), default=now + 0.05)
+                self._stop.wait(min(0.05, max(0.0, wake - now)))
+                continue
+            for client in due:
+                client.next_due = max(client.next_due + 1.0 / client.rate_hz, now)
+                with world.lock:
+                    mujoco.mj_copyData(self._snapshot, world.model, world.data)
+                    stamp = time.time()
+                try:
+                    obs = client.vision.observe(self._snapshot)
+                    image = None
+                    if client.want_image() and not self.render_error:
+                        key = (client.robot.index, client.width, client.height)
+                        if key not in cameras:
+                            cameras[key] = HeadCamera(world, client.robot, client.width, client.height)
+                        image = cameras[key].render(self._snapshot)
+                    client.frames += 1
+                    client.on_frame(CameraFrame(client.robot, obs, image, stamp, client.width, client.height))
+                except RenderError as exc:
+                    self.render_error = str(exc)
+                    log.error("camera rendering off: %s", exc)
+                except Exception:  # one bad frame must not end the camera thread
+                    client.errors += 1
+                    log.exception("camera frame of %s failed", client.robot.robot_id)
+        for cam in cameras.values():
+            cam.close()

@@ -1,0 +1,140 @@
+"""What the cm730 node publishes only in simulation: camera image and info, detections, relative positions,
+own position and ground truth (messages built from a SimRunner CameraFrame)."""
+
+from __future__ import annotations
+
+import time
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+import schemas
+from robot_nodes.cm730.sim import CameraFrame, DetectionNoise
+
+if TYPE_CHECKING:
+    from robot_nodes.cm730.node import Cm730Node
+
+_HL = "humanoid_league_msgs/msg/"
+OPTICAL_FRAME = "camera_optical_frame"
+FOOTPRINT_FRAME = "base_footprint"
+MAP_FRAME = "map"
+ROBOT_UNDEFINED = 1  # ObstacleInImage/ObstacleRelative colour constant
+
+
+def _point(x: float, y: float, z: float = 0.0) -> Any:
+    return schemas.make("geometry_msgs/msg/Point", x=float(x), y=float(y), z=float(z))
+
+
+def _header(stamp: float, frame: str) -> Any:
+    ns = int(stamp * 1e9)
+    t = schemas.make("builtin_interfaces/msg/Time", sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
+    return schemas.make("std_msgs/msg/Header", stamp=t, frame_id=frame)
+
+
+class SimTopics:
+    """The simulation-only publishers of one cm730 node."""
+
+    def __init__(self, node: Cm730Node) -> None:
+        self.node = node
+        self.noise = DetectionNoise()
+        self.apply_params()
+        names = ("camera/image/compressed", "camera/camera_info", "ball_in_image", "goal_in_image",
+                 "obstacles_in_image", "line_information_in_image", "ball_relative", "goal_relative",
+                 "obstacles_relative", "position", "ground_truth")
+        self.pubs = {name: node.publisher(name) for name in names}
+        self.frames_published = 0
+
+    def apply_params(self) -> None:
+        p = self.node.params
+        self.noise.pixel = p.detection_pixel_noise
+        self.noise.relative = p.detection_relative_noise
+        self.noise.position = p.position_noise
+        self.noise.yaw = p.yaw_noise
+        self.noise.dropout = p.detection_dropout
+
+    def wants_image(self) -> bool:
+        return bool(self.node.params.render_camera and self.pubs["camera/image/compressed"].has_subscribers)
+
+    def on_frame(self, frame: CameraFrame) -> None:
+        """Camera thread: JPEG-encode here (off the node loop), publish on the loop."""
+        from robot_nodes.cm730.node import jpeg
+
+        data = jpeg(frame.image, self.node.params.jpeg_quality) if frame.image is not None else None
+        self.node.loop.call_soon(self._publish_frame, frame, data)
+
+    # -- on the node loop --------------------------------------------------------------------------------
+    def _publish_frame(self, frame: CameraFrame, image: bytes | None) -> None:
+        pubs, obs, stamp = self.pubs, frame.observation, frame.stamp
+        cam = _header(stamp, OPTICAL_FRAME)
+        if image is not None:
+            pubs["camera/image/compressed"].publish(schemas.make(
+                "sensor_msgs/msg/CompressedImage", header=cam, format="jpeg", data=np.frombuffer(image, np.uint8)))
+        pubs["camera/camera_info"].publish(self._camera_info(frame, cam))
+        balls = []
+        if obs.ball is not None:
+            balls.append(schemas.make(_HL + "BallInImage", center=_point(obs.ball.u, obs.ball.v),
+                                      diameter=float(obs.ball.diameter), confidence=1.0))
+        pubs["ball_in_image"].publish(schemas.make(_HL + "BallsInImage", header=cam, candidates=balls))
+        posts = [schemas.make(_HL + "PostInImage", foot_point=_point(*p.foot), top_point=_point(*p.top),
+                              width=float(p.width), confidence=1.0) for p in obs.posts]
+        bars = [schemas.make(_HL + "BarInImage", left_point=_point(*a), right_point=_point(*b), width=float(w),
+                             confidence=1.0) for a, b, w in obs.bars]
+        pubs["goal_in_image"].publish(schemas.make(_HL + "GoalPartsInImage", header=cam, posts=posts, bars=bars))
+        obstacles = [schemas.make(_HL + "ObstacleInImage", color=ROBOT_UNDEFINED, player_number=o.player_number,
+                                  top_left=_point(o.u, o.v), height=round(o.height), width=round(o.width),
+                                  confidence=1.0) for o in obs.obstacles]
+        pubs["obstacles_in_image"].publish(schemas.make(_HL + "ObstaclesInImage", header=cam, obstacles=obstacles))
+        segments = [schemas.make(_HL + "LineSegmentInImage", start=_point(*a), end=_point(*b), start_width=float(wa),
+                                 end_width=float(wb), confidence=1.0) for a, b, wa, wb in obs.lines]
+        pubs["line_information_in_image"].publish(schemas.make(_HL + "LineInformationInImage", header=cam,
+                                                               segments=segments))
+        foot = _header(stamp, FOOTPRINT_FRAME)
+        if obs.ball_relative is not None:
+            pubs["ball_relative"].publish(schemas.make(_HL + "BallRelative", header=foot,
+                                                       ball_relative=_point(*obs.ball_relative),
+                                                       confidence=obs.ball_relative_confidence))
+        if obs.goal_relative is not None:
+            left, right = obs.goal_relative
+            centre = (left + right) / 2
+            pubs["goal_relative"].publish(schemas.make(_HL + "GoalRelative", header=foot, left_post=_point(*left),
+                                                       right_post=_point(*right), center_direction=_point(*centre),
+                                                       confidence=obs.goal_relative_confidence))
+        relative = [schemas.make(_HL + "ObstacleRelative", color=ROBOT_UNDEFINED, player_number=number,
+                                 position=_point(*pos), width=0.28, height=0.7, confidence=1.0)
+                    for number, pos in obs.obstacles_relative]
+        pubs["obstacles_relative"].publish(schemas.make(_HL + "ObstaclesRelative", header=foot, obstacles=relative))
+        if obs.position is not None:
+            x, y, yaw = obs.position
+            pubs["position"].publish(schemas.make(
+                _HL + "Position2D", header=_header(stamp, MAP_FRAME),
+                pose=schemas.make("geometry_msgs/msg/Pose2D", x=x, y=y, theta=yaw), confidence=1.0))
+        self.frames_published += 1
+
+    def _camera_info(self, frame: CameraFrame, header: Any) -> Any:
+        from robot_nodes.cm730.sim.perception import Intrinsics
+
+        fovy = float(frame.robot.world.model.cam_fovy[frame.robot.camera_id])
+        k = Intrinsics.from_fovy(frame.width, frame.height, fovy)
+        return schemas.make(
+            "sensor_msgs/msg/CameraInfo", header=header, height=frame.height, width=frame.width,
+            distortion_model="plumb_bob", d=np.zeros(5),
+            k=np.array([k.fx, 0, k.cx, 0, k.fy, k.cy, 0, 0, 1], dtype=float),
+            r=np.array([1, 0, 0, 0, 1, 0, 0, 0, 1], dtype=float),
+            p=np.array([k.fx, 0, k.cx, 0, 0, k.fy, k.cy, 0, 0, 0, 1, 0], dtype=float))
+
+    def publish_ground_truth(self) -> None:
+        sim = self.node._sim
+        assert sim is not None
+        world = sim.world
+        with world.lock:
+            poses = [(r.robot_id, *r.torso_pose()) for r in world.robots]
+            ball = world.ball_position()
+        msg = schemas.make(
+            "pitchside_msgs/msg/GroundTruth", header=_header(time.time(), MAP_FRAME),
+            robot_ids=[p[0] for p in poses],
+            robot_poses=[schemas.make("geometry_msgs/msg/Pose", position=_point(*pos),
+                                      orientation=schemas.make("geometry_msgs/msg/Quaternion", x=q[0], y=q[1],
+                                                               z=q[2], w=q[3]))
+                         for _, pos, q in poses],
+            ball=_point(*ball))
+        self.pubs["ground_truth"].publish(msg)

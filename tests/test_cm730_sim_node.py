@@ -1,0 +1,162 @@
+"""The cm730 node with the MuJoCo backend over a real Zenoh router: rates, goals, torque, camera, bad input."""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Iterator
+from typing import Any
+
+import numpy as np
+import pytest
+import zenoh
+
+import schemas
+from robot_nodes.cm730.node import Cm730Node
+from robot_nodes.runtime import BusConfig, open_session
+from robot_nodes.runtime.keys import topic_key
+from tests.waiting import wait_for
+
+
+class Listener:
+    """Collects decoded messages of one robot's topics, with arrival times."""
+
+    def __init__(self, session: zenoh.Session, robot: str, topics: list[str]) -> None:
+        self.msgs: dict[str, list[tuple[float, Any]]] = {t: [] for t in topics}
+        self._lock = threading.Lock()
+        self._subs = [session.declare_subscriber(topic_key(robot, t), self._handler(t)) for t in topics]
+
+    def _handler(self, topic: str) -> Any:
+        typename = schemas.topic(topic).type
+
+        def on_sample(sample: zenoh.Sample) -> None:
+            msg = schemas.decode(sample.payload.to_bytes(), typename)
+            with self._lock:
+                self.msgs[topic].append((time.monotonic(), msg))
+
+        return on_sample
+
+    def last(self, topic: str) -> Any:
+        with self._lock:
+            return self.msgs[topic][-1][1] if self.msgs[topic] else None
+
+    def count(self, topic: str) -> int:
+        with self._lock:
+            return len(self.msgs[topic])
+
+    def close(self) -> None:
+        for s in self._subs:
+            s.undeclare()
+
+
+@pytest.fixture
+def node(bus: BusConfig) -> Iterator[Cm730Node]:
+    n = Cm730Node(robot_id="robot1", bus=bus, overrides={"publish_rate": 100.0, "imu_gyro_noise": 0.0}).start()
+    yield n
+    n.shutdown()
+
+
+@pytest.fixture
+def client(bus: BusConfig) -> Iterator[zenoh.Session]:
+    s = open_session(bus)
+    yield s
+    s.close()
+
+
+def _goals(names: list[str], positions: list[float]) -> Any:
+    point = schemas.make("trajectory_msgs/msg/JointTrajectoryPoint", positions=np.array(positions, dtype=float))
+    return schemas.make("trajectory_msgs/msg/JointTrajectory", joint_names=names, points=[point])
+
+
+def _position(msg: Any, joint: str) -> float:
+    return float(msg.position[list(msg.name).index(joint)])
+
+
+@pytest.mark.slow
+def test_joint_states_at_rate_and_goals_move_joints(node: Cm730Node, client: zenoh.Session) -> None:
+    listener = Listener(client, "robot1", ["joint_states", "imu/data", "servo_data"])
+    goals = client.declare_publisher(topic_key("robot1", "motor_goals"))
+    try:
+        wait_for(lambda: listener.count("joint_states") >= 20, timeout=20, what="joint_states")
+        start, n0 = time.monotonic(), listener.count("joint_states")
+        time.sleep(2.0)  # measuring a rate needs an interval; the assert is generous for a loaded machine
+        rate = (listener.count("joint_states") - n0) / (time.monotonic() - start)
+        assert 40 < rate < 130, rate
+        js = listener.last("joint_states")
+        assert len(js.name) == 20 and "LKnee" in js.name
+        imu = listener.last("imu/data")
+        assert imu.linear_acceleration.z == pytest.approx(9.81, abs=1.5)  # standing upright
+        wait_for(lambda: listener.count("servo_data") > 0, timeout=10, what="servo_data")
+        assert len(listener.last("servo_data").temperature) == 20
+
+        goals.put(schemas.encode(_goals(["HeadPan", "LShoulderPitch"], [0.6, -1.0])))
+        wait_for(lambda: abs(_position(listener.last("joint_states"), "HeadPan") - 0.6) < 0.05, timeout=20,
+                 what="HeadPan at its goal")
+        wait_for(lambda: abs(_position(listener.last("joint_states"), "LShoulderPitch") + 1.0) < 0.1, timeout=20,
+                 what="LShoulderPitch at its goal")
+    finally:
+        listener.close()
+
+
+@pytest.mark.slow
+def test_bad_motor_goals_are_reported_not_fatal(node: Cm730Node, client: zenoh.Session) -> None:
+    listener = Listener(client, "robot1", ["joint_states"])
+    goals = client.declare_publisher(topic_key("robot1", "motor_goals"))
+    try:
+        errors0 = node.errors
+        goals.put(schemas.encode(_goals(["NoSuchJoint", "HeadPan"], [1.0, -0.5])))  # unknown one skipped
+        goals.put(schemas.encode(schemas.make("trajectory_msgs/msg/JointTrajectory", joint_names=["HeadPan"])))
+        goals.put(schemas.encode(_goals(["HeadTilt", "HeadPan"], [0.1])))  # length mismatch
+        goals.put(b"\x00\x01garbage")  # not CDR at all
+        wait_for(lambda: node.errors >= errors0 + 3, timeout=10, what="errors recorded")
+        assert "NoSuchJoint" in node.last_error or node.errors >= errors0 + 3
+        wait_for(lambda: listener.last("joint_states") is not None
+                 and abs(_position(listener.last("joint_states"), "HeadPan") + 0.5) < 0.05,
+                 timeout=20, what="the known joint of a partly bad message still moves")
+    finally:
+        listener.close()
+
+
+@pytest.mark.slow
+def test_torque_off_over_the_bus_makes_the_robot_collapse(node: Cm730Node, client: zenoh.Session) -> None:
+    listener = Listener(client, "robot1", ["ground_truth"])
+    torque = client.declare_publisher(topic_key("robot1", "motor_torque"))
+    try:
+        wait_for(lambda: listener.last("ground_truth") is not None, timeout=20, what="ground_truth")
+        assert listener.last("ground_truth").robot_poses[0].position.z > 0.3
+        names = node.joint_names
+        torque.put(schemas.encode(schemas.make("sensor_msgs/msg/JointState", name=names,
+                                               effort=np.zeros(len(names)))))
+        wait_for(lambda: listener.last("ground_truth").robot_poses[0].position.z < 0.2, timeout=30,
+                 what="torso down after torque off")
+    finally:
+        listener.close()
+
+
+@pytest.mark.slow
+def test_camera_image_and_detections_are_published(node: Cm730Node, client: zenoh.Session) -> None:
+    topics = ["camera/image/compressed", "camera/camera_info", "ball_in_image", "line_information_in_image",
+              "ball_relative", "position", "goal_relative"]
+    listener = Listener(client, "robot1", topics)
+    goals = client.declare_publisher(topic_key("robot1", "motor_goals"))
+    try:
+        goals.put(schemas.encode(_goals(["HeadTilt"], [-0.6])))  # look down at the ball in front of the feet
+        sim = node._sim
+        assert sim is not None
+        with sim.world.lock:
+            x, y, _ = sim.robot.pose2d()
+            sim.world.set_ball(x + 0.8, y)
+        wait_for(lambda: listener.count("camera/image/compressed") >= 2, timeout=30, what="camera images")
+        image = listener.last("camera/image/compressed")
+        assert image.format == "jpeg" and bytes(image.data[:2]) == b"\xff\xd8"
+        info = listener.last("camera/camera_info")
+        assert (info.width, info.height) == (320, 240)
+        wait_for(lambda: listener.last("ball_in_image") is not None and listener.last("ball_in_image").candidates,
+                 timeout=20, what="ball seen")
+        rel = listener.last("ball_relative").ball_relative
+        assert rel.x == pytest.approx(0.8, abs=0.1) and abs(rel.y) < 0.1
+        assert listener.last("line_information_in_image").segments
+        pos = listener.last("position").pose
+        assert pos.x == pytest.approx(x, abs=0.05)
+    finally:
+        listener.close()
