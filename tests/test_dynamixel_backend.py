@@ -173,12 +173,11 @@ def test_reads_positions_imu_and_buttons(bus1: ServoBusEmulator) -> None:
         assert reading.voltage == pytest.approx(12.2)
         assert backend.buttons == {"mode": False, "start": True}
 
-        def temperatures() -> np.ndarray | None:
+        def temperatures() -> list[float] | None:
             t = backend.read().temperatures
-            return t if t is not None and not np.isnan(t).any() else None
+            return list(t) if t is not None and not np.isnan(t).any() else None
 
-        assert wait_for(temperatures, timeout=10, what="temperatures from a slow read") == pytest.approx(
-            np.full(20, 36.0))
+        assert wait_for(temperatures, timeout=10, what="temperatures from a slow read") == [36.0] * 20
 
 
 def test_write_goals_with_offsets_directions_and_speed(bus1: ServoBusEmulator) -> None:
