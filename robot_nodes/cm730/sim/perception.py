@@ -186,11 +186,13 @@ class GroundTruthVision:
             if seg is None:
                 continue
             foot, top, z0, z1 = seg
-            mid_z = top_z / 2
-            if not self._visible(d, np.array([px, py, mid_z]), {self._post_geoms[i]}, f.post_diameter):
+            # a post partly hidden (by a robot in front) is still seen: any of five points along it will do
+            heights = np.linspace(0.1, top_z - 0.05, 5)
+            if not any(self._visible(d, np.array([px, py, h]), {self._post_geoms[i]}, f.post_diameter)
+                       for h in heights):
                 continue
             if keep():
-                width = k.fx * f.post_diameter / max(NEAR, (z0 + z1) / 2)
+                width = float(k.fx * f.post_diameter / max(NEAR, (z0 + z1) / 2))
                 obs.posts.append(PostSeen((float(foot[0]), float(foot[1])), (float(top[0]), float(top[1])), width))
         for left, right in ((0, 1), (2, 3)):
             a = np.array([*self._posts[left], top_z - f.post_diameter / 2])
@@ -199,7 +201,7 @@ class GroundTruthVision:
             if seg is not None and keep():
                 pa, pb, z0, z1 = seg
                 obs.bars.append(((float(pa[0]), float(pa[1])), (float(pb[0]), float(pb[1])),
-                                 k.fx * f.post_diameter / max(NEAR, (z0 + z1) / 2)))
+                                 float(k.fx * f.post_diameter / max(NEAR, (z0 + z1) / 2))))
 
         # other robots as obstacles
         for other in self.world.robots:
@@ -225,7 +227,7 @@ class GroundTruthVision:
             if np.hypot(*(pb - pa)) < 1.0 or not keep():
                 continue
             obs.lines.append(((float(pa[0]), float(pa[1])), (float(pb[0]), float(pb[1])),
-                              k.fx * f.line_width / max(NEAR, z0), k.fx * f.line_width / max(NEAR, z1)))
+                              float(k.fx * f.line_width / max(NEAR, z0)), float(k.fx * f.line_width / max(NEAR, z1))))
 
         # relative positions (base_footprint frame) and the own position
         x, y, yaw = self._pose2d(d)

@@ -1,0 +1,134 @@
+"""SimWorld physics and perception: standing, falling, limp joints, and a camera image that agrees with detections."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from robot_nodes.cm730.sim import GroundTruthVision, SimError, SimWorld
+
+
+def _tilt(quat_xyzw: np.ndarray) -> float:
+    """Angle (rad) between the IMU's up axis and the world's up axis."""
+    x, y, _z, _w = quat_xyzw
+    return math.acos(max(-1.0, min(1.0, 1 - 2 * (x * x + y * y))))
+
+
+@pytest.mark.slow
+def test_stands_sixty_seconds_in_the_stand_pose() -> None:
+    world = SimWorld(n_robots=1)
+    robot = world.robots[0]
+    z0 = robot.torso_pose()[0][2]
+    for _ in range(60):
+        world.step_for(1.0)
+        assert robot.uprightness() > 0.97, f"fell at t={world.time:.1f}"
+    assert world.time == pytest.approx(60.0, abs=0.01)
+    assert robot.torso_pose()[0][2] == pytest.approx(z0, abs=0.03)
+    reading = robot.read()
+    assert _tilt(reading.imu.orientation_xyzw) < 0.15
+    assert reading.imu.linear_acceleration[2] == pytest.approx(9.81, abs=0.5)
+    assert np.all(reading.temperatures > 24.0) and reading.voltage > 14.0
+
+
+@pytest.mark.slow
+def test_small_push_is_survived_big_push_topples_and_the_imu_shows_it() -> None:
+    world = SimWorld(n_robots=1)
+    robot = world.robots[0]
+    world.step_for(1.0)
+    robot.apply_push((8.0, 0.0, 0.0), 0.1)
+    world.step_for(3.0)
+    assert robot.uprightness() > 0.95
+    robot.apply_push((60.0, 0.0, 0.0), 0.1)
+    world.step_for(3.0)
+    assert robot.uprightness() < 0.5
+    imu = robot.read().imu
+    assert _tilt(imu.orientation_xyzw) > math.radians(60)
+    assert abs(imu.linear_acceleration[2]) < 5.0  # gravity no longer along the torso's z
+
+
+def test_limp_joint_falls_under_gravity_and_holds_again_when_on() -> None:
+    world = SimWorld(n_robots=1)
+    robot = world.robots[0]
+    i = robot.joint_names.index("LShoulderPitch")
+    robot.write_goals(["LShoulderPitch"], np.array([-1.5]))  # arm forward, horizontal
+    world.step_for(1.5)
+    assert robot.read().positions[i] == pytest.approx(-1.5, abs=0.1)
+    robot.set_torque(["LShoulderPitch"], False)
+    world.step_for(1.5)
+    limp = robot.read().positions[i]
+    assert limp > -0.9, "a limp arm must swing down"
+    assert robot.read().efforts[i] == pytest.approx(0.0, abs=1e-9)
+    robot.set_torque(["LShoulderPitch"], True)
+    world.step_for(1.0)
+    assert robot.read().positions[i] == pytest.approx(limp, abs=0.15)  # holds where it was
+    with pytest.raises(SimError):
+        robot.set_torque(["NoSuchJoint"], False)
+    with pytest.raises(SimError):
+        robot.write_goals(["HeadPan"], np.array([math.nan]))
+
+
+def test_set_pose_lying_on_front_and_back() -> None:
+    world = SimWorld(n_robots=2)
+    a, b = world.robots
+    a.set_pose(1.0, 1.0, 0.5, posture="front")
+    b.set_pose(-1.0, -1.0, 0.0, posture="back")
+    world.step_for(2.0)
+    for robot in (a, b):
+        assert abs(robot.uprightness()) < 0.6
+        assert robot.torso_pose()[0][2] < 0.25
+    # lying on the front, the torso's forward axis points down; on the back it points up
+    assert world.data.xmat[a.torso_body].reshape(3, 3)[2, 0] < -0.5
+    assert world.data.xmat[b.torso_body].reshape(3, 3)[2, 0] > 0.5
+    with pytest.raises(SimError):
+        a.set_pose(0, 0, 0, posture="sideways")
+
+
+@pytest.mark.slow
+def test_ball_in_image_matches_the_rendered_ball() -> None:
+    from robot_nodes.cm730.sim.camera import HeadCamera
+
+    world = SimWorld(n_robots=2)
+    robot = world.robots[0]
+    x, y, _ = robot.pose2d()
+    camera = HeadCamera(world, robot, 320, 240)
+    vision = GroundTruthVision(world, robot, 320, 240)
+    for ball, pan, tilt in (((x + 0.9, y - 0.2), 0.0, -0.5), ((x + 1.5, y + 0.5), 0.3, -0.3),
+                            ((x + 0.6, y + 0.1), 0.0, -0.8)):
+        world.set_ball(*ball)
+        robot.write_goals(["HeadPan", "HeadTilt"], np.array([pan, tilt]))
+        world.step_for(1.0)
+        image = camera.render()
+        seen = vision.observe().ball
+        assert seen is not None
+        orange = (image[:, :, 0] > 180) & (image[:, :, 1] > 40) & (image[:, :, 1] < 150) & (image[:, :, 2] < 70)
+        rows, cols = np.nonzero(orange)
+        assert len(rows) > 30
+        assert cols.mean() + 0.5 == pytest.approx(seen.u, abs=3.0)
+        assert rows.mean() + 0.5 == pytest.approx(seen.v, abs=3.0)
+        assert 2 * math.sqrt(len(rows) / math.pi) == pytest.approx(seen.diameter, rel=0.15)
+    # the ball behind the robot is not in the image
+    world.set_ball(x - 1.0, y)
+    world.step_for(0.1)
+    assert vision.observe().ball is None
+    assert vision.observe().ball_relative[0] == pytest.approx(-1.0, abs=0.05)
+    camera.close()
+
+
+def test_detections_see_goal_posts_lines_and_the_other_robot() -> None:
+    world = SimWorld(n_robots=2)
+    a, b = world.robots
+    a.set_pose(1.5, 0.0, 0.0)  # 3 m in front of the +x goal, facing it
+    b.set_pose(2.3, 0.4, math.pi)
+    a.write_goals(["HeadTilt"], np.array([-0.2]))
+    world.step_for(1.0)
+    obs = GroundTruthVision(world, a).observe()
+    assert len(obs.posts) == 2 and obs.bars
+    assert obs.obstacles and obs.obstacles[0].player_number == 2
+    assert len(obs.lines) > 3
+    left, right = obs.goal_relative
+    assert left[0] == pytest.approx(3.05, abs=0.1) and left[1] > 1.0 and right[1] < -1.0
+    assert obs.position[0] == pytest.approx(1.5, abs=0.05)
+    for u, v in (p.foot for p in obs.posts):
+        assert 0 <= u <= 320 and 0 <= v <= 240
