@@ -205,7 +205,8 @@ def test_three_robots_see_each_other_and_a_silent_one_ages_out(bus: BusConfig, w
     ports = [free_port(socket.SOCK_DGRAM) for _ in range(3)]
     peers = ",".join(f"127.0.0.1:{p}" for p in ports)  # everyone, itself included: like a broadcast
     robots = [f"mate{i}" for i in (1, 2, 3)]
-    feeder = TopicFeeder(robot_id="mate2", bus=bus).start()
+    feeder = TopicFeeder(robot_id="mate2", bus=bus)
+    feeder.start()
     nodes: list[MitecomNode] = []
     try:
         # the feeder's topics reach mate2's node once it subscribes; publish until they show up remotely
@@ -213,7 +214,8 @@ def test_three_robots_see_each_other_and_a_silent_one_ages_out(bus: BusConfig, w
             nodes.append(MitecomNode(robot_id=robot, bus=bus, overrides={
                 "codec": codec_name, "team_id": 7, "player_id": i + 1, "port": port, "listen_address": "127.0.0.1",
                 "peers": peers, "send_rate_hz": 5.0, "teammate_timeout_s": 1.0,
-            }).start())
+            }))
+            nodes[-1].start()
         started = time.monotonic()
         wait_for(lambda: all(watcher.mates_of(r) == sorted({1, 2, 3} - {i + 1}) for i, r in enumerate(robots)),
                  1.0, interval=0.02, what="every robot sees the two others")
@@ -265,7 +267,8 @@ def test_malformed_and_foreign_messages_are_counted(bus: BusConfig, watcher: Tea
     port = free_port(socket.SOCK_DGRAM)
     node = MitecomNode(robot_id="solo", bus=bus, overrides={
         "team_id": 7, "player_id": 1, "port": port, "listen_address": "127.0.0.1", "peers": f"127.0.0.1:{port}",
-    }).start()
+    })
+    node.start()
     try:
         foreign = codec.encode(TeammateReport(robot_id=2, team_id=8))
         friend = codec.encode(TeammateReport(robot_id=4, team_id=7, role=3))

@@ -106,7 +106,7 @@ def _team_message(draw: st.DrawFn) -> bytes:
     for _ in range(draw(st.integers(0, 4))):
         other = msg.others.add()
         other.position.x, other.position.y = draw(_floats), draw(_floats)
-        other.team = draw(st.integers(0, 3))  # type: ignore[assignment]
+        other.team = draw(st.integers(0, 3))
     msg.other_robot_confidence.extend(draw(st.lists(_floats, max_size=5)))
     msg.role = draw(st.integers(-2, 9))  # type: ignore[assignment]
     msg.action = draw(st.integers(-2, 12))  # type: ignore[assignment]

@@ -41,7 +41,7 @@ def _finite(*values: float) -> bool:
     return all(math.isfinite(v) for v in values)
 
 
-def _team(color: int | None) -> int:
+def _team(color: int | None) -> pb.Team:
     return {_BLUE: pb.BLUE, _RED: pb.RED}.get(color, pb.UNKNOWN_TEAM) if color is not None else pb.UNKNOWN_TEAM
 
 
