@@ -40,7 +40,7 @@ def demo_processes(robots: int, endpoint: str, http_port: int, telemetry_port: i
                    match: bool, gc_ports: list[int]) -> list[NodeProcess]:
     py = sys.executable
     connect = ["--connect", endpoint]
-    processes = [NodeProcess("world", [py, "-m", "robot_nodes.cm730.world_node", "--robots", str(robots),
+    processes = [NodeProcess("world", [py, "-m", "robot_nodes.cm730.sim", "--robots", str(robots),
                                        *connect, "--params", str(REPO / "robots" / model / "params.yaml")])]
     per_robot = available([*MOTION_NODES, "walking", "game_controller", "telemetry"])
     for i in range(1, robots + 1):
