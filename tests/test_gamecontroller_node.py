@@ -179,3 +179,23 @@ def test_garbage_is_counted_and_the_node_keeps_working(node: GameControllerNode,
             s.sendto(other, ("127.0.0.1", gc_port))
         wait_for(lambda: node.foreign_packets >= 1, 10, what="foreign packet counted")
         assert node.bad_packets == 3 * len(garbage)
+
+
+def test_simulator_plays_both_halves_and_takes_manual_penalties() -> None:
+    game = SimulatedGame(teams=(3, 4), players_per_team=2, initial_s=0.2, ready_s=0.2, set_s=0.2, half_s=1)
+    nowhere = ("127.0.0.1", free_port(socket.SOCK_DGRAM))
+    with SimulatedGameController(game, [nowhere], ("127.0.0.1", 0), rate_hz=10.0) as gc:
+        assert gc.status()["teams"][0]["players"][2]["penalty"] == Penalty.SUBSTITUTE  # beyond playersPerTeam
+        wait_for(lambda: not gc.status()["first_half"], 15, what="second half")
+        assert gc.status()["kick_off_team"] == 4
+        wait_for(lambda: gc.status()["state"] == "FINISHED", 15, what="end of the game")
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+            s.sendto(b"RGrt\x02\x04\x02\x00", ("127.0.0.1", gc.return_port))  # team 4 player 2: MAN_PENALISE
+            s.sendto(b"RGrt\x07junk", ("127.0.0.1", gc.return_port))
+        wait_for(lambda: gc.status()["teams"][1]["players"][1]["penalty"] == Penalty.MANUAL, 10,
+                 what="manual penalty from a return packet")
+        wait_for(lambda: gc.bad_returns == 1, 10, what="bad return packet counted")
+        packet = parse_state_packet(gc.tick())
+        assert packet.team(4).player(2).penalty == Penalty.MANUAL  # type: ignore[union-attr]
+        assert gc.execute("unpenalize 4 2") == "ok" and gc.execute("goal 9").startswith("error: team 9")
+        assert parse_state_packet(gc.tick()).team(4).player(2).penalty == 0  # type: ignore[union-attr]
