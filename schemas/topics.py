@@ -66,6 +66,8 @@ TOPICS: dict[str, Topic] = {
         Topic("obstacles_relative", _HL + "ObstaclesRelative", "obstacles relative to the robot",
               Priority.PERCEPTION),
         Topic("goal_relative", _HL + "GoalRelative", "goal relative to the robot", Priority.PERCEPTION),
+        Topic("line_information_relative", _HL + "LineInformationRelative", "field lines relative to the robot",
+              Priority.PERCEPTION),
         Topic("position", _HL + "Position2D", "own position on the field"),
         Topic("ground_truth", "pitchside_msgs/msg/GroundTruth", "simulation ground truth poses"),
         Topic("diagnostics", "diagnostic_msgs/msg/DiagnosticArray", "node health, every node -> dashboard"),

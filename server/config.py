@@ -42,8 +42,8 @@ class ServerConfig:
     telemetry_port: int = 5800  # robot_nodes.telemetry.datagram.DEFAULT_PORT
     telemetry_key: str | None = None  # team key (hex or a file); None: the development key
     queue_size: int = 2000  # frames per WebSocket client before the oldest are dropped
-    stale_after_s: float = 1.0
-    lost_after_s: float = 5.0
+    stale_after_s: float = 1.5  # no message for this long: the robot (or stream) is shown stale
+    lost_after_s: float = 5.0  # ... and lost
     robot3d: bool = False
     robot3d_port: int = 8081
     robot3d_max_hz: float = 20.0

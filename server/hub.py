@@ -189,6 +189,8 @@ class StreamStats:
             self.rate_hz = (self._window_count - 1) / span
             self._window_start = now
             self._window_count = 1
+        elif self.rate_hz == 0.0 and span >= 0.3:  # a first estimate before the first full window
+            self.rate_hz = (self._window_count - 1) / span
 
     def current_rate(self, now: float) -> float:
         """The measured rate, decaying to 0 once the stream is silent for longer than its period."""

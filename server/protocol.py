@@ -17,7 +17,7 @@ Server -> client, text frames (JSON objects with a "type"):
      "source": "live" | "telemetry" | ..., "data": {...}}                  a decoded message (fields by name;
                                                                           big uint8 arrays as {"bytes": n})
     {"type": "robots", "server_time": <s>, "robots": [RobotInfo, ...]}    discovered robots and link health,
-                                                                          on connect and every second
+                                                                          on connect and twice a second
     {"type": "error", "error": "<what was wrong with the request>"}
     {"type": "pong", ...}
 

@@ -69,3 +69,66 @@ class TestStand(Node):
     def publish_image(self) -> None:
         self.image_pub.publish(schemas.make("sensor_msgs/msg/CompressedImage", header=header("camera"),
                                             format="jpeg", data=np.frombuffer(self.image, dtype=np.uint8)))
+
+
+HCM_STATES = ["STARTUP", "CONTROLLABLE", "WALKING", "FALLING", "FALLEN", "GETTING_UP", "PENALTY"]
+HCM_TRANSITIONS = [("STARTUP", "CONTROLLABLE", "motors on"), ("CONTROLLABLE", "WALKING", "walking_active"),
+                   ("WALKING", "CONTROLLABLE", "stopped"), ("WALKING", "FALLING", "imu tilt"),
+                   ("CONTROLLABLE", "FALLING", "imu tilt"), ("FALLING", "FALLEN", "lying"),
+                   ("FALLEN", "GETTING_UP", "stand up"), ("GETTING_UP", "CONTROLLABLE", "done"),
+                   ("CONTROLLABLE", "PENALTY", "penalized"), ("PENALTY", "CONTROLLABLE", "unpenalized")]
+
+
+@dataclass
+class SceneStandParams:
+    x: float = param(-2.0, range=(-6.0, 6.0), doc="own x on the field (m)")
+    y: float = param(1.0, range=(-4.0, 4.0), doc="own y on the field (m)")
+    penalized: bool = param(False, doc="the GameController says penalized")
+
+
+class SceneStand(Node):
+    """Publishes one of everything the dashboard panels draw, at 5 Hz, with known values."""
+
+    __test__ = False
+    name = "scenestand"
+    Params = SceneStandParams
+
+    def setup(self) -> None:
+        self.pubs = {t: self.publisher(t) for t in (
+            "robot_state", "gamestate", "position", "ball_relative", "obstacles_relative", "goal_relative",
+            "hcm_graph", "camera/image/compressed", "ball_in_image", "goal_in_image", "servo_data")}
+        self.image = np.frombuffer(jpeg(320, 240), dtype=np.uint8)
+        self.timer(5.0, self.tick)
+
+    def tick(self) -> None:
+        p = self.pubs
+        p["robot_state"].publish(schemas.make(HL + "RobotControlState", state=10))
+        p["gamestate"].publish(schemas.make(HL + "GameState", header=header(), game_state=3, own_score=2,
+                                            rival_score=1, seconds_remaining=437, first_half=True,
+                                            penalized=self.params.penalized))
+        pose = schemas.make("geometry_msgs/msg/Pose2D", x=self.params.x, y=self.params.y, theta=0.5)
+        p["position"].publish(schemas.make(HL + "Position2D", header=header("map"), pose=pose, confidence=0.8))
+        p["ball_relative"].publish(schemas.make(HL + "BallRelative", header=header(), ball_relative=point(1.0, 0.2),
+                                                confidence=0.9))
+        obstacle = schemas.make(HL + "ObstacleRelative", color=2, position=point(1.5, -0.5), width=0.3, confidence=0.7)
+        p["obstacles_relative"].publish(schemas.make(HL + "ObstaclesRelative", header=header(), obstacles=[obstacle]))
+        p["goal_relative"].publish(schemas.make(HL + "GoalRelative", header=header(), left_post=point(3.0, 1.3),
+                                                right_post=point(3.0, -1.3), center_direction=point(3.0, 0.0),
+                                                confidence=0.6))
+        stamps = [schemas.make("builtin_interfaces/msg/Time", sec=1_700_000_000 + i) for i in range(3)]
+        p["hcm_graph"].publish(schemas.make(
+            "pitchside_msgs/msg/StateMachineGraph", header=header(), name="hcm", states=HCM_STATES,
+            transition_from=[t[0] for t in HCM_TRANSITIONS], transition_to=[t[1] for t in HCM_TRANSITIONS],
+            transition_condition=[t[2] for t in HCM_TRANSITIONS], current="WALKING",
+            history_states=["STARTUP", "CONTROLLABLE", "WALKING"], history_stamps=stamps))
+        p["camera/image/compressed"].publish(schemas.make("sensor_msgs/msg/CompressedImage", header=header("camera"),
+                                                          format="jpeg", data=self.image))
+        ball = schemas.make(HL + "BallInImage", center=point(200.0, 150.0), diameter=30.0, confidence=0.85)
+        p["ball_in_image"].publish(schemas.make(HL + "BallsInImage", header=header(), candidates=[ball]))
+        post = schemas.make(HL + "PostInImage", foot_point=point(60.0, 200.0), top_point=point(60.0, 60.0),
+                            width=8.0, confidence=0.75)
+        p["goal_in_image"].publish(schemas.make(HL + "GoalPartsInImage", header=header(), posts=[post]))
+        temps = [schemas.make("sensor_msgs/msg/Temperature", header=header(f"joint{i}"), temperature=40.0 + i)
+                 for i in range(3)]
+        p["servo_data"].publish(schemas.make(HL + "AdditionalServoData", header=header(), temperature=temps,
+                                             voltage=[12.1, 12.3]))

@@ -19,7 +19,7 @@ from server.state import ServerState
 
 log = logging.getLogger(__name__)
 router = APIRouter()
-ROBOTS_PERIOD_S = 1.0
+ROBOTS_PERIOD_S = 0.5
 _ids = itertools.count(1)
 
 

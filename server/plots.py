@@ -1,0 +1,106 @@
+"""Plots: the server feeds rerun with downsampled numbers (joints vs goals, IMU, loop rates, HCM and game state).
+
+rerun serves its web viewer from the wheel (offline) on ``plots_web_port`` and the data over gRPC on
+``plots_grpc_port``; the page embeds the viewer in an iframe. Every stream is thinned by the hub to
+``plots_max_hz``. rerun's own usage analytics: ``TELEMETRY_ENABLED`` is forced off here; the SDK's
+analytics setting lives in rerun's config file (``rerun analytics disable``) and fails harmlessly offline.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+import os
+from typing import Any
+
+from server.config import ServerConfig
+from server.hub import Hub, HubMessage
+
+log = logging.getLogger(__name__)
+TOPICS = ("joint_states", "motor_goals", "imu/data", "diagnostics", "robot_state", "gamestate")
+
+
+def scalars_of(msg: HubMessage) -> dict[str, float]:
+    """Entity path (under the robot) -> value, for the fields worth plotting."""
+    m = msg.message
+    out: dict[str, float] = {}
+    if msg.topic == "joint_states":
+        for name, position in zip(m.name, m.position, strict=False):
+            out[f"joints/{name}/position"] = float(position)
+    elif msg.topic == "motor_goals":
+        if m.points:
+            for name, position in zip(m.joint_names, m.points[-1].positions, strict=False):
+                out[f"joints/{name}/goal"] = float(position)
+    elif msg.topic == "imu/data":
+        for axis in "xyz":
+            out[f"imu/angular_velocity/{axis}"] = float(getattr(m.angular_velocity, axis))
+            out[f"imu/linear_acceleration/{axis}"] = float(getattr(m.linear_acceleration, axis))
+    elif msg.topic == "diagnostics":
+        for status in m.status:
+            node = status.name.rsplit("/", 1)[-1]
+            for kv in status.values:
+                if kv.key.startswith("rate_hz/"):
+                    with contextlib.suppress(ValueError):
+                        out[f"loop_rates/{node}/{kv.key[len('rate_hz/'):]}"] = float(kv.value)
+    elif msg.topic == "robot_state":
+        out["lanes/hcm_state"] = float(m.state)
+    elif msg.topic == "gamestate":
+        out["lanes/game_state"] = float(m.game_state)
+        out["lanes/penalized"] = float(m.penalized)
+    return out
+
+
+class PlotFeed:
+    """A hub subscriber that logs scalars into one rerun recording served to the browser."""
+
+    def __init__(self, hub: Hub, config: ServerConfig) -> None:
+        self.hub = hub
+        self.config = config
+        self.logged = 0
+        self.rec: Any = None
+        self._sub = None
+        self._task: asyncio.Task[None] | None = None
+
+    def urls(self) -> dict[str, int]:
+        return {"web_port": self.config.plots_web_port, "grpc_port": self.config.plots_grpc_port}
+
+    async def start(self) -> None:
+        os.environ["TELEMETRY_ENABLED"] = "false"
+        import rerun as rr
+
+        self.rec = rr.RecordingStream("pitchside")
+        uri = rr.serve_grpc(grpc_port=self.config.plots_grpc_port, recording=self.rec, server_memory_limit="256MiB")
+        rr.serve_web_viewer(web_port=self.config.plots_web_port, open_browser=False, connect_to=uri)
+        self._sub = self.hub.subscribe("plots", maxlen=4096)
+        for topic in TOPICS:
+            self._sub.subscribe("*", topic, max_hz=self.config.plots_max_hz)
+        self._task = asyncio.create_task(self._run())
+
+    async def _run(self) -> None:
+        import rerun as rr
+
+        assert self._sub is not None
+        while True:
+            await self._sub.wait()
+            for msg in self._sub.drain():
+                try:
+                    values = scalars_of(msg)
+                except Exception as exc:  # undecodable input is counted by the hub, not plotted
+                    log.debug("not plotted: %s", exc)
+                    continue
+                self.rec.set_time("time", timestamp=msg.stamp)
+                for path, value in values.items():
+                    self.rec.log(f"{msg.robot}/{path}", rr.Scalars(value))
+                self.logged += 1
+
+    async def stop(self) -> None:
+        if self._task is not None:
+            self._task.cancel()
+            with contextlib.suppress(BaseException):
+                await self._task
+        if self._sub is not None:
+            self._sub.close()
+        if self.rec is not None:
+            with contextlib.suppress(Exception):
+                self.rec.disconnect()

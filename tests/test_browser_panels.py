@@ -1,0 +1,134 @@
+"""The dashboard in Debian's chromium: panels show what real nodes publish over Zenoh (screenshots in test-output/)."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from robot_nodes.runtime import BusConfig
+from tests.conftest import REPO
+from tests.dashboard_server import RunningServer, dashboard_server
+from tests.teststand import SceneStand
+
+CHROMIUM = Path("/usr/bin/chromium")
+OUTPUT = REPO / "test-output"
+pytestmark = [pytest.mark.slow, pytest.mark.browser]
+
+
+@pytest.fixture
+def browser() -> Iterator[Any]:
+    if not CHROMIUM.exists():
+        pytest.fail(f"{CHROMIUM} is missing: install Debian's chromium (apt-get install chromium); "
+                    "the browser tests never download a browser")
+    from playwright.sync_api import sync_playwright
+
+    with sync_playwright() as pw:
+        browser = pw.chromium.launch(executable_path=str(CHROMIUM), args=[
+            "--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update"])
+        yield browser
+        browser.close()
+
+
+@pytest.fixture
+def stands(bus: BusConfig) -> Iterator[dict[str, SceneStand]]:
+    nodes = {"r1": SceneStand("r1", bus, overrides={"x": -2.0, "y": 1.0}).start(),
+             "r2": SceneStand("r2", bus, overrides={"x": 2.0, "y": -1.5, "penalized": True}).start()}
+    yield nodes
+    for node in nodes.values():
+        node.shutdown()
+
+
+@pytest.fixture
+def scene(router_endpoint: str, stands: dict[str, SceneStand], tmp_path: Path) -> Iterator[RunningServer]:
+    with dashboard_server(["--connect", router_endpoint, "--no-telemetry"], tmp_path) as server:
+        yield server
+
+
+def test_panels_show_live_data(browser: Any, scene: RunningServer, stands: dict[str, SceneStand]) -> None:
+    OUTPUT.mkdir(exist_ok=True)
+    page = browser.new_page(viewport={"width": 1600, "height": 2100})
+    errors: list[str] = []
+    page.on("pageerror", lambda exc: errors.append(str(exc)))
+    page.goto(scene.url)
+    page.evaluate("localStorage.clear(); localStorage.setItem('pitchside.focus', 'r1')")
+    page.reload()
+    timeout = 30_000
+
+    # team overview: a card per robot with the HCM state, the penalty and the link health
+    page.wait_for_selector('.card[data-robot="r1"] .hcm-state:text("WALKING")', timeout=timeout)
+    page.wait_for_selector('.card[data-robot="r2"] .penalized:text("PENALIZED")', timeout=timeout)
+    assert page.text_content('.card[data-robot="r1"] .game-state') == "PLAYING"
+    assert "joint2 42 °C" in page.text_content('.card[data-robot="r1"]')
+    assert page.get_attribute('.card[data-robot="r1"]', "data-status") == "ok"
+
+    # field view: both robots drawn where they are, the ball seen by them, the game state bar
+    page.wait_for_function("window.pitchside.fieldView && window.pitchside.fieldView.drawn.length === 2",
+                           timeout=timeout)
+    drawn = {r["id"]: (r["x"], r["y"]) for r in page.evaluate("window.pitchside.fieldView.drawn")}
+    assert drawn == {"r1": (-2.0, 1.0), "r2": (2.0, -1.5)}
+    assert page.evaluate("window.pitchside.fieldView.balls") == 2
+
+    # HCM graph: the states the HCM exported, the current one highlighted, the history listed
+    page.wait_for_selector('.hcm-node.current[data-state="WALKING"]', timeout=timeout)
+    assert page.locator(".hcm-node").count() == 7
+    assert page.locator(".history-list li").count() == 3
+    page.hover('.hcm-node[data-state="FALLING"]')
+    assert page.locator(".hcm-edge.active").count() == 3  # 2 in, 1 out
+    assert "WALKING → FALLING: imu tilt" in page.text_content('[data-panel="hcm"] .tip')
+
+    # camera: the JPEG decoded with the ball marker; markers can be switched off
+    page.wait_for_function("window.pitchside.camera.images > 0 && "
+                           "window.pitchside.camera.markers.ball_in_image === 1", timeout=timeout)
+    assert page.evaluate("[window.pitchside.camera.width, window.pitchside.camera.height]") == [320, 240]
+    assert page.evaluate("window.pitchside.camera.markers.goal_in_image") == 1
+
+    # diagnostics of every node
+    page.wait_for_selector('tr[data-node="r1/scenestand"]', timeout=timeout)
+    page.wait_for_selector('tr[data-node="r2/scenestand"]', timeout=timeout)
+    page.mouse.move(5, 5)
+    page.screenshot(path=str(OUTPUT / "dashboard.png"), full_page=False)
+
+    # click r2 on the field: it becomes the focused robot
+    box = page.locator('[data-panel="field"] canvas').bounding_box()
+    view = page.evaluate("""() => { const c = document.querySelector('[data-panel="field"] canvas');
+        const w = c.clientWidth, h = c.clientHeight;
+        const s = Math.min(w / (9 + 1.4), (h - 28) / (6 + 1.4));
+        return [w / 2 + 2.0 * s, 28 + (h - 28) / 2 + 1.5 * s]; }""")
+    page.mouse.click(box["x"] + view[0], box["y"] + view[1])
+    page.wait_for_function("window.pitchside.store.focus === 'r2'", timeout=timeout)
+    page.wait_for_selector('.card.focused[data-robot="r2"]', timeout=timeout)
+    page.locator('[data-panel="camera"] input[data-topic="ball_in_image"]').uncheck()
+    page.wait_for_function("window.pitchside.camera.markers.ball_in_image === 0", timeout=timeout)
+    page.screenshot(path=str(OUTPUT / "dashboard-focus-r2.png"), full_page=False)
+
+    # a robot that goes silent is marked stale, then lost after 5 s
+    stands["r1"].shutdown()
+    page.wait_for_selector('.card[data-robot="r1"][data-status="stale"]', timeout=timeout)
+    page.wait_for_selector('.card[data-robot="r1"][data-status="lost"]', timeout=timeout)
+    assert page.get_attribute('.card[data-robot="r2"]', "data-status") == "ok"
+    page.screenshot(path=str(OUTPUT / "dashboard-r1-lost.png"), full_page=False)
+    assert not errors, errors
+
+
+def test_layout_is_changed_and_remembered(browser: Any, scene: RunningServer) -> None:
+    page = browser.new_page(viewport={"width": 1400, "height": 2400})  # no scrolling while dragging
+    page.goto(scene.url)
+    page.evaluate("localStorage.clear()")
+    page.reload()
+    page.wait_for_selector('[data-panel="team"]')
+    order = page.eval_on_selector_all("#grid > .panel", "els => els.map(e => e.dataset.panel)")
+    assert order[:2] == ["team", "field"]
+    page.click('[data-panel="field"] button[data-act="left"]')
+    page.click('[data-panel="plots"] button[data-act="hide"]')
+    page.drag_and_drop('[data-panel="diagnostics"] > header h2', '[data-panel="field"]')
+    page.select_option("#columns-select", "4")
+    page.reload()
+    page.wait_for_selector('[data-panel="team"]')
+    order = page.eval_on_selector_all("#grid > .panel", "els => els.map(e => e.dataset.panel)")
+    assert order[:3] == ["diagnostics", "field", "team"] and "plots" not in order, order
+    assert page.eval_on_selector("#grid", "g => getComputedStyle(g).getPropertyValue('--columns').trim()") == "4"
+    page.select_option("#add-panel", "plots")
+    assert page.locator('[data-panel="plots"]').count() == 1

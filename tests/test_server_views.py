@@ -1,0 +1,110 @@
+"""The optional views: the 3D robot (real viser + a real URDF through yourdfpy) and the plots (real rerun)."""
+
+from __future__ import annotations
+
+import asyncio
+import time
+from pathlib import Path
+
+import httpx
+import numpy as np
+import pytest
+
+import schemas
+from server.config import RobotDescription, ServerConfig
+from server.hub import Hub, HubMessage
+from tests.conftest import free_port
+
+WOLFGANG_JOINTS = ["HeadPan", "HeadTilt", "LKnee", "RKnee", "LElbow", "RElbow"]
+
+
+def joint_states(names: list[str], positions: list[float]) -> HubMessage:
+    msg = schemas.make("sensor_msgs/msg/JointState", name=names, position=positions)
+    return HubMessage("r1", "joint_states", msg.__msgtype__, time.time(), msg, "test")
+
+
+async def _until(condition, timeout: float = 30.0) -> None:  # type: ignore[no-untyped-def]
+    deadline = time.monotonic() + timeout
+    while not condition():
+        if time.monotonic() > deadline:
+            raise AssertionError("condition not met in time")
+        await asyncio.sleep(0.05)
+
+
+@pytest.mark.slow
+def test_robot3d_moves_the_urdf_joints(testdata: Path) -> None:
+    from server.robot3d import Robot3DView
+
+    wolfgang = testdata / "robots" / "wolfgang"
+    config = ServerConfig(robot3d=True, robot3d_port=free_port(), descriptions={
+        "*": RobotDescription(wolfgang / "urdf" / "robot.urdf", {"wolfgang_description": wolfgang})})
+
+    async def main() -> None:
+        hub = Hub()
+        hub.bind(asyncio.get_running_loop())
+        view = Robot3DView(hub, config)
+        await view.start()
+        try:
+            page = await asyncio.to_thread(httpx.get, f"http://127.0.0.1:{view.port}/", timeout=10)
+            assert page.status_code == 200 and "<html" in page.text.lower()  # viser's bundled client
+            hub.publish(joint_states([*WOLFGANG_JOINTS, "not_a_joint"], [0.5, -0.3, 1.0, 1.1, 0.2, 0.4, 9.0]))
+            await _until(lambda: "r1" in view.robots and view.robots["r1"].updates > 0, 60.0)
+            model = view.robots["r1"]
+            assert len(model.joint_names) == 20
+            got = dict(zip(model.joint_names, model.cfg, strict=True))
+            assert got["HeadPan"] == pytest.approx(0.5) and got["RKnee"] == pytest.approx(1.1)
+            assert not view.failed
+        finally:
+            await view.stop()
+
+    asyncio.run(main())
+
+
+def test_robot3d_missing_urdf_is_reported_not_raised(tmp_path: Path) -> None:
+    from server.robot3d import Robot3DView
+
+    config = ServerConfig(robot3d=True, robot3d_port=free_port(),
+                          descriptions={"*": RobotDescription(tmp_path / "nope.urdf")})
+
+    async def main() -> None:
+        hub = Hub()
+        view = Robot3DView(hub, config)
+        await view.start()
+        try:
+            hub.publish(joint_states(["a"], [0.0]))
+            await _until(lambda: "r1" in view.failed)
+            assert "nope.urdf" in view.failed["r1"]
+        finally:
+            await view.stop()
+
+    asyncio.run(main())
+
+
+@pytest.mark.slow
+def test_plots_feed_rerun_and_serve_the_viewer() -> None:
+    from server.plots import PlotFeed, scalars_of
+
+    config = ServerConfig(plots=True, plots_web_port=free_port(), plots_grpc_port=free_port(), plots_max_hz=50)
+
+    async def main() -> None:
+        hub = Hub()
+        feed = PlotFeed(hub, config)
+        await feed.start()
+        try:
+            for i in range(20):
+                hub.publish(joint_states(["HeadPan"], [0.01 * i]))
+                await asyncio.sleep(0.005)
+            await _until(lambda: feed.logged >= 1)
+            viewer = await asyncio.to_thread(httpx.get, f"http://127.0.0.1:{config.plots_web_port}/", timeout=10)
+            assert viewer.status_code == 200
+        finally:
+            await feed.stop()
+
+    asyncio.run(main())
+    diag = schemas.make("diagnostic_msgs/msg/DiagnosticArray", status=[schemas.make(
+        "diagnostic_msgs/msg/DiagnosticStatus", name="r1/hcm", values=[
+            schemas.make("diagnostic_msgs/msg/KeyValue", key="rate_hz/tick", value="99.5"),
+            schemas.make("diagnostic_msgs/msg/KeyValue", key="rate_hz/bad", value="n/a")])])
+    values = scalars_of(HubMessage("r1", "diagnostics", diag.__msgtype__, 0.0, diag, "test"))
+    assert values == {"loop_rates/hcm/tick": 99.5}
+    assert np.isclose(scalars_of(joint_states(["HeadPan"], [0.25]))["joints/HeadPan/position"], 0.25)

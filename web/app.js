@@ -1,0 +1,78 @@
+// The dashboard page: one connection, one store, panels in a layout the user arranges.
+
+import { Connection } from "./connection.js";
+import { Layout } from "./layout.js";
+import { Store } from "./store.js";
+import teamOverview from "./panels/team_overview.js";
+import fieldView from "./panels/field_view.js";
+import relativeView from "./panels/relative_view.js";
+import hcmGraph from "./panels/hcm_graph.js";
+import camera from "./panels/camera.js";
+import robot3d from "./panels/robot3d.js";
+import plots from "./panels/plots.js";
+import diagnostics from "./panels/diagnostics.js";
+
+const PANELS = [teamOverview, fieldView, relativeView, hcmGraph, camera, diagnostics, robot3d, plots];
+
+async function main() {
+  const config = await (await fetch("api/config")).json();
+  const store = new Store();
+  const status = document.getElementById("link-status");
+  const wsUrl = `${location.protocol === "https:" ? "wss" : "ws"}://${location.host}/ws`;
+  const conn = new Connection(wsUrl, (frame) => store.handle(frame), (up) => {
+    status.textContent = up ? "connected" : "disconnected";
+    status.className = `badge ${up ? "ok" : "bad"}`;
+  });
+  document.getElementById("match-badge").hidden = !config.match_mode;
+
+  const ctx = {
+    store, conn, config,
+    /** Subscribe a panel to a topic of every robot, at most maxHz; fn(frame) on every arrival. */
+    subscribe(topic, maxHz, fn) {
+      conn.subscribe("*", topic, maxHz);
+      return store.on(`topic:${topic}`, fn);
+    },
+    onLayout: (state) => {
+      document.getElementById("columns-select").value = String(state.columns);
+      refreshAddMenu(state);
+    },
+  };
+  const layout = new Layout(document.getElementById("grid"), PANELS, ctx);
+  window.pitchside = { store, conn, layout, config };
+
+  const addMenu = document.getElementById("add-panel");
+  function refreshAddMenu(state) {
+    addMenu.innerHTML = '<option value="">+ panel</option>';
+    for (const p of state.panels.filter((x) => x.hidden)) {
+      const title = PANELS.find((m) => m.id === p.id)?.title ?? p.id;
+      addMenu.insertAdjacentHTML("beforeend", `<option value="${p.id}">${title}</option>`);
+    }
+  }
+  addMenu.addEventListener("change", () => { if (addMenu.value) layout.show(addMenu.value); });
+  document.getElementById("columns-select").addEventListener("change", (e) => layout.setColumns(+e.target.value));
+  document.getElementById("layout-reset").addEventListener("click", () => layout.reset());
+  const root = document.documentElement;
+  if (localStorage.getItem("pitchside.theme") === "dark") root.classList.add("dark");
+  document.getElementById("theme-toggle").addEventListener("click", () => {
+    root.classList.toggle("dark");
+    localStorage.setItem("pitchside.theme", root.classList.contains("dark") ? "dark" : "light");
+    store.emit("theme");
+  });
+
+  const focusSelect = document.getElementById("focus-select");
+  function refreshFocus() {
+    const ids = store.robotIds();
+    const have = [...focusSelect.options].map((o) => o.value);
+    if (ids.join() !== have.join()) {
+      focusSelect.innerHTML = ids.map((id) => `<option value="${id}">${id}</option>`).join("");
+    }
+    focusSelect.value = store.focus;
+  }
+  store.on("robots", refreshFocus);
+  store.on("focus", refreshFocus);
+  focusSelect.addEventListener("change", () => store.setFocus(focusSelect.value));
+  layout.render();
+  window.addEventListener("resize", () => { for (const l of layout.live.values()) l.instance.resize?.(); });
+}
+
+main();

@@ -1,0 +1,73 @@
+// What the page knows: latest message per (robot, topic), the robots list with link health, the focused robot.
+
+export class Store {
+  constructor() {
+    this.latest = new Map();   // robot -> Map(topic -> frame)
+    this.arrivals = new Map(); // "robot|topic" and "robot" -> performance.now() of the last frame
+    this.robots = [];          // RobotInfo list of the last "robots" frame
+    this.robotsAt = 0;         // performance.now() when it arrived
+    this.focus = localStorage.getItem("pitchside.focus") || "";
+    this.listeners = new Map(); // event -> Set(fn)
+    this.matchMode = false;
+  }
+
+  on(event, fn) {
+    if (!this.listeners.has(event)) this.listeners.set(event, new Set());
+    this.listeners.get(event).add(fn);
+    return () => this.listeners.get(event).delete(fn);
+  }
+
+  emit(event, value) {
+    for (const fn of this.listeners.get(event) || []) {
+      try { fn(value); } catch (err) { console.error(`listener of ${event}`, err); }
+    }
+  }
+
+  handle(frame) {
+    if (frame.type === "msg" || frame.type === "image") {
+      if (!this.latest.has(frame.robot)) this.latest.set(frame.robot, new Map());
+      this.latest.get(frame.robot).set(frame.topic, frame);
+      const now = performance.now();
+      this.arrivals.set(`${frame.robot}|${frame.topic}`, now);
+      this.arrivals.set(frame.robot, now);
+      this.emit(`topic:${frame.topic}`, frame);
+      if (!this.focus) this.setFocus(frame.robot);
+    } else if (frame.type === "robots") {
+      this.robots = frame.robots;
+      this.robotsAt = performance.now();
+      this.emit("robots", frame.robots);
+      if (!this.focus && frame.robots.length) this.setFocus(frame.robots[0].robot);
+    } else if (frame.type === "hello") {
+      this.matchMode = frame.match_mode;
+      this.emit("hello", frame);
+    } else if (frame.type === "error") {
+      console.warn("server:", frame.error);
+    }
+  }
+
+  get(robot, topic) {
+    return this.latest.get(robot)?.get(topic);
+  }
+
+  /** Seconds since the server last heard from the robot (or stream), advanced locally between "robots" frames;
+   * a frame this page received itself is fresher evidence. */
+  robotAge(info, topic = null) {
+    const now = performance.now();
+    const serverAge = (topic ? info.streams[topic].age_s : info.age_s) + (now - this.robotsAt) / 1000;
+    const seen = this.arrivals.get(topic ? `${info.robot}|${topic}` : info.robot);
+    return seen === undefined ? serverAge : Math.min(serverAge, (now - seen) / 1000);
+  }
+
+  robotIds() {
+    const ids = new Set(this.robots.map((r) => r.robot));
+    for (const id of this.latest.keys()) ids.add(id);
+    return [...ids].sort();
+  }
+
+  setFocus(robot) {
+    if (robot === this.focus) return;
+    this.focus = robot;
+    localStorage.setItem("pitchside.focus", robot);
+    this.emit("focus", robot);
+  }
+}
