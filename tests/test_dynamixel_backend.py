@@ -46,7 +46,7 @@ def bus2() -> Iterator[ServoBusEmulator]:
 
 
 def backend_on(emu: ServoBusEmulator, **options: object) -> DynamixelBackend:
-    options.setdefault("probe_timeout_ms", 30.0)  # generous: the emulator shares a loaded machine
+    options.setdefault("probe_timeout_ms", 100.0)  # generous: the emulator shares a loaded machine
     return DynamixelBackend.from_config(emu.port, emu.protocol, 1_000_000, **options)  # type: ignore[arg-type]
 
 
@@ -211,7 +211,9 @@ def test_torque_off_and_bad_input(bus1: ServoBusEmulator) -> None:
             backend.write_goals(["HeadTilt"], np.array([0.0, 1.0]))
         backend.write_goals(["HeadTilt"], np.array([math.nan]))
         assert backend.health()["rejected_goals"] == 1
-        assert backend.read().missing == []
+        wait_for(lambda: backend.read().missing == [], timeout=5, what="all servos answering")
+    with pytest.raises(DynamixelError, match="closed"):
+        backend.read()
 
 
 def test_missing_port_is_a_clear_error(tmp_path: Path) -> None:
@@ -259,6 +261,25 @@ def test_silent_servo_is_reported_and_others_keep_updating(bus1: ServoBusEmulato
         bus1.silence(5, False)
         wait_for(lambda: backend.read().missing == [] and backend.health()["silent"] == [], timeout=5,
                  what="the servo coming back after a re-probe")
+
+
+def test_silent_cm730_and_lost_port(bus1: ServoBusEmulator) -> None:
+    with backend_on(bus1, reprobe_interval_s=0.2) as backend:
+        assert backend.read().imu is not None and backend.health()["servo_power"] is True
+        bus1.silence(200)
+        wait_for(lambda: backend.read().imu is None and backend.health()["cm730"] == "silent", timeout=5,
+                 what="CM-730 reported silent")
+        reading = backend.read()
+        assert reading.missing == [] and reading.imu is None  # the servos still answer
+        assert "CM730 silent" in backend.health()["text"]
+        bus1.silence(200, False)
+        wait_for(lambda: backend.read().imu is not None and backend.health()["cm730"] == "ok", timeout=5,
+                 what="CM-730 back")
+        bus1.stop()  # the USB adapter disappears
+        wait_for(lambda: len(backend.read().missing) == 20, timeout=5, what="every joint missing without a port")
+        backend.write_goals(backend.joint_names, np.zeros(20))  # no exception either
+        health = backend.health()
+        assert health["port_lost"] and not health["ok"] and "port lost" in health["text"]
 
 
 @pytest.mark.parametrize("kind", CORRUPTIONS)

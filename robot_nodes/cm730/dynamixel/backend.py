@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import contextlib
 import math
+import termios
 import threading
 import time
 from dataclasses import dataclass
@@ -21,6 +23,9 @@ from .health import BusHealth
 from .imu import CM730Imu
 from .models import ServoModel
 from .sdk_adapter import BusPort, P1BulkRead, P2SyncRead, StatusBatch, read_one
+
+# what the serial layer raises when the adapter goes away (USB unplugged, pty closed)
+PORT_ERRORS = (serial.SerialException, OSError, termios.error)
 
 
 class DynamixelError(RuntimeError):
@@ -58,6 +63,9 @@ class DynamixelBackend:
         self.health_counters = BusHealth(self.joint_names)
         self._lock = threading.Lock()
         self._torque: dict[str, bool] = {}
+        self._closed = False
+        self._port_lost: float | None = None  # monotonic time of the loss / the last reopen attempt
+        self._servo_power: bool | None = None
         n = len(self._servos)
         self._pos = np.zeros(n)
         self._vel = np.zeros(n)
@@ -76,7 +84,7 @@ class DynamixelBackend:
         try:
             if not self.port.setBaudRate(config.baudrate):
                 raise DynamixelError(f"baud rate {config.baudrate} not supported by the port driver")
-        except serial.SerialException as exc:
+        except PORT_ERRORS as exc:
             raise DynamixelError(f"cannot open servo bus {config.port!r}: {exc}") from None
         if self._cm730:
             self._power_on()
@@ -97,24 +105,58 @@ class DynamixelBackend:
     # ------------------------------------------------------------------ reading
 
     def read(self) -> BusReading:
+        """One cycle. Never raises for bus trouble: silent devices, garbage and a lost port end up in
+        `missing` and `health()`; a lost port is reopened every `reprobe_interval_s`."""
         with self._lock:
+            if self._closed:
+                raise DynamixelError("read() on a closed DynamixelBackend")
             t0 = time.perf_counter()
             self._cycle += 1
             slow = self._cycle % self.config.slow_read_every == 0
             answered: set[int] = set()
-            batch = self._broadcast_read(slow)
-            self._absorb(batch, slow, answered)
-            self._find_silent(batch, slow, answered)
-            self._reprobe(slow, answered)
-            imu = self._cm730_imu(batch.data.get(CM730_ID)) if self._cm730 else None
+            imu = None
+            if self._port_lost is None or self._reopen():
+                try:
+                    batch = self._broadcast_read(slow)
+                    self._absorb(batch, slow, answered)
+                    self._find_silent(batch, slow, answered)
+                    self._reprobe(slow, answered)
+                    imu = self._cm730_imu(batch.data.get(CM730_ID)) if self._cm730 else None
+                except PORT_ERRORS as exc:
+                    self._lose_port(exc)
             missing = [s.name for s in self._servos if s.cfg.id not in answered]
             self.health_counters.end_cycle(missing, time.perf_counter() - t0)
             self.health_counters.silent = [s.name for s in self._servos if s.silent]
             if not self._cm730:
                 volts = self._servo_voltage[np.isfinite(self._servo_voltage)]
-                self._voltage = float(volts.mean()) if volts.size else None
+                self._voltage = round(float(volts.mean()), 2) if volts.size else None
             return BusReading(positions=self._pos.copy(), velocities=self._vel.copy(), efforts=self._eff.copy(),
                               imu=imu, temperatures=self._temp.copy(), voltage=self._voltage, missing=missing)
+
+    def _lose_port(self, exc: BaseException) -> None:
+        self.port.is_using = False
+        if self._port_lost is None:
+            every = self.config.reprobe_interval_s
+            self.health_counters.note(f"servo bus port lost ({exc}); reopening every {every} s")
+        self._port_lost = time.monotonic()
+
+    def _reopen(self) -> bool:
+        """After losing the port (USB unplugged, adapter reset): try to open it again now and then."""
+        if self._port_lost is None or time.monotonic() - self._port_lost < self.config.reprobe_interval_s:
+            return False
+        self._port_lost = time.monotonic()
+        try:
+            with contextlib.suppress(Exception):
+                self.port.closePort()
+            if not self.port.setBaudRate(self.config.baudrate):
+                return False
+        except PORT_ERRORS:
+            return False
+        self._port_lost = None
+        self.health_counters.note("servo bus port reopened")
+        if self._cm730:
+            self._power_on()
+        return True
 
     def _block(self, slow: bool) -> tuple[int, int]:
         table = P1 if self.protocol == 1 else P2
@@ -246,6 +288,7 @@ class DynamixelBackend:
             k = address - CM730.BLOCK[0]
             return d[k] | d[k + 1] << 8
 
+        self._servo_power = bool(d[CM730.DYNAMIXEL_POWER - CM730.BLOCK[0]])
         b = d[CM730.BUTTONS - CM730.BLOCK[0]]
         self.buttons = {"mode": bool(b & CM730.BUTTON_MODE), "start": bool(b & CM730.BUTTON_START)}
         self._voltage = d[CM730.VOLTAGE - CM730.BLOCK[0]] / 10.0
@@ -333,7 +376,15 @@ class DynamixelBackend:
 
     def _sync_write(self, address: int, length: int, param: list[int]) -> None:
         with self._lock:
-            result = self.ph.syncWriteTxOnly(self.port, address, length, param, len(param))
+            if self._closed:
+                raise DynamixelError("write on a closed DynamixelBackend")
+            if self._port_lost is not None:
+                return
+            try:
+                result = self.ph.syncWriteTxOnly(self.port, address, length, param, len(param))
+            except PORT_ERRORS as exc:
+                self._lose_port(exc)
+                return
             self.port.is_using = False
             if result != COMM_SUCCESS:
                 self.health_counters.tx_failures += 1
@@ -346,6 +397,14 @@ class DynamixelBackend:
         with self._lock:
             report = self.health_counters.as_dict()
             report["cm730"] = "absent" if not self._cm730 else ("silent" if self._cm730_silent else "ok")
+            report["servo_power"] = self._servo_power
+            report["port_lost"] = self._port_lost is not None
+            if self._cm730 and self._cm730_silent:
+                report["ok"] = False
+                report["text"] += "; CM730 silent"
+            if self._port_lost is not None:
+                report["ok"] = False
+                report["text"] = "port lost; " + report["text"]
             report["buttons"] = dict(self.buttons)
             report["voltage"] = self._voltage
             report["port"] = self.config.port
@@ -354,8 +413,10 @@ class DynamixelBackend:
 
     def close(self) -> None:
         with self._lock:
+            self._closed = True
             if self.port.is_open:
-                self.port.closePort()
+                with contextlib.suppress(Exception):
+                    self.port.closePort()
 
     def __enter__(self) -> DynamixelBackend:
         return self
