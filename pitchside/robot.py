@@ -34,7 +34,13 @@ def available(names: list[str]) -> list[str]:
     """Nodes whose module exists in this checkout (parts of the stack may still be missing)."""
     import importlib.util
 
-    return [n for n in names if importlib.util.find_spec(NODE_MODULES[n]) is not None]
+    def runnable(module: str) -> bool:
+        spec = importlib.util.find_spec(module)
+        if spec is None:
+            return False
+        return spec.submodule_search_locations is None or importlib.util.find_spec(f"{module}.__main__") is not None
+
+    return [n for n in names if runnable(NODE_MODULES[n])]
 
 
 def main(argv: list[str] | None = None) -> None:
