@@ -109,6 +109,10 @@ def test_panels_show_live_data(browser: Any, scene: RunningServer, stands: dict[
     page.wait_for_selector('.card[data-robot="r1"][data-status="stale"]', timeout=timeout)
     page.wait_for_selector('.card[data-robot="r1"][data-status="lost"]', timeout=timeout)
     assert page.get_attribute('.card[data-robot="r2"]', "data-status") == "ok"
+    page.wait_for_function("window.pitchside.fieldView.drawn.find(r => r.id === 'r1').silent === true",
+                           timeout=timeout)
+    page.wait_for_selector('tr.level-3[data-node="r1/scenestand"]', timeout=timeout)
+    assert page.locator('tr.level-0[data-node="r2/scenestand"]').count() == 1
     page.screenshot(path=str(OUTPUT / "dashboard-r1-lost.png"), full_page=False)
     assert not errors, errors
 

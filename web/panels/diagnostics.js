@@ -1,6 +1,7 @@
 // Diagnostics and log: every node's latest DiagnosticStatus (level, message, values), errors on top and in red.
 
 const LEVELS = ["OK", "WARN", "ERROR", "STALE"];
+const STALE_MS = 5000; // diagnostics come at 1 Hz: five missed reports and the node counts as silent
 
 function esc(text) {
   return String(text).replace(/[&<>"]/g, (c) => ({ "&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;" })[c]);
@@ -32,13 +33,16 @@ export default {
       dirty = true;
     })];
 
+    let renders = 0;
     function render() {
-      if (!dirty) return;
+      if (!dirty && ++renders % 4) return; // re-check silence every 2 s even without news
       dirty = false;
-      const rows = [...statuses.values()].sort((a, b) => b.status.level - a.status.level ||
-        a.robot.localeCompare(b.robot) || a.status.name.localeCompare(b.status.name));
-      tbody.innerHTML = rows.map(({ robot, status }) => `<tr class="level-${status.level}" data-node="${esc(status.name)}">
-        <td>${esc(robot)}</td><td>${esc(status.name)}</td><td>${LEVELS[status.level] ?? status.level}</td>
+      const now = performance.now();
+      const rows = [...statuses.values()].map((r) => ({ ...r, level: now - r.at > STALE_MS ? 3 : r.status.level }))
+        .sort((a, b) => b.level - a.level || a.robot.localeCompare(b.robot) || a.status.name.localeCompare(b.status.name));
+      tbody.innerHTML = rows.map(({ robot, status, level }) => `<tr class="level-${level}" data-node="${esc(status.name)}">
+        <td>${esc(robot)}</td><td>${esc(status.name)}</td>
+        <td>${level === 3 && status.level !== 3 ? "STALE (silent)" : LEVELS[status.level] ?? status.level}</td>
         <td>${esc(status.message)}</td>
         <td class="values">${status.values.map((v) => `${esc(v.key)}=${esc(v.value)}`).join(" ")}</td></tr>`).join("");
       logEl.innerHTML = log.slice(-30).reverse().map((l) => `<div>${esc(l)}</div>`).join("");

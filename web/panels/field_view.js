@@ -100,8 +100,10 @@ export default {
           g.fillStyle = "#ffffff"; g.font = "bold 12px sans-serif"; g.fillText(`#${id}`, X(p.x) + 8, Y(p.y) - 8);
         });
       }
+      const silent = new Set(store.robots.filter((r) => store.robotAge(r) >= ctx.config.stale_after_s).map((r) => r.robot));
       for (const [id, entry] of all) {
         const focused = id === store.focus;
+        g.globalAlpha = silent.has(id) ? 0.45 : 1; // old news: drawn faded, labelled below
         if (entry.truth) robotShape(g, X, Y, scale, entry.truth, "#ffffff", 0, focused);
         if (entry.estimate) {
           const c = Math.max(0, Math.min(1, entry.estimate.confidence ?? 1));
@@ -111,9 +113,11 @@ export default {
           g.stroke(); g.setLineDash([]);
         }
         const pose = entry.estimate || entry.truth;
+        const name = silent.has(id) ? `${id} (silent)` : id;
+        g.globalAlpha = 1;
         g.fillStyle = "#ffffff"; g.strokeStyle = "#000"; g.lineWidth = 3; g.font = "bold 14px sans-serif";
-        g.strokeText(id, X(pose.x) + 12, Y(pose.y) + 18); g.fillText(id, X(pose.x) + 12, Y(pose.y) + 18);
-        drawn.push({ id, x: pose.x, y: pose.y });
+        g.strokeText(name, X(pose.x) + 12, Y(pose.y) + 18); g.fillText(name, X(pose.x) + 12, Y(pose.y) + 18);
+        drawn.push({ id, x: pose.x, y: pose.y, silent: silent.has(id) });
         const ball = store.get(id, "ball_relative")?.data;
         if (ball && entry.estimate && ball.confidence > 0) {
           const b = transform(entry.estimate, ball.ball_relative);
