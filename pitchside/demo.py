@@ -37,7 +37,7 @@ def free_port(preferred: int, kind: int = socket.SOCK_STREAM) -> int:
 
 
 def demo_processes(robots: int, endpoint: str, http_port: int, telemetry_port: int, model: str,
-                   match: bool, gc_ports: list[int]) -> list[NodeProcess]:
+                   match: bool, gc_ports: list[int], gc_return_port: int) -> list[NodeProcess]:
     py = sys.executable
     connect = ["--connect", endpoint]
     processes = [NodeProcess("world", [py, "-m", "robot_nodes.cm730.sim", "--robots", str(robots),
@@ -46,11 +46,13 @@ def demo_processes(robots: int, endpoint: str, http_port: int, telemetry_port: i
     for i in range(1, robots + 1):
         robot_id = f"robot{i}"
         extra = {
-            "game_controller": ["--set", f"player_number={i}", "--set", f"listen_port={gc_ports[i - 1]}"],
+            "game_controller": ["--set", f"player_number={i}", "--set", f"listen_port={gc_ports[i - 1]}",
+                                "--set", f"return_port={gc_return_port}"],
             "telemetry": ["--set", f"destination=127.0.0.1:{telemetry_port}"],
         }
         processes += robot_nodes(robot_id, [endpoint], model, per_robot, extra)
-    gc = [py, "-m", "robot_nodes.game_controller.simulator", "--players-per-team", str(max(robots, 4))]
+    gc = [py, "-m", "robot_nodes.game_controller.simulator", "--players-per-team", str(max(robots, 4)),
+          "--return-address", f"127.0.0.1:{gc_return_port}"]
     for port in gc_ports:
         gc += ["--to", f"127.0.0.1:{port}"]
     processes.append(NodeProcess("gamecontroller", gc))
@@ -74,9 +76,10 @@ def main(argv: list[str] | None = None) -> None:
     http_port = free_port(args.port)
     telemetry_port = free_port(5800, socket.SOCK_DGRAM)
     gc_ports = [free_port(3838 + i, socket.SOCK_DGRAM) for i in range(args.robots)]
+    gc_return_port = free_port(3939, socket.SOCK_DGRAM)
     router = open_router([endpoint])
     launcher = Launcher(demo_processes(args.robots, endpoint, http_port, telemetry_port, args.model, args.match,
-                                       gc_ports))
+                                       gc_ports, gc_return_port))
     print(f"\n  pitchside demo: open http://127.0.0.1:{http_port}/  (Zenoh router {endpoint}; Ctrl-C stops)\n",
           flush=True)
     try:
