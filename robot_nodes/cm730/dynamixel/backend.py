@@ -229,10 +229,22 @@ class DynamixelBackend:
                 self._temp[i] = float(d[20])
 
     def _read_single(self, dxl_id: int, slow: bool) -> StatusBatch:
+        """READ of one device; one retry when the answer came garbled (alive, just unlucky)."""
         address, length = CM730.BLOCK if dxl_id == CM730_ID else self._block(slow)
-        batch = read_one(self.ph, self.port, dxl_id, address, length, self.config.probe_timeout_ms)
-        self.health_counters.corrupt_packets += batch.corrupt
+        corrupt = 0
+        for _ in range(2):
+            batch = read_one(self.ph, self.port, dxl_id, address, length, self.config.probe_timeout_ms)
+            self.health_counters.corrupt_packets += batch.corrupt
+            corrupt += batch.corrupt
+            if dxl_id in batch.data or not batch.corrupt:
+                break
+        batch.corrupt = corrupt
         return batch
+
+    @staticmethod
+    def _quiet(batch: StatusBatch, dxl_id: int) -> bool:
+        """No packet at all (not even a garbled one) came back from a single READ."""
+        return dxl_id not in batch.data and batch.corrupt == 0
 
     def _find_silent(self, batch: StatusBatch, slow: bool, answered: set[int]) -> None:
         """Devices missing from the broadcast read are asked alone; who stays quiet is marked silent."""
@@ -241,7 +253,7 @@ class DynamixelBackend:
             single = self._read_single(CM730_ID, slow)
             if CM730_ID in single.data:
                 batch.data[CM730_ID] = single.data[CM730_ID]
-            else:
+            elif self._quiet(single, CM730_ID):
                 self._cm730_silent, self._cm730_last_probe = True, now
                 self._active_version += 1
                 self.health_counters.note("CM730 (id 200) silent: no IMU, buttons or bus voltage")
@@ -251,7 +263,7 @@ class DynamixelBackend:
             single = self._read_single(s.cfg.id, slow)
             if s.cfg.id in single.data:
                 self._absorb(single, slow, answered)
-            else:
+            elif self._quiet(single, s.cfg.id):
                 s.silent, s.last_probe = True, now
                 self._active_version += 1
                 self.health_counters.went_silent(s.name, s.cfg.id)

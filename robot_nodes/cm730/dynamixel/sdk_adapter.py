@@ -46,8 +46,9 @@ class StatusBatch:
     timed_out: bool = False
 
 
-def receive_statuses(ph: Any, port: PortHandler, lengths: dict[int, int]) -> StatusBatch:
-    """Collect one status packet per expected id until all arrived or the port's packet timeout expires.
+def receive_statuses(ph: Any, port: PortHandler, lengths: dict[int, int], max_corrupt: int = 0) -> StatusBatch:
+    """Collect one status packet per expected id until all arrived or the port's packet timeout expires
+    (or, with max_corrupt > 0, that many garbled packets came).
 
     Packets are matched by id, not by position, so a silent device costs only its own data.
     """
@@ -61,6 +62,8 @@ def receive_statuses(ph: Any, port: PortHandler, lengths: dict[int, int]) -> Sta
             packet, result = ph.rxPacket(port, False) if p2 else ph.rxPacket(port)
             if result == COMM_RX_CORRUPT:
                 batch.corrupt += 1
+                if max_corrupt and batch.corrupt >= max_corrupt:
+                    break
                 continue
             if result != COMM_SUCCESS:
                 batch.timed_out = True
@@ -77,6 +80,8 @@ def receive_statuses(ph: Any, port: PortHandler, lengths: dict[int, int]) -> Sta
                 start, err = 5, packet[4]
             if n != expected:
                 batch.corrupt += 1
+                if max_corrupt and batch.corrupt >= max_corrupt:
+                    break
                 continue
             batch.data[dxl_id] = bytes(packet[start:start + n])
             if err:
@@ -109,9 +114,10 @@ class P2SyncRead(GroupSyncRead):
 
 
 def read_one(ph: Any, port: PortHandler, dxl_id: int, address: int, length: int, timeout_ms: float) -> StatusBatch:
-    """A single READ with our own (short) timeout: used to find out which device went silent."""
+    """A single READ with our own (short) timeout: used to find out which device went silent.
+    A garbled answer ends the wait at once (batch.corrupt == 1): the device is alive."""
     if ph.readTx(port, dxl_id, address, length) != COMM_SUCCESS:
         port.is_using = False
         return StatusBatch(timed_out=True)
     port.setPacketTimeoutMillis(timeout_ms)
-    return receive_statuses(ph, port, {dxl_id: length})
+    return receive_statuses(ph, port, {dxl_id: length}, max_corrupt=1)
