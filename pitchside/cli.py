@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import importlib
+import inspect
 import sys
 from collections.abc import Callable
 
@@ -10,6 +11,7 @@ from collections.abc import Callable
 COMMANDS: dict[str, tuple[str, str]] = {
     "demo": ("pitchside.demo", "simulated world + robot nodes + GameController + dashboard; prints the URL"),
     "robot": ("pitchside.robot", "one robot's nodes as supervised processes (simulated by default)"),
+    "sim": ("robot_nodes.cm730.sim.__main__", "the MuJoCo world and one cm730 node per robot (robot1..N)"),
     "serve": ("server.__main__", "the dashboard server (live Zenoh and UDP telemetry sources)"),
     "router": ("robot_nodes.runtime.router", "a Zenoh router for robots and dashboards on several machines"),
     "launch": ("robot_nodes.launch", "start named nodes as supervised processes"),
@@ -35,9 +37,10 @@ def main(argv: list[str] | None = None) -> None:
         print(f"pitchside: unknown command {command!r}\n\n{usage()}", file=sys.stderr)
         raise SystemExit(2)
     module = importlib.import_module(COMMANDS[command][0])
-    entry: Callable[[list[str]], None] = getattr(module, "main", None) or module.serve
+    entry: Callable[..., None] = getattr(module, "main", None) or module.serve
     sys.argv = [f"pitchside {command}", *rest]
-    entry(rest)
+    # entry points either take argv or read sys.argv themselves
+    entry(rest) if inspect.signature(entry).parameters else entry()
 
 
 if __name__ == "__main__":
