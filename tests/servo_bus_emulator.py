@@ -266,6 +266,7 @@ class ServoBusEmulator:
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="servo-bus-emulator", daemon=True)
         self._bus_free = 0.0
+        self._noise = b""
 
     # ---------------------------------------------------------------- control
 
@@ -302,6 +303,11 @@ class ServoBusEmulator:
             raise ValueError(f"unknown corruption {kind!r}; one of {CORRUPTIONS}")
         with self._lock:
             self.devices[dxl_id].corruptions.extend([kind] * count)
+
+    def inject(self, noise: bytes) -> None:
+        """Put these bytes on the wire just before the next status packet (line noise, a babbling device)."""
+        with self._lock:
+            self._noise += noise
 
     def pending_corruptions(self) -> int:
         with self._lock:
@@ -378,6 +384,9 @@ class ServoBusEmulator:
         t = max(now, self._bus_free) + instruction_len * byte_s
         for dev, packet in replies:
             packet = self._maybe_corrupt(dev, packet)
+            if self._noise:
+                with self._lock:
+                    packet, self._noise = self._noise + packet, b""
             t += len(packet) * byte_s
             if self.timing:
                 delay = t - time.perf_counter()

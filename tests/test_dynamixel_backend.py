@@ -12,6 +12,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 from dynamixel_sdk import GroupBulkRead, PacketHandler, PortHandler, Protocol1PacketHandler
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from robot_nodes.cm730.dynamixel import (
     BITBOTS_JOINTS,
@@ -155,6 +157,25 @@ def test_sdk_groupbulkread_protocol1_bug_still_present(bus1: ServoBusEmulator) -
         port.closePort()
 
 
+@pytest.mark.parametrize("protocol", [1, 2])
+def test_sdk_ping_and_model_check(protocol: int) -> None:
+    """The SDK's own ping (P1: PING + READ of address 0) works against the emulator; identify() finds the models."""
+    with ServoBusEmulator(protocol=protocol, ids=range(1, 21), cm730=False) as emu:
+        emu.servo(12).model_number = 320 if protocol == 1 else 321
+        emu.servo(12).put(0, emu.servo(12).model_number, 2)
+        emu.silence(20)
+        joints = default_joints(protocol)
+        joints["LKnee"] = JointConfig(id=12, model="MX-106" if protocol == 1 else "MX-106(2.0)")
+        joints["LHipPitch"] = JointConfig(id=11, model="MX-28" if protocol == 1 else "MX-28(2.0)")  # wrong
+        with backend_on(emu, joints=joints, cm730=False, probe_timeout_ms=50.0) as backend:
+            model_number, result, error = backend.ph.ping(backend.port, 3)
+            assert (model_number, result, error) == (310 if protocol == 1 else 311, 0, 0)
+            found = backend.identify()
+            assert found["LKnee"] == "ok" and found["HeadPan"] == "ok"
+            assert found["LHipPitch"] == ("MX-64" if protocol == 1 else "MX-64(2.0)")
+            assert found["RAnkleRoll"] == "silent"
+
+
 # ---------------------------------------------------------------- Protocol 1.0 + CM-730
 
 
@@ -194,6 +215,9 @@ def test_write_goals_with_offsets_directions_and_speed(bus1: ServoBusEmulator) -
         assert bus1.servo(1).u16(32) == units.rad_s_to_p1_moving_speed(MX64, 2.0)
         wait_for(lambda: np.allclose(backend.read().positions, goals, atol=3 * TICK), timeout=10,
                  what="present positions reach the goals")
+        backend.write_goals(["LKnee"], np.array([0.0]), efforts=np.array([4.2]))  # half of an MX-106's stall torque
+        wait_for(lambda: bus1.servo(12).u16(34) == 512, timeout=5, what="torque limit from the effort")
+        assert bus1.servo(12).u16(32) == 0  # no velocity given: no speed limit
 
 
 def test_torque_off_and_bad_input(bus1: ServoBusEmulator) -> None:
@@ -295,6 +319,29 @@ def test_corrupted_status_packets_are_counted_never_crash(bus1: ServoBusEmulator
                  what="a clean read after the corruption")
         assert bus1.stats["corrupted"] == 8
         assert backend.health()["silent"] == []  # garbled is not silent
+
+
+# random bytes mixed with header fragments, so the parsers also see plausible-looking packet starts
+_HEADERS = [b"\xff\xff", b"\xff\xff\xfd\x00", b"\xff\xff\x01\xfa", b"\xff\xff\xfd\x00\x05\xff\x00"]
+_noise = st.lists(st.one_of(st.binary(max_size=40), st.sampled_from(_HEADERS)), max_size=4).map(b"".join)
+
+
+@pytest.mark.parametrize("protocol", [1, 2])
+def test_line_noise_never_crashes(protocol: int) -> None:
+    """Random bytes ahead of the status packets (hypothesis): read() returns, garbage is counted or skipped."""
+    with ServoBusEmulator(protocol=protocol, ids=range(1, 7)) as emu:
+        joints = {name: jc for name, jc in default_joints(protocol).items() if jc.id <= 6}
+        with backend_on(emu, joints=joints, reprobe_interval_s=0.05, probe_timeout_ms=20.0) as backend:
+
+            @settings(max_examples=40, deadline=None, suppress_health_check=list(HealthCheck))
+            @given(noise=_noise)
+            def one_read(noise: bytes) -> None:
+                emu.inject(noise)
+                reading = backend.read()
+                assert reading.positions.shape == (6,) and set(reading.missing) <= set(joints)
+
+            one_read()
+            wait_for(lambda: backend.read().missing == [], timeout=10, what="all servos after the noise")
 
 
 # ---------------------------------------------------------------- Protocol 2.0

@@ -382,6 +382,26 @@ class DynamixelBackend:
         if param:
             self._sync_write(address, 1, param)
 
+    def identify(self) -> dict[str, str]:
+        """Model found at each joint's id (reads the model number): 'ok', 'silent', or what is there instead.
+        Worth calling once at start-up: a wrong model means wrong tick/radian conversion."""
+        found: dict[str, str] = {}
+        with self._lock:
+            for s in self._servos:
+                batch = read_one(self.ph, self.port, s.cfg.id, 0, 2, self.config.probe_timeout_ms)
+                if s.cfg.id not in batch.data:
+                    found[s.name] = "silent"
+                    continue
+                number = int.from_bytes(batch.data[s.cfg.id], "little")
+                actual = units.model_by_number(self.protocol, number)
+                if actual is None or actual.name != s.model.name:
+                    label = actual.name if actual else f"model number {number}"
+                    found[s.name] = label
+                    self.health_counters.note(f"{s.name}: configured {s.model.name}, found {label}")
+                else:
+                    found[s.name] = "ok"
+        return found
+
     def torque(self) -> dict[str, bool | None]:
         """Torque state as last commanded (None: never commanded by this backend)."""
         return {n: self._torque.get(n) for n in self.joint_names}
