@@ -53,6 +53,7 @@ from schemas.codec import SchemaError, schema_hash
 log = logging.getLogger(__name__)
 
 REPLAY_WINDOW = 256  # datagrams per stream a late (reordered) datagram may lag behind the newest
+_WINDOW_MASK = (1 << REPLAY_WINDOW) - 1
 HEALTH_WINDOW_S = 5.0
 _BUCKET_S = 0.5
 
@@ -276,7 +277,8 @@ class TelemetryReceiver:
         else:
             d = _seq_diff(h.seq, st.max_seq)
             if d > 0:
-                st.seen = ((st.seen << d) | 1) & ((1 << REPLAY_WINDOW) - 1)
+                # a jump beyond the window clears it (shifting by d would build a d-bit integer)
+                st.seen = ((st.seen << d) | 1) & _WINDOW_MASK if d < REPLAY_WINDOW else 1
                 st.max_seq = h.seq
                 new = d
             elif -d >= REPLAY_WINDOW or (st.seen >> -d) & 1:
