@@ -105,6 +105,8 @@ def test_default_mapping_and_config_loading(tmp_path: Path) -> None:
         BusConfig(protocol=2, joints={"A": JointConfig(1, model="MX-64")})
     with pytest.raises(ValueError, match="unknown servo model"):
         BusConfig(joints={"A": JointConfig(1, model="MX-9000")})
+    with pytest.raises(ConfigError, match="CM-730"):
+        BusConfig(joints={"A": JointConfig(200)})
     with pytest.raises(ConfigError, match="unknown keys"):
         joints_from_dict({"A": {"id": 1, "ofset": 0.1}})
 
@@ -238,6 +240,16 @@ def test_torque_off_and_bad_input(bus1: ServoBusEmulator) -> None:
         wait_for(lambda: backend.read().missing == [], timeout=5, what="all servos answering")
     with pytest.raises(DynamixelError, match="closed"):
         backend.read()
+
+
+def test_servo_error_bits_reach_health(bus1: ServoBusEmulator) -> None:
+    with backend_on(bus1) as backend:
+        bus1.servo(4).error = 0x04 | 0x20  # overheating, overload
+        wait_for(lambda: backend.read() and "LShoulderRoll" in backend.health()["servo_errors"], timeout=5,
+                 what="error bits reported")
+        assert backend.health()["servo_errors"]["LShoulderRoll"] == "overheating, overload"
+        bus1.servo(4).error = 0
+        wait_for(lambda: backend.read() and not backend.health()["servo_errors"], timeout=5, what="error cleared")
 
 
 def test_missing_port_is_a_clear_error(tmp_path: Path) -> None:

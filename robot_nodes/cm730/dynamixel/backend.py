@@ -47,7 +47,8 @@ class DynamixelBackend:
 
     Silent servos are found by individual reads when they drop out of a broadcast read, left out of
     the broadcast reads afterwards (a silent MX stalls the rest of a P1 bulk-read chain) and asked
-    again every `reprobe_interval_s`. Not thread-safe by design beyond one internal lock.
+    again every `reprobe_interval_s`. Calls are serialised by an internal lock, so a timer and a
+    subscription callback may share one backend.
     """
 
     def __init__(self, config: BusConfig) -> None:
@@ -204,6 +205,8 @@ class DynamixelBackend:
                 continue
             self._decode_servo(servo, data, slow)
             answered.add(dxl_id)
+            if dxl_id not in batch.errors:
+                self.health_counters.servo_ok(servo.name)
         for dxl_id, err in batch.errors.items():
             self.health_counters.servo_error(self._name_of(dxl_id), self.protocol, err)
 

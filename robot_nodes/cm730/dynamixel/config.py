@@ -108,6 +108,9 @@ class BusConfig:
         if not self.joints:
             self.joints = default_joints(self.protocol)
         validate_joints(self.joints, self.protocol)
+        clash = [n for n, jc in self.joints.items() if jc.id == 200]
+        if self.protocol == 1 and self.cm730 and clash:
+            raise ConfigError(f"joint {clash[0]} uses id 200, the CM-730's id")
         if self.slow_read_every < 1:
             raise ConfigError("slow_read_every must be >= 1")
 

@@ -60,6 +60,10 @@ class BusHealth:
             self.note(f"{name} reports {text}")
         self.servo_errors[name] = text
 
+    def servo_ok(self, name: str) -> None:
+        if self.servo_errors.pop(name, None) is not None:
+            self.note(f"{name} error cleared")
+
     def as_dict(self) -> dict[str, Any]:
         times = sorted(self._cycle_times)
         mean_ms = 1000.0 * sum(times) / len(times) if times else 0.0
