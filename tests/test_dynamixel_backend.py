@@ -24,6 +24,7 @@ from robot_nodes.cm730.dynamixel import (
     JointConfig,
     default_joints,
     joints_from_dict,
+    open_backend,
 )
 from robot_nodes.cm730.dynamixel import models as units
 from robot_nodes.cm730.dynamixel.imu import CM730Imu, ComplementaryFilter, accel_raw, gyro_raw, world_up_in_body
@@ -250,6 +251,18 @@ def test_servo_error_bits_reach_health(bus1: ServoBusEmulator) -> None:
         assert backend.health()["servo_errors"]["LShoulderRoll"] == "overheating, overload"
         bus1.servo(4).error = 0
         wait_for(lambda: backend.read() and not backend.health()["servo_errors"], timeout=5, what="error cleared")
+
+
+def test_open_backend_as_the_node_calls_it(bus1: ServoBusEmulator, tmp_path: Path) -> None:
+    with open_backend(device=bus1.port, baudrate=1_000_000) as backend:
+        assert backend.joint_names == list(BITBOTS_JOINTS)
+        wait_for(lambda: backend.read().missing == [], timeout=5, what="all 20 servos")
+    path = tmp_path / "params.yaml"
+    path.write_text("cm730:\n  dynamixel:\n    protocol: 1\n    probe_timeout_ms: 100\n    joints:\n"
+                    "      HeadPan: {id: 1}\n      HeadTilt: {id: 2, direction: -1}\n")
+    with open_backend(device=bus1.port, config_yaml=path) as backend:
+        assert backend.joint_names == ["HeadPan", "HeadTilt"]
+        assert backend.read().missing == []
 
 
 def test_missing_port_is_a_clear_error(tmp_path: Path) -> None:

@@ -458,3 +458,14 @@ class DynamixelBackend:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def open_backend(device: str, baudrate: int = 1_000_000, protocol: int = 1, config_yaml: str | Path | None = None,
+                 **options: Any) -> DynamixelBackend:
+    """What the cm730 node calls: the bus at `device`; joints and settings from `config_yaml`
+    (`cm730: {dynamixel: {...}}`) if given, else the 20 Bit-Bots joints on ids 1..20 (P1: MX-64 + CM-730)."""
+    if config_yaml is not None:
+        config = BusConfig.from_yaml(Path(config_yaml))
+        config.port, config.baudrate = device, baudrate
+        return DynamixelBackend(config)
+    return DynamixelBackend.from_config(device, protocol, baudrate, **options)
