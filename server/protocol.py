@@ -18,6 +18,8 @@ Server -> client, text frames (JSON objects with a "type"):
                                                                           big uint8 arrays as {"bytes": n})
     {"type": "robots", "server_time": <s>, "robots": [RobotInfo, ...]}    discovered robots and link health,
                                                                           on connect and twice a second
+    {"type": "batch", "frames": [<msg frame>, ...]}                        several msg frames that were ready at
+                                                                          once, oldest first (one WebSocket frame)
     {"type": "error", "error": "<what was wrong with the request>"}
     {"type": "pong", ...}
 
@@ -202,6 +204,16 @@ def split_binary_frame(frame: bytes) -> tuple[dict[str, Any], bytes]:
     if 4 + n > len(frame):
         raise ProtocolError("binary frame shorter than its JSON meta")
     return json.loads(frame[4:4 + n]), frame[4 + n:]
+
+
+def batch_frame(frames: list[str]) -> str:
+    """Several text frames in one: {"type": "batch", "frames": [frame, ...]} (frames already JSON)."""
+    return '{"type":"batch","frames":[' + ",".join(frames) + "]}"
+
+
+def unbatch(frame: dict[str, Any]) -> list[dict[str, Any]]:
+    """The frames inside a parsed text frame (a batch holds several; anything else is itself)."""
+    return list(frame["frames"]) if frame.get("type") == "batch" else [frame]
 
 
 def hello_frame(match_mode: bool) -> str:

@@ -18,7 +18,7 @@ import pytest
 import websockets
 
 from robot_nodes.runtime import BusConfig
-from server.protocol import split_binary_frame
+from server.protocol import split_binary_frame, unbatch
 from tests.dashboard_server import RunningServer, dashboard_server
 from tests.teststand import TestStand
 from tests.waiting import wait_for
@@ -45,9 +45,8 @@ async def _frames(ws: Any, seconds: float, kind: str = "msg") -> list[dict[str, 
             raw = await asyncio.wait_for(ws.recv(), left)
         except TimeoutError:
             break
-        frame = json.loads(raw) if isinstance(raw, str) else split_binary_frame(raw)[0]
-        if frame["type"] == kind:
-            out.append(frame)
+        frames = unbatch(json.loads(raw)) if isinstance(raw, str) else [split_binary_frame(raw)[0]]
+        out += [f for f in frames if f["type"] == kind]
     return out
 
 
@@ -56,9 +55,9 @@ async def _first(ws: Any, predicate: Any, timeout: float = 20.0) -> dict[str, An
     while time.monotonic() < deadline:
         raw = await asyncio.wait_for(ws.recv(), deadline - time.monotonic())
         if isinstance(raw, str):
-            frame = json.loads(raw)
-            if predicate(frame):
-                return frame
+            for frame in unbatch(json.loads(raw)):
+                if predicate(frame):
+                    return frame
     raise AssertionError("frame not received")
 
 
@@ -141,9 +140,9 @@ async def _fifty_clients(server: RunningServer, node: TestStand) -> None:
         async with websockets.connect(server.ws_url) as ws:
             await ws.send(json.dumps({"op": "subscribe", "robot": "r1", "topic": "joint_states"}))
             while True:
-                frame = json.loads(await ws.recv())
-                if frame["type"] == "msg" and measuring.is_set():
-                    seen[i].add(int(frame["data"]["position"][0]))
+                for frame in unbatch(json.loads(await ws.recv())):
+                    if frame["type"] == "msg" and measuring.is_set():
+                        seen[i].add(int(frame["data"]["position"][0]))
 
     def hub() -> dict[str, Any]:
         return httpx.get(f"{server.url}/api/hub", timeout=10).json()

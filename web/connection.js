@@ -24,7 +24,9 @@ export class Connection {
     ws.onmessage = (event) => {
       this.received++;
       if (typeof event.data === "string") {
-        this.onFrame(JSON.parse(event.data));
+        const frame = JSON.parse(event.data);
+        if (frame.type === "batch") for (const f of frame.frames) this.onFrame(f);
+        else this.onFrame(frame);
       } else {
         this.onFrame(splitBinary(event.data));
       }

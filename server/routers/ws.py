@@ -49,6 +49,7 @@ async def _send_frames(ws: WebSocket, sub: Subscriber, state: ServerState) -> No
         if now >= next_robots:
             next_robots = now + ROBOTS_PERIOD_S
             await ws.send_text(protocol.robots_frame(robots_info(state)))
+        texts: list[str] = []
         for msg in sub.drain():
             try:
                 frame = protocol.frame_of(msg)
@@ -57,9 +58,11 @@ async def _send_frames(ws: WebSocket, sub: Subscriber, state: ServerState) -> No
                 log.debug("not sent: %s", exc)
                 continue
             if isinstance(frame, str):
-                await ws.send_text(frame)
+                texts.append(frame)
             else:
                 await ws.send_bytes(frame)
+        if texts:  # one WebSocket frame for what queued up meanwhile: the per-frame cost dominates
+            await ws.send_text(texts[0] if len(texts) == 1 else protocol.batch_frame(texts))
 
 
 @router.websocket("/ws")
