@@ -8,6 +8,7 @@ import time
 from collections.abc import Iterator
 from importlib.metadata import version
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -15,6 +16,7 @@ from dynamixel_sdk import GroupBulkRead, PacketHandler, PortHandler, Protocol1Pa
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+import schemas
 from robot_nodes.cm730.dynamixel import (
     BITBOTS_JOINTS,
     BusConfig,
@@ -29,6 +31,10 @@ from robot_nodes.cm730.dynamixel import (
 from robot_nodes.cm730.dynamixel import models as units
 from robot_nodes.cm730.dynamixel.imu import CM730Imu, ComplementaryFilter, accel_raw, gyro_raw, world_up_in_body
 from robot_nodes.cm730.dynamixel.sdk_adapter import P1BulkRead
+from robot_nodes.cm730.node import Cm730Node
+from robot_nodes.runtime import BusConfig as RuntimeBus
+from robot_nodes.runtime import open_session
+from robot_nodes.runtime.keys import topic_key
 from tests.servo_bus_emulator import CORRUPTIONS, ServoBusEmulator, crc16, p1_packet, p2_packet, stuff, unstuff
 from tests.waiting import wait_for
 
@@ -405,3 +411,30 @@ def test_protocol2_silent_servo_and_corruption(bus2: ServoBusEmulator) -> None:
         assert backend.health()["corrupt_packets"] >= 2
         bus2.silence(2, False)
         wait_for(lambda: backend.read().missing == [], timeout=5, what="P2 servo back")
+
+
+# ---------------------------------------------------------------- the cm730 node on the emulated bus
+
+
+def test_cm730_node_drives_the_emulated_bus(bus1: ServoBusEmulator, bus: RuntimeBus) -> None:
+    """The node, as launched with backend=dynamixel, over a real Zenoh router: joint_states out, motor_goals in."""
+    node = Cm730Node(robot_id="robot1", bus=bus, overrides={"backend": "dynamixel", "device": bus1.port,
+                                                          "publish_rate": 50.0}).start()
+    session = open_session(bus)
+    states: list[Any] = []
+    sub = session.declare_subscriber(topic_key("robot1", "joint_states"),
+                                     lambda s: states.append(schemas.decode(s.payload.to_bytes(),
+                                                                            "sensor_msgs/msg/JointState")))
+    goals = session.declare_publisher(topic_key("robot1", "motor_goals"))
+    try:
+        bus1.servo(2).position = 2048 + 300
+        wait_for(lambda: states and abs(states[-1].position[1] - 300 * TICK) < 2 * TICK, timeout=20,
+                 what="HeadTilt in joint_states")
+        point = schemas.make("trajectory_msgs/msg/JointTrajectoryPoint", positions=np.array([0.5]))
+        msg = schemas.make("trajectory_msgs/msg/JointTrajectory", joint_names=["HeadPan"], points=[point])
+        wait_for(lambda: goals.put(schemas.encode(msg)) or bus1.servo(1).goal() == 2048 + round(0.5 / TICK),
+                 timeout=20, interval=0.2, what="HeadPan goal on the emulated servo")
+    finally:
+        sub.undeclare()
+        session.close()
+        node.shutdown()
