@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import inspect
 import math
+import os
 import time
+import tty
 from collections.abc import Iterator
 from importlib.metadata import version
 from pathlib import Path
@@ -139,6 +141,29 @@ def test_emulator_packets_match_the_protocol_examples() -> None:
     body = bytes([0x55, 0, 0xFF, 0xFF, 0xFD, 0x01])
     assert stuff(body) == bytes([0x55, 0, 0xFF, 0xFF, 0xFD, 0xFD, 0x01])
     assert unstuff(stuff(body)) == body
+
+
+def test_adapter_puts_the_spec_packets_on_the_wire() -> None:
+    """The bytes the backend's bulk read and sync write send equal the worked examples of the protocol spec."""
+    master, slave = os.openpty()
+    tty.setraw(slave)
+    port = PortHandler(os.ttyname(slave))
+    assert port.openPort()
+    try:
+        ph = PacketHandler(1.0)
+        bulk = P1BulkRead(port, ph)
+        bulk.addParam(200, 24, 30)
+        bulk.addParam(1, 36, 6)
+        bulk.addParam(2, 36, 6)
+        assert bulk.txPacket() == 0
+        port.is_using = False
+        assert os.read(master, 64).hex(" ") == "ff ff fe 0c 92 00 1e c8 18 06 01 24 06 02 24 0e"
+        assert ph.syncWriteTxOnly(port, 30, 2, [1, 0x00, 0x08, 2, 0x00, 0x04], 6) == 0
+        assert os.read(master, 64).hex(" ") == "ff ff fe 0a 83 1e 02 01 00 08 02 00 04 45"
+    finally:
+        port.closePort()
+        os.close(master)
+        os.close(slave)
 
 
 # ---------------------------------------------------------------- the SDK bug canary
