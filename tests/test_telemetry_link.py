@@ -299,3 +299,29 @@ def test_byte_budget_holds_and_state_keeps_its_rate(bus: BusConfig, collector: C
     for name in ("robot_state", "joint_states", "imu/data", "position"):
         assert received[name] >= 0.85 * sent[name], f"{name}: {received[name]} of {sent[name]} arrived"
     assert received[IMAGE] >= 5  # images get the rest of the budget, not nothing
+
+
+def test_parameters_apply_live(bus: BusConfig, collector: Collector) -> None:
+    """Destination and topics change while the node runs; a bad topic list is refused with an error."""
+    nowhere = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    nowhere.bind(("127.0.0.1", 0))
+    node = telemetry(bus, nowhere.getsockname()[1], topics="robot_state:20")
+    pub = OtherRobotNodes(robot_id="robot3", bus=bus).start()
+    try:
+        nowhere.settimeout(10)
+        assert nowhere.recv(2048)  # datagrams at the first destination
+        node.parameters.set({"destination": f"127.0.0.1:{collector.port}", "topics": "robot_state:20,position:20"})
+
+        def both_arrive() -> bool:
+            pub.publish("robot_state", sample("robot_state"))
+            pub.publish("position", sample("position"))
+            return {"robot_state", "position"} <= collector.topics()
+
+        wait_for(both_arrive, timeout=20, interval=0.1, what="robot_state and position at the new destination")
+        assert {s.topic for s in collector.receiver.streams("robot3").values()} == {"robot_state", "position"}
+        node.parameters.set({"topics": "no_such_topic:5"})
+        wait_for(lambda: "no_such_topic" in node.last_error, timeout=10, what="the refusal in diagnostics")
+    finally:
+        pub.shutdown()
+        node.shutdown()
+        nowhere.close()

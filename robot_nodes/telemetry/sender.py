@@ -78,7 +78,8 @@ def parse_destination(spec: str) -> tuple[str, int]:
 @dataclass
 class TelemetryParams:
     destination: str = param(f"127.0.0.1:{DEFAULT_PORT}", doc="host:port of the team PC's telemetry listener")
-    team_key: str = param("", doc="team key: 64 hex characters or a file holding them; empty = dev key")
+    team_key: str = param("", doc="team key file (or 64 hex characters, visible in the parameter list); "
+                                  "empty = published dev key")
     encrypt: bool = param(True, doc="encrypt payloads (off: authenticated only, readable in Wireshark)")
     topics: str = param(DEFAULT_TOPICS, doc="comma-separated <topic>:<max Hz> of the topic table")
     budget_bytes_per_s: int = param(200_000, range=(2_000, 100_000_000), doc="UDP payload bytes/s, all streams")
@@ -144,7 +145,9 @@ class TelemetryNode(Node):
         self._writer = DatagramWriter(load_key(self.params.team_key), self.robot_id, self.params.encrypt)
         self._socket = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self._socket.setblocking(False)
-        self._address = self._resolve(self.params.destination)
+        parse_destination(self.params.destination)  # a malformed destination is a configuration error: fail early
+        self._address: tuple[str, int] | None = None
+        self._resolve_destination()
         self.budget = ByteBudget(self.params.budget_bytes_per_s)
         self._rates: dict[str, float] = {}
         self._last_taken: dict[Any, float] = {}
@@ -167,14 +170,21 @@ class TelemetryNode(Node):
         self.timer(1.0, self._report, "report")
 
     # -- configuration --------------------------------------------------------------------------------
-    def _resolve(self, destination: str) -> tuple[str, int]:
-        host, port = parse_destination(destination)
-        family, _, _, _, address = socket.getaddrinfo(host, port, type=socket.SOCK_DGRAM)[0]
+    def _resolve_destination(self) -> None:
+        """Looks the team PC up; if its name does not resolve yet, retried every second, datagrams dropped."""
+        try:
+            host, port = parse_destination(self.params.destination)
+            family, _, _, _, address = socket.getaddrinfo(host, port, type=socket.SOCK_DGRAM)[0]
+        except (ValueError, OSError) as exc:
+            if self._address is not None or not self.last_error.startswith("telemetry destination"):
+                self.record_error(f"telemetry destination {self.params.destination!r}: {exc}")
+            self._address = None
+            return
         if family != self._socket.family:
             self._socket.close()
             self._socket = socket.socket(family, socket.SOCK_DGRAM)
             self._socket.setblocking(False)
-        return address[:2]
+        self._address = address[:2]
 
     def _apply_topics(self, spec: str) -> None:
         rates = parse_topics(spec)
@@ -203,7 +213,8 @@ class TelemetryNode(Node):
                 self._apply_topics(changed["topics"])
                 self._announce_table()
             if "destination" in changed:
-                self._address = self._resolve(changed["destination"])
+                self._address = None
+                self._resolve_destination()
             if "team_key" in changed:
                 self._writer.sealer = Sealer(load_key(changed["team_key"]))
         except (ValueError, OSError) as exc:
@@ -277,6 +288,8 @@ class TelemetryNode(Node):
         datagram = self._writer.fragment(kind, sid, schema, frame.frame_id, frame.payload_size, frame.fragments,
                                          index)
         try:
+            if self._address is None:
+                raise OSError("destination not resolved")
             self._socket.sendto(datagram, self._address)
         except OSError as exc:  # full socket buffer, unreachable network: the datagram is lost like on air
             self.send_errors += 1
@@ -287,6 +300,8 @@ class TelemetryNode(Node):
         return len(datagram)
 
     def _report(self) -> None:
+        if self._address is None:
+            self._resolve_destination()
         self.set_diagnostic("datagrams_sent", self.datagrams_sent)
         self.set_diagnostic("bytes_sent", self.bytes_sent)
         self.set_diagnostic("send_errors", self.send_errors)
