@@ -155,7 +155,16 @@ class Cm730Node(Node):
                 orientation_covariance=cov, angular_velocity_covariance=cov, linear_acceleration_covariance=cov,
                 angular_velocity=_vector3(imu.angular_velocity),
                 linear_acceleration=_vector3(imu.linear_acceleration)))
-        self.set_diagnostic("missing_servos", ",".join(reading.missing))
+        missing = ",".join(reading.missing)
+        if missing != self._diag_values.get("missing_servos", ""):
+            # a servo that falls silent (or comes back) is news now, not at the next diagnostics tick
+            self.set_diagnostic("missing_servos", missing)
+            if missing:
+                self.record_error(f"servos not answering: {missing}")
+            health = getattr(self.backend, "health", None)
+            if health is not None:
+                self.set_diagnostic("bus", health().get("text", ""))
+            self.publish_diagnostics()
 
     def _publish_servo_data(self) -> None:
         reading = self._last

@@ -198,6 +198,10 @@ class Node:
     def set_diagnostic(self, key: str, value: Any) -> None:
         self._diag_values[key] = str(value)
 
+    def publish_diagnostics(self) -> None:
+        """Send diagnostics now (they also go out every diagnostics_period)."""
+        self._publish_diagnostics()
+
     def record_error(self, message: str) -> None:
         """Counted and shown in diagnostics; the node goes on."""
         self.errors += 1
