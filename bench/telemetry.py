@@ -130,7 +130,8 @@ def main() -> None:
     args = parser.parse_args()
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     router = open_router([endpoint])
-    pub = RobotTopics(robot_id="bench1", bus=BusConfig(connect=[endpoint])).start()
+    pub = RobotTopics(robot_id="bench1", bus=BusConfig(connect=[endpoint]))
+    pub.start()
     fast = None
     try:
         print(f"offered: camera JPEG {pub.image_bytes} B at 30 Hz, joint_states + imu at 100 Hz, robot_state 50 Hz")
@@ -143,7 +144,8 @@ def main() -> None:
               f"-> {scpu / smbps if smbps else float('nan'):5.1f} % per MB/s (JPEG decode+encode dominate)")
         pub.shutdown()
         RobotTopics.camera_hz = 150.0
-        fast = RobotTopics(robot_id="bench1", bus=BusConfig(connect=[endpoint])).start()
+        fast = RobotTopics(robot_id="bench1", bus=BusConfig(connect=[endpoint]))
+        fast.start()
         mdps, mmbps, mcpu = run_sender(endpoint, args.seconds, image_max_width=0)
         print(f"camera at 150 Hz:         {mdps:5.0f} datagrams/s {mmbps:6.2f} MB/s  CPU {mcpu:5.1f} %  "
               f"-> {mcpu / mmbps if mmbps else float('nan'):5.1f} % per MB/s")

@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import io
+from types import ModuleType
 
+Image: ModuleType | None
 try:  # Pillow comes with the installed dependencies (imageio, viser); without it images pass through
     from PIL import Image
 except ImportError:  # pragma: no cover - depends on the environment

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 import socket
 import time
@@ -184,7 +185,7 @@ class TelemetryNode(Node):
             self._socket.close()
             self._socket = socket.socket(family, socket.SOCK_DGRAM)
             self._socket.setblocking(False)
-        self._address = address[:2]
+        self._address = (str(address[0]), int(address[1]))
 
     def _apply_topics(self, spec: str) -> None:
         rates = parse_topics(spec)
@@ -273,7 +274,7 @@ class TelemetryNode(Node):
 
     def _announce_table(self) -> None:
         for i, body in enumerate(encode_stream_tables(self.streams(), self.params.budget_bytes_per_s)):
-            self.budget.offer((TABLE_STREAM, i), Priority.CRITICAL, lambda body=body: body)
+            self.budget.offer((TABLE_STREAM, i), Priority.CRITICAL, functools.partial(bytes, body))
         self._pump()
 
     def _pump(self) -> None:
