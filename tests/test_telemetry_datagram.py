@@ -2,8 +2,13 @@
 
 from __future__ import annotations
 
+import asyncio
 import os
+import socket
 import struct
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -268,3 +273,56 @@ def test_budget_shares_bytes_by_priority() -> None:
     total = sent["image"] + sent["state"]
     assert 0.9 * 500_000 <= total <= 1.1 * 500_000
     assert sent["state"] >= 0.95 * offered_state * 380
+
+
+def test_dry_run_estimates_what_the_budget_grants() -> None:
+    from robot_nodes.telemetry.estimate import estimate_bandwidth
+
+    default = estimate_bandwidth({})
+    assert 0 < default["total"] < 200_000
+    assert default["overview"] == pytest.approx(10 * (64 + 64 + 16))
+    tight = estimate_bandwidth({"image_max_width": 0, "budget_bytes_per_s": 50_000})
+    assert tight["total"] == pytest.approx(50_000, rel=0.01)
+    for name in ("robot_state", "gamestate", "joint_states", "overview"):
+        assert tight[name] == pytest.approx(default[name])  # state keeps all it asks for
+    assert tight["camera/image/compressed"] < default["camera/image/compressed"] * 5
+    with pytest.raises(ValueError, match="no_such"):
+        estimate_bandwidth({"no_such": 1})
+
+
+def test_dry_run_cli(tmp_path: Path) -> None:
+    params = tmp_path / "params.yaml"
+    params.write_text("telemetry:\n  topics: robot_state:10,camera/image/compressed:1\n  budget_bytes_per_s: 30000\n")
+    out = subprocess.run([sys.executable, "-m", "robot_nodes.telemetry", "--dry-run", "--config", str(params)],
+                         capture_output=True, text=True, timeout=60, check=True).stdout
+    assert "robot_state" in out and "camera/image/compressed" in out and "budget 30000" in out
+    assert "joint_states" not in out
+
+
+def test_asyncio_listener_delivers_whole_messages() -> None:
+    from robot_nodes.telemetry.receiver import listen
+
+    async def scenario() -> list:
+        receiver = TelemetryReceiver(KEY)
+        got: list = []
+        arrived = asyncio.Event()
+
+        def on_messages(messages: list) -> None:
+            got.extend(messages)
+            arrived.set()
+
+        transport = await listen(receiver, on_messages, host="127.0.0.1", port=0)
+        try:
+            port = transport.get_extra_info("sockname")[1]
+            with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+                for d in DatagramWriter(KEY, "robot5").message(Kind.OVERVIEW, OVERVIEW_STREAM, OVERVIEW_HASH,
+                                                               RobotOverview(hcm_state=2).encode()):
+                    s.sendto(d, ("127.0.0.1", port))
+                s.sendto(b"garbage", ("127.0.0.1", port))
+            await asyncio.wait_for(arrived.wait(), 10)
+        finally:
+            transport.close()
+        return got
+
+    (message,) = asyncio.run(scenario())
+    assert (message.robot_id, message.topic, message.msg.hcm_state) == ("robot5", "overview", 2)

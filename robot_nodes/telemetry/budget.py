@@ -43,6 +43,7 @@ class Stream:
     frames_sent: int = 0
     superseded: int = 0  # messages replaced by a newer one before they started
     bytes_sent: int = 0
+    too_large: int = 0
 
     def head(self) -> Frame | None:
         """The frame to send from; starts the waiting message (prepares its payload lazily) if needed."""
@@ -51,7 +52,12 @@ class Stream:
             payload = prepare()
             if payload is None:
                 continue
-            self.current = Frame(len(payload), split(payload))
+            try:
+                fragments = split(payload)
+            except ValueError:  # larger than a frame may be: it cannot go, the stream goes on
+                self.too_large += 1
+                continue
+            self.current = Frame(len(payload), fragments)
             self.frames_started += 1
         return self.current
 
