@@ -196,6 +196,14 @@ def test_replayed_datagrams_are_rejected() -> None:
     now[0] += 1.0
     restarted = DatagramWriter(KEY, "robot1", clock_ns=lambda: int(now[0] * 1e9))
     assert len(receiver.feed(restarted.message(Kind.OVERVIEW, OVERVIEW_STREAM, OVERVIEW_HASH, body)[0])) == 1
+    # the robot's clock steps back a minute (NTP): within a boot the sequence decides, nothing is lost
+    now[0] -= 60.0
+    assert len(receiver.feed(restarted.message(Kind.OVERVIEW, OVERVIEW_STREAM, OVERVIEW_HASH, body)[0])) == 1
+    # a restart with the clock behind the previous run is refused until the receiver forgets the robot
+    behind = DatagramWriter(KEY, "robot1", clock_ns=lambda: int(now[0] * 1e9))
+    assert receiver.feed(behind.message(Kind.OVERVIEW, OVERVIEW_STREAM, OVERVIEW_HASH, body)[0]) == []
+    receiver.forget("robot1")
+    assert len(receiver.feed(behind.message(Kind.OVERVIEW, OVERVIEW_STREAM, OVERVIEW_HASH, body)[0])) == 1
 
 
 def test_fragments_of_different_frames_never_mix_and_loss_is_counted() -> None:

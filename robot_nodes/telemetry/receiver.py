@@ -259,13 +259,18 @@ class TelemetryReceiver:
         return [self._message(robot, header, info, *whole, now)]
 
     def _check_replay(self, robot: _Robot, h: Header, now: float) -> _Stream:
-        """Rejects duplicates, too-old and older-boot datagrams of an authentic sender; counts loss."""
-        if h.send_time_ns < robot.newest_send_ns - self.replay_window_ns:
-            raise TelemetryError("replay", f"datagram sent {(robot.newest_send_ns - h.send_time_ns) / 1e9:.1f} s "
-                                           f"before the newest of {h.robot_id}")
+        """Rejects duplicates, too-old and older-boot datagrams of an authentic sender; counts loss.
+
+        Within a boot the sequence window decides (robust to the robot's clock stepping back); a datagram that
+        starts a stream or a boot must be newer than the stream's last one and at most ``replay_window_s``
+        older than the newest datagram of its robot.
+        """
         key = (h.robot_id, h.stream_id)
         st = self._streams.get(key)
         if st is None or st.boot != h.boot_id:
+            if h.send_time_ns < robot.newest_send_ns - self.replay_window_ns:
+                raise TelemetryError("replay", f"datagram sent {(robot.newest_send_ns - h.send_time_ns) / 1e9:.1f} "
+                                               f"s before the newest of {h.robot_id}")
             if st is not None and h.send_time_ns <= st.last_send_ns:
                 raise TelemetryError("replay", f"datagram of an older sender boot of {h.robot_id}")
             fresh = _Stream(h.boot_id, h.seq, first_receive=now)
@@ -379,6 +384,14 @@ class TelemetryReceiver:
             self.decode_errors += 1
         return ReceivedMessage(h.robot_id, info.topic, info.type, msg, payload, send_ns / 1e9, now,
                                h.stream_id, h.frame_id, error)
+
+    def forget(self, robot_id: str) -> None:
+        """Drops all state of a robot (e.g. after it restarted with its clock behind the previous run's)."""
+        self._robots.pop(robot_id, None)
+        for key in [k for k in self._streams if k[0] == robot_id]:
+            del self._streams[key]
+        for key in [k for k in self._frames if k[0] == robot_id]:
+            self._drop(key, "forgotten")
 
     # -- link health ----------------------------------------------------------------------------------
     def streams(self, robot_id: str) -> dict[int, StreamInfo]:
