@@ -124,6 +124,33 @@ def baseline(datagrams_per_s: float, seconds: float = 3.0) -> tuple[float, float
     return sent * 1400 / wall / 1e6, 100 * (sum(me.cpu_times()[:2]) - cpu0) / wall
 
 
+def receiver_rate(n: int = 20_000) -> float:
+    """Whole joint_states messages/s the receiver authenticates, checks and decodes on one core."""
+    from robot_nodes.telemetry.datagram import (
+        TABLE_HASH,
+        TABLE_STREAM,
+        DatagramWriter,
+        Kind,
+        StreamInfo,
+        encode_stream_tables,
+    )
+    from robot_nodes.telemetry.receiver import TelemetryReceiver
+    from schemas.codec import schema_hash
+
+    key, typename = os.urandom(32), "sensor_msgs/msg/JointState"
+    writer, receiver = DatagramWriter(key, "bench1"), TelemetryReceiver(key)
+    for body in encode_stream_tables([StreamInfo(1, "joint_states", typename, schema_hash(typename), 1, 100)], 1):
+        for d in writer.message(Kind.STREAM_TABLE, TABLE_STREAM, TABLE_HASH, body):
+            receiver.feed(d)
+    payload = schemas.encode(schemas.make(typename, name=[f"j{i}" for i in range(20)], position=np.zeros(20)))
+    datagrams = [writer.message(Kind.MESSAGE, 1, schema_hash(typename), payload)[0] for _ in range(n)]
+    start = time.perf_counter()
+    got = sum(len(receiver.feed(d)) for d in datagrams)
+    elapsed = time.perf_counter() - start
+    assert got == n, receiver.counters()
+    return n / elapsed
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--seconds", type=float, default=10.0)
@@ -153,6 +180,8 @@ def main() -> None:
         base_per_mb = bcpu / bmbps if bmbps else float("nan")
         print(f"baseline, plain sendto at the same datagram rate: {bmbps:6.2f} MB/s CPU {bcpu:5.1f} % "
               f"-> {base_per_mb:5.1f} % per MB/s; sender/baseline = {per_mb / base_per_mb:4.1f}x")
+        rx = receiver_rate()
+        print(f"receiver: {rx:.0f} joint_states messages/s authenticated and decoded (one core)")
     finally:
         pub.shutdown()
         if fast is not None:
@@ -161,7 +190,7 @@ def main() -> None:
     print(f"RESULT telemetry datagrams_per_s={dps:.0f} cpu_pct_per_mbps={per_mb:.2f} mbps={mbps:.3f} "
           f"cpu_pct={cpu:.1f} downscale_cpu_pct={scpu:.1f} downscale_mbps={smbps:.3f} "
           f"high_datagrams_per_s={mdps:.0f} high_mbps={mmbps:.3f} high_cpu_pct={mcpu:.1f} "
-          f"baseline_cpu_pct_per_mbps={base_per_mb:.2f}")
+          f"baseline_cpu_pct_per_mbps={base_per_mb:.2f} receiver_msgs_per_s={rx:.0f}")
 
 
 if __name__ == "__main__":
