@@ -13,7 +13,7 @@ A receiver is not thread-safe: feed it from one thread (the listener's) or one a
 Rejection reasons (``TelemetryError.reason``): malformed, bad_magic, bad_version, bad_fragment, auth_failed,
 unknown_robot, replay, unknown_stream, schema_mismatch, internal. Frames dropped whole: ``frames_dropped``
 by reason incomplete (a fragment did not come within ``frame_timeout_s``), evicted (memory bound),
-inconsistent (fragments of one frame disagree on size or count).
+inconsistent (fragments of one frame disagree on size or count), forgotten (``forget(robot_id)``).
 """
 
 from __future__ import annotations
