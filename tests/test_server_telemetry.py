@@ -33,7 +33,9 @@ def test_match_mode_server_shows_telemetry(bus: BusConfig, tmp_path: Path) -> No
                 ws.send(json.dumps({"op": "subscribe", "robot": "r3", "topic": "overview"}))
                 got: dict[str, Any] = {}
                 deadline = time.monotonic() + 30
-                while len(got) < 2 and time.monotonic() < deadline:
+                # the first overviews may precede the sender's first robot_state (hcm_state 255 = unknown)
+                while time.monotonic() < deadline and not (
+                        "robot_state" in got and got.get("overview", {}).get("data", {}).get("hcm_state") == 10):
                     for frame in unbatch(json.loads(ws.recv(timeout=30))):
                         if frame["type"] == "msg":
                             got[frame["topic"]] = frame
