@@ -89,6 +89,12 @@ class Robot3DView:
         host = "127.0.0.1" if self.config.host in ("localhost", "127.0.0.1") else self.config.host
         self.server = await asyncio.to_thread(viser.ViserServer, host=host, port=self.port, verbose=False)
         self.port = self.server.get_port()
+        self.server.initial_camera.position = (1.2, -1.2, 0.8)  # a kid-size robot fills the view
+        self.server.initial_camera.look_at = (0.0, 0.0, 0.3)
+        self.server.scene.world_axes.visible = False
+        # the view lives in a small panel: keep viser's own controls out of the robot's way
+        self.server.gui.configure_theme(control_layout="collapsible", control_width="small", show_logo=False,
+                                        show_share_button=False)
         self._sub = self.hub.subscribe("robot3d", maxlen=64)
         self._sub.subscribe("*", "joint_states", max_hz=self.config.robot3d_max_hz)
         self._task = asyncio.create_task(self._run())
@@ -117,6 +123,10 @@ class Robot3DView:
             self.robots[robot] = model
         joints = msg.message
         model.apply(list(joints.name), joints.position)
+
+    def status(self) -> dict[str, Any]:
+        return {"port": self.port, "failed": dict(self.failed),
+                "robots": {r: {"updates": m.updates, "joints": m.joint_names} for r, m in self.robots.items()}}
 
     async def stop(self) -> None:
         if self._task is not None:

@@ -2,16 +2,19 @@
 
 from __future__ import annotations
 
+import re
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+import httpx
 import pytest
 
 from robot_nodes.runtime import BusConfig
 from tests.conftest import REPO
 from tests.dashboard_server import RunningServer, dashboard_server
 from tests.teststand import SceneStand
+from tests.waiting import wait_for
 
 CHROMIUM = Path("/usr/bin/chromium")
 OUTPUT = REPO / "test-output"
@@ -136,3 +139,47 @@ def test_layout_is_changed_and_remembered(browser: Any, scene: RunningServer) ->
     assert page.eval_on_selector("#grid", "g => getComputedStyle(g).getPropertyValue('--columns').trim()") == "4"
     page.select_option("#add-panel", "plots")
     assert page.locator('[data-panel="plots"]').count() == 1
+
+
+def test_robot3d_panel_shows_viser(browser: Any, router_endpoint: str, bus: BusConfig, testdata: Path,
+                                   tmp_path: Path) -> None:
+    """The 3D panel embeds viser's own client, which draws the Wolfgang URDF driven by joint_states."""
+    from tests.conftest import free_port
+    from tests.teststand import TestStand
+
+    wolfgang = testdata / "robots" / "wolfgang"
+    joints = "HeadPan,HeadTilt,LShoulderPitch,RShoulderPitch,LElbow,RElbow,LKnee,RKnee"
+    node = TestStand("r1", bus, overrides={"rate_hz": 20.0, "joints": joints}).start()
+    port3d = free_port()
+    args = ["--connect", router_endpoint, "--no-telemetry", "--robot3d", "--robot3d-port", str(port3d),
+            "--urdf", str(wolfgang / "urdf" / "robot.urdf"), "--package", f"wolfgang_description={wolfgang}"]
+    try:
+        with dashboard_server(args, tmp_path) as server:
+            page = browser.new_page(viewport={"width": 1600, "height": 1100})
+            page.goto(server.url)
+            page.evaluate("localStorage.clear()")
+            page.reload()
+            src = page.get_attribute('[data-panel="robot3d"] iframe', "src")
+            assert src == f"http://127.0.0.1:{port3d}/"
+
+            def shown() -> Any:
+                status = httpx.get(f"{server.url}/api/robot3d", timeout=10).json()
+                assert not status["failed"], status["failed"]
+                return status["robots"].get("r1", {}).get("updates", 0) > 0
+
+            wait_for(shown, 60.0, 0.2, "the 3D view applied joint_states")
+            frame = page.frame_locator('[data-panel="robot3d"] iframe')
+            frame.locator("canvas").first.wait_for(timeout=60_000)
+            # chromium throttles an off-screen cross-origin iframe: viser applies scene updates only when shown
+            page.locator('[data-panel="robot3d"]').scroll_into_view_if_needed()
+            robot = frame.get_by_text(re.compile(r"^/?r1$")).first
+            robot.wait_for(timeout=60_000)  # the robot is in viser's scene tree
+            page.click('[data-panel="robot3d"] button[data-act="wider"]')
+            page.click('[data-panel="robot3d"] button[data-act="taller"]')
+            assert page.locator('[data-panel="robot3d"]').bounding_box()["width"] > 700
+            assert robot.is_visible()  # resizing a panel does not reload its iframe
+            page.locator('[data-panel="robot3d"]').scroll_into_view_if_needed()
+            page.wait_for_timeout(3000)  # let viser stream the meshes before the picture (visual check only)
+            page.locator('[data-panel="robot3d"]').screenshot(path=str(OUTPUT / "robot3d.png"))
+    finally:
+        node.shutdown()

@@ -34,8 +34,12 @@ def test_match_mode_server_shows_telemetry(bus: BusConfig, tmp_path: Path) -> No
                 got: dict[str, Any] = {}
                 deadline = time.monotonic() + 30
                 # the first overviews may precede the sender's first robot_state (hcm_state 255 = unknown)
-                while time.monotonic() < deadline and not (
-                        "robot_state" in got and got.get("overview", {}).get("data", {}).get("hcm_state") == 10):
+                # and its first position (pose_known false)
+                def complete() -> bool:
+                    overview = got.get("overview", {}).get("data", {})
+                    return "robot_state" in got and overview.get("hcm_state") == 10 and overview.get("pose_known")
+
+                while time.monotonic() < deadline and not complete():
                     for frame in unbatch(json.loads(ws.recv(timeout=30))):
                         if frame["type"] == "msg":
                             got[frame["topic"]] = frame

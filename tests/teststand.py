@@ -39,6 +39,7 @@ class TestStandParams:
     rate_hz: float = param(50.0, range=(1.0, 1000.0), doc="joint_states and robot_state rate")
     image_hz: float = param(0.0, range=(0.0, 60.0), doc="camera image rate (0: none)")
     noisy_image: bool = param(False, doc="incompressible images (big frames)")
+    joints: str = param("", doc="comma-separated joint names (default joint0..joint19)")
 
 
 class TestStand(Node):
@@ -51,6 +52,7 @@ class TestStand(Node):
     def setup(self) -> None:
         self.seq = 0
         self.hcm_state = 10  # WALKING
+        self.joint_names = [j.strip() for j in self.params.joints.split(",") if j.strip()] or JOINTS
         self.state_pub = self.publisher("robot_state")
         self.joints_pub = self.publisher("joint_states")
         self.image_pub = self.publisher("camera/image/compressed")
@@ -62,9 +64,10 @@ class TestStand(Node):
     def tick(self) -> None:
         self.seq += 1
         self.state_pub.publish(schemas.make(HL + "RobotControlState", state=self.hcm_state))
-        positions = [float(self.seq)] + [0.3 * math.sin(self.seq * 0.05 + i) for i in range(19)]
+        n = len(self.joint_names)
+        positions = [float(self.seq)] + [0.3 * math.sin(self.seq * 0.05 + i) for i in range(n - 1)]
         self.joints_pub.publish(schemas.make("sensor_msgs/msg/JointState", header=header("base_link"),
-                                             name=JOINTS, position=positions))
+                                             name=self.joint_names, position=positions))
 
     def publish_image(self) -> None:
         self.image_pub.publish(schemas.make("sensor_msgs/msg/CompressedImage", header=header("camera"),

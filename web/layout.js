@@ -62,6 +62,7 @@ export class Layout {
         this.live.delete(id);
       }
     }
+    let i = 0;
     for (const p of this.state.panels) {
       if (p.hidden) continue;
       let live = this.live.get(p.id);
@@ -71,7 +72,9 @@ export class Layout {
       }
       live.section.style.gridColumn = `span ${Math.min(p.w, cols)}`;
       live.section.style.gridRow = `span ${p.h}`;
-      this.grid.appendChild(live.section); // in layout order
+      // move only what is out of place: moving an element reloads the iframes (3D view, plots) inside it
+      if (this.grid.children[i] !== live.section) this.grid.insertBefore(live.section, this.grid.children[i] ?? null);
+      i++;
     }
     for (const live of this.live.values()) live.instance.resize?.();
     this.ctx.onLayout?.(this.state);

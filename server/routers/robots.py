@@ -33,6 +33,13 @@ def hub_status(state: ServerState = Depends(get_state)) -> dict[str, Any]:
     }
 
 
+@router.get("/robot3d")
+def robot3d_status(state: ServerState = Depends(get_state)) -> dict[str, Any]:
+    """Which robots the 3D view shows (joint updates applied) and which failed to load, with the reason."""
+    view = state.views.get("robot3d")
+    return view.status() if view is not None else {"port": None, "failed": {}, "robots": {}}
+
+
 @router.get("/config")
 def dashboard_config(state: ServerState = Depends(get_state)) -> dict[str, Any]:
     """What the page needs to know: match mode, whether control needs a token, where the 3D view and plots are."""
