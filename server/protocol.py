@@ -203,7 +203,13 @@ def split_binary_frame(frame: bytes) -> tuple[dict[str, Any], bytes]:
     (n,) = _LEN.unpack_from(frame)
     if 4 + n > len(frame):
         raise ProtocolError("binary frame shorter than its JSON meta")
-    return json.loads(frame[4:4 + n]), frame[4 + n:]
+    try:
+        meta = json.loads(frame[4:4 + n])
+    except ValueError as exc:  # includes UnicodeDecodeError
+        raise ProtocolError(f"binary frame meta is not JSON: {exc}") from None
+    if not isinstance(meta, dict):
+        raise ProtocolError("binary frame meta is not a JSON object")
+    return meta, frame[4 + n:]
 
 
 def batch_frame(frames: list[str]) -> str:

@@ -82,6 +82,12 @@ def test_subscriber_receives_decoded_messages_and_robots(server: RunningServer, 
             await ws.send(json.dumps({"op": "subscribe", "robot": "*", "topic": "x", "max_hz": "fast"}))
             error = await _first(ws, lambda f: f["type"] == "error")
             assert "max_hz" in error["error"]
+            await ws.send(b"\x00\x01")
+            error = await _first(ws, lambda f: f["type"] == "error")
+            assert "text frames" in error["error"]
+            await ws.send(json.dumps({"op": "ping", "id": 7}))
+            pong = await _first(ws, lambda f: f["type"] == "pong")
+            assert pong["id"] == 7
 
     asyncio.run(main())
     listed = httpx.get(f"{server.url}/api/robots").json()

@@ -20,15 +20,22 @@ from server.state import ServerState
 log = logging.getLogger(__name__)
 router = APIRouter()
 ROBOTS_PERIOD_S = 0.5
+MAX_SUBSCRIPTIONS = 256  # per connection: bounds the work a client can make the hub do per message
 _ids = itertools.count(1)
 
 
 async def _read_requests(ws: WebSocket, sub: Subscriber) -> None:
     """Applies the client's subscribe/unsubscribe requests as they come."""
     while True:
-        text = await ws.receive_text()
+        message = await ws.receive()
+        if message["type"] == "websocket.disconnect":
+            raise WebSocketDisconnect(message.get("code", 1000))
         try:
-            request = protocol.parse_client_frame(text)
+            if message.get("text") is None:
+                raise protocol.ProtocolError("requests are JSON text frames, not binary")
+            request = protocol.parse_client_frame(message["text"])
+            if request["op"] == "subscribe" and len(sub.subscriptions) >= MAX_SUBSCRIPTIONS:
+                raise protocol.ProtocolError(f"at most {MAX_SUBSCRIPTIONS} subscriptions per connection")
         except protocol.ProtocolError as exc:
             await ws.send_text(protocol.error_frame(str(exc)))
             continue
