@@ -51,6 +51,20 @@ def scalars_of(msg: HubMessage) -> dict[str, float]:
     return out
 
 
+def blueprint(robots: list[str]) -> Any:
+    """A tab per robot: joints (position vs goal), IMU, loop rates, and the HCM/game state lanes."""
+    import rerun.blueprint as rrb
+
+    return rrb.Blueprint(rrb.Tabs(*[
+        rrb.Grid(
+            rrb.TimeSeriesView(origin=f"/{robot}/joints", name="joints: position vs goal"),
+            rrb.TimeSeriesView(origin=f"/{robot}/imu", name="IMU"),
+            rrb.TimeSeriesView(origin=f"/{robot}/loop_rates", name="loop rates (Hz)"),
+            rrb.TimeSeriesView(origin=f"/{robot}/lanes", name="HCM state, game state, penalized"),
+            name=robot,
+        ) for robot in robots]), collapse_panels=True)
+
+
 class PlotFeed:
     """A hub subscriber that logs scalars into one rerun recording served to the browser."""
 
@@ -58,6 +72,7 @@ class PlotFeed:
         self.hub = hub
         self.config = config
         self.logged = 0
+        self.robots: list[str] = []
         self.rec: Any = None
         self._sub = None
         self._task: asyncio.Task[None] | None = None
@@ -89,6 +104,9 @@ class PlotFeed:
                 except Exception as exc:  # undecodable input is counted by the hub, not plotted
                     log.debug("not plotted: %s", exc)
                     continue
+                if msg.robot not in self.robots:
+                    self.robots.append(msg.robot)
+                    self.rec.send_blueprint(blueprint(self.robots))
                 self.rec.set_time("time", timestamp=msg.stamp)
                 for path, value in values.items():
                     self.rec.log(f"{msg.robot}/{path}", rr.Scalars(value))
