@@ -93,8 +93,8 @@ class Robot3DView:
         self.server.initial_camera.look_at = (0.0, 0.0, 0.3)
         self.server.scene.world_axes.visible = False
         # the view lives in a small panel: keep viser's own controls out of the robot's way
-        self.server.gui.configure_theme(control_layout="collapsible", control_width="small", show_logo=False,
-                                        show_share_button=False)
+        self.server.gui.configure_theme(control_width="small", show_logo=False, show_share_button=False)
+        self.server.gui.main_panel.dock_right()
         self._sub = self.hub.subscribe("robot3d", maxlen=64)
         self._sub.subscribe("*", "joint_states", max_hz=self.config.robot3d_max_hz)
         self._task = asyncio.create_task(self._run())
