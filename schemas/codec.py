@@ -179,7 +179,9 @@ def schema_hash(typename: str) -> int:
 def to_dict(msg: Any) -> Any:
     """A JSON-ready view of a message (numpy arrays become lists, bytes stay out)."""
     if dataclasses.is_dataclass(msg):
-        return {f.name: to_dict(getattr(msg, f.name)) for f in dataclasses.fields(msg)}
+        # rosbags keeps .msg constants as dataclass fields too; only the real fields belong in the data
+        fields = typestore().fielddefs[msg.__msgtype__][1]
+        return {name: to_dict(getattr(msg, name)) for name, _ in fields}
     if isinstance(msg, np.ndarray):
         if msg.dtype == np.uint8 and msg.size > 4096:
             return {"bytes": int(msg.size)}

@@ -98,3 +98,10 @@ def test_msgdef_contains_dependencies() -> None:
 def test_unknown_field_is_refused() -> None:
     with pytest.raises(schemas.SchemaError, match="no field"):
         schemas.make("std_msgs/msg/Bool", valu=True)
+
+
+def test_to_dict_has_fields_not_constants() -> None:
+    msg = schemas.make("humanoid_league_msgs/msg/RobotControlState", state=2)
+    assert schemas.to_dict(msg) == {"state": 2}
+    state = schemas.to_dict(schemas.make("sensor_msgs/msg/JointState", name=["a"], position=[1.5]))
+    assert state["position"] == [1.5] and state["header"]["stamp"] == {"sec": 0, "nanosec": 0}
