@@ -180,7 +180,7 @@ def to_dict(msg: Any) -> Any:
     """A JSON-ready view of a message (numpy arrays become lists, bytes stay out)."""
     if dataclasses.is_dataclass(msg):
         # rosbags keeps .msg constants as dataclass fields too; only the real fields belong in the data
-        fields = typestore().fielddefs[msg.__msgtype__][1]
+        fields = typestore().fielddefs[msg.__msgtype__][1]  # type: ignore[union-attr]
         return {name: to_dict(getattr(msg, name)) for name, _ in fields}
     if isinstance(msg, np.ndarray):
         if msg.dtype == np.uint8 and msg.size > 4096:

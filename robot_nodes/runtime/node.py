@@ -68,7 +68,8 @@ class Publisher:
 
     @property
     def has_subscribers(self) -> bool:
-        return bool(self._pub.matching_status.matching)
+        # zenoh's stub says bool, the object is a MatchingStatus with .matching
+        return bool(self._pub.matching_status.matching)  # type: ignore[attr-defined]
 
     def close(self) -> None:
         self._pub.undeclare()
@@ -136,7 +137,7 @@ class Node:
         self._publishers: list[Publisher] = []
         self._subscriptions: list[Subscription] = []
         self._timers: list[Timer] = []
-        self._declared: list[Any] = []
+        self._declared: list[Any] = []  # queryables, servers and clients to close with the node
         self.errors = 0
         self.last_error = ""
         self._diag_values: dict[str, str] = {}
@@ -172,7 +173,7 @@ class Node:
         return sub
 
     def timer(self, hz: float, callback: Callable[[], None], name: str | None = None) -> Timer:
-        t = Timer(self.loop, 1.0 / hz, callback, name or getattr(callback, "__name__", "timer"))
+        t = Timer(self.loop, 1.0 / hz, callback, name or str(getattr(callback, "__name__", "timer")))
         self._timers.append(t)
         self.loop.add_timer(t) if self.loop.thread is None else self.loop.call_soon(self.loop.add_timer, t)
         return t
@@ -252,12 +253,13 @@ class Node:
         if self._closed:
             return
         self._closed = True
-        for item in [*self._subscriptions, *self._publishers]:
+        entities: list[Publisher | Subscription] = [*self._subscriptions, *self._publishers]
+        for entity in entities:
             with contextlib.suppress(Exception):  # already gone with the session
-                item.close()
-        for item in self._declared:
+                entity.close()
+        for declared in self._declared:
             with contextlib.suppress(Exception):
-                item.close() if hasattr(item, "close") else item.undeclare()
+                declared.close() if hasattr(declared, "close") else declared.undeclare()
         if self._own_session:
             self.session.close()
 
@@ -294,7 +296,10 @@ class Node:
         """Runs on a Zenoh thread: the store has its own lock, change callbacks go to the loop."""
         reply: dict[str, Any]
         try:
-            request = json.loads(query.payload.to_bytes()) if query.payload is not None else {"op": "list"}
+            request: dict[str, Any] = (json.loads(query.payload.to_bytes()) if query.payload is not None
+                                       else {"op": "list"})
+            if not isinstance(request, dict):
+                raise ValueError("a parameter request is a JSON object")
             op = request.get("op", "list")
             if op == "list":
                 reply = {"ok": True}

@@ -101,7 +101,7 @@ def specs_of(params_cls: type) -> dict[str, ParameterSpec]:
     hints = get_type_hints(params_cls)
     specs = {}
     for f in dataclasses.fields(params_cls):
-        default = f.default if f.default is not MISSING else f.default_factory()  # type: ignore[misc]
+        default = f.default if f.default is not MISSING else f.default_factory()  # type: ignore[operator]
         typ = hints[f.name]
         origin = getattr(typ, "__origin__", typ)
         specs[f.name] = ParameterSpec(
