@@ -33,6 +33,9 @@ def arguments() -> argparse.ArgumentParser:
                    help="folder that package://NAME/ points to (for the URDF's meshes)")
     p.add_argument("--plots", action="store_true", help="serve plots (rerun viewer)")
     p.add_argument("--plots-port", type=int, default=9090)
+    p.add_argument("--recordings", default=None, metavar="DIR", help="recordings folder (default: recordings/)")
+    p.add_argument("--no-auto-record", action="store_true", help="do not record matches automatically")
+    p.add_argument("--replay", default=None, metavar="FILE", help="open this MCAP log in the replay source")
     p.add_argument("--log-level", default="INFO")
     return p
 
@@ -83,6 +86,10 @@ def serve(argv: list[str] | None = None) -> None:
     args = arguments().parse_args(argv)
     logging.basicConfig(level=args.log_level, format="%(asctime)s %(levelname)s [server] %(message)s")
     config = config_from(args)
+    if args.recordings:
+        config.recordings_dir = Path(args.recordings)
+    config.auto_record_matches = not args.no_auto_record
+    config.replay_file = Path(args.replay) if args.replay else None
     app = create_app(config)
     print(start_banner(config), flush=True)
     uvicorn.run(app, host=config.host, port=config.port, log_level=args.log_level.lower(), access_log=False)

@@ -13,7 +13,10 @@ from fastapi.staticfiles import StaticFiles
 
 from server.config import ServerConfig
 from server.hub import Hub
+from server.recording.wiring import attach_recording
 from server.routers import control, robots, sources, ws
+from server.routers.recordings import router as recordings_router
+from server.routers.replay import router as replay_router
 from server.sources import SourceError, SourceSet
 from server.sources.live import LiveZenohSource
 from server.sources.telemetry import TelemetrySource
@@ -44,6 +47,7 @@ def create_app(config: ServerConfig) -> FastAPI:
                 except SourceError as exc:
                     log.warning("source %s not started: %s", name, exc)
         await _start_views(state)
+        await recording.start()
         try:
             yield
         finally:
@@ -55,6 +59,9 @@ def create_app(config: ServerConfig) -> FastAPI:
 
     app = FastAPI(title="pitchside dashboard", lifespan=lifespan)
     app.state.pitchside = state
+    recording = attach_recording(app, state)
+    app.include_router(recordings_router)
+    app.include_router(replay_router)
     for module in (robots, sources, control, ws):
         app.include_router(module.router)
     app.mount("/", StaticFiles(directory=config.web_dir, html=True), name="web")

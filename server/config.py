@@ -53,6 +53,9 @@ class ServerConfig:
     plots_grpc_port: int = 9876
     plots_max_hz: float = 10.0
     web_dir: Path = WEB_DIR
+    recordings_dir: Path = REPO / "recordings"  # where recordings go and replay looks for bare file names
+    auto_record_matches: bool = True  # record every match (per half) from the robots' gamestate
+    replay_file: Path | None = None  # a log the replay source opens at start (pitchside replay FILE)
 
     def __post_init__(self) -> None:
         if self.live_source is None:

@@ -1,0 +1,173 @@
+"""The server's recorder: manual recordings (UI, CLI) and automatic match recordings, split per half.
+
+Both live in the server process, so recording goes on while no browser is open. A recording writes what
+the hub sees (every source but replay) into ``recordings/*.mcap`` (server.recording.session). The match
+recording follows the robots' ``gamestate``: it starts when the game leaves INITIAL, opens a new file per
+half (overtime and penalty shoot-out get their own), stops at FINISHED, and bookmarks GameController
+events (state changes, goals, penalties). Recording sends nothing to robots, so it is allowed in match mode.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+import time
+from pathlib import Path
+from typing import Any
+
+from schemas.mcap_log import LogError
+from server.hub import Hub, HubMessage, Subscriber
+from server.recording.files import RecordingsFolder, safe_name, timestamped
+from server.recording.game_events import GameEvent, GameEvents
+from server.recording.session import HubRecording, RecordingStatus
+
+log = logging.getLogger(__name__)
+
+__all__ = ["GameEvents", "HubRecording", "Recorder", "RecorderError", "RecordingStatus"]
+
+DEFAULT_ROTATE_BYTES = 512 << 20
+
+
+class RecorderError(RuntimeError):
+    """A recording cannot be started or stopped as asked; the text says why."""
+
+
+class Recorder:
+    """One manual recording at a time, plus the automatic match recording (independent of it)."""
+
+    def __init__(self, hub: Hub, folder: Path, *, auto_match: bool = True,
+                 rotate_bytes: int | None = DEFAULT_ROTATE_BYTES, chunk_size: int = 1 << 20) -> None:
+        self.hub = hub
+        self.folder = Path(folder)
+        self.files = RecordingsFolder(self.folder)
+        self.auto_match = auto_match
+        self.rotate_bytes = rotate_bytes
+        self.chunk_size = chunk_size
+        self.manual: HubRecording | None = None
+        self.match: HubRecording | None = None
+        self.match_id = ""
+        self.finished: list[RecordingStatus] = []
+        self.events = GameEvents()
+        self._game_sub: Subscriber | None = None
+        self._game_task: asyncio.Task[None] | None = None
+        self._lock = asyncio.Lock()
+
+    # -- lifetime ---------------------------------------------------------------------------------------
+    async def start(self) -> None:
+        """Starts watching the game (when auto_match); call on the server's loop."""
+        if self.auto_match and self._game_task is None:
+            self._game_sub = self.hub.subscribe("recorder:gamestate", maxlen=1000)
+            self._game_sub.subscribe("*", "gamestate", replay_latest=False)
+            self._game_task = asyncio.get_running_loop().create_task(self._watch_game())
+
+    async def close(self) -> None:
+        task, self._game_task = self._game_task, None
+        if task is not None:
+            task.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await task
+        if self._game_sub is not None:
+            self._game_sub.close()
+        await self.stop_manual()
+        await self._stop_match()
+
+    # -- manual -----------------------------------------------------------------------------------------
+    async def start_manual(self, name: str = "", reason: str = "manual") -> RecordingStatus:
+        async with self._lock:
+            if self.manual is not None:
+                raise RecorderError(f"already recording to {self.manual.path.name}")
+            path = timestamped(self.folder, safe_name(name) if name else reason)
+            self.manual = self._open(path, reason)
+            log.info("recording to %s", path)
+            return self.manual.status
+
+    async def stop_manual(self) -> RecordingStatus | None:
+        async with self._lock:
+            recording, self.manual = self.manual, None
+        if recording is None:
+            return None
+        status = await recording.stop()
+        self.finished.append(status)
+        log.info("recording %s stopped: %d messages", status.name, status.messages)
+        return status
+
+    def bookmark(self, name: str, data: dict[str, Any] | None = None) -> list[str]:
+        """Marks now in every running recording; the names of the recordings marked."""
+        marked = []
+        for recording in (self.manual, self.match):
+            if recording is not None:
+                recording.bookmark(name, data)
+                marked.append(recording.path.name)
+        if not marked:
+            raise RecorderError("nothing is being recorded")
+        return marked
+
+    # -- matches ----------------------------------------------------------------------------------------
+    async def _watch_game(self) -> None:
+        assert self._game_sub is not None
+        while True:
+            await self._game_sub.wait(timeout=1.0)
+            for msg in self._game_sub.drain():
+                if msg.source == "replay":
+                    continue  # a replayed match is not a match being played
+                await self.on_gamestate(msg)
+
+    async def on_gamestate(self, msg: HubMessage) -> None:
+        try:
+            events = self.events.feed(msg.robot, msg.message)
+        except Exception as exc:  # an undecodable or odd GameState must not end match recording
+            log.warning("gamestate from %s ignored: %s", msg.robot, exc)
+            return
+        for event in events:
+            await self._apply(event, msg)
+
+    async def _apply(self, event: GameEvent, msg: HubMessage) -> None:
+        if event.kind == "start":
+            if not self.match_id or event.part == "half1":  # the second half keeps the first half's match id
+                self.match_id = time.strftime("%Y%m%d-%H%M%S")
+            await self._open_match_part(event.part)
+        elif event.kind == "split":
+            await self._stop_match()
+            await self._open_match_part(event.part)
+        elif event.kind == "stop":
+            await self._stop_match()
+        elif event.kind == "bookmark" and self.match is not None:
+            when = int((msg.received + time.time() - time.monotonic()) * 1e9)
+            try:
+                self.match.bookmark(event.name, event.data, log_time_ns=when)
+            except LogError as exc:
+                log.warning("bookmark %s not written: %s", event.name, exc)
+
+    async def _open_match_part(self, part: str) -> None:
+        if self.match is not None:
+            await self._stop_match()
+        path = self.folder / f"match-{self.match_id}_{safe_name(part)}.mcap"
+        if path.exists():
+            path = timestamped(self.folder, f"match-{self.match_id}_{part}")
+        self.match = self._open(path, "match")
+        log.info("match recording: %s", path.name)
+
+    async def _stop_match(self) -> None:
+        recording, self.match = self.match, None
+        if recording is not None:
+            self.finished.append(await recording.stop())
+
+    # -- shared -----------------------------------------------------------------------------------------
+    def _open(self, path: Path, reason: str) -> HubRecording:
+        try:
+            return HubRecording(self.hub, path, reason, rotate_bytes=self.rotate_bytes, chunk_size=self.chunk_size)
+        except (LogError, OSError) as exc:
+            raise RecorderError(f"cannot record to {path}: {exc}") from exc
+
+    def active_paths(self) -> set[str]:
+        return {f for r in (self.manual, self.match) if r is not None for f in r.status.files}
+
+    def status(self) -> dict[str, Any]:
+        return {"folder": str(self.folder), "auto_match": self.auto_match,
+                "manual": self.manual.status.as_dict() if self.manual else None,
+                "match": self.match.status.as_dict() if self.match else None,
+                "recent": [s.as_dict() for s in self.finished[-10:]]}
+
+    def listing(self) -> list[dict[str, Any]]:
+        return self.files.listing(self.active_paths())

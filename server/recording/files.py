@@ -1,0 +1,79 @@
+"""The recordings folder: file names for new recordings and the listing (size, duration) the UI shows."""
+
+from __future__ import annotations
+
+import re
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from schemas.mcap_log import LogError, LogReader
+
+_SAFE = re.compile(r"[^A-Za-z0-9_.-]+")
+
+
+def safe_name(name: str) -> str:
+    """A file stem made of letters, digits, ``_.-`` only (a name from the UI never leaves the folder)."""
+    cleaned = _SAFE.sub("_", name).strip("._")
+    return cleaned[:80] or "recording"
+
+
+def timestamped(folder: Path, label: str) -> Path:
+    """``<folder>/<YYYYmmdd-HHMMSS>_<label>.mcap``, never an existing file."""
+    base = f"{time.strftime('%Y%m%d-%H%M%S')}_{safe_name(label)}"
+    path = folder / f"{base}.mcap"
+    n = 1
+    while path.exists():
+        path = folder / f"{base}-{n}.mcap"
+        n += 1
+    return path
+
+
+@dataclass(slots=True)
+class _Cached:
+    key: tuple[int, int]
+    info: dict[str, Any]
+
+
+class RecordingsFolder:
+    """Lists ``*.mcap`` of the folder; a file's duration and counts come from its index (cached by size/mtime)."""
+
+    def __init__(self, folder: Path) -> None:
+        self.folder = folder
+        self._cache: dict[Path, _Cached] = {}
+
+    def resolve(self, name: str) -> Path:
+        """The file ``name`` (a bare file name) inside the folder; LogError if it is not there."""
+        path = self.folder / Path(name).name
+        if path.suffix != ".mcap" or not path.is_file():
+            raise LogError(f"no recording {name!r} in {self.folder}")
+        return path
+
+    def listing(self, active: set[str]) -> list[dict[str, Any]]:
+        """Newest first. Files being written are listed with their size only (their index comes at the end)."""
+        if not self.folder.is_dir():
+            return []
+        out = []
+        for path in sorted(self.folder.glob("*.mcap"), key=lambda p: p.stat().st_mtime, reverse=True):
+            stat = path.stat()
+            entry: dict[str, Any] = {"name": path.name, "size_bytes": stat.st_size, "modified": stat.st_mtime,
+                                     "recording": str(path) in active}
+            if not entry["recording"]:
+                entry.update(self._summary(path, (stat.st_size, stat.st_mtime_ns)))
+            out.append(entry)
+        return out
+
+    def _summary(self, path: Path, key: tuple[int, int]) -> dict[str, Any]:
+        cached = self._cache.get(path)
+        if cached is not None and cached.key == key:
+            return cached.info
+        try:
+            with LogReader(path) as reader:
+                info: dict[str, Any] = {"duration_s": round(reader.duration, 3), "messages": reader.message_count,
+                                        "robots": [r for r in reader.robots() if r], "indexed": reader.indexed,
+                                        "bookmarks": len(reader.bookmarks())}
+        except LogError as exc:
+            info = {"error": str(exc)}
+        self._cache[path] = _Cached(key, info)
+        return info

@@ -1,0 +1,138 @@
+"""GameEvents: the robots' GameState messages turned into a match recording's starts, splits, stops and bookmarks.
+
+Every robot relays the same GameController, a little out of step with the others, so a change counts when
+one robot's own state changes *and* the game's last known value differs: a lagging robot repeating the old
+state never flips the game back. Penalties are per robot (``penalized`` is about the robot that sends it).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+INITIAL, READY, SET, PLAYING, FINISHED = 0, 1, 2, 3, 4
+STATE_NAMES = {INITIAL: "INITIAL", READY: "READY", SET: "SET", PLAYING: "PLAYING", FINISHED: "FINISHED"}
+SECONDARY_NAMES = {0: "NORMAL", 1: "PENALTYSHOOT", 2: "OVERTIME", 3: "TIMEOUT", 4: "DIRECT_FREEKICK",
+                   5: "INDIRECT_FREEKICK", 6: "PENALTYKICK", 7: "CORNER_KICK", 8: "GOAL_KICK", 9: "THROW_IN"}
+PENALTYSHOOT, OVERTIME = 1, 2
+
+
+@dataclass(frozen=True, slots=True)
+class GameView:
+    """The game-wide part of one GameState message."""
+
+    game_state: int
+    secondary_state: int
+    first_half: bool
+    own_score: int
+    rival_score: int
+
+    @classmethod
+    def of(cls, msg: Any) -> GameView:
+        return cls(int(msg.game_state), int(msg.secondary_state), bool(msg.first_half), int(msg.own_score),
+                   int(msg.rival_score))
+
+    @property
+    def part(self) -> str:
+        """The file a moment of the game belongs to: half1, half2, overtime or penalties."""
+        if self.secondary_state == PENALTYSHOOT:
+            return "penalties"
+        if self.secondary_state == OVERTIME:
+            return f"overtime{1 if self.first_half else 2}"
+        return "half1" if self.first_half else "half2"
+
+
+@dataclass(frozen=True, slots=True)
+class GameEvent:
+    """``kind``: "start" (recording of ``part`` begins), "split" (new file for ``part``), "stop", "bookmark"."""
+
+    kind: str
+    part: str = ""
+    name: str = ""
+    data: dict[str, Any] = field(default_factory=dict)
+
+
+class GameEvents:
+    """Feed every GameState (with the robot that sent it); get back the events, in order."""
+
+    def __init__(self) -> None:
+        self.game: GameView | None = None
+        self.recording_part: str | None = None
+        self._per_robot: dict[str, GameView] = {}
+        self._penalized: dict[str, bool] = {}
+
+    def feed(self, robot: str, msg: Any) -> list[GameEvent]:
+        view = GameView.of(msg)
+        events: list[GameEvent] = []
+        penalized = bool(msg.penalized)
+        was_penalized = self._penalized.get(robot)
+        self._penalized[robot] = penalized
+        before = self._per_robot.get(robot)
+        self._per_robot[robot] = view
+        if before == view:
+            events += self._penalty(robot, was_penalized, penalized, msg)
+            return events
+        game = self.game
+        if game is None:
+            # Joining a running game records nothing: a match starts when it is seen leaving INITIAL (a server
+            # restarted mid-match is restarted by hand, so test stands that always say PLAYING never record).
+            self.game = view
+        elif view != game:
+            events += self._change(robot, before, game, view)
+        events += self._penalty(robot, was_penalized, penalized, msg)
+        return events
+
+    def _change(self, robot: str, before: GameView | None, game: GameView, view: GameView) -> list[GameEvent]:
+        events: list[GameEvent] = []
+        # a lagging robot repeating what the game already left behind changes nothing
+        if before is not None and self._only_lagging(before, game, view):
+            return events
+        self.game = view
+        if (view.own_score, view.rival_score) != (game.own_score, game.rival_score):
+            scorer = "own" if view.own_score > game.own_score else "rival"
+            events.append(GameEvent("bookmark", name=f"goal {scorer} {view.own_score}:{view.rival_score}",
+                                    data={"own_score": view.own_score, "rival_score": view.rival_score,
+                                          "robot": robot}))
+        if view.game_state != game.game_state:
+            events.append(GameEvent("bookmark", name=STATE_NAMES.get(view.game_state, str(view.game_state)),
+                                    data={"game_state": view.game_state, "first_half": view.first_half}))
+        if view.secondary_state != game.secondary_state:
+            events.append(GameEvent("bookmark", name=SECONDARY_NAMES.get(view.secondary_state,
+                                                                         str(view.secondary_state)),
+                                    data={"secondary_state": view.secondary_state}))
+        control: list[GameEvent] = []
+        if view.game_state == FINISHED:
+            if self.recording_part is not None:
+                events.append(GameEvent("stop", part=self.recording_part))  # after the FINISHED bookmark
+                self.recording_part = None
+        elif view.game_state == INITIAL:
+            if self.recording_part is not None and view.part != self.recording_part:  # half time
+                events.append(GameEvent("stop", part=self.recording_part))
+                self.recording_part = None
+        elif self.recording_part is None:
+            control = self._begin(view)
+        elif view.part != self.recording_part:
+            control = [GameEvent("split", part=view.part)]
+            self.recording_part = view.part
+        return control + events  # bookmarks go into the file that holds their moment
+
+    def _begin(self, view: GameView) -> list[GameEvent]:
+        self.recording_part = view.part
+        return [GameEvent("start", part=view.part)]
+
+    def _only_lagging(self, before: GameView, game: GameView, view: GameView) -> bool:
+        """True when this robot moved, but only towards a state the game was in before (it is behind)."""
+        return view != game and before != game and _progress(view) < _progress(game)
+
+    def _penalty(self, robot: str, was: bool | None, now: bool, msg: Any) -> list[GameEvent]:
+        if was is None or was == now:
+            return []
+        if now:
+            return [GameEvent("bookmark", name=f"penalty {robot}",
+                              data={"robot": robot, "seconds_till_unpenalized": int(msg.seconds_till_unpenalized)})]
+        return [GameEvent("bookmark", name=f"unpenalized {robot}", data={"robot": robot})]
+
+
+def _progress(view: GameView) -> tuple[int, int, int]:
+    """How far into the match a view is: half, goals, then state (INITIAL..FINISHED)."""
+    return (0 if view.first_half else 1, view.own_score + view.rival_score, view.game_state)

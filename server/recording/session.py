@@ -1,0 +1,154 @@
+"""HubRecording: one hub subscriber whose messages go into one (size-rotated) MCAP log in ``recordings/``."""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import json
+import logging
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from schemas import codec
+from schemas.mcap_log import LogError, LogWriter
+from server.hub import Hub, HubMessage, Subscriber
+
+log = logging.getLogger(__name__)
+
+OVERVIEW_TOPIC = "overview"  # telemetry's RobotOverview: not CDR, stored as JSON in a std_msgs/String
+STRING_TYPE = "std_msgs/msg/String"
+QUEUE_MAXLEN = 100_000  # messages waiting for the writer thread; beyond, the oldest go (and are counted)
+WAKE_S = 0.25
+IDLE_FLUSH_S = 1.0  # a quiet stream's open chunk goes to disk after this long, so a crash loses little
+
+
+@dataclass(slots=True)
+class RecordingStatus:
+    """What the UI shows of a running (or finished) recording."""
+
+    name: str
+    path: str
+    reason: str  # "manual", "match", "cli"
+    started: float  # wall clock
+    stopped: float | None = None
+    messages: int = 0  # handed to the writer
+    flushed_messages: int = 0  # known to be on disk (the writer's chunks handed to the OS)
+    skipped: int = 0  # messages that cannot be stored (no CDR, unknown type)
+    dropped: int = 0  # lost because the writer fell behind
+    bookmarks: int = 0
+    files: list[str] = field(default_factory=list)
+    error: str = ""
+
+    def as_dict(self) -> dict[str, Any]:
+        end = self.stopped or time.time()
+        return {"name": self.name, "path": self.path, "reason": self.reason, "started": self.started,
+                "stopped": self.stopped, "running": self.stopped is None, "duration_s": round(end - self.started, 3),
+                "messages": self.messages, "flushed_messages": self.flushed_messages, "skipped": self.skipped,
+                "dropped": self.dropped, "bookmarks": self.bookmarks, "files": self.files, "error": self.error}
+
+
+def storable(msg: HubMessage) -> tuple[str, str, bytes] | None:
+    """(topic, typename, CDR) of a hub message as the log stores it, or None when it cannot be stored."""
+    if msg.topic == OVERVIEW_TOPIC and not isinstance(msg.data, bytes | bytearray | memoryview):
+        to_dict = getattr(msg.data, "to_dict", None)
+        if to_dict is None:
+            return None
+        text = json.dumps(to_dict(), allow_nan=False)
+        return msg.topic, STRING_TYPE, codec.encode(codec.make(STRING_TYPE, data=text))
+    try:
+        return msg.topic, codec.full_name(msg.typename), msg.cdr
+    except Exception:  # a foreign (replayed) type or a message object that does not encode
+        return None
+
+
+class HubRecording:
+    """Subscribes to every robot and topic of the hub and writes to ``path`` (rotated ``path_001.mcap`` ...).
+
+    Draining happens on the event loop; encoding and writing (zstd chunks) on a worker thread, so the
+    loop is never blocked by the disk. The LogWriter hands each finished chunk to the OS at once and the
+    recording flushes an open chunk after ``IDLE_FLUSH_S`` of quiet: a killed server loses at most one chunk.
+    """
+
+    def __init__(self, hub: Hub, path: Path, reason: str, *, rotate_bytes: int | None = None,
+                 chunk_size: int = 1 << 20, include_sources: frozenset[str] | None = None) -> None:
+        self.hub = hub
+        self.path = path
+        self.include_sources = include_sources  # None: every source except replay
+        self.status = RecordingStatus(path.stem, str(path), reason, time.time())
+        self._wall_offset = time.time() - time.monotonic()
+        self._writer = LogWriter(path, chunk_size=chunk_size, rotate_bytes=rotate_bytes, flush_interval_s=IDLE_FLUSH_S)
+        self.status.files = [str(p) for p in self._writer.paths]
+        self._sub: Subscriber = hub.subscribe(f"recorder:{path.stem}", maxlen=QUEUE_MAXLEN)
+        self._sub.subscribe("*", "*", replay_latest=True)
+        self._unflushed = 0
+        self._stopping = False
+        self._task: asyncio.Task[None] | None = asyncio.get_running_loop().create_task(self._run())
+
+    def wanted(self, msg: HubMessage) -> bool:
+        if self.include_sources is None:
+            return msg.source != "replay"
+        return msg.source in self.include_sources
+
+    async def _run(self) -> None:
+        last_write = time.monotonic()
+        while not self._stopping:
+            if not await self._sub.wait(timeout=WAKE_S):
+                if self._unflushed and time.monotonic() - last_write >= IDLE_FLUSH_S:
+                    await asyncio.to_thread(self._flush)
+                continue
+            batch = [m for m in self._sub.drain(limit=5000) if self.wanted(m)]
+            self.status.dropped = self._sub.dropped
+            if batch:
+                await asyncio.to_thread(self._write, batch)
+                last_write = time.monotonic()
+
+    def _write(self, batch: list[HubMessage]) -> None:
+        """On a worker thread."""
+        for msg in batch:
+            stored = storable(msg)
+            if stored is None:
+                self.status.skipped += 1
+                continue
+            topic, typename, cdr = stored
+            log_time = int((msg.received + self._wall_offset) * 1e9)
+            try:
+                self._writer.write(msg.robot, topic, cdr, typename, log_time_ns=log_time,
+                                   publish_time_ns=int(msg.stamp * 1e9))
+            except (LogError, codec.SchemaError, ValueError) as exc:
+                self.status.skipped += 1
+                log.debug("not recorded: %s/%s: %s", msg.robot, msg.topic, exc)
+                continue
+            self.status.messages += 1
+            self._unflushed += 1
+        self.status.files = [str(p) for p in self._writer.paths]
+
+    def _flush(self) -> None:
+        self._writer.flush()
+        self._unflushed = 0
+        self.status.flushed_messages = self.status.messages
+
+    def bookmark(self, name: str, data: dict[str, Any] | None = None, log_time_ns: int | None = None) -> None:
+        """A named moment (a goal, a penalty) on the recording's timeline; goes to disk at once."""
+        self._writer.add_bookmark(name, log_time_ns=log_time_ns, data=data)
+        self.status.bookmarks += 1
+
+    async def stop(self) -> RecordingStatus:
+        """Writes what is queued, then the summary; the files are complete MCAP logs afterwards."""
+        task, self._task = self._task, None
+        if task is not None:
+            self._stopping = True
+            with contextlib.suppress(Exception):
+                await task  # ends within WAKE_S, after the batch it is writing
+            self._sub.close()
+            rest = [m for m in self._sub.drain(limit=QUEUE_MAXLEN) if self.wanted(m)]
+            await asyncio.to_thread(self._write, rest)
+            await asyncio.to_thread(self._writer.close)
+            self.status.flushed_messages = self.status.messages
+            self.status.stopped = time.time()
+        return self.status
+
+    @property
+    def running(self) -> bool:
+        return self._task is not None

@@ -1,0 +1,381 @@
+"""The replay source: feeds the hub from an MCAP log (a pitchside recording or another team's ROS 2 bag).
+
+Panels see replayed messages exactly as live ones (same hub, source "replay"). Channels without a robot
+(a ROS 2 bag's ``/rosout``, ``/joint_states``) appear as robot ``replay``; topics the topic table knows
+reach their panels, others arrive as ordinary msg frames whose numeric fields the replay panel can plot.
+
+A player thread reads the log in time order and paces it against the wall clock at ``speed`` (0.1x-10x);
+play, pause, step, seek and speed changes come from the event loop. At most ``MAX_IN_FLIGHT`` batches wait
+for the loop, so a replay faster than the hub can take slows down instead of piling up memory.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import dataclasses
+import json
+import logging
+import math
+import threading
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from schemas import codec
+from schemas.mcap_log import LogError, LogMessage, LogSeriesReader
+from schemas.topics import TOPICS
+from server.hub import Hub, HubMessage
+from server.protocol import _dumps
+from server.sources import Source, SourceError
+
+log = logging.getLogger(__name__)
+
+REPLAY_ROBOT = "replay"  # robot id of channels that name no robot (ROS 2 bags)
+SOURCE = "replay"
+MIN_SPEED, MAX_SPEED = 0.1, 10.0
+MAX_IN_FLIGHT = 8  # batches handed to the loop and not yet published
+BATCH_S = 0.02  # wall time a batch may gather before it goes to the hub
+PREVIEW_S = 2.0  # after a seek: the newest message of each stream from this long before the seek point
+OVERVIEW_TOPIC, STRING_TYPE = "overview", "std_msgs/msg/String"
+
+
+def foreign_data(msg: Any) -> Any:
+    """JSON-ready fields of a message from a type pitchside does not know (constants, UPPER_CASE, left out)."""
+    if dataclasses.is_dataclass(msg) and not isinstance(msg, type):
+        return {f.name: foreign_data(getattr(msg, f.name)) for f in dataclasses.fields(msg)
+                if not f.name.isupper() and not f.name.startswith("__")}
+    if isinstance(msg, np.ndarray):
+        return {"bytes": int(msg.size)} if msg.dtype == np.uint8 and msg.size > 4096 else msg.tolist()
+    if isinstance(msg, list | tuple):
+        return [foreign_data(v) for v in msg]
+    if isinstance(msg, float) and not math.isfinite(msg):
+        return None
+    if isinstance(msg, np.generic):
+        return msg.item()
+    return msg
+
+
+class ReplayFile:
+    """An opened log: what is in it (for the timeline) and its messages as hub messages."""
+
+    def __init__(self, reader: LogSeriesReader, path: Path) -> None:
+        self.reader = reader
+        self.path = path
+        self.start_ns = reader.start_ns
+        self.end_ns = reader.end_ns
+        self.channels = reader.channels()
+        self.bookmarks = reader.bookmarks()
+        self._shared_class: dict[str, bool] = {}
+
+    def info(self) -> dict[str, Any]:
+        topics = [{"robot": c.robot_id or REPLAY_ROBOT, "topic": c.topic, "msgtype": c.typename,
+                   "count": c.message_count, "known": c.topic in TOPICS, "decodable": c.decodable,
+                   "problem": c.problem} for c in self.channels]
+        return {"path": str(self.path), "files": [str(p) for p in self.reader.paths], "start_ns": self.start_ns,
+                "end_ns": self.end_ns, "duration_s": (self.end_ns - self.start_ns) / 1e9,
+                "messages": self.reader.message_count, "topics": topics,
+                "robots": sorted({t["robot"] for t in topics}),
+                "bookmarks": [{"name": b.name, "t_s": (b.log_time_ns - self.start_ns) / 1e9, "log_time_ns":
+                               b.log_time_ns, "data": b.data} for b in self.bookmarks],
+                "warnings": self.reader.warnings[-20:]}
+
+    def hub_message(self, item: LogMessage) -> HubMessage | None:
+        """None for a message that did not decode (its channel is still listed, with the problem)."""
+        if item.raw:
+            return None
+        robot = item.robot_id or REPLAY_ROBOT
+        typename, data = item.typename, item.msg
+        if item.topic == OVERVIEW_TOPIC and typename == STRING_TYPE:
+            overview = _overview(data.data)
+            if overview is not None:
+                typename, data = overview
+        msg = HubMessage(robot, item.topic, typename, item.log_time_ns / 1e9, data, SOURCE)
+        if hasattr(data, "__msgtype__") and not self._is_shared(typename, data):
+            msg.frame = _dumps({"type": "msg", "robot": robot, "topic": item.topic, "msgtype": typename,
+                                "stamp": msg.stamp, "source": SOURCE, "data": foreign_data(data)})
+        return msg
+
+    def _is_shared(self, typename: str, data: Any) -> bool:
+        """True when the message is of the process typestore's class (panels and protocol know its fields)."""
+        known = self._shared_class.get(typename)
+        if known is None:
+            known = self._shared_class[typename] = codec.typestore().types.get(typename) is type(data)
+        return known
+
+    def messages(self, start_ns: int | None = None, end_ns: int | None = None) -> Iterator[LogMessage]:
+        return self.reader.messages(start_ns, end_ns)
+
+    def close(self) -> None:
+        self.reader.close()
+
+
+def _overview(text: str) -> tuple[str, Any] | None:
+    """A recorded telemetry overview (JSON) back into the RobotOverview the team overview panel reads."""
+    try:
+        from robot_nodes.telemetry.datagram import OVERVIEW_TYPE, RobotOverview
+
+        fields = {k: (math.nan if v is None else v) for k, v in json.loads(text).items()}
+        return OVERVIEW_TYPE, RobotOverview(**fields)
+    except (ImportError, TypeError, ValueError):
+        return None
+
+
+class ReplaySource(Source):
+    """Plays one log into the hub; the state the timeline shows is ``status()``."""
+
+    name = "replay"
+
+    def __init__(self, hub: Hub, folder: Path | None = None) -> None:
+        super().__init__()
+        self.hub = hub
+        self.folder = folder
+        self.file: ReplayFile | None = None
+        self.state = "closed"  # closed, loading, paused, playing, ended
+        self.progress = 0.0  # of reading a file without an index
+        self.speed = 1.0
+        self.delivered = 0
+        self.skipped = 0
+        self.position_ns = 0
+        self._next_ns = 0  # the next message to play is at or after this log time
+        self._generation = 0
+        self._wake = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._in_flight = 0
+        self._flight_lock = threading.Condition()
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._open_lock = asyncio.Lock()
+
+    # -- files ------------------------------------------------------------------------------------------
+    def resolve(self, name: str) -> Path:
+        """A bare name is looked up in the recordings folder; a path is taken as it is."""
+        path = Path(name).expanduser()
+        if not path.is_absolute() and self.folder is not None and not path.exists():
+            path = self.folder / path
+        if not path.exists():
+            raise SourceError(f"no log file {name!r}")
+        return path
+
+    async def open(self, name: str | Path) -> dict[str, Any]:
+        """Opens a log (a progress figure runs while an unindexed file is scanned), paused at its start."""
+        path = self.resolve(str(name))
+        async with self._open_lock:
+            await self.close()
+            self._loop = asyncio.get_running_loop()
+            self.state, self.progress, self.error = "loading", 0.0, ""
+            try:
+                reader = await asyncio.to_thread(LogSeriesReader, path, on_progress=self._on_progress)
+                self.file = await asyncio.to_thread(ReplayFile, reader, path)
+            except LogError as exc:
+                self.state, self.error = "closed", str(exc)
+                raise SourceError(str(exc)) from exc
+            self.progress = 1.0
+            self.position_ns = self._next_ns = self.file.start_ns
+            self.delivered = self.skipped = 0
+            self.state = "paused"
+            self.running = True
+            log.info("replay: %s opened (%.1f s, %d messages)", path, self.file.reader.duration,
+                     self.file.reader.message_count)
+            return self.file.info()
+
+    def _on_progress(self, fraction: float) -> None:
+        self.progress = max(0.0, min(1.0, fraction))
+
+    async def close(self) -> None:
+        self._halt()
+        file, self.file = self.file, None
+        if file is not None:
+            await asyncio.to_thread(file.close)
+        self.state = "closed"
+        self.running = False
+
+    # -- Source -----------------------------------------------------------------------------------------
+    async def start(self) -> None:
+        """Switching the source on plays the opened file."""
+        self.play()
+
+    async def stop(self) -> None:
+        """Pauses (the file stays open, ``close()`` closes it)."""
+        if self.state == "playing":
+            self.pause()
+        self.running = self.file is not None
+
+    # -- the timeline -----------------------------------------------------------------------------------
+    def _need_file(self) -> ReplayFile:
+        if self.file is None:
+            raise SourceError("no log is open (POST /api/replay/open first)")
+        return self.file
+
+    def play(self) -> None:
+        file = self._need_file()
+        if self.state == "playing":
+            return
+        if self._next_ns > file.end_ns:  # played to the end: from the start again
+            self._next_ns = self.position_ns = file.start_ns
+        self._loop = asyncio.get_running_loop()
+        self._halt()
+        self.state = "playing"
+        generation = self._generation
+        self._thread = threading.Thread(target=self._play, args=(generation,), name="replay", daemon=True)
+        self._thread.start()
+
+    def pause(self) -> None:
+        self._need_file()
+        self._halt()
+        self.state = "paused"
+
+    def set_speed(self, speed: float) -> float:
+        if not isinstance(speed, int | float) or not math.isfinite(speed) or not MIN_SPEED <= speed <= MAX_SPEED:
+            raise SourceError(f"speed must be between {MIN_SPEED} and {MAX_SPEED}, not {speed!r}")
+        self.speed = float(speed)
+        self._wake.set()  # the player re-anchors its clock
+        return self.speed
+
+    async def seek(self, t_s: float) -> dict[str, Any]:
+        """Jumps to ``t_s`` seconds after the log's start; panels get each stream's state just before it."""
+        file = self._need_file()
+        if not isinstance(t_s, int | float) or not math.isfinite(t_s):
+            raise SourceError(f"seek needs a time in seconds, not {t_s!r}")
+        target = file.start_ns + int(max(0.0, min(t_s, (file.end_ns - file.start_ns) / 1e9)) * 1e9)
+        was_playing = self.state == "playing"
+        self._halt()
+        self.position_ns = self._next_ns = target
+        preview = await asyncio.to_thread(self._preview, file, target)
+        self.hub.publish_many(preview)
+        if was_playing:
+            self.play()
+        elif self.state == "ended":
+            self.state = "paused"
+        return self.status()
+
+    def _preview(self, file: ReplayFile, target: int) -> list[HubMessage]:
+        newest: dict[tuple[str, str], HubMessage] = {}
+        for item in file.messages(max(file.start_ns, target - int(PREVIEW_S * 1e9)), target):
+            msg = file.hub_message(item)
+            if msg is not None:
+                newest[(msg.robot, msg.topic)] = msg
+        return sorted(newest.values(), key=lambda m: m.stamp)
+
+    async def step(self, count: int = 1) -> dict[str, Any]:
+        """Publishes the next ``count`` messages at once (paused afterwards)."""
+        file = self._need_file()
+        if self.state == "playing":
+            self.pause()
+        msgs = await asyncio.to_thread(self._next_messages, file, max(1, min(int(count), 10_000)))
+        self.hub.publish_many(msgs)
+        self.state = "ended" if not msgs else "paused"
+        return self.status()
+
+    def _next_messages(self, file: ReplayFile, count: int) -> list[HubMessage]:
+        out: list[HubMessage] = []
+        for item in file.messages(self._next_ns):
+            self.position_ns, self._next_ns = item.log_time_ns, item.log_time_ns + 1
+            msg = file.hub_message(item)
+            if msg is None:
+                self.skipped += 1
+                continue
+            out.append(msg)
+            if len(out) >= count:
+                break
+        self.delivered += len(out)
+        return out
+
+    # -- the player thread ------------------------------------------------------------------------------
+    def _halt(self) -> None:
+        self._generation += 1
+        self._wake.set()
+        thread, self._thread = self._thread, None
+        if thread is not None and thread is not threading.current_thread():
+            thread.join(timeout=5.0)
+
+    def _play(self, generation: int) -> None:
+        file = self.file
+        if file is None:
+            return
+        speed = self.speed
+        wall0, log0 = time.monotonic(), self._next_ns
+        batch: list[HubMessage] = []
+        batch_started = time.monotonic()
+        try:
+            for item in file.messages(self._next_ns):
+                if self._generation != generation:
+                    return
+                while True:  # wait for the message's moment (speed changes re-anchor the clock)
+                    if self.speed != speed:
+                        speed, wall0, log0 = self.speed, time.monotonic(), self.position_ns
+                    delay = wall0 + (item.log_time_ns - log0) / 1e9 / speed - time.monotonic()
+                    if delay <= 0.001:
+                        break
+                    if batch:
+                        self._deliver(batch, generation)
+                        batch = []
+                    self._wake.clear()
+                    self._wake.wait(min(delay, 0.1))
+                    if self._generation != generation:
+                        return
+                msg = file.hub_message(item)
+                self.position_ns, self._next_ns = item.log_time_ns, item.log_time_ns + 1
+                if msg is None:
+                    self.skipped += 1
+                    continue
+                if not batch:
+                    batch_started = time.monotonic()
+                batch.append(msg)
+                if len(batch) >= 1000 or time.monotonic() - batch_started >= BATCH_S:
+                    self._deliver(batch, generation)
+                    batch = []
+            if batch:
+                self._deliver(batch, generation)
+            if self._generation == generation:
+                self.state = "ended"
+                self._next_ns = file.end_ns + 1
+        except Exception as exc:  # a broken log ends the replay with a reason, never the server
+            log.warning("replay stopped: %s", exc)
+            self.error = str(exc)
+            if self._generation == generation:
+                self.state = "paused"
+
+    def _deliver(self, batch: list[HubMessage], generation: int) -> None:
+        """Hands a batch to the loop; waits while too many are still queued there (back-pressure)."""
+        loop = self._loop
+        if loop is None:
+            return
+        with self._flight_lock:
+            while self._in_flight >= MAX_IN_FLIGHT and self._generation == generation:
+                self._flight_lock.wait(0.1)
+            self._in_flight += 1
+        try:
+            loop.call_soon_threadsafe(self._publish, batch, generation)
+        except RuntimeError:  # the loop is closed: the server is going down
+            with self._flight_lock:
+                self._in_flight -= 1
+
+    def _publish(self, batch: list[HubMessage], generation: int) -> None:
+        with self._flight_lock:
+            self._in_flight -= 1
+            self._flight_lock.notify_all()
+        if generation == self._generation:  # a seek or pause made this batch stale
+            self.hub.publish_many(batch)
+            self.delivered += len(batch)
+
+    # -- what the UI shows ------------------------------------------------------------------------------
+    def status(self) -> dict[str, Any]:
+        status = super().status()
+        file = self.file
+        status.update(state=self.state, progress=round(self.progress, 4), speed=self.speed,
+                      delivered=self.delivered, skipped=self.skipped,
+                      path=str(file.path) if file else None)
+        if file is not None:
+            status.update(position_s=max(0.0, (self.position_ns - file.start_ns) / 1e9),
+                          duration_s=(file.end_ns - file.start_ns) / 1e9, position_ns=self.position_ns)
+        return status
+
+    def info(self) -> dict[str, Any]:
+        return self._need_file().info()
+
+    async def shutdown(self) -> None:
+        with contextlib.suppress(Exception):
+            await self.close()

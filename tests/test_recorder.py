@@ -1,0 +1,182 @@
+"""The recorder: what the hub sees goes into MCAP (real server, real Zenoh), matches per half, kill -9 safety."""
+
+from __future__ import annotations
+
+import asyncio
+import os
+import signal
+import time
+from pathlib import Path
+from typing import Any
+
+import httpx
+import pytest
+
+import schemas
+from robot_nodes.runtime import BusConfig
+from schemas.mcap_log import LogReader
+from server.hub import Hub, HubMessage
+from server.recorder import Recorder
+from server.recording.game_events import FINISHED, INITIAL, PLAYING, READY, SET, GameEvents
+from tests.dashboard_server import dashboard_server
+from tests.teststand import TestStand
+from tests.waiting import wait_for
+
+GS = "humanoid_league_msgs/msg/GameState"
+
+
+def gamestate(state: int, first_half: bool = True, own: int = 0, rival: int = 0, penalized: bool = False) -> Any:
+    return schemas.make(GS, game_state=state, first_half=first_half, own_score=own, rival_score=rival,
+                        penalized=penalized, seconds_till_unpenalized=30 if penalized else 0)
+
+
+# -- game events (pure) -----------------------------------------------------------------------------------
+def test_game_events_start_split_stop_and_bookmarks() -> None:
+    events = GameEvents()
+    kinds = lambda evs: [(e.kind, e.part or e.name) for e in evs]  # noqa: E731
+    assert events.feed("r1", gamestate(INITIAL)) == []
+    assert events.feed("r2", gamestate(INITIAL)) == []
+    assert kinds(events.feed("r1", gamestate(READY))) == [("start", "half1"), ("bookmark", "READY")]
+    assert events.feed("r2", gamestate(READY)) == []  # the same change from the second robot: nothing new
+    assert kinds(events.feed("r1", gamestate(PLAYING))) == [("bookmark", "PLAYING")]
+    assert kinds(events.feed("r2", gamestate(SET))) == []  # r2 lags behind: the game does not go back
+    assert kinds(events.feed("r2", gamestate(PLAYING, penalized=True))) == [("bookmark", "penalty r2")]
+    assert kinds(events.feed("r1", gamestate(READY, own=1))) == [("bookmark", "goal own 1:0"),
+                                                                 ("bookmark", "READY")]
+    assert kinds(events.feed("r1", gamestate(INITIAL, first_half=False, own=1))) == [
+        ("bookmark", "INITIAL"), ("stop", "half1")]
+    assert kinds(events.feed("r1", gamestate(READY, first_half=False, own=1))) == [
+        ("start", "half2"), ("bookmark", "READY")]
+    assert kinds(events.feed("r1", gamestate(PLAYING, first_half=False, own=1, rival=1)))[0] == (
+        "bookmark", "goal rival 1:1")
+    assert kinds(events.feed("r1", gamestate(FINISHED, first_half=False, own=1, rival=1))) == [
+        ("bookmark", "FINISHED"), ("stop", "half2")]
+
+
+def test_game_events_first_half_to_second_without_initial_splits() -> None:
+    events = GameEvents()
+    assert events.feed("r1", gamestate(PLAYING)) == []  # joined a running game: not seen leaving INITIAL
+    assert events.recording_part is None
+    events.feed("r1", gamestate(INITIAL))
+    events.feed("r1", gamestate(PLAYING))
+    assert events.recording_part == "half1"
+    out = events.feed("r1", gamestate(READY, first_half=False))
+    assert (out[0].kind, out[0].part) == ("split", "half2")
+
+
+# -- automatic match recording through a real hub -----------------------------------------------------------
+def test_match_recording_per_half_with_bookmarks(tmp_path: Path) -> None:
+    async def main() -> None:
+        hub = Hub()
+        hub.bind(asyncio.get_running_loop())
+        recorder = Recorder(hub, tmp_path)
+        await recorder.start()
+        seq = 0
+
+        async def play(state: int, first_half: bool = True, own: int = 0, penalized: bool = False) -> None:
+            nonlocal seq
+            for robot in ("r1", "r2"):
+                msg = gamestate(state, first_half, own, penalized=penalized and robot == "r2")
+                hub.publish(HubMessage(robot, "gamestate", GS, time.time(), schemas.encode(msg), "live"))
+            await asyncio.sleep(0.05)  # the recorder's tasks run
+            for _ in range(5):
+                seq += 1
+                joints = schemas.make("sensor_msgs/msg/JointState", name=["a"], position=[float(seq)])
+                hub.publish(HubMessage("r1", "joint_states", joints.__msgtype__, time.time(),
+                                       schemas.encode(joints), "live"))
+            await asyncio.sleep(0.05)
+
+        await play(INITIAL)
+        assert recorder.match is None
+        await play(READY)
+        assert recorder.match is not None and recorder.match.path.name.endswith("_half1.mcap")
+        await play(PLAYING)
+        await play(PLAYING, penalized=True)
+        await play(READY, own=1)
+        await play(INITIAL, first_half=False, own=1)
+        assert recorder.match is None  # half time
+        await play(READY, first_half=False, own=1)
+        assert recorder.match is not None and recorder.match.path.name.endswith("_half2.mcap")
+        await play(FINISHED, first_half=False, own=1)
+        assert recorder.match is None
+        await recorder.close()
+
+    asyncio.run(main())
+    half1, half2 = sorted(tmp_path.glob("match-*_half*.mcap"))
+    assert half1.name.split("_")[0] == half2.name.split("_")[0]  # one match id
+    with LogReader(half1) as log:
+        assert log.indexed
+        marks = [b.name for b in log.bookmarks()]
+        assert marks == ["READY", "PLAYING", "penalty r2", "goal own 1:0", "READY", "unpenalized r2", "INITIAL"]
+        positions = [m.msg.position[0] for m in log.messages(topics=["joint_states"])]
+        assert positions == sorted(positions) and len(positions) >= 20
+        assert {c.robot_id for c in log.channels() if c.topic == "gamestate"} == {"r1", "r2"}
+    with LogReader(half2) as log:
+        assert [b.name for b in log.bookmarks()] == ["READY", "FINISHED"]
+        assert log.message_count > 5
+
+
+# -- a real server: REST start/stop, listing; kill -9 ----------------------------------------------------------
+@pytest.fixture
+def stand(bus: BusConfig) -> Any:
+    node = TestStand("r1", bus, overrides={"rate_hz": 50.0}).start()
+    yield node
+    node.shutdown()
+
+
+def _status(url: str) -> dict[str, Any]:
+    return httpx.get(f"{url}/api/recordings/status", timeout=5).json()
+
+
+def test_rest_recording_of_live_messages(router_endpoint: str, stand: TestStand, tmp_path: Path) -> None:
+    folder = tmp_path / "rec"
+    with dashboard_server(["--connect", router_endpoint, "--no-telemetry", "--recordings", str(folder)],
+                          tmp_path) as server:
+        started = httpx.post(f"{server.url}/api/recordings/start", json={"name": "lab test"}, timeout=10)
+        assert started.status_code == 200, started.text
+        assert httpx.post(f"{server.url}/api/recordings/start", json={}, timeout=10).status_code == 409
+        wait_for(lambda: (_status(server.url)["manual"] or {}).get("messages", 0) >= 100, timeout=30,
+                 interval=0.2, what="100 messages recorded")
+        assert httpx.post(f"{server.url}/api/recordings/bookmark", json={"name": "fell"}).status_code == 200
+        stopped = httpx.post(f"{server.url}/api/recordings/stop", timeout=20).json()
+        assert stopped["running"] is False and stopped["messages"] >= 100
+        listing = httpx.get(f"{server.url}/api/recordings", timeout=10).json()
+    (entry,) = listing["files"]
+    assert entry["name"].endswith("_lab_test.mcap") and entry["size_bytes"] > 1000
+    assert entry["duration_s"] > 0.5 and entry["messages"] == stopped["messages"]
+    with LogReader(folder / entry["name"]) as log:
+        assert log.indexed
+        channels = {(c.robot_id, c.topic): c for c in log.channels()}
+        assert channels[("r1", "joint_states")].typename == "sensor_msgs/msg/JointState"
+        assert ("r1", "robot_state") in channels
+        seqs = [m.msg.position[0] for m in log.messages(topics=["joint_states"])]
+        assert len(seqs) >= 40 and seqs == sorted(seqs)
+        assert [b.name for b in log.bookmarks()] == ["fell"]
+
+
+def test_kill_9_while_recording_keeps_the_file(router_endpoint: str, bus: BusConfig, tmp_path: Path) -> None:
+    folder = tmp_path / "rec"
+    node = TestStand("r1", bus, overrides={"rate_hz": 100.0}).start()
+    try:
+        with dashboard_server(["--connect", router_endpoint, "--no-telemetry", "--recordings", str(folder)],
+                              tmp_path) as server:
+            assert httpx.post(f"{server.url}/api/recordings/start", json={"name": "crash"}, timeout=10).is_success
+            wait_for(lambda: (_status(server.url)["manual"] or {}).get("messages", 0) >= 300, timeout=30,
+                     interval=0.2, what="300 messages recorded")
+            node.shutdown()
+            # once the stream is quiet the open chunk goes to disk: everything recorded is flushed
+            status = wait_for(lambda: (s := _status(server.url)["manual"]) and s["messages"] > 0
+                              and s["flushed_messages"] == s["messages"] and s, timeout=20, interval=0.2,
+                              what="recording flushed")
+            time.sleep(0.3)  # no message may be in flight between the status read and the kill
+            status = _status(server.url)["manual"]
+            os.kill(server.process.pid, signal.SIGKILL)
+            server.process.wait(10)
+    finally:
+        node.shutdown()
+    (path,) = folder.glob("*_crash.mcap")
+    with LogReader(path) as log:
+        assert not log.indexed  # no summary: the index was rebuilt from the chunks
+        assert log.message_count == status["flushed_messages"] >= 300
+        seqs = [m.msg.position[0] for m in log.messages(topics=["joint_states"])]
+        assert seqs == sorted(seqs) and len(seqs) >= 150
