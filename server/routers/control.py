@@ -60,12 +60,13 @@ async def get_parameters(robot: str, node: str, state: ServerState = Depends(req
 @router.post("/params/{node}")
 async def set_parameters(robot: str, node: str, write: ParameterWrite, state: ServerState = Depends(require_control)
                          ) -> dict[str, Any]:
-    """The node validates: out of range -> 422 with its reason, value unchanged."""
+    """The node validates: out of range -> 422 with its reason, value unchanged; a write based on an old revision
+    (someone else changed the value meanwhile) -> 409."""
     try:
         return await asyncio.to_thread(lambda: _parameter_client(state, robot).set(node, write.values,
                                                                                     write.revisions))
     except ParameterError as exc:
-        raise HTTPException(422, str(exc)) from exc
+        raise HTTPException(409 if "changed meanwhile" in str(exc) else 422, str(exc)) from exc
 
 
 @router.post("/penalize")

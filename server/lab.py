@@ -1,0 +1,218 @@
+"""Lab tools the control API keeps between requests: held teleop commands, the editor's animation goal, previews.
+
+One ``LabTools`` per app, made on first use and kept in ``state.views["lab"]`` (the app's lifespan stops every
+view, so the teleop loops end with a zero command and the goals are cancelled on shutdown). Everything that
+sends goes through the server's one Zenoh session (``ZenohLink``), which match mode refuses.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import math
+import time
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import schemas
+from robot_nodes.animation import Animation, AnimationPlayer
+from robot_nodes.runtime import keys
+from robot_nodes.runtime.actions import ActionClient, ClientGoal
+from server.state import ServerState
+
+TELEOP_HZ = 10.0
+TELEOP_HOLD_S = 0.5  # a command not refreshed for this long stops the robot
+PREVIEW_HZ = 20.0
+GOAL_TIMEOUT_S = 3.0
+
+
+@dataclass(slots=True)
+class JointLimits:
+    """Revolute joints of a URDF in file order: limits (rad) and top speed (rad/s)."""
+
+    names: list[str] = field(default_factory=list)
+    limits: dict[str, tuple[float, float]] = field(default_factory=dict)
+    velocity: dict[str, float] = field(default_factory=dict)
+
+
+def urdf_joint_limits(path: Path) -> JointLimits:
+    """Reads the movable joints of a URDF with the standard library: no meshes needed."""
+    out = JointLimits()
+    root = ET.parse(path).getroot()
+    for joint in root.iter("joint"):
+        if joint.get("type") not in ("revolute", "continuous", "prismatic"):
+            continue
+        name = joint.get("name") or ""
+        out.names.append(name)
+        limit = joint.find("limit")
+        if limit is None:
+            continue
+        if joint.get("type") != "continuous" and limit.get("lower") is not None and limit.get("upper") is not None:
+            out.limits[name] = (float(limit.get("lower", 0)), float(limit.get("upper", 0)))
+        if limit.get("velocity"):
+            out.velocity[name] = float(limit.get("velocity", 0))
+    return out
+
+
+@dataclass(slots=True)
+class TeleopCommand:
+    x: float = 0.0
+    y: float = 0.0
+    yaw: float = 0.0
+    until: float = 0.0
+    task: asyncio.Task[None] | None = None
+    sent: int = 0
+
+
+class LabTools:
+    """What lives between lab requests; one per app."""
+
+    def __init__(self, state: ServerState) -> None:
+        self.state = state
+        self._publishers: dict[tuple[str, str], Any] = {}
+        self.teleop: dict[str, TeleopCommand] = {}
+        self._clients: dict[str, ActionClient] = {}
+        self.goals: dict[str, ClientGoal] = {}
+        self._previews: dict[str, Any] = {}
+        self._preview_tasks: dict[str, asyncio.Task[None]] = {}
+
+    # -- publishing ---------------------------------------------------------------------------------
+    def publish(self, robot: str, topic: str, msg: Any) -> None:
+        """Blocking on first use (opens the session): call from a worker thread."""
+        key = (robot, topic)
+        pub = self._publishers.get(key)
+        if pub is None:
+            pub = self._publishers[key] = self.state.link.session().declare_publisher(keys.topic_key(robot, topic))
+        pub.put(schemas.encode(msg))
+
+    # -- teleop -------------------------------------------------------------------------------------
+    async def drive(self, robot: str, x: float, y: float, yaw: float, hold_s: float = TELEOP_HOLD_S) -> TeleopCommand:
+        """Holds the command for hold_s (refresh it to keep going); the loop sends it at TELEOP_HZ, then zero."""
+        await asyncio.to_thread(self.state.link.session)  # opening may block; refuse in match mode here
+        cmd = self.teleop.setdefault(robot, TeleopCommand())
+        cmd.x, cmd.y, cmd.yaw = x, y, yaw
+        cmd.until = time.monotonic() + hold_s
+        if cmd.task is None or cmd.task.done():
+            cmd.task = asyncio.create_task(self._teleop_loop(robot, cmd))
+        return cmd
+
+    async def halt(self, robot: str) -> None:
+        cmd = self.teleop.get(robot)
+        if cmd is not None:
+            cmd.until = 0.0
+            if cmd.task is not None:
+                with contextlib.suppress(BaseException):
+                    await cmd.task
+        else:
+            await asyncio.to_thread(self.publish, robot, "cmd_vel", twist(0.0, 0.0, 0.0))
+
+    async def _teleop_loop(self, robot: str, cmd: TeleopCommand) -> None:
+        try:
+            while time.monotonic() < cmd.until:
+                self.publish(robot, "cmd_vel", twist(cmd.x, cmd.y, cmd.yaw))
+                cmd.sent += 1
+                await asyncio.sleep(1.0 / TELEOP_HZ)
+        finally:
+            for _ in range(3):  # zero on release or timeout, sent more than once (no acknowledgement)
+                with contextlib.suppress(Exception):
+                    self.publish(robot, "cmd_vel", twist(0.0, 0.0, 0.0))
+            cmd.x = cmd.y = cmd.yaw = 0.0
+
+    # -- animation goals ----------------------------------------------------------------------------
+    def play(self, robot: str, name: str, retry_s: float = 5.0) -> ClientGoal:
+        """Sends PlayAnimation (blocking); retries while the HCM's own animation (e.g. walkready) runs."""
+        client = self._clients.get(robot)
+        if client is None:
+            client = self._clients[robot] = ActionClient(self.state.link.session(), robot, "animation")
+        goal = schemas.make("humanoid_league_msgs/action/PlayAnimation_Goal", animation=name, hcm=False)
+        deadline = time.monotonic() + retry_s
+        while True:
+            handle = client.send_goal(goal, timeout=GOAL_TIMEOUT_S)
+            handle.wait_accepted(GOAL_TIMEOUT_S)
+            if handle.accepted or "HCM animation" not in (handle.reason or "") or time.monotonic() > deadline:
+                break
+            time.sleep(0.2)
+        if handle.accepted:
+            self.goals[robot] = handle
+        return handle
+
+    def cancel(self, robot: str) -> bool:
+        handle = self.goals.pop(robot, None)
+        if handle is None or handle.done:
+            return False
+        return handle.cancel(timeout=GOAL_TIMEOUT_S)
+
+    # -- 3D preview ---------------------------------------------------------------------------------
+    async def preview(self, robot: str, anim: Animation, start: dict[str, float] | None) -> float:
+        """Plays the animation on a ghost robot in the 3D view; the real robot does not move."""
+        view = self.state.views.get("robot3d")
+        if view is None or view.server is None:
+            raise RuntimeError("the 3D view is off (start the server with --robot3d)")
+        ghost = self._previews.get(robot)
+        if ghost is None:
+            from server.robot3d import RobotModel
+
+            ghost = await asyncio.to_thread(RobotModel, view.server, f"{robot}_preview",
+                                            self.state.config.description_for(robot), len(view.robots) + 1)
+            self._previews[robot] = ghost
+        old = self._preview_tasks.pop(robot, None)
+        if old is not None:
+            old.cancel()
+        player = AnimationPlayer(anim, start)
+        self._preview_tasks[robot] = asyncio.create_task(self._preview_loop(ghost, player))
+        return float(player.duration)
+
+    async def _preview_loop(self, ghost: Any, player: AnimationPlayer) -> None:
+        t0 = time.monotonic()
+        while True:
+            t = min(time.monotonic() - t0, player.duration)
+            await asyncio.to_thread(ghost.apply, list(player.joint_names), player.positions(t))
+            if t >= player.duration:
+                return
+            await asyncio.sleep(1.0 / PREVIEW_HZ)
+
+    def preview_updates(self, robot: str) -> int:
+        ghost = self._previews.get(robot)
+        return int(ghost.updates) if ghost is not None else 0
+
+    # -- lifespan -----------------------------------------------------------------------------------
+    async def stop(self) -> None:
+        for task in self._preview_tasks.values():
+            task.cancel()
+        for cmd in self.teleop.values():
+            cmd.until = 0.0
+        for cmd in self.teleop.values():
+            if cmd.task is not None:
+                with contextlib.suppress(BaseException):
+                    await asyncio.wait_for(cmd.task, 2.0)
+        for robot in list(self.goals):
+            with contextlib.suppress(Exception):
+                await asyncio.to_thread(self.cancel, robot)
+        for client in self._clients.values():
+            with contextlib.suppress(Exception):
+                client.close()
+        for pub in self._publishers.values():
+            with contextlib.suppress(Exception):
+                pub.undeclare()
+
+
+def twist(x: float, y: float, yaw: float) -> Any:
+    vector = "geometry_msgs/msg/Vector3"
+    return schemas.make("geometry_msgs/msg/Twist", linear=schemas.make(vector, x=x, y=y, z=0.0),
+                        angular=schemas.make(vector, x=0.0, y=0.0, z=yaw))
+
+
+def lab_tools(state: ServerState) -> LabTools:
+    """The app's LabTools, made on first use."""
+    lab = state.views.get("lab")
+    if lab is None:
+        lab = state.views["lab"] = LabTools(state)
+    return lab  # type: ignore[no-any-return]
+
+
+def finite(value: float, what: str) -> float:
+    if not math.isfinite(value):
+        raise ValueError(f"{what} must be finite, got {value!r}")
+    return value

@@ -1,0 +1,373 @@
+"""The animation editor's API: files in the robot's animation folder, edits, checks, preview, play, stop, record.
+
+The folder is the one the robot's animation node plays from (its ``animation_dir`` parameter, else
+``robots/<model>/animations``), so "save, then play by name" plays exactly what was saved. Angles on this
+API are in degrees, as in the files. Recording: ``POST record {"on": true}`` puts the HCM into RECORD
+(``record_mode``); ``POST record/goals`` publishes ``record_motor_goals`` (positions of held joints, torque
+off for limp ones); ``GET record/pose`` is the newest joint_states the hub has, for "record keyframe".
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import copy
+import math
+import re
+import time
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+from fastapi import APIRouter, Depends, HTTPException
+from pydantic import BaseModel
+
+import schemas
+from robot_nodes.animation import (
+    Animation,
+    AnimationError,
+    copy_side,
+    delete_keyframe,
+    duplicate_keyframe,
+    insert_keyframe,
+    invert,
+    load_animation,
+    mirror,
+    move_keyframe,
+    parse_animation,
+    parse_animation_text,
+    save_animation,
+    validate,
+)
+from robot_nodes.animation.animation_file import animation_to_dict
+from robot_nodes.runtime import ActionError, header
+from robot_nodes.runtime.param_client import ParameterClient
+from robot_nodes.runtime.parameters import ParameterError
+from server.deps import require_control
+from server.lab import JointLimits, lab_tools, urdf_joint_limits
+from server.state import ServerState
+
+router = APIRouter(prefix="/api/robots/{robot}", tags=["animations"])
+REPO = Path(__file__).resolve().parents[2]
+TIMEOUT_S = 3.0
+PREVIEW_FILE = "_editor_preview"  # "play up to keyframe k" plays a cut copy saved under this name
+FOLDER_CACHE_S = 10.0
+_FILE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,99}$")
+_folders: dict[str, tuple[float, Path, str]] = {}  # robot -> (when asked, folder, how it was found)
+
+
+class AnimationBody(BaseModel):
+    animation: dict[str, Any] | None = None  # Bit-Bots JSON as an object ...
+    text: str | None = None  # ... or as the text of an uploaded file
+    author: str | None = None
+
+
+class EditRequest(BaseModel):
+    animation: dict[str, Any]
+    op: Literal["mirror", "copy_side", "invert", "insert", "duplicate", "delete", "move"]
+    index: int = 0
+    new_index: int = 0
+    keyframes: list[int] | None = None  # mirror / copy_side: which keyframes (default all)
+    source: Literal["left", "right"] = "left"  # copy_side
+    keyframe: dict[str, Any] | None = None  # insert: the new keyframe (Bit-Bots JSON)
+
+
+class PlayRequest(BaseModel):
+    file: str
+    upto: int | None = None  # play keyframes 0..upto only
+    retry_s: float = 5.0
+
+
+class RecordRequest(BaseModel):
+    on: bool
+
+
+class RecordGoals(BaseModel):
+    positions: dict[str, float] = {}  # held joints: goal in degrees
+    limp: list[str] = []  # joints with torque off (the animator moves them by hand)
+
+
+# -- where the files are ---------------------------------------------------------------------------------
+def _ask_folder(state: ServerState, robot: str) -> tuple[Path, str]:
+    try:
+        described = ParameterClient(state.link.session(), robot, timeout=TIMEOUT_S).describe("animation")
+    except ParameterError:
+        return REPO / "robots" / "minibot" / "animations", "default (the robot's animation node did not answer)"
+    params = {p["name"]: p["value"] for p in described}
+    if params.get("animation_dir"):
+        return Path(params["animation_dir"]), "animation node's animation_dir"
+    return REPO / "robots" / str(params.get("model", "minibot")) / "animations", "animation node's model"
+
+
+async def animation_folder(state: ServerState, robot: str) -> tuple[Path, str]:
+    cached = _folders.get(robot)
+    if cached is not None and time.monotonic() - cached[0] < FOLDER_CACHE_S and "default" not in cached[2]:
+        return cached[1], cached[2]
+    folder, how = await asyncio.to_thread(_ask_folder, state, robot)
+    _folders[robot] = (time.monotonic(), folder, how)
+    return folder, how
+
+
+def file_path(folder: Path, file: str) -> Path:
+    name = file.removesuffix(".json")
+    if not _FILE.match(name) or ".." in name:
+        raise HTTPException(422, f"bad animation file name {file!r}: letters, digits, '_', '-', '.' only")
+    return folder / f"{name}.json"
+
+
+def joint_limits(state: ServerState, robot: str) -> JointLimits:
+    urdf = state.config.description_for(robot).urdf
+    try:
+        return urdf_joint_limits(urdf)
+    except (OSError, ValueError) as exc:
+        raise HTTPException(500, f"cannot read the URDF of {robot!r} ({urdf}): {exc}") from exc
+
+
+def check(state: ServerState, robot: str, anim: Animation) -> dict[str, Any]:
+    """Errors (joints the robot lacks) and warnings (joint limits, servo speed) against the robot's URDF."""
+    limits = joint_limits(state, robot)
+    report = validate(anim, limits.limits, limits.names or None, limits.velocity or None)
+    return {"ok": report.ok, "errors": report.errors, "warnings": report.warnings}
+
+
+def _parse(body: AnimationBody, source: str) -> Animation:
+    try:
+        if body.text is not None:
+            return parse_animation_text(body.text, source)
+        if body.animation is not None:
+            return parse_animation(body.animation, source)
+    except AnimationError as exc:
+        raise HTTPException(422, str(exc)) from exc
+    raise HTTPException(422, "send the animation as 'animation' (object) or 'text' (file contents)")
+
+
+# -- files --------------------------------------------------------------------------------------------
+@router.get("/animations")
+async def list_animations(robot: str, state: ServerState = Depends(require_control)) -> dict[str, Any]:
+    folder, how = await animation_folder(state, robot)
+    files = []
+    for path in sorted(folder.rglob("*.json")) if folder.is_dir() else []:
+        if path.name.startswith("."):
+            continue
+        entry: dict[str, Any] = {"file": str(path.relative_to(folder).with_suffix(""))}
+        try:
+            anim = load_animation(path)
+            entry.update(name=anim.name, keyframes=len(anim.keyframes), duration=anim.duration, author=anim.author,
+                         last_edited=anim.last_edited)
+        except AnimationError as exc:
+            entry["error"] = str(exc)
+        files.append(entry)
+    return {"robot": robot, "folder": str(folder), "found_by": how, "animations": files}
+
+
+@router.get("/animations/joints")
+async def robot_joints(robot: str, state: ServerState = Depends(require_control)) -> dict[str, Any]:
+    """The robot's movable joints with limits (deg) and top speed (deg/s), for the editor's sliders."""
+    limits = joint_limits(state, robot)
+    return {"joints": [{"name": n, "lower": math.degrees(limits.limits[n][0]) if n in limits.limits else -180.0,
+                        "upper": math.degrees(limits.limits[n][1]) if n in limits.limits else 180.0,
+                        "velocity": math.degrees(limits.velocity.get(n, 0.0))} for n in limits.names]}
+
+
+@router.get("/animations/{file:path}")
+async def read_animation(robot: str, file: str, state: ServerState = Depends(require_control)) -> dict[str, Any]:
+    folder, _ = await animation_folder(state, robot)
+    path = file_path(folder, file)
+    if not path.exists():
+        raise HTTPException(404, f"no animation file {path.name} in {folder}")
+    try:
+        anim = load_animation(path)
+    except AnimationError as exc:
+        raise HTTPException(422, str(exc)) from exc
+    return {"file": path.stem, "animation": animation_to_dict(anim), "check": check(state, robot, anim)}
+
+
+@router.put("/animations/{file:path}")
+async def write_animation(robot: str, file: str, body: AnimationBody, state: ServerState = Depends(require_control)
+                          ) -> dict[str, Any]:
+    """Saves in the Bit-Bots format (author, last_edited now); an upload sends the file's text."""
+    folder, _ = await animation_folder(state, robot)
+    path = file_path(folder, file)
+    anim = _parse(body, path.name)
+    if body.author is not None:
+        anim.author = body.author
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        save_animation(anim, path)
+    except OSError as exc:
+        raise HTTPException(500, f"cannot write {path}: {exc}") from exc
+    return {"file": path.stem, "path": str(path), "animation": animation_to_dict(anim),
+            "check": check(state, robot, anim)}
+
+
+# -- editing (pure: nothing is sent to the robot) ------------------------------------------------------
+@router.post("/animation-edit")
+async def edit_animation(robot: str, request: EditRequest, state: ServerState = Depends(require_control)
+                         ) -> dict[str, Any]:
+    """One editor operation of robot_nodes.animation.editing; the browser keeps the old version for undo."""
+    anim = _parse(AnimationBody(animation=request.animation), "<editor>")
+    try:
+        if request.op == "mirror":
+            out = mirror(anim, keyframes=request.keyframes)
+        elif request.op == "copy_side":
+            out = copy_side(anim, request.source, keyframes=request.keyframes)
+        elif request.op == "invert":
+            out = invert(anim)
+        elif request.op == "insert":
+            kf = parse_animation({"name": "kf", "keyframes": [request.keyframe or {}]}, "<keyframe>").keyframes[0]
+            out = insert_keyframe(anim, request.index, kf)
+        elif request.op == "duplicate":
+            out = duplicate_keyframe(anim, request.index)
+        elif request.op == "delete":
+            out = delete_keyframe(anim, request.index)
+        else:
+            out = move_keyframe(anim, request.index, request.new_index)
+    except (IndexError, ValueError) as exc:
+        raise HTTPException(422, str(exc)) from exc
+    return {"animation": animation_to_dict(out), "check": check(state, robot, out)}
+
+
+@router.post("/animation-check")
+async def check_animation(robot: str, body: AnimationBody, state: ServerState = Depends(require_control)
+                          ) -> dict[str, Any]:
+    return check(state, robot, _parse(body, "<editor>"))
+
+
+@router.post("/animation-preview")
+async def preview_animation(robot: str, body: AnimationBody, state: ServerState = Depends(require_control)
+                            ) -> dict[str, Any]:
+    """Plays the animation on a ghost robot in the 3D view, starting at the robot's measured pose."""
+    anim = _parse(body, "<editor>")
+    if not anim.keyframes:
+        raise HTTPException(422, "the animation has no keyframes")
+    latest = state.hub.latest.get((robot, "joint_states"))
+    start = None
+    if latest is not None:
+        msg = latest.message
+        start = {n: float(p) for n, p in zip(msg.name, msg.position, strict=False) if math.isfinite(p)}
+    try:
+        duration = await lab_tools(state).preview(robot, anim, start)
+    except RuntimeError as exc:
+        raise HTTPException(409, str(exc)) from exc
+    return {"robot": robot, "ghost": f"{robot}_preview", "duration": duration}
+
+
+# -- on the robot ---------------------------------------------------------------------------------------
+def _set_record_mode(state: ServerState, robot: str, on: bool) -> dict[str, Any]:
+    return ParameterClient(state.link.session(), robot, timeout=TIMEOUT_S).set("hcm", {"record_mode": on})
+
+
+@router.post("/animation-play")
+async def play_animation_file(robot: str, request: PlayRequest, state: ServerState = Depends(require_control)
+                              ) -> dict[str, Any]:
+    """Leaves RECORD, then plays the saved file by name (keyframes 0..upto only, if upto is given)."""
+    folder, _ = await animation_folder(state, robot)
+    path = file_path(folder, request.file)
+    try:
+        anim = load_animation(path)
+    except AnimationError as exc:
+        raise HTTPException(404 if not path.exists() else 422, str(exc)) from exc
+    name = anim.name
+    if request.upto is not None:
+        if not 0 <= request.upto < len(anim.keyframes):
+            raise HTTPException(422, f"no keyframe {request.upto} (the animation has {len(anim.keyframes)})")
+        cut = copy.deepcopy(anim)
+        cut.name, cut.keyframes = PREVIEW_FILE, cut.keyframes[:request.upto + 1]
+        await asyncio.to_thread(save_animation, cut, folder / f"{PREVIEW_FILE}.json")
+        name = PREVIEW_FILE
+    lab = lab_tools(state)
+
+    def send() -> Any:
+        with contextlib.suppress(ParameterError):  # a robot without HCM plays anyway
+            _set_record_mode(state, robot, False)
+        return lab.play(robot, name, request.retry_s)
+
+    try:
+        handle = await asyncio.to_thread(send)
+    except ActionError as exc:
+        raise HTTPException(504, str(exc)) from exc
+    if not handle.accepted:
+        raise HTTPException(409, f"animation {name!r} rejected: {handle.reason}")
+    return {"robot": robot, "animation": name, "accepted": True, "keyframes": len(anim.keyframes)
+            if request.upto is None else request.upto + 1}
+
+
+@router.get("/animation-play")
+async def play_status(robot: str, state: ServerState = Depends(require_control)) -> dict[str, Any]:
+    handle = lab_tools(state).goals.get(robot)
+    if handle is None:
+        return {"robot": robot, "playing": False}
+    status = handle.status.name if handle.status is not None else None
+    return {"robot": robot, "playing": not handle.done, "status": status,
+            "percent_done": float(handle.feedback[-1].percent_done) if handle.feedback else 0.0}
+
+
+@router.post("/animation-stop")
+async def stop_animation(robot: str, state: ServerState = Depends(require_control)) -> dict[str, Any]:
+    """Always tries both: cancel the editor's goal and leave RECORD; says what each did."""
+    lab = lab_tools(state)
+    out: dict[str, Any] = {"robot": robot}
+    try:
+        out["canceled"] = await asyncio.to_thread(lab.cancel, robot)
+    except Exception as exc:  # stop must report, never fail half-way
+        out["cancel_error"] = str(exc)
+    try:
+        await asyncio.to_thread(_set_record_mode, state, robot, False)
+        out["record_mode"] = False
+    except ParameterError as exc:
+        out["record_error"] = str(exc)
+    return out
+
+
+@router.post("/record")
+async def record_mode(robot: str, request: RecordRequest, state: ServerState = Depends(require_control)
+                      ) -> dict[str, Any]:
+    try:
+        await asyncio.to_thread(_set_record_mode, state, robot, request.on)
+    except ParameterError as exc:
+        raise HTTPException(504 if "did not answer" in str(exc) else 422, str(exc)) from exc
+    return {"robot": robot, "record_mode": request.on}
+
+
+def measured_pose(state: ServerState, robot: str) -> tuple[dict[str, float], float]:
+    """The newest joint_states of the robot in the hub: degrees per joint, and its age in seconds."""
+    latest = state.hub.latest.get((robot, "joint_states"))
+    if latest is None:
+        raise HTTPException(409, f"no joint_states of robot {robot!r} have arrived (is the live source on?)")
+    msg = latest.message
+    return ({n: math.degrees(float(p)) for n, p in zip(msg.name, msg.position, strict=False) if math.isfinite(p)},
+            time.monotonic() - latest.received)
+
+
+@router.get("/record/pose")
+async def record_pose(robot: str, state: ServerState = Depends(require_control)) -> dict[str, Any]:
+    positions, age = measured_pose(state, robot)
+    return {"robot": robot, "positions": positions, "age_s": age}
+
+
+@router.post("/record/goals")
+async def record_goals(robot: str, goals: RecordGoals, state: ServerState = Depends(require_control)
+                       ) -> dict[str, Any]:
+    """record_motor_goals: held joints go to their goals (torque on), limp joints get torque off at their pose."""
+    bad = [j for j, v in goals.positions.items() if not math.isfinite(v)]
+    if bad:
+        raise HTTPException(422, f"goals must be finite numbers (deg): {bad}")
+    names = list(goals.positions)
+    positions = [math.radians(v) for v in goals.positions.values()]
+    efforts = [1.0] * len(names)
+    limp = [j for j in goals.limp if j not in goals.positions]
+    if limp:
+        measured, _ = measured_pose(state, robot)
+        missing = [j for j in limp if j not in measured]
+        if missing:
+            raise HTTPException(422, f"robot {robot!r} reports no joint(s) {missing}")
+        names += limp
+        positions += [math.radians(measured[j]) for j in limp]
+        efforts += [0.0] * len(limp)
+    if not names:
+        raise HTTPException(422, "no joints: give positions and/or limp joints")
+    point = schemas.make("trajectory_msgs/msg/JointTrajectoryPoint", positions=np.array(positions, dtype=float),
+                         effort=np.array(efforts, dtype=float))
+    msg = schemas.make("trajectory_msgs/msg/JointTrajectory", header=header(), joint_names=names, points=[point])
+    await asyncio.to_thread(lab_tools(state).publish, robot, "record_motor_goals", msg)
+    return {"robot": robot, "held": list(goals.positions), "limp": limp}

@@ -1,0 +1,38 @@
+"""Teleop (lab only): a held walk command for one robot, sent as cmd_vel at 10 Hz until released or stale.
+
+The browser refreshes the command while a key or the joystick is held (every ~100-200 ms); if the refreshes
+stop (released, tab closed, network gone), the server sends zero after ``hold_s``. Refused in match mode.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from fastapi import APIRouter, Depends
+from pydantic import BaseModel, Field
+
+from server.deps import require_control
+from server.lab import TELEOP_HOLD_S, TELEOP_HZ, lab_tools
+from server.state import ServerState
+
+router = APIRouter(prefix="/api/robots/{robot}/teleop", tags=["teleop"])
+
+
+class DriveCommand(BaseModel):
+    x: float = Field(0.0, ge=-1.0, le=1.0, description="forward, m/s")
+    y: float = Field(0.0, ge=-1.0, le=1.0, description="left, m/s")
+    yaw: float = Field(0.0, ge=-3.0, le=3.0, description="turn left, rad/s")
+    hold_s: float = Field(TELEOP_HOLD_S, gt=0.0, le=2.0, description="zero after this long without a refresh")
+
+
+@router.post("")
+async def drive(robot: str, command: DriveCommand, state: ServerState = Depends(require_control)) -> dict[str, Any]:
+    cmd = await lab_tools(state).drive(robot, command.x, command.y, command.yaw, command.hold_s)
+    return {"robot": robot, "x": cmd.x, "y": cmd.y, "yaw": cmd.yaw, "rate_hz": TELEOP_HZ, "sent": cmd.sent}
+
+
+@router.post("/stop")
+async def stop(robot: str, state: ServerState = Depends(require_control)) -> dict[str, Any]:
+    """Zero at once (also when nothing was being sent)."""
+    await lab_tools(state).halt(robot)
+    return {"robot": robot, "x": 0.0, "y": 0.0, "yaw": 0.0}
