@@ -63,7 +63,7 @@ async def stop_recording(recorder: Recorder = Depends(get_recorder)) -> dict[str
 
 
 @router.post("/bookmark", dependencies=[Depends(require_token)])
-def add_bookmark(request: BookmarkRequest, recorder: Recorder = Depends(get_recorder)) -> dict[str, Any]:
+async def add_bookmark(request: BookmarkRequest, recorder: Recorder = Depends(get_recorder)) -> dict[str, Any]:
     try:
         return {"recordings": recorder.bookmark(request.name, request.data)}
     except RecorderError as exc:

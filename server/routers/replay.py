@@ -75,7 +75,7 @@ async def close_log(replay: ReplaySource = Depends(get_replay)) -> dict[str, Any
 
 
 @router.post("/play", dependencies=[Depends(require_token)])
-def play(replay: ReplaySource = Depends(get_replay)) -> dict[str, Any]:
+async def play(replay: ReplaySource = Depends(get_replay)) -> dict[str, Any]:
     try:
         replay.play()
     except SourceError as exc:
@@ -84,7 +84,7 @@ def play(replay: ReplaySource = Depends(get_replay)) -> dict[str, Any]:
 
 
 @router.post("/pause", dependencies=[Depends(require_token)])
-def pause(replay: ReplaySource = Depends(get_replay)) -> dict[str, Any]:
+async def pause(replay: ReplaySource = Depends(get_replay)) -> dict[str, Any]:
     try:
         replay.pause()
     except SourceError as exc:
@@ -109,7 +109,7 @@ async def seek(request: SeekRequest, replay: ReplaySource = Depends(get_replay))
 
 
 @router.post("/speed", dependencies=[Depends(require_token)])
-def speed(request: SpeedRequest, replay: ReplaySource = Depends(get_replay)) -> dict[str, Any]:
+async def speed(request: SpeedRequest, replay: ReplaySource = Depends(get_replay)) -> dict[str, Any]:
     try:
         replay.set_speed(request.speed)
     except SourceError as exc:
