@@ -16,6 +16,9 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "router": ("robot_nodes.runtime.router", "a Zenoh router for robots and dashboards on several machines"),
     "launch": ("robot_nodes.launch", "start named nodes as supervised processes"),
     "gamecontroller": ("robot_nodes.game_controller.simulator", "a simulated RoboCup GameController"),
+    "record": ("pitchside.record", "start/stop/list recordings of a running dashboard server"),
+    "replay": ("pitchside.replay", "the dashboard with an MCAP log (pitchside or ROS 2 bag) in the replay source"),
+    "export-rerun": ("pitchside.export_rerun", "a log's numeric fields as rerun scalars (.rrd)"),
 }
 
 

@@ -1,0 +1,81 @@
+"""``pitchside record``: start, stop and list recordings of a running dashboard server.
+
+The recorder lives in the server process (it records what the server's hub sees, from the live Zenoh
+and the telemetry sources, and goes on while no browser is open), so this command is a small client of
+the server's REST API rather than a second process joining Zenoh: one recorder, one set of files, and it
+works the same in match mode (recording sends nothing to robots). Start the server first (``pitchside
+serve`` or ``pitchside demo``); matches are recorded automatically per half without this command.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from typing import Any
+
+import httpx
+
+DEFAULT_SERVER = "http://127.0.0.1:8080"
+
+
+def _request(args: argparse.Namespace, method: str, path: str, body: dict[str, Any] | None = None) -> Any:
+    headers = {"Authorization": f"Bearer {args.token}"} if args.token else {}
+    try:
+        response = httpx.request(method, f"{args.server.rstrip('/')}/api/recordings{path}", json=body,
+                                 headers=headers, timeout=30)
+    except httpx.HTTPError as exc:
+        raise SystemExit(f"pitchside record: no dashboard server at {args.server} ({exc}); "
+                         "start one with `pitchside serve`") from None
+    if response.status_code >= 400:
+        try:
+            detail = response.json().get("detail", response.text)
+        except ValueError:
+            detail = response.text
+        raise SystemExit(f"pitchside record: {detail}")
+    return response.json()
+
+
+def _describe(status: dict[str, Any] | None) -> str:
+    if not status:
+        return "-"
+    state = "recording" if status["running"] else "stopped"
+    return (f"{status['name']}: {state}, {status['messages']} messages, {status['duration_s']:.1f} s, "
+            f"{status['bookmarks']} bookmarks -> {', '.join(status['files'])}")
+
+
+def main(argv: list[str] | None = None) -> None:
+    p = argparse.ArgumentParser(prog="pitchside record", description=__doc__.splitlines()[0])
+    p.add_argument("action", choices=["start", "stop", "status", "list", "bookmark", "follow"],
+                   help="follow: start, print progress until Ctrl-C, then stop")
+    p.add_argument("name", nargs="?", default="", help="recording name (start, follow) or bookmark name")
+    p.add_argument("--server", default=DEFAULT_SERVER, help=f"dashboard URL (default {DEFAULT_SERVER})")
+    p.add_argument("--token", default=None, help="control token when the server listens beyond loopback")
+    args = p.parse_args(sys.argv[1:] if argv is None else argv)
+    if args.action == "start":
+        print(_describe(_request(args, "POST", "/start", {"name": args.name})))
+    elif args.action == "stop":
+        print(_describe(_request(args, "POST", "/stop")))
+    elif args.action == "status":
+        status = _request(args, "GET", "/status")
+        print(f"manual: {_describe(status['manual'])}\nmatch:  {_describe(status['match'])}")
+    elif args.action == "bookmark":
+        if not args.name:
+            raise SystemExit("pitchside record bookmark NAME")
+        print(f"bookmarked in {', '.join(_request(args, 'POST', '/bookmark', {'name': args.name})['recordings'])}")
+    elif args.action == "list":
+        for entry in _request(args, "GET", "")["files"]:
+            duration = "recording" if entry.get("recording") else f"{entry.get('duration_s', 0):8.1f} s"
+            print(f"{entry['name']:50s} {entry['size_bytes'] / 1e6:10.1f} MB {duration}")
+    else:
+        print(_describe(_request(args, "POST", "/start", {"name": args.name})))
+        try:
+            while True:
+                time.sleep(2.0)
+                print(_describe(_request(args, "GET", "/status")["manual"]), flush=True)
+        except KeyboardInterrupt:
+            print(_describe(_request(args, "POST", "/stop")))
+
+
+if __name__ == "__main__":
+    main()
