@@ -303,7 +303,16 @@ class WalkEngine:
             foot = self.feet[side]
             pos = np.array([foot.pose.x - g.trunk_x_offset, foot.pose.y - sway, -g.trunk_height + foot.z])
             rot = rot_z(foot.pose.yaw)
-            out.append(self.kin.leg(side).ik(trunk @ pos, trunk @ rot))
+            leg = self.kin.leg(side)
+            q = leg.ik(trunk @ pos, trunk @ rot)
+            if side == self.support and self.phase is not Phase.IDLE:
+                # the soft servos let the hip sag towards the lifted leg: lean the support hip against it
+                other = self.feet["R" if side == "L" else "L"]
+                load = other.z / g.foot_lift if g.foot_lift > 0 else 0.0
+                canonical = leg.to_canonical(q)
+                canonical[1] += g.hip_roll_compensation * load * (1.0 if side == "L" else -1.0)
+                q = leg.to_joints(canonical)
+            out.append(q)
         return np.concatenate(out)
 
     def _arms(self) -> np.ndarray:

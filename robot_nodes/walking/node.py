@@ -1,0 +1,125 @@
+"""The walking node: cmd_vel in; walk_motor_goals, walk_odometry and walking_active out (the WalkEngine on the bus)."""
+
+from __future__ import annotations
+
+import math
+import time
+from typing import Any
+
+import numpy as np
+
+import schemas
+from robot_nodes.runtime import Node, header
+from robot_nodes.walking.engine import WalkEngine, WalkOutput
+from robot_nodes.walking.gait import WalkParams
+
+# the HCM states (RobotControlState) in which walk goals may be produced: CONTROLLABLE, WALKING
+WALKABLE_STATES = (0, 10)
+ACTIVE_PUBLISH_HZ = 10.0
+ODOM_FRAME, BASE_FRAME = "odom", "base_footprint"
+
+
+def tilt_of(q_xyzw: tuple[float, float, float, float]) -> tuple[float, float]:
+    """(pitch, roll) of an orientation quaternion; pitch positive when leaning forward."""
+    x, y, z, w = q_xyzw
+    pitch = math.asin(max(-1.0, min(1.0, 2.0 * (w * y - z * x))))
+    roll = math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
+    return pitch, roll
+
+
+class WalkingNode(Node):
+    """Omnidirectional walking: steps while the HCM allows it (CONTROLLABLE/WALKING) and nothing pauses it."""
+
+    name = "walking"
+    Params = WalkParams
+
+    def setup(self) -> None:
+        self.engine = WalkEngine(self.params)
+        self.robot_state: int | None = None
+        self.paused = False
+        self.present: dict[str, float] = {}
+        self.last_active: bool | None = None
+        self.last_tick = time.monotonic()
+        self.cycle_s = 0.0
+        self.goals_pub = self.publisher("walk_motor_goals")
+        self.odom_pub = self.publisher("walk_odometry")
+        self.active_pub = self.publisher("walking_active")
+        self.subscribe("cmd_vel", self.on_cmd_vel)
+        self.subscribe("robot_state", self.on_robot_state)
+        self.subscribe("paused", self.on_paused)
+        self.subscribe("imu/data", self.on_imu)
+        self.subscribe("joint_states", self.on_joint_states)
+        self.cycle_timer = self.timer(self.params.rate_hz, self.tick, name="walk")
+        self.timer(ACTIVE_PUBLISH_HZ, self.publish_active)
+        self._update_stop()  # no robot_state yet: the HCM has not allowed walking
+
+    def on_parameters_changed(self, changed: dict[str, Any]) -> None:
+        if "rate_hz" in changed:
+            self.cycle_timer.set_rate(self.params.rate_hz)
+
+    # -- inputs -------------------------------------------------------------------------------------------
+    def on_cmd_vel(self, msg: Any) -> None:
+        values = (float(msg.linear.x), float(msg.linear.y), float(msg.angular.z))
+        if not all(math.isfinite(v) for v in values):
+            self.record_error(f"cmd_vel with a non-finite value {values}; treated as stop")
+            values = (0.0, 0.0, 0.0)
+        self.engine.set_command(*values)
+
+    def on_robot_state(self, msg: Any) -> None:
+        self.robot_state = int(msg.state)
+        self._update_stop()
+
+    def on_paused(self, msg: Any) -> None:
+        self.paused = bool(msg.data)
+        self._update_stop()
+
+    def on_imu(self, msg: Any) -> None:
+        o, g = msg.orientation, msg.angular_velocity
+        pitch, roll = tilt_of((o.x, o.y, o.z, o.w))
+        self.engine.set_imu(pitch, roll, float(g.y), float(g.x))
+
+    def on_joint_states(self, msg: Any) -> None:
+        self.present = dict(zip(msg.name, (float(p) for p in msg.position), strict=False))
+
+    def _update_stop(self) -> None:
+        self.engine.request_stop(self.paused or self.robot_state not in WALKABLE_STATES)
+
+    # -- the cycle ----------------------------------------------------------------------------------------
+    def tick(self) -> None:
+        now = time.monotonic()
+        dt, self.last_tick = now - self.last_tick, now
+        started = time.perf_counter()
+        was_stepping = self.engine.stepping
+        out = self.engine.update(dt, self.present or None)
+        self.cycle_s = time.perf_counter() - started
+        if out.stepping or was_stepping:
+            self.publish_goals(out)
+        self.publish_odometry(out)
+        if out.stepping != self.last_active:
+            self.publish_active()
+        self.set_diagnostic("phase", self.engine.phase.value)
+
+    def publish_goals(self, out: WalkOutput) -> None:
+        point = schemas.make("trajectory_msgs/msg/JointTrajectoryPoint", positions=np.asarray(out.positions))
+        self.goals_pub.publish(schemas.make("trajectory_msgs/msg/JointTrajectory", header=header(),
+                                            joint_names=list(out.names), points=[point]))
+
+    def publish_odometry(self, out: WalkOutput) -> None:
+        o, v = out.odometry, out.velocity
+        pose = schemas.make(
+            "geometry_msgs/msg/Pose",
+            position=schemas.make("geometry_msgs/msg/Point", x=o.x, y=o.y, z=0.0),
+            orientation=schemas.make("geometry_msgs/msg/Quaternion", x=0.0, y=0.0, z=math.sin(o.yaw / 2),
+                                     w=math.cos(o.yaw / 2)))
+        twist = schemas.make(
+            "geometry_msgs/msg/Twist",
+            linear=schemas.make("geometry_msgs/msg/Vector3", x=v.x, y=v.y, z=0.0),
+            angular=schemas.make("geometry_msgs/msg/Vector3", x=0.0, y=0.0, z=v.yaw))
+        self.odom_pub.publish(schemas.make(
+            "nav_msgs/msg/Odometry", header=header(ODOM_FRAME), child_frame_id=BASE_FRAME,
+            pose=schemas.make("geometry_msgs/msg/PoseWithCovariance", pose=pose),
+            twist=schemas.make("geometry_msgs/msg/TwistWithCovariance", twist=twist)))
+
+    def publish_active(self) -> None:
+        self.last_active = self.engine.stepping
+        self.active_pub.publish(schemas.make("std_msgs/msg/Bool", data=self.last_active))
