@@ -11,8 +11,12 @@ import camera from "./panels/camera.js";
 import robot3d from "./panels/robot3d.js";
 import plots from "./panels/plots.js";
 import diagnostics from "./panels/diagnostics.js";
+import parameters from "./panels/parameters.js";
+import animationEditor from "./panels/animation_editor.js";
+import teleop from "./panels/teleop.js";
 
-const PANELS = [teamOverview, fieldView, relativeView, hcmGraph, camera, diagnostics, robot3d, plots];
+const PANELS = [teamOverview, fieldView, relativeView, hcmGraph, camera, diagnostics, robot3d, plots, parameters,
+  animationEditor, teleop];
 
 async function main() {
   const config = await (await fetch("api/config")).json();

@@ -1,0 +1,184 @@
+"""Lab panels in Debian's chromium against real nodes: edit a parameter live; record, save, reload and play an animation."""
+
+from __future__ import annotations
+
+import shutil
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import httpx
+import pytest
+import zenoh
+
+from robot_nodes.animation import load_animation
+from robot_nodes.animation.node import AnimationNode
+from robot_nodes.cm730.node import Cm730Node
+from robot_nodes.hcm.node import HcmNode
+from robot_nodes.runtime import BusConfig, ParameterClient, open_session
+from tests.conftest import REPO
+from tests.dashboard_server import RunningServer, dashboard_server
+from tests.test_browser_panels import OUTPUT, browser  # noqa: F401 - the chromium fixture
+from tests.waiting import wait_for
+
+pytestmark = [pytest.mark.slow, pytest.mark.browser]
+TIMEOUT_MS = 30_000
+RECORD_STATE = 9  # RobotControlState of HCM RECORD
+
+
+@pytest.fixture
+def server(router_endpoint: str, tmp_path: Path) -> Iterator[RunningServer]:
+    with dashboard_server(["--connect", router_endpoint, "--no-telemetry"], tmp_path) as running:
+        yield running
+
+
+@pytest.fixture
+def client(bus: BusConfig) -> Iterator[zenoh.Session]:
+    session = open_session(bus)
+    yield session
+    session.close()
+
+
+def _page(browser: Any, server: RunningServer, robot: str) -> Any:
+    page = browser.new_page(viewport={"width": 1600, "height": 2400})
+    page.errors = []
+    page.on("pageerror", lambda exc: page.errors.append(str(exc)))
+    page.goto(server.url)
+    page.evaluate(f"localStorage.clear(); localStorage.setItem('pitchside.focus', '{robot}'); "
+                  "localStorage.setItem('pitchside.layout', JSON.stringify({columns: 2, panels: ["
+                  "{id: 'parameters', w: 1, h: 5}, {id: 'animation', w: 1, h: 6}, {id: 'teleop', w: 1, h: 2}]}))")
+    page.reload()
+    return page
+
+
+def test_parameter_panel_changes_the_node(browser: Any, server: RunningServer, bus: BusConfig,  # noqa: F811
+                                          client: zenoh.Session) -> None:
+    hcm = HcmNode("r1", bus).start()
+    params = ParameterClient(client, "r1")
+    try:
+        page = _page(browser, server, "r1")
+        row = '[data-panel="parameters"] tr[data-param="hcm/falling_gyro_pitch"]'
+        page.wait_for_selector(row, timeout=TIMEOUT_MS)
+        assert page.locator(f'{row} input[type="range"]').count() == 1  # a range gets a slider
+        assert page.locator('[data-panel="parameters"] tr[data-param="hcm/record_mode"] input[type="checkbox"]').count()
+        value = page.locator(f'{row} input[data-role="value"]')
+        value.fill("9.25")
+        value.press("Tab")
+        wait_for(lambda: params.get("hcm", "falling_gyro_pitch") == 9.25, 20.0, 0.2, "the node took 9.25")
+
+        # out of range: the node's own error at the row, nothing changes
+        value.fill("99")
+        value.press("Tab")
+        page.wait_for_selector(f'{row} .param-error:has-text("out of range")', timeout=TIMEOUT_MS)
+        assert params.get("hcm", "falling_gyro_pitch") == 9.25
+        assert value.input_value() == "9.25"
+
+        # someone else writes meanwhile: the panel's write is refused and shown, theirs stays
+        params.set("hcm", {"falling_gyro_pitch": 12.0})
+        value.fill("8")
+        value.press("Tab")
+        page.wait_for_selector(f'{row} .param-error:has-text("changed meanwhile")', timeout=TIMEOUT_MS)
+        assert params.get("hcm", "falling_gyro_pitch") == 12.0
+        page.wait_for_function(f"""document.querySelector('{row} input[data-role="value"]').value === '12'""",
+                               timeout=TIMEOUT_MS)
+
+        # undo writes back the value before the panel's last accepted change
+        page.click('[data-panel="parameters"] button[data-act="undo"]')
+        wait_for(lambda: params.get("hcm", "falling_gyro_pitch") == 7.0, 20.0, 0.2, "undone to 7.0")
+
+        # diff against the YAML, reset to default
+        params.set("hcm", {"upright_deg": 40.0})
+        page.click('[data-panel="parameters"] [data-node="hcm"] button[data-act="diff"]')
+        page.wait_for_selector('[data-panel="parameters"] [data-diff="upright_deg"]', timeout=TIMEOUT_MS)
+        page.click('[data-panel="parameters"] tr[data-param="hcm/upright_deg"] button[data-act="reset"]')
+        wait_for(lambda: params.get("hcm", "upright_deg") == 30.0, 20.0, 0.2, "reset to default")
+        page.locator('[data-panel="parameters"] .lab-plot summary').click()
+        page.locator('[data-panel="parameters"]').screenshot(path=str(_output() / "lab-parameters.png"))
+        assert not page.errors, page.errors
+    finally:
+        hcm.shutdown()
+
+
+def _output() -> Path:
+    OUTPUT.mkdir(exist_ok=True)
+    return OUTPUT
+
+
+POSES = [  # the three recorded keyframes (deg)
+    {"HeadPan": 20.0, "LShoulderPitch": 30.0, "RShoulderPitch": -30.0},
+    {"HeadPan": -30.0, "LShoulderPitch": 60.0, "RShoulderPitch": -50.0},
+    {"HeadPan": 35.0, "LShoulderPitch": 45.0, "RShoulderPitch": -60.0},
+]
+
+
+def _near(server: RunningServer, robot: str, goals: dict[str, float], tolerance: float) -> bool:
+    pose = httpx.get(f"{server.url}/api/robots/{robot}/record/pose", timeout=20)
+    if pose.status_code != 200:
+        return False
+    positions = pose.json()["positions"]
+    return all(abs(positions[j] - v) <= tolerance for j, v in goals.items())
+
+
+def test_record_save_reload_and_play_on_the_simulated_robot(browser: Any, server: RunningServer,  # noqa: F811
+                                                           bus: BusConfig, tmp_path: Path) -> None:
+    folder = tmp_path / "animations"
+    shutil.copytree(REPO / "robots" / "minibot" / "animations", folder)
+    nodes = [Cm730Node("r1", bus, overrides={"render_camera": False, "publish_rate": 100.0}).start(),
+             HcmNode("r1", bus).start(),
+             AnimationNode("r1", bus, overrides={"animation_dir": str(folder)}).start()]
+    editor = '[data-panel="animation"]'
+    try:
+        page = _page(browser, server, "r1")
+        page.wait_for_selector(f'{editor} [data-role="joints"] tr[data-joint="HeadPan"]', timeout=TIMEOUT_MS)
+        page.fill(f'{editor} [data-role="new-name"]', "lab_wave")
+        page.click(f'{editor} button[data-act="new"]')
+        page.locator(f"{editor} details.record summary").click()
+        page.click(f'{editor} button[data-act="record-on"]')
+        page.wait_for_function(f"window.pitchside.store.get('r1', 'robot_state')?.data.state === {RECORD_STATE}",
+                               timeout=60_000)
+        page.click(f'{editor} button[data-act="rec-none"]')
+        for joint in POSES[0]:
+            page.check(f'{editor} [data-role="joints"] tr[data-joint="{joint}"] input[data-rec]')
+
+        for k, pose in enumerate(POSES):
+            for joint, deg in pose.items():
+                held = page.locator(f'{editor} [data-role="joints"] tr[data-joint="{joint}"] input[data-held]')
+                held.fill(str(deg))
+                held.press("Tab")
+            wait_for(lambda pose=pose: _near(server, "r1", pose, 1.5), 30.0, 0.2, f"the robot in pose {k}")
+            page.click(f'{editor} button[data-act="record-kf"]')
+            page.wait_for_function(f"window.pitchside.animEditor.anim.keyframes.length === {k + 1}",
+                                   timeout=TIMEOUT_MS)
+        assert page.locator(f"{editor} tr[data-kf]").count() == 3
+
+        page.fill(f'{editor} [data-role="author"]', "lab test")
+        page.click(f'{editor} button[data-act="save"]')
+        wait_for(lambda: (folder / "lab_wave.json").exists(), 20.0, 0.2, "the saved file")
+        saved = load_animation(folder / "lab_wave.json")
+        assert saved.author == "lab test" and saved.last_edited and len(saved.keyframes) == 3
+        assert set(saved.keyframes[2].goals) == set(POSES[2])
+
+        # reload the page, open the file again, play it: the joints reach the last keyframe
+        page.reload()
+        page.wait_for_selector(f'{editor} [data-role="files"] option[value="lab_wave"]', state="attached",
+                               timeout=TIMEOUT_MS)
+        page.select_option(f'{editor} [data-role="files"]', "lab_wave")
+        page.click(f'{editor} button[data-act="open"]')
+        page.wait_for_function("window.pitchside.animEditor.anim?.keyframes.length === 3", timeout=TIMEOUT_MS)
+        last = saved.keyframes[2].goals
+        page.click(f'{editor} button[data-act="play"]')
+        page.wait_for_selector(f'{editor} .lab-status:has-text("playing lab_wave")', timeout=60_000)
+
+        def played() -> bool:
+            return httpx.get(f"{server.url}/api/robots/r1/animation-play", timeout=20).json().get("status") == \
+                "SUCCEEDED"
+
+        wait_for(played, 60.0, 0.2, "the animation played to its end")
+        wait_for(lambda: _near(server, "r1", last, 2.0), 10.0, 0.2, "the joints at the last keyframe within 2 deg")
+        page.click(f'{editor} button[data-act="stop"]')
+        page.wait_for_selector(f'{editor} .lab-status:has-text("stopped")', timeout=TIMEOUT_MS)
+        page.locator(editor).screenshot(path=str(_output() / "lab-animation-editor.png"))
+        assert not page.errors, page.errors
+    finally:
+        for node in reversed(nodes):
+            node.shutdown()

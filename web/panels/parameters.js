@@ -1,0 +1,273 @@
+// Parameters: every node of a robot with its parameters, edited live (the node validates), undo, diff, save, reset,
+// and a small plot of a numeric field against time with a parameter drawn as a threshold line.
+
+import { api, esc, MATCH_MODE_TEXT, robotPicker } from "../lab_api.js";
+
+const PLOT_SECONDS = 20;
+const PLOT_FIELDS = [
+  ["imu/data", "angular_velocity.y", "gyro pitch (rad/s)"],
+  ["imu/data", "angular_velocity.x", "gyro roll (rad/s)"],
+  ["imu/data", "angular_velocity.z", "gyro yaw (rad/s)"],
+  ["imu/data", "linear_acceleration.z", "acceleration z (m/s²)"],
+];
+
+function pick(obj, path) {
+  return path.split(".").reduce((o, k) => (o == null ? undefined : o[k]), obj);
+}
+
+function controlFor(p) {
+  const dis = "";
+  if (p.type === "bool") {
+    return `<label class="toggle"><input type="checkbox" data-role="value" ${p.value ? "checked" : ""}${dis}> on</label>`;
+  }
+  if (p.choices) {
+    return `<select data-role="value">${p.choices.map((c) => `<option value="${esc(JSON.stringify(c))}"
+      ${c === p.value ? "selected" : ""}>${esc(c)}</option>`).join("")}</select>`;
+  }
+  if (p.type === "int" || p.type === "float") {
+    const step = p.type === "int" ? 1 : "any";
+    const slider = p.range ? `<input type="range" data-role="slider" min="${p.range[0]}" max="${p.range[1]}"
+      step="${p.type === "int" ? 1 : (p.range[1] - p.range[0]) / 200}" value="${p.value}">` : "";
+    return `${slider}<input type="number" data-role="value" step="${step}" value="${p.value}">`;
+  }
+  if (p.type === "list") return `<input type="text" data-role="value" value="${esc(JSON.stringify(p.value))}">`;
+  return `<input type="text" data-role="value" value="${esc(p.value)}">`;
+}
+
+function readControl(p, row) {
+  const el = row.querySelector('[data-role="value"]');
+  if (p.type === "bool") return el.checked;
+  if (p.choices) return JSON.parse(el.value);
+  if (p.type === "int" || p.type === "float") return el.value.trim() === "" ? null : Number(el.value);
+  if (p.type === "list") return JSON.parse(el.value);
+  return el.value;
+}
+
+export default {
+  id: "parameters",
+  title: "Parameters",
+  size: [2, 3],
+  hidden: false,
+  create(body, ctx) {
+    if (ctx.config.match_mode) {
+      body.innerHTML = `<div class="empty">${MATCH_MODE_TEXT}</div>`;
+      return {};
+    }
+    body.innerHTML = `<div class="lab-bar">
+        <label>robot <select data-role="robot"></select></label>
+        <button data-act="reload" title="read every node's parameters again">reload</button>
+        <button data-act="undo" title="write back the value before your last change" disabled>undo</button>
+        <label>model <input data-role="model" value="minibot" size="8" title="robots/&lt;model&gt;/params.yaml for the diff"></label>
+        <span class="lab-status" data-role="status"></span>
+      </div>
+      <details class="lab-plot"><summary>threshold plot</summary>
+        <div class="lab-bar"><select data-role="field">${PLOT_FIELDS.map(([t, f, label], i) =>
+          `<option value="${i}">${esc(label)}</option>`).join("")}</select>
+        <label>line <select data-role="threshold"><option value="">(none)</option></select></label></div>
+        <canvas data-role="plot" height="140"></canvas>
+      </details>
+      <div data-role="nodes"><div class="empty">waiting for a robot</div></div>`;
+    const $ = (sel) => body.querySelector(sel);
+    const nodesEl = $('[data-role="nodes"]');
+    const statusEl = $('[data-role="status"]');
+    const undoBtn = $('[data-act="undo"]');
+    const state = { robot: "", nodes: {}, undo: [], writes: 0, errors: 0, series: [] };
+    window.pitchside.params = state;
+
+    const status = (text, bad = false) => { statusEl.textContent = text; statusEl.classList.toggle("bad", bad); };
+    const picker = robotPicker($('[data-role="robot"]'), ctx, (robot) => { state.robot = robot; state.series = []; load(); });
+
+    async function load() {
+      if (!state.robot) return;
+      status("reading…");
+      try {
+        state.nodes = await api("GET", `api/robots/${encodeURIComponent(state.robot)}/params`);
+        render();
+        status(`${Object.keys(state.nodes).length} nodes`);
+      } catch (err) {
+        status(String(err.message), true);
+      }
+    }
+
+    function render() {
+      const names = Object.keys(state.nodes).sort();
+      if (!names.length) { nodesEl.innerHTML = '<div class="empty">no node answered</div>'; return; }
+      nodesEl.innerHTML = names.map((node) => `<details class="param-node" data-node="${esc(node)}" open>
+        <summary>${esc(node)} <button data-act="diff">diff vs YAML</button> <button data-act="save">save</button>
+          <button data-act="reset-node">reset all to default</button></summary>
+        <div class="param-diff" data-role="diff"></div>
+        <table class="grid-table params"><thead><tr><th>name</th><th>value</th><th>default</th><th>range / choices</th>
+          <th></th></tr></thead><tbody>${state.nodes[node].map((p) => `
+          <tr data-param="${esc(node)}/${esc(p.name)}" title="${esc(p.doc)}">
+            <td><b>${esc(p.name)}</b> <span class="muted">${esc(p.type)}</span><div class="muted doc">${esc(p.doc)}</div></td>
+            <td class="param-control">${controlFor(p)}<div class="param-error" data-role="error"></div></td>
+            <td>${esc(JSON.stringify(p.default))}</td>
+            <td>${p.range ? `[${p.range[0]}, ${p.range[1]}]` : p.choices ? esc(p.choices.join(", ")) : ""}</td>
+            <td><button data-act="reset" title="reset to default">↺</button></td></tr>`).join("")}</tbody></table>
+        </details>`).join("");
+      refreshThresholds();
+    }
+
+    function find(node, name) { return state.nodes[node]?.find((p) => p.name === name); }
+
+    function showValue(node, p) {
+      const row = nodesEl.querySelector(`tr[data-param="${CSS.escape(`${node}/${p.name}`)}"]`);
+      if (!row) return;
+      const el = row.querySelector('[data-role="value"]');
+      if (p.type === "bool") el.checked = p.value;
+      else if (p.choices) el.value = JSON.stringify(p.value);
+      else if (p.type === "list") el.value = JSON.stringify(p.value);
+      else el.value = p.value;
+      const slider = row.querySelector('[data-role="slider"]');
+      if (slider) slider.value = p.value;
+    }
+
+    function applyReply(node, reply) {
+      if (reply?.params) state.nodes[node] = reply.params;
+      for (const p of state.nodes[node] || []) showValue(node, p);
+    }
+
+    /** Writes one value based on the revision we showed; a refusal is shown at the row and the value reverts. */
+    async function write(node, name, value, { recordUndo = true } = {}) {
+      const p = find(node, name);
+      const row = nodesEl.querySelector(`tr[data-param="${CSS.escape(`${node}/${name}`)}"]`);
+      const errEl = row?.querySelector('[data-role="error"]');
+      if (errEl) errEl.textContent = "";
+      row?.classList.remove("refused");
+      const old = p.value;
+      try {
+        const reply = await api("POST", `api/robots/${encodeURIComponent(state.robot)}/params/${encodeURIComponent(node)}`,
+          { values: { [name]: value }, revisions: { [name]: p.revision } });
+        applyReply(node, reply);
+        state.writes++;
+        if (recordUndo && old !== value) { state.undo.push({ node, name, value: old }); undoBtn.disabled = false; }
+        status(`${node}.${name} = ${JSON.stringify(find(node, name)?.value)}`);
+      } catch (err) {
+        state.errors++;
+        if (errEl) errEl.textContent = err.message;
+        row?.classList.add("refused");
+        showValue(node, p);
+        if (err.status === 409) { // someone else changed it meanwhile: show theirs, keep the message
+          try {
+            const fresh = await api("GET", `api/robots/${encodeURIComponent(state.robot)}/params/${encodeURIComponent(node)}`);
+            applyReply(node, { params: fresh });
+          } catch { /* the message above is what matters */ }
+        }
+      }
+    }
+
+    nodesEl.addEventListener("change", (e) => {
+      const row = e.target.closest("tr[data-param]");
+      if (!row) return;
+      const [node, name] = row.dataset.param.split("/");
+      const p = find(node, name);
+      if (e.target.dataset.role === "slider") row.querySelector('[data-role="value"]').value = e.target.value;
+      let value;
+      try { value = readControl(p, row); } catch (err) {
+        row.querySelector('[data-role="error"]').textContent = `not valid: ${err.message}`;
+        return;
+      }
+      write(node, name, value);
+    });
+    nodesEl.addEventListener("input", (e) => { // the slider shows its number while dragged
+      if (e.target.dataset.role === "slider") e.target.closest("tr").querySelector('[data-role="value"]').value = e.target.value;
+    });
+    nodesEl.addEventListener("click", async (e) => {
+      const act = e.target.dataset?.act;
+      if (!act) return;
+      e.preventDefault();
+      const nodeEl = e.target.closest("[data-node]");
+      const node = nodeEl?.dataset.node;
+      const base = `api/robots/${encodeURIComponent(state.robot)}/params/${encodeURIComponent(node)}`;
+      try {
+        if (act === "reset") {
+          const name = e.target.closest("tr").dataset.param.split("/")[1];
+          applyReply(node, await api("POST", `${base}/reset`, { names: [name] }));
+        } else if (act === "reset-node") {
+          applyReply(node, await api("POST", `${base}/reset`, { names: [] }));
+        } else if (act === "save") {
+          const reply = await api("POST", `${base}/save`);
+          status(`saved to ${reply.path}`);
+        } else if (act === "diff") {
+          const diff = await api("GET", `${base}/diff?model=${encodeURIComponent($('[data-role="model"]').value)}`);
+          nodeEl.querySelector('[data-role="diff"]').innerHTML = diff.changes.length
+            ? `<table class="grid-table"><tr><th>${esc(diff.file)}</th><th>file / default</th><th>live</th></tr>${diff.changes
+              .map((c) => `<tr data-diff="${esc(c.name)}"><td>${esc(c.name)}</td><td>${esc(JSON.stringify(c.yaml))}
+              <span class="muted">${esc(c.from)}</span></td><td><b>${esc(JSON.stringify(c.live))}</b></td></tr>`).join("")}</table>`
+            : `<div class="muted">live values match ${esc(diff.file)}</div>`;
+        }
+      } catch (err) {
+        status(err.message, true);
+      }
+    });
+    undoBtn.addEventListener("click", async () => {
+      const last = state.undo.pop();
+      undoBtn.disabled = !state.undo.length;
+      if (last) await write(last.node, last.name, last.value, { recordUndo: false });
+    });
+    $('[data-act="reload"]').addEventListener("click", load);
+
+    // -- threshold plot ---------------------------------------------------------------------------
+    const fieldSel = $('[data-role="field"]');
+    const thresholdSel = $('[data-role="threshold"]');
+    const canvas = $('[data-role="plot"]');
+    function refreshThresholds() {
+      const keep = thresholdSel.value;
+      const opts = ['<option value="">(none)</option>'];
+      for (const [node, params] of Object.entries(state.nodes)) {
+        for (const p of params) {
+          if (p.type === "float" || p.type === "int") opts.push(`<option value="${esc(node)}/${esc(p.name)}">${esc(node)}.${esc(p.name)}</option>`);
+        }
+      }
+      thresholdSel.innerHTML = opts.join("");
+      thresholdSel.value = keep || (find("hcm", "falling_gyro_pitch") ? "hcm/falling_gyro_pitch" : "");
+    }
+    const offs = [ctx.subscribe("imu/data", 30, (frame) => {
+      if (frame.robot !== state.robot) return;
+      const [, path] = PLOT_FIELDS[+fieldSel.value];
+      const v = pick(frame.data, path);
+      if (typeof v !== "number") return;
+      const now = performance.now() / 1000;
+      state.series.push([now, v]);
+      while (state.series.length && state.series[0][0] < now - PLOT_SECONDS) state.series.shift();
+    })];
+    fieldSel.addEventListener("change", () => { state.series = []; });
+
+    function draw() {
+      if (!body.querySelector(".lab-plot").open) return;
+      const w = canvas.clientWidth, h = canvas.clientHeight;
+      if (canvas.width !== w) canvas.width = w;
+      const g = canvas.getContext("2d");
+      const css = getComputedStyle(body);
+      g.clearRect(0, 0, w, h);
+      const [tn, tp] = thresholdSel.value ? thresholdSel.value.split("/") : [];
+      const line = tn ? find(tn, tp)?.value : undefined;
+      const values = state.series.map((s) => s[1]);
+      if (line !== undefined) values.push(line, -line);
+      const hi = Math.max(1e-3, ...values.map(Math.abs)) * 1.1;
+      const y = (v) => h / 2 - (v / hi) * (h / 2 - 4);
+      const now = performance.now() / 1000;
+      g.strokeStyle = css.getPropertyValue("--muted");
+      g.beginPath(); g.moveTo(0, y(0)); g.lineTo(w, y(0)); g.stroke();
+      g.strokeStyle = css.getPropertyValue("--accent");
+      g.lineWidth = 2;
+      g.beginPath();
+      state.series.forEach(([t, v], i) => {
+        const x = w - ((now - t) / PLOT_SECONDS) * w;
+        if (i) g.lineTo(x, y(v)); else g.moveTo(x, y(v));
+      });
+      g.stroke();
+      if (line !== undefined) {
+        g.strokeStyle = css.getPropertyValue("--bad");
+        g.setLineDash([6, 4]);
+        for (const v of [line, -line]) { g.beginPath(); g.moveTo(0, y(v)); g.lineTo(w, y(v)); g.stroke(); }
+        g.setLineDash([]);
+        g.fillStyle = css.getPropertyValue("--bad");
+        g.fillText(`${tp} = ${line}`, 4, y(line) - 3);
+      }
+      g.lineWidth = 1;
+    }
+    const timer = setInterval(draw, 200);
+    return { destroy() { clearInterval(timer); picker.off(); offs.forEach((off) => off()); } };
+  },
+};
