@@ -14,6 +14,8 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import dataclasses
+import functools
+import heapq
 import json
 import logging
 import math
@@ -24,9 +26,10 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from rosbags.typesys import get_types_from_msg
 
 from schemas import codec
-from schemas.mcap_log import LogError, LogMessage, LogSeriesReader
+from schemas.mcap_log import ChannelInfo, LogError, LogMessage, LogReader, LogSeriesReader
 from schemas.topics import TOPICS
 from server.hub import Hub, HubMessage
 from server.protocol import _dumps
@@ -39,7 +42,7 @@ SOURCE = "replay"
 MIN_SPEED, MAX_SPEED = 0.1, 10.0
 MAX_IN_FLIGHT = 8  # batches handed to the loop and not yet published
 BATCH_S = 0.02  # wall time a batch may gather before it goes to the hub
-PREVIEW_S = 2.0  # after a seek: the newest message of each stream from this long before the seek point
+PREVIEW_S = 1.0  # after a seek: the newest message of each stream from this long before the seek point
 OVERVIEW_TOPIC, STRING_TYPE = "overview", "std_msgs/msg/String"
 
 
@@ -69,7 +72,12 @@ class ReplayFile:
         self.end_ns = reader.end_ns
         self.channels = reader.channels()
         self.bookmarks = reader.bookmarks()
-        self._shared_class: dict[str, bool] = {}
+        # Channels whose type the process typestore decodes the same way travel as CDR bytes (decoded only
+        # where a panel needs them); the others are decoded here with the log's own definitions.
+        foreign = {c.mcap_topic for r in reader.readers for c in r.channels() if not _shared_schema(r, c)}
+        every = {c.mcap_topic for r in reader.readers for c in r.channels()}
+        self.raw_topics = sorted(every - foreign)
+        self.decoded_topics = sorted(foreign)
 
     def info(self) -> dict[str, Any]:
         topics = [{"robot": c.robot_id or REPLAY_ROBOT, "topic": c.topic, "msgtype": c.typename,
@@ -85,32 +93,55 @@ class ReplayFile:
 
     def hub_message(self, item: LogMessage) -> HubMessage | None:
         """None for a message that did not decode (its channel is still listed, with the problem)."""
-        if item.raw:
-            return None
         robot = item.robot_id or REPLAY_ROBOT
         typename, data = item.typename, item.msg
+        foreign = False
+        if item.raw:
+            if item.topic not in self._raw_names:
+                return None  # a channel without a usable schema
+        else:
+            foreign = hasattr(data, "__msgtype__")
         if item.topic == OVERVIEW_TOPIC and typename == STRING_TYPE:
-            overview = _overview(data.data)
+            overview = _overview(codec.decode(data, STRING_TYPE).data if item.raw else data.data)
             if overview is not None:
                 typename, data = overview
+                foreign = False
         msg = HubMessage(robot, item.topic, typename, item.log_time_ns / 1e9, data, SOURCE)
-        if hasattr(data, "__msgtype__") and not self._is_shared(typename, data):
+        if foreign:
             msg.frame = _dumps({"type": "msg", "robot": robot, "topic": item.topic, "msgtype": typename,
                                 "stamp": msg.stamp, "source": SOURCE, "data": foreign_data(data)})
         return msg
 
-    def _is_shared(self, typename: str, data: Any) -> bool:
-        """True when the message is of the process typestore's class (panels and protocol know its fields)."""
-        known = self._shared_class.get(typename)
-        if known is None:
-            known = self._shared_class[typename] = codec.typestore().types.get(typename) is type(data)
-        return known
+    @functools.cached_property
+    def _raw_names(self) -> frozenset[str]:
+        return frozenset(c.topic for c in self.channels if c.mcap_topic in set(self.raw_topics))
 
     def messages(self, start_ns: int | None = None, end_ns: int | None = None) -> Iterator[LogMessage]:
-        return self.reader.messages(start_ns, end_ns)
+        """In log time: known types as CDR bytes, foreign ones decoded."""
+        streams = []
+        if self.raw_topics:
+            streams.append(self.reader.messages(start_ns, end_ns, topics=self.raw_topics, decode=False))
+        if self.decoded_topics:
+            streams.append(self.reader.messages(start_ns, end_ns, topics=self.decoded_topics, decode=True))
+        return heapq.merge(*streams, key=lambda m: m.log_time_ns)
 
     def close(self) -> None:
         self.reader.close()
+
+
+def _shared_schema(reader: LogReader, channel: ChannelInfo) -> bool:
+    """True when the channel's schema text defines its types exactly as the process typestore does."""
+    if not channel.decodable:
+        return False
+    schema = reader.schema(channel.channel_id)
+    shared = codec.typestore().fielddefs
+    if schema is None or channel.typename not in shared:
+        return False
+    try:
+        parsed = get_types_from_msg(schema.data.decode(), channel.typename)
+    except Exception:  # rosbags raises several kinds on bad text; such a channel is not ours anyway
+        return False
+    return all(shared.get(name) == definition for name, definition in parsed.items())
 
 
 def _overview(text: str) -> tuple[str, Any] | None:
