@@ -18,6 +18,8 @@ import numpy as np
 
 from robot_nodes.walking.gait import WalkParams
 from robot_nodes.walking.kinematics import LegKinematics, rot_x, rot_y, rot_z
+from robot_nodes.walking.odometry import LegOdometry
+from robot_nodes.walking.pose import Pose2D
 
 GRAVITY = 9.81
 
@@ -27,22 +29,6 @@ class Phase(enum.Enum):
     STARTING = "starting"  # moving from the present pose into the walk stance
     WALKING = "walking"
     STOPPING = "stopping"  # a few steps in place until both feet are home
-
-
-@dataclass
-class Pose2D:
-    x: float = 0.0
-    y: float = 0.0
-    yaw: float = 0.0
-
-    def compose(self, other: Pose2D) -> Pose2D:
-        """self then other (other expressed in self's frame)."""
-        c, s = math.cos(self.yaw), math.sin(self.yaw)
-        return Pose2D(self.x + c * other.x - s * other.y, self.y + s * other.x + c * other.y, self.yaw + other.yaw)
-
-    def inverse(self) -> Pose2D:
-        c, s = math.cos(self.yaw), math.sin(self.yaw)
-        return Pose2D(-c * self.x - s * self.y, s * self.x - c * self.y, -self.yaw)
 
 
 @dataclass
@@ -89,11 +75,13 @@ class WalkEngine:
         self.velocity = Pose2D()  # present (ramped) torso velocity
         self.command = Pose2D()
         self.stop_requested = False
-        self.odometry = Pose2D()
+        self.odometry = Pose2D()  # what the gait commanded (used without joint measurements)
+        self.leg_odometry: LegOdometry | None = None
         self.steps = 0
         self.walk_steps = 0  # steps since the start (the first ones only shift weight)
         self.feet = {"L": _Foot(), "R": _Foot()}
         self.tilt = (0.0, 0.0, 0.0, 0.0)  # measured torso pitch, roll, pitch rate, roll rate
+        self.heading: float | None = None
         self._start_from: np.ndarray | None = None
         self._start_elapsed = 0.0
         self._g = self._snapshot()
@@ -109,8 +97,11 @@ class WalkEngine:
         """The HCM (or a pause) says: no walking. The engine finishes with a few safe steps."""
         self.stop_requested = stop
 
-    def set_imu(self, pitch: float, roll: float, pitch_rate: float, roll_rate: float) -> None:
+    def set_imu(self, pitch: float, roll: float, pitch_rate: float, roll_rate: float,
+                heading: float | None = None) -> None:
+        """Torso orientation (rad) and rates (rad/s) from the IMU; heading feeds the odometry's yaw."""
         self.tilt = (pitch, roll, pitch_rate, roll_rate)
+        self.heading = heading
 
     @property
     def stepping(self) -> bool:
@@ -124,7 +115,7 @@ class WalkEngine:
 
     # -- the cycle ---------------------------------------------------------------------------------------
     def update(self, dt: float, present: dict[str, float] | None = None) -> WalkOutput:
-        """Advances the gait by dt seconds. present: measured joint positions (used to start smoothly)."""
+        """Advances the gait by dt seconds. present: measured joint positions (a smooth start, leg odometry)."""
         dt = min(max(dt, 0.0), 0.1)
         wants_motion = self._wants_motion()
         if self.phase is Phase.IDLE:
@@ -145,9 +136,14 @@ class WalkEngine:
         if self.phase is Phase.STARTING and self._start_from is not None:
             a = _quintic(self._start_elapsed / self._g.start_time)
             positions = (1.0 - a) * self._start_from + a * positions
+        odometry = self.odometry
+        if present is not None:
+            if self.leg_odometry is None:
+                self.leg_odometry = LegOdometry(self.kin)
+            odometry = self.leg_odometry.update(present, self.heading)
         return WalkOutput(self.names + (self.arm_names if self._g.arm_swing > 0 else []),
                           np.concatenate([positions, self._arms()]) if self._g.arm_swing > 0 else positions,
-                          self.stepping, Pose2D(self.odometry.x, self.odometry.y, self.odometry.yaw),
+                          self.stepping, Pose2D(odometry.x, odometry.y, odometry.yaw),
                           Pose2D(self.velocity.x, self.velocity.y, self.velocity.yaw))
 
     # -- internals ---------------------------------------------------------------------------------------

@@ -19,12 +19,13 @@ ACTIVE_PUBLISH_HZ = 10.0
 ODOM_FRAME, BASE_FRAME = "odom", "base_footprint"
 
 
-def tilt_of(q_xyzw: tuple[float, float, float, float]) -> tuple[float, float]:
-    """(pitch, roll) of an orientation quaternion; pitch positive when leaning forward."""
+def tilt_of(q_xyzw: tuple[float, float, float, float]) -> tuple[float, float, float]:
+    """(pitch, roll, yaw) of an orientation quaternion; pitch positive when leaning forward."""
     x, y, z, w = q_xyzw
     pitch = math.asin(max(-1.0, min(1.0, 2.0 * (w * y - z * x))))
     roll = math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
-    return pitch, roll
+    yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+    return pitch, roll, yaw
 
 
 class WalkingNode(Node):
@@ -75,8 +76,8 @@ class WalkingNode(Node):
 
     def on_imu(self, msg: Any) -> None:
         o, g = msg.orientation, msg.angular_velocity
-        pitch, roll = tilt_of((o.x, o.y, o.z, o.w))
-        self.engine.set_imu(pitch, roll, float(g.y), float(g.x))
+        pitch, roll, yaw = tilt_of((o.x, o.y, o.z, o.w))
+        self.engine.set_imu(pitch, roll, float(g.y), float(g.x), yaw)
 
     def on_joint_states(self, msg: Any) -> None:
         self.present = dict(zip(msg.name, (float(p) for p in msg.position), strict=False))
