@@ -14,9 +14,11 @@ import diagnostics from "./panels/diagnostics.js";
 import parameters from "./panels/parameters.js";
 import animationEditor from "./panels/animation_editor.js";
 import teleop from "./panels/teleop.js";
+import replay from "./panels/replay.js";
+import recordings from "./panels/recordings.js";
 
 const PANELS = [teamOverview, fieldView, relativeView, hcmGraph, camera, diagnostics, robot3d, plots, parameters,
-  animationEditor, teleop];
+  animationEditor, teleop, replay, recordings];
 
 async function main() {
   const config = await (await fetch("api/config")).json();
