@@ -138,9 +138,29 @@ def test_failed_stand_up_goes_back_to_fallen() -> None:
     assert machine.state is S.GETTING_UP
     bb.animation_busy = False
     machine.step(bb)
-    bb.animation_busy = False
-    machine.step(bb)
     assert machine.state is S.FALLEN, "still lying after the stand-up animation"
+    machine.step(bb)
+    assert machine.state is S.GETTING_UP, "tries again"
+    bb.fallen, bb.animation_busy = None, False  # up this time, but the settling walk-ready tips it over
+    machine.step(bb)
+    assert machine.state is S.GETTING_UP_SETTLE
+    bb.fallen, bb.animation_busy = Side.BACK, False
+    machine.step(bb)
+    assert machine.state is S.FALLEN
+
+
+def test_stand_up_that_ends_on_the_other_side_stands_up_from_there() -> None:
+    bb = Blackboard()
+    machine, actions = started(bb)
+    bb.fallen = Side.BACK
+    machine.step(bb)
+    machine.step(bb)
+    assert machine.state is S.GETTING_UP and actions.calls[-1] == ("play", "stand_up_back")
+    bb.fallen, bb.animation_busy = Side.FRONT, False  # stand_up_back rolled the robot onto its front
+    machine.step(bb)
+    assert machine.state is S.FALLEN and actions.calls[-1] != ("play", "walkready")
+    machine.step(bb)
+    assert machine.state is S.GETTING_UP and actions.calls[-1] == ("play", "stand_up_front")
 
 
 def test_penalty_from_walking_lets_the_walk_stop_first() -> None:

@@ -64,10 +64,13 @@ def test_every_file_is_plain_bitbots_json() -> None:
 @pytest.mark.parametrize("posture", ["front", "back"])
 def test_stand_up_brings_the_robot_from_lying_to_standing(world: SimWorld, posture: str) -> None:
     robot = world.robots[0]
-    robot.set_pose(0.0, 0.0, posture=posture)
+    world.set_ball(3.0, 3.0)  # the kick-off ball at the centre would prop up a robot lying there
+    robot.set_pose(0.0, 0.0, yaw=1.3, posture=posture)
     world.step_for(1.0)  # settle on the ground
     assert robot.uprightness() < 0.5, "starts lying"
     play(world, robot, f"stand_up_{posture}")
+    if posture == "back":  # stand_up_back rolls the robot onto its front; the HCM then plays stand_up_front
+        play(world, robot, "stand_up_front")
     assert_standing(robot, f"end of stand_up_{posture}")
     world.step_for(3.0)
     assert_standing(robot, f"3 s after stand_up_{posture}")

@@ -15,6 +15,7 @@ joint the animation moves. Torque requests of the keyframes travel in ``effort``
 torque request has applied yet (leave torque as it is); otherwise one value per joint, the
 requested torque fraction in [0, 1] (0.0 = torque off, 1.0 = on) or -1.0 for a joint without a
 request. Values are cumulative, so a lost message loses nothing.
+An animation canceled or preempted by an HCM goal ends with one ``last`` message without joints.
 """
 
 from __future__ import annotations
@@ -124,6 +125,8 @@ class AnimationNode(Node):
                 check_joints(anim, self.joint_positions, source)
         except AnimationError as exc:
             return str(exc)
+        if running is not None and not running.handle.done and hcm and not running.hcm:
+            self.pub.publish(self._ended(running))  # the HCM's goal takes over: the external stream is over
         playback = Playback(handle, anim, source, hcm, time.monotonic())
         if self.joint_positions is not None:
             self._begin(playback)
@@ -134,6 +137,7 @@ class AnimationNode(Node):
 
     def on_cancel(self, handle: ServerGoal) -> None:
         if self.playback is not None and self.playback.handle is handle:
+            self.pub.publish(self._ended(self.playback))  # tells the HCM at once, not after its timeout
             self.playback = None
             self.set_diagnostic("playing", "")
         handle.canceled(self._result(False, "canceled"))
@@ -193,6 +197,12 @@ class AnimationNode(Node):
                              self.params.joint_states_wait_s, playback.animation.name)
         self._begin(playback)
         return True
+
+    def _ended(self, playback: Playback) -> Any:
+        """The last=True message of an animation stopped early: no joints, no goals."""
+        return schemas.make("humanoid_league_msgs/msg/Animation", header=header(), first=False, last=True,
+                            hcm=playback.hcm, position=schemas.make("trajectory_msgs/msg/JointTrajectory",
+                                                                    header=header()))
 
     def _step(self, playback: Playback, player: AnimationPlayer, t: float, last: bool) -> Any:
         """One Animation message: positions at t (rad) and the torque requests applying by t."""

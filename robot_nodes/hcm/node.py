@@ -75,6 +75,7 @@ class HcmNode(Node):
         self.own_goal: ClientGoal | None = None
         self.forwarded = dict.fromkeys(GoalSource, 0)
         self.battery_announced = False
+        self.missing_servos = ""  # what the servo bus (cm730) reports as not answering
         self._shutdown_requested_at: float | None = None
 
         self.goals_pub = self.publisher("motor_goals")
@@ -92,6 +93,7 @@ class HcmNode(Node):
         self.subscribe("paused", self.on_paused)
         self.subscribe("walking_active", self.on_walking_active)
         self.subscribe("servo_data", self.on_servo_data)
+        self.subscribe("diagnostics", self.on_diagnostics)
         self.step_timer = self.timer(self.params.rate_hz, self.step)
         self.state_timer = self.timer(self.params.state_publish_hz, self.publish_state)
         self.timer(1.0, self.publish_graph)
@@ -127,6 +129,16 @@ class HcmNode(Node):
         if low and not self.battery_announced:
             self.speak(f"battery low: {float(np.min(msg.voltage)):.1f} volts", 2)
         self.battery_announced = low
+
+    def on_diagnostics(self, msg: Any) -> None:
+        # a servo that stops answering keeps its last value in joint_states; the bus says so in diagnostics
+        for status in msg.status:
+            if status.name.endswith("/cm730"):
+                values = {kv.key: kv.value for kv in status.values}
+                if "missing_servos" in values and values["missing_servos"] != self.missing_servos:
+                    self.missing_servos = values["missing_servos"]
+                    self.set_diagnostic("missing_servos", self.missing_servos)
+                    self.step()
 
     def on_goals(self, source: GoalSource, trajectory: Any) -> None:
         self.last_motion = time.monotonic()
@@ -173,7 +185,8 @@ class HcmNode(Node):
         now = time.monotonic()
         bb, p, checker = self.bb, self.params, self.fall_checker
         bb.now = now
-        bb.hardware_ok = now - self.last_imu < p.imu_timeout_s and now - self.last_joints < p.motor_timeout_s
+        bb.hardware_ok = (now - self.last_imu < p.imu_timeout_s and now - self.last_joints < p.motor_timeout_s
+                          and not self.missing_servos)
         bb.falling, bb.fallen = checker.falling, checker.fallen
         upright = math.radians(p.upright_deg)
         bb.upright = abs(checker.roll) < upright and abs(checker.pitch) < upright
@@ -185,18 +198,18 @@ class HcmNode(Node):
         bb.fall_detection, bb.stand_up = p.fall_detection, p.stand_up
         bb.motor_off_after_s = p.motor_off_after_s
         bb.animation_busy = self.own_goal is not None
-        before = self.machine.state
         changed = False
         for _ in range(3):  # follow immediate chains (e.g. a finished animation and a new condition)
+            before = self.machine.state
             if not self.machine.step(bb):
                 break
             changed = True
-        if changed:
             if self.machine.state is not HcmState.MOTOR_OFF:
                 bb.motion_requested = False
             self.log.info("%s -> %s (%s)", before.value, self.machine.state.value,
                           self.machine.history[-1].condition)
-            self.publish_state()
+            self.publish_state()  # every state of a chain goes out (FALLING -> FALLEN -> GETTING_UP)
+        if changed:
             self.publish_graph()
             if self.machine.state is HcmState.HCM_OFF and self._shutdown_requested_at is not None:
                 self.shutdown()

@@ -161,6 +161,9 @@ def build_transitions() -> list[Transition]:
         _t(S.FALLEN, S.CONTROLLABLE, "upright and at rest",
            lambda bb: not bb.animation_busy and bb.fallen is None and bb.upright and _since_entry(bb) > 1.0),
         _t(S.GETTING_UP, S.HARDWARE_PROBLEM, "servos or IMU silent", lambda bb: not bb.hardware_ok),
+        # stand_up_back may end lying on the front (it rolls over): then stand up from there at once
+        _t(S.GETTING_UP, S.FALLEN, "stand-up left it lying",
+           lambda bb: not bb.animation_busy and bb.fallen is not None),
         _t(S.GETTING_UP, S.GETTING_UP_SETTLE, "stand-up animation done", lambda bb: not bb.animation_busy),
         _t(S.GETTING_UP_SETTLE, S.FALLING, "falling again",
            lambda bb: not bb.animation_busy and bb.falling is not None),
