@@ -1,13 +1,17 @@
-"""Dashboard server throughput and latency: Zenoh -> hub -> WebSocket clients, and the field view's frame rate.
+"""Dashboard server throughput and latency: UDP telemetry -> hub -> WebSocket clients, and the field view's frame rate.
 
-    python bench/server.py [--seconds 5] [--no-browser]
+    python bench/server.py [--seconds 5] [--no-browser] [--no-live]
 
-The server runs as its own process (``python -m server``) joined to a Zenoh router in this process; the
-WebSocket clients run in a third process. Figures:
-- hub_msgs_per_s: messages/s the hub took in while a publisher floods 11 robots' robot_state;
+The server runs as its own process (``python -m server``, telemetry on a free UDP port, joined to a Zenoh
+router in this process); 11 simulated robots' telemetry comes from a third process that writes real
+authenticated datagrams (``robot_nodes.telemetry.datagram``: stream tables, AES-GCM, sequence numbers)
+into the server's UDP port; the WebSocket clients run in a fourth. Figures:
+- hub_msgs_per_s: messages/s the hub took in from UDP telemetry while 11 robots flood robot_state;
 - ws1_msgs_per_s / ws10_msgs_per_s: messages/s delivered to 1 client / to 10 clients in total, same flood;
-- latency_p50_ms / p99: publish -> browser-side client, joint_states of 11 robots at 100 Hz each;
-- field_fps: frames/s the field view draws in chromium with 11 robots moving at 30 Hz.
+- latency_p50_ms / p99: robot send (header stamp) -> WebSocket client, telemetry joint_states of 11 robots at
+  100 Hz each (1,100 msg/s);
+- field_fps: frames/s the field view draws in chromium with 11 robots moving (telemetry position, 30 Hz each);
+- live_hub_msgs_per_s (unless --no-live): the same flood over live Zenoh instead of telemetry.
 """
 
 from __future__ import annotations
@@ -15,7 +19,9 @@ from __future__ import annotations
 import argparse
 import asyncio
 import json
+import math
 import os
+import socket
 import statistics
 import subprocess
 import sys
@@ -31,6 +37,7 @@ import httpx
 import schemas
 from robot_nodes.runtime import BusConfig, open_router, open_session
 from robot_nodes.runtime.keys import topic_key
+from robot_nodes.telemetry import datagram as tdg
 from server.protocol import unbatch
 from tests.conftest import free_port
 
@@ -106,6 +113,89 @@ def run_clients(url: str, n: int, seconds: float, topic: str, latency: bool, dur
     return result
 
 
+# -- the telemetry process: 11 robots' datagrams into the server's UDP port ------------------------------------
+STREAM_ID = 1
+
+
+def _stamp_now() -> Any:
+    t = time.time_ns()
+    return schemas.make("std_msgs/msg/Header", stamp=schemas.make("builtin_interfaces/msg/Time", sec=t // 10**9,
+                                                                  nanosec=t % 10**9))
+
+
+def _payloads(kind: str, t: float) -> list[bytes]:
+    """One CDR message per robot: robot_state (flood), joint_states stamped now (latency) or a moving position."""
+    if kind == "robot_state":
+        return [schemas.encode(schemas.make("humanoid_league_msgs/msg/RobotControlState", state=10))] * len(ROBOTS)
+    if kind == "joint_states":
+        msg = schemas.make("sensor_msgs/msg/JointState", header=_stamp_now(), name=[f"joint{i}" for i in range(20)],
+                           position=[0.1] * 20)
+        return [schemas.encode(msg)] * len(ROBOTS)
+    out = []
+    for i in range(len(ROBOTS)):
+        pose = schemas.make("geometry_msgs/msg/Pose2D", x=3.5 * math.cos(t * 0.5 + i), y=2.5 * math.sin(t + i),
+                            theta=t + i)
+        out.append(schemas.encode(schemas.make("humanoid_league_msgs/msg/Position2D", header=_stamp_now(), pose=pose,
+                                               confidence=0.8)))
+    return out
+
+
+def telemetry_worker(argv: list[str]) -> None:
+    """Sends ``topic`` for 11 robots at ``hz`` each (0: as fast as it can) until stdin closes."""
+    port, topic, hz = int(argv[0]), argv[1], float(argv[2])
+    typename = schemas.codec.full_name(schemas.TOPICS[topic].type)
+    schema = schemas.codec.schema_hash(typename)
+    key = tdg.load_key(None)
+    writers = [tdg.DatagramWriter(key, robot) for robot in ROBOTS]
+    info = tdg.StreamInfo(STREAM_ID, topic, typename, schema, int(schemas.TOPICS[topic].priority), hz)
+    tables = tdg.encode_stream_tables([info], 100_000_000)
+    sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, 4 << 20)
+    sock.connect(("127.0.0.1", port))
+    stop = threading.Event()
+    threading.Thread(target=lambda: (sys.stdin.read(), stop.set()), daemon=True).start()
+    sent = errors = 0
+    next_table = next_tick = t0 = time.monotonic()
+    while not stop.is_set():
+        now = time.monotonic()
+        if now >= next_table:  # the receiver learns stream ids from the table, as from a real sender
+            for writer in writers:
+                for body in tables:
+                    sock.send(writer.message(tdg.Kind.STREAM_TABLE, tdg.TABLE_STREAM, tdg.TABLE_HASH, body)[0])
+            next_table = now + 0.5
+        for writer, payload in zip(writers, _payloads(topic, now - t0), strict=True):
+            for data in writer.message(tdg.Kind.MESSAGE, STREAM_ID, schema, payload):
+                try:
+                    sock.send(data)
+                    sent += 1
+                except OSError:  # a full socket buffer: lost like on air
+                    errors += 1
+        if hz > 0:
+            next_tick += 1.0 / hz
+            time.sleep(max(0.0, next_tick - time.monotonic()))
+    print(json.dumps({"sent": sent, "errors": errors}), flush=True)
+
+
+class Telemetry:
+    """The telemetry process, as a context manager."""
+
+    def __init__(self, port: int, topic: str, hz: float) -> None:
+        self.proc = subprocess.Popen([sys.executable, __file__, "--telemetry-worker", str(port), topic, str(hz)],
+                                     stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, cwd=REPO)
+        self.result: dict[str, Any] = {}
+
+    def __enter__(self) -> Telemetry:
+        return self
+
+    def __exit__(self, *_: object) -> None:
+        assert self.proc.stdin is not None and self.proc.stdout is not None
+        self.proc.stdin.close()
+        line = self.proc.stdout.readline()
+        self.result = json.loads(line) if line else {}
+        print(f"  telemetry sender: {self.result}")
+        self.proc.wait(10)
+
+
 # -- publishers in this process ---------------------------------------------------------------------------
 def flood(session: Any, stop: threading.Event) -> None:
     """robot_state of 11 robots as fast as Python can put them."""
@@ -118,39 +208,6 @@ def flood(session: Any, stop: threading.Event) -> None:
         pub.undeclare()
 
 
-def joint_states_at(session: Any, hz: float, stop: threading.Event) -> None:
-    """joint_states of 11 robots at ``hz`` each, stamped at publish time."""
-    pubs = [session.declare_publisher(topic_key(r, "joint_states")) for r in ROBOTS]
-    names = [f"joint{i}" for i in range(20)]
-    period = 1.0 / hz
-    next_t = time.monotonic()
-    while not stop.is_set():
-        for pub in pubs:
-            t = time.time_ns()
-            stamp = schemas.make("builtin_interfaces/msg/Time", sec=t // 10**9, nanosec=t % 10**9)
-            msg = schemas.make("sensor_msgs/msg/JointState", header=schemas.make("std_msgs/msg/Header", stamp=stamp),
-                               name=names, position=[0.1] * 20)
-            pub.put(schemas.encode(msg))
-        next_t += period
-        time.sleep(max(0.0, next_t - time.monotonic()))
-    for pub in pubs:
-        pub.undeclare()
-
-
-def positions_at(session: Any, hz: float, stop: threading.Event) -> None:
-    import math
-
-    pubs = [session.declare_publisher(topic_key(r, "position")) for r in ROBOTS]
-    t0 = time.monotonic()
-    while not stop.is_set():
-        t = time.monotonic() - t0
-        for i, pub in enumerate(pubs):
-            pose = schemas.make("geometry_msgs/msg/Pose2D", x=3.5 * math.cos(t * 0.5 + i), y=2.5 * math.sin(t + i),
-                                theta=t + i)
-            pub.put(schemas.encode(schemas.make("humanoid_league_msgs/msg/Position2D", pose=pose, confidence=0.8)))
-        time.sleep(1.0 / hz)
-
-
 # -- the browser --------------------------------------------------------------------------------------------
 def field_fps(url: str, seconds: float) -> float:
     from playwright.sync_api import sync_playwright
@@ -160,7 +217,7 @@ def field_fps(url: str, seconds: float) -> float:
             "--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update"])
         page = browser.new_page(viewport={"width": 1600, "height": 1000})
         page.goto(url)
-        page.wait_for_function("window.pitchside?.fieldView?.drawn?.length === 11", timeout=30_000)
+        page.wait_for_function("window.pitchside?.fieldView?.drawn?.length === 11", timeout=60_000)
         f0 = page.evaluate("window.pitchside.fieldView.frames")
         time.sleep(seconds)
         f1 = page.evaluate("window.pitchside.fieldView.frames")
@@ -168,80 +225,105 @@ def field_fps(url: str, seconds: float) -> float:
     return (f1 - f0) / seconds
 
 
+def _wait_up(url: str) -> None:
+    deadline = time.monotonic() + 60
+    while True:
+        try:
+            if httpx.get(f"{url}/api/config", timeout=1).status_code == 200:
+                return
+        except httpx.HTTPError:
+            pass
+        if time.monotonic() > deadline:
+            raise SystemExit("server did not start")
+        time.sleep(0.1)
+
+
+def throughput(url: str, ws_url: str, n: int, seconds: float, start_flood: Any) -> tuple[float, float, list[int]]:
+    """(hub intake msg/s, msg/s delivered to n clients in total, per client) while ``start_flood`` runs."""
+    marks: list[tuple[float, int]] = []
+
+    def hub_published() -> int:
+        return int(httpx.get(f"{url}/api/hub", timeout=10).json()["published"])
+
+    def during(stop: threading.Event) -> None:
+        with start_flood():
+            time.sleep(0.5)
+            marks.append((time.monotonic(), hub_published()))
+            stop.wait()
+            marks.append((time.monotonic(), hub_published()))
+
+    got = run_clients(ws_url, n, seconds, "robot_state", False, during)
+    (t0, p0), (t1, p1) = marks
+    return (p1 - p0) / (t1 - t0), got["total"] / seconds, got["per_client"]
+
+
 def main() -> None:
     if len(sys.argv) > 1 and sys.argv[1] == "--clients-worker":
         client_worker(sys.argv[2:])
         return
+    if len(sys.argv) > 1 and sys.argv[1] == "--telemetry-worker":
+        telemetry_worker(sys.argv[2:])
+        return
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=5.0)
     parser.add_argument("--no-browser", action="store_true")
+    parser.add_argument("--no-live", action="store_true", help="skip the live Zenoh flood")
     args = parser.parse_args()
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     router = open_router([endpoint])
-    port = free_port()
+    port, udp = free_port(), free_port(socket.SOCK_DGRAM)
     server = subprocess.Popen([sys.executable, "-m", "server", "--port", str(port), "--connect", endpoint,
-                               "--no-telemetry", "--log-level", "WARNING"], cwd=REPO,
-                              env=dict(os.environ, PYTHONUNBUFFERED="1"))
+                               "--telemetry-host", "127.0.0.1", "--telemetry-port", str(udp),
+                               "--log-level", "WARNING"], cwd=REPO, env=dict(os.environ, PYTHONUNBUFFERED="1"))
     session = open_session(BusConfig(connect=[endpoint]))
     url, ws_url = f"http://127.0.0.1:{port}", f"ws://127.0.0.1:{port}/ws"
     try:
-        deadline = time.monotonic() + 60
-        while True:
-            try:
-                if httpx.get(f"{url}/api/config", timeout=1).status_code == 200:
-                    break
-            except httpx.HTTPError:
-                pass
-            if time.monotonic() > deadline:
-                raise SystemExit("server did not start")
-            time.sleep(0.1)
-
-        def hub_published() -> int:
-            return int(httpx.get(f"{url}/api/hub", timeout=10).json()["published"])
-
+        _wait_up(url)
         results: dict[str, float] = {}
         for n in (1, 10):
-            marks: list[tuple[float, int]] = []
-
-            def during(stop: threading.Event, marks: list[tuple[float, int]] = marks) -> None:
-                flooding = threading.Thread(target=flood, args=(session, stop), daemon=True)
-                flooding.start()
-                time.sleep(0.5)
-                marks.append((time.monotonic(), hub_published()))
-                stop.wait()
-                marks.append((time.monotonic(), hub_published()))
-                flooding.join(5)
-
-            got = run_clients(ws_url, n, args.seconds, "robot_state", False, during)
-            (t0, p0), (t1, p1) = marks
-            results[f"hub{n}"] = (p1 - p0) / (t1 - t0)
-            results[f"ws{n}"] = got["total"] / args.seconds
-            spread = f"min {min(got['per_client'])} max {max(got['per_client'])}" if n > 1 else ""
-            print(f"{n:2d} client(s): hub took {results[f'hub{n}']:9.0f} msg/s, clients got "
-                  f"{results[f'ws{n}']:9.0f} msg/s in total {spread}")
+            hub, ws, per_client = throughput(url, ws_url, n, args.seconds, lambda: Telemetry(udp, "robot_state", 0))
+            results[f"hub{n}"], results[f"ws{n}"] = hub, ws
+            spread = f" (per client min {min(per_client)} max {max(per_client)})" if n > 1 else ""
+            print(f"telemetry flood, {n:2d} client(s): hub took {hub:8.0f} msg/s, clients got {ws:8.0f} msg/s in "
+                  f"total{spread}")
+        telemetry = next(s for s in httpx.get(f"{url}/api/sources").json() if s["name"] == "telemetry")
+        print("  telemetry source counters:", {k: v for k, v in telemetry.items() if isinstance(v, int | float)})
         time.sleep(1.0)  # let the server drain the flood
 
-        got = run_clients(ws_url, 1, args.seconds, "joint_states", True,
-                          lambda stop: joint_states_at(session, 100.0, stop))
+        with Telemetry(udp, "joint_states", 100.0):
+            time.sleep(1.0)  # the stream table is known, the stream runs
+            got = run_clients(ws_url, 1, args.seconds, "joint_states", True, lambda stop: stop.wait())
         delays = sorted(d * 1000 for d in got["delays"])
         p50 = statistics.median(delays)
         p99 = delays[int(0.99 * (len(delays) - 1))]
-        print(f"latency, 11 robots x 100 Hz joint_states: {len(delays)} messages, p50 {p50:.2f} ms, p99 {p99:.2f} ms")
+        print(f"latency, telemetry joint_states of 11 robots x 100 Hz: {len(delays)} messages, p50 {p50:.2f} ms, "
+              f"p99 {p99:.2f} ms")
+
+        live = ""
+        if not args.no_live:
+            class LiveFlood:
+                def __enter__(self) -> None:
+                    self.stop = threading.Event()
+                    self.thread = threading.Thread(target=flood, args=(session, self.stop), daemon=True)
+                    self.thread.start()
+
+                def __exit__(self, *_: object) -> None:
+                    self.stop.set()
+                    self.thread.join(5)
+
+            hub, ws, _ = throughput(url, ws_url, 1, args.seconds, LiveFlood)
+            print(f"live Zenoh flood, 1 client: hub took {hub:8.0f} msg/s, client got {ws:8.0f} msg/s")
+            live = f" live_hub_msgs_per_s={hub:.0f}"
+            time.sleep(1.0)
 
         fps = float("nan")
         if not args.no_browser:
-            stop = threading.Event()
-            mover = threading.Thread(target=positions_at, args=(session, 30.0, stop), daemon=True)
-            mover.start()
-            try:
+            with Telemetry(udp, "position", 30.0):
                 fps = field_fps(url, args.seconds)
-            finally:
-                stop.set()
-                mover.join(5)
-            print(f"field view with 11 robots at 30 Hz: {fps:.1f} frames/s")
+            print(f"field view with 11 robots moving at 30 Hz (telemetry): {fps:.1f} frames/s")
         print(f"RESULT server hub_msgs_per_s={results['hub1']:.0f} ws1_msgs_per_s={results['ws1']:.0f} "
               f"ws10_msgs_per_s={results['ws10']:.0f} latency_p50_ms={p50:.2f} latency_p99_ms={p99:.2f} "
-              f"field_fps={fps:.1f}")
+              f"field_fps={fps:.1f}{live}")
     finally:
         session.close()
         server.terminate()

@@ -37,7 +37,9 @@ def free_port(preferred: int, kind: int = socket.SOCK_STREAM) -> int:
 
 
 def demo_processes(robots: int, endpoint: str, http_port: int, telemetry_port: int, model: str,
-                   match: bool, gc_ports: list[int], gc_return_port: int) -> list[NodeProcess]:
+                   match: bool, gc_ports: list[int], gc_return_port: int,
+                   view_ports: tuple[int, int, int] = (8081, 9090, 9876)) -> list[NodeProcess]:
+    """Every process of the demo; view_ports: the 3D view's, the plots viewer's and rerun's gRPC port."""
     py = sys.executable
     connect = ["--connect", endpoint]
     processes = [NodeProcess("world", [py, "-m", "robot_nodes.cm730.sim", "--robots", str(robots),
@@ -57,7 +59,9 @@ def demo_processes(robots: int, endpoint: str, http_port: int, telemetry_port: i
         gc += ["--to", f"127.0.0.1:{port}"]
     processes.append(NodeProcess("gamecontroller", gc))
     server = [py, "-m", "server", "--port", str(http_port), "--telemetry-port", str(telemetry_port),
-              "--urdf", str(REPO / "robots" / model / "urdf" / f"{model}.urdf"), "--robot3d", "--plots", *connect]
+              "--urdf", str(REPO / "robots" / model / "urdf" / f"{model}.urdf"), "--robot3d", "--plots", *connect,
+              "--robot3d-port", str(view_ports[0]), "--plots-port", str(view_ports[1]),
+              "--plots-grpc-port", str(view_ports[2])]
     if match:
         server.append("--match")
     processes.append(NodeProcess("server", server))
@@ -77,9 +81,10 @@ def main(argv: list[str] | None = None) -> None:
     telemetry_port = free_port(5800, socket.SOCK_DGRAM)
     gc_ports = [free_port(3838 + i, socket.SOCK_DGRAM) for i in range(args.robots)]
     gc_return_port = free_port(3939, socket.SOCK_DGRAM)
+    view_ports = (free_port(8081), free_port(9090), free_port(9876))
     router = open_router([endpoint])
     launcher = Launcher(demo_processes(args.robots, endpoint, http_port, telemetry_port, args.model, args.match,
-                                       gc_ports, gc_return_port))
+                                       gc_ports, gc_return_port, view_ports))
     print(f"\n  pitchside demo: open http://127.0.0.1:{http_port}/  (Zenoh router {endpoint}; Ctrl-C stops)\n",
           flush=True)
     try:

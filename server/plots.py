@@ -80,6 +80,10 @@ class PlotFeed:
     def urls(self) -> dict[str, int]:
         return {"web_port": self.config.plots_web_port, "grpc_port": self.config.plots_grpc_port}
 
+    def status(self) -> dict[str, Any]:
+        """What the viewer is fed: messages turned into scalars so far, and the robots with a tab."""
+        return {**self.urls(), "logged": self.logged, "robots": list(self.robots)}
+
     async def start(self) -> None:
         os.environ["TELEMETRY_ENABLED"] = "false"
         import rerun as rr

@@ -189,6 +189,18 @@ class Cm730Node(Node):
             self._sim.robot, self._sim_topics.on_frame, self.params.camera_width, self.params.camera_height,
             self.params.camera_rate, want_image=self._sim_topics.wants_image, noise=self._sim_topics.noise)
         self.timer(self.params.ground_truth_rate, self._sim_topics.publish_ground_truth, name="ground_truth")
+        self._rtf_mark = (self._sim.world.time, time.monotonic())
+        self.timer(1.0, self._measure_real_time_factor, name="real_time_factor")
+
+    def _measure_real_time_factor(self) -> None:
+        """Sim seconds per wall second over the last period: below 1 the machine cannot keep up with the world."""
+        assert self._sim is not None
+        sim_now, wall_now = self._sim.world.time, time.monotonic()
+        sim0, wall0 = self._rtf_mark
+        self._rtf_mark = (sim_now, wall_now)
+        if wall_now > wall0:
+            self.set_diagnostic("real_time_factor", f"{(sim_now - sim0) / (wall_now - wall0):.3f}")
+            self.set_diagnostic("lag_resets", self._sim.runner.lag_resets)
 
     def _apply_sim_params(self) -> None:
         if self._sim is None:

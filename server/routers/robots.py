@@ -40,6 +40,13 @@ def robot3d_status(state: ServerState = Depends(get_state)) -> dict[str, Any]:
     return view.status() if view is not None else {"port": None, "failed": {}, "robots": {}}
 
 
+@router.get("/plots")
+def plots_status(state: ServerState = Depends(get_state)) -> dict[str, Any]:
+    """Whether plots are served, and how many messages the rerun viewer has been fed."""
+    plots = state.views.get("plots")
+    return plots.status() if plots is not None else {"logged": 0, "robots": []}
+
+
 @router.get("/config")
 def dashboard_config(state: ServerState = Depends(get_state)) -> dict[str, Any]:
     """What the page needs to know: match mode, whether control needs a token, where the 3D view and plots are."""

@@ -14,6 +14,8 @@ export default {
     const canvas = document.createElement("canvas");
     body.append(canvas);
     let dirty = true, raf = 0;
+    const stats = { frames: 0, ball: null }; // what the last frame drew (tests and debugging)
+    window.pitchside.relativeView = stats;
     const offs = TOPICS.map(([topic, hz]) => ctx.subscribe(topic, hz, (f) => { if (f.robot === store.focus) dirty = true; }));
     offs.push(store.on("focus", () => { dirty = true; }), store.on("theme", () => { dirty = true; }));
 
@@ -60,6 +62,8 @@ export default {
         label(g, x, y, o.confidence.toFixed(2));
       }
       const ball = store.get(robot, "ball_relative")?.data;
+      stats.frames++;
+      stats.ball = ball && ball.confidence > 0 ? { x: ball.ball_relative.x, y: ball.ball_relative.y } : null;
       if (ball && ball.confidence > 0) {
         const [x, y] = P(ball.ball_relative);
         g.fillStyle = "#ff8c00"; g.strokeStyle = "#000"; g.lineWidth = 2;

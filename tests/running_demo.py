@@ -1,0 +1,155 @@
+"""Test and bench helper: `pitchside demo` as a real subprocess tree, and a WebSocket observer of its dashboard."""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import re
+import signal
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import httpx
+import psutil
+
+from server.protocol import unbatch
+from tests.conftest import REPO, free_port
+from tests.waiting import wait_for
+
+BANNER = re.compile(r"open (http://127\.0\.0\.1:\d+)/")
+
+
+@dataclass
+class RunningDemo:
+    process: subprocess.Popen[bytes]
+    url: str
+    log: Path
+
+    @property
+    def ws_url(self) -> str:
+        return self.url.replace("http://", "ws://") + "/ws"
+
+    def output(self) -> str:
+        return self.log.read_text(errors="replace")
+
+    def processes(self) -> list[psutil.Process]:
+        """The demo and every process it started (world, nodes, GameController, server)."""
+        root = psutil.Process(self.process.pid)
+        return [root, *root.children(recursive=True)]
+
+
+def _up(process: subprocess.Popen[bytes], log: Path) -> str | None:
+    if process.poll() is not None:
+        raise AssertionError(f"demo exited with {process.returncode}:\n{log.read_text(errors='replace')}")
+    match = BANNER.search(log.read_text(errors="replace"))
+    if match is None:
+        return None
+    try:
+        return match.group(1) if httpx.get(f"{match.group(1)}/api/config", timeout=1.0).status_code == 200 else None
+    except httpx.HTTPError:
+        return None
+
+
+@contextlib.contextmanager
+def running_demo(log_dir: Path, *args: str) -> Iterator[RunningDemo]:
+    """`python -m pitchside.cli demo --port <free> *args`, stopped with SIGTERM (its launcher stops the rest)."""
+    log = log_dir / "demo.log"
+    env = dict(os.environ, PYTHONUNBUFFERED="1", MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl"))
+    with log.open("wb") as out:
+        process = subprocess.Popen([sys.executable, "-m", "pitchside.cli", "demo", "--port", str(free_port()), *args],
+                                   cwd=REPO, stdout=out, stderr=subprocess.STDOUT, env=env, start_new_session=True)
+    try:
+        url = wait_for(lambda: _up(process, log), timeout=90.0, interval=0.2, what="demo dashboard up")
+        yield RunningDemo(process, url, log)
+    finally:
+        process.send_signal(signal.SIGTERM)
+        try:
+            process.wait(20)
+        except subprocess.TimeoutExpired:
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(process.pid, signal.SIGKILL)
+            process.wait(5)
+
+
+@dataclass
+class DashboardObserver:
+    """An independent /ws client: the latest frame per (robot, topic) and every world real-time-factor report."""
+
+    ws_url: str
+    topics: tuple[str, ...]
+    latest: dict[tuple[str, str], dict[str, Any]] = field(default_factory=dict)
+    real_time_factors: list[tuple[float, float]] = field(default_factory=list)  # (wall time, factor)
+    error: str = ""
+    _stop: threading.Event = field(default_factory=threading.Event)
+    _thread: threading.Thread | None = None
+
+    def __enter__(self) -> DashboardObserver:
+        self._thread = threading.Thread(target=self._run, name="dashboard-observer", daemon=True)
+        self._thread.start()
+        return self
+
+    def __exit__(self, *_: object) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(5)
+
+    def get(self, robot: str, topic: str) -> dict[str, Any] | None:
+        return self.latest.get((robot, topic))
+
+    def _run(self) -> None:
+        from websockets.sync.client import connect
+
+        try:
+            with connect(self.ws_url, max_size=None) as ws:
+                for topic in self.topics:
+                    ws.send(json.dumps({"op": "subscribe", "robot": "*", "topic": topic}))
+                while not self._stop.is_set():
+                    try:
+                        raw = ws.recv(timeout=0.5)
+                    except TimeoutError:
+                        continue
+                    if isinstance(raw, str):
+                        for frame in unbatch(json.loads(raw)):
+                            if frame.get("type") == "msg":
+                                self._seen(frame)
+        except Exception as exc:  # surfaced by the test through .error
+            self.error = repr(exc)
+
+    def _seen(self, frame: dict[str, Any]) -> None:
+        self.latest[(frame["robot"], frame["topic"])] = frame
+        if frame["topic"] == "diagnostics" and frame["source"] == "live":
+            for status in frame["data"]["status"]:
+                for kv in status["values"]:
+                    if kv["key"] == "real_time_factor":
+                        self.real_time_factors.append((time.time(), float(kv["value"])))
+
+
+def cpu_by_process(processes: list[psutil.Process], seconds: float) -> list[tuple[str, float]]:
+    """CPU % of one core each process used over ``seconds``, busiest first (names shortened to what ran)."""
+    for p in processes:
+        with contextlib.suppress(psutil.Error):
+            p.cpu_percent(None)
+    time.sleep(seconds)
+    out = []
+    for p in processes:
+        with contextlib.suppress(psutil.Error):
+            out.append((_label(p), p.cpu_percent(None)))
+    return sorted(out, key=lambda x: -x[1])
+
+
+def _label(p: psutil.Process) -> str:
+    cmd = p.cmdline()
+    if "-m" in cmd:
+        i = cmd.index("-m")
+        extra = [a for a in cmd[i + 2:] if not a.startswith("-")][:1] if cmd[i + 1] == "pitchside.cli" else []
+        robot = cmd[cmd.index("--robot-id") + 1] if "--robot-id" in cmd else ""
+        return " ".join(x for x in (cmd[i + 1], *extra, robot) if x) + f" [{p.pid}]"
+    kind = next((a.split("=", 1)[1] for a in cmd if a.startswith("--type=")), "")
+    return f"{Path(cmd[0]).name if cmd else p.name()} {kind}".strip() + f" [{p.pid}]"

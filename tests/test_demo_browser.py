@@ -1,0 +1,152 @@
+"""`pitchside demo` in Debian's chromium: every panel shows the live simulation, and the world keeps real time.
+
+Runs the real demo (MuJoCo world, robot nodes, GameController, server with 3D view and plots) as a
+subprocess; an independent WebSocket client reads the same data the page gets, so each panel is checked
+against what the robot published. Screenshots go to test-output/demo/ for review.
+"""
+
+from __future__ import annotations
+
+import math
+import statistics
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import httpx
+import pytest
+
+import schemas
+from tests.conftest import REPO
+from tests.running_demo import DashboardObserver, RunningDemo, cpu_by_process, running_demo
+from tests.waiting import wait_for
+
+CHROMIUM = Path("/usr/bin/chromium")
+OUTPUT = REPO / "test-output" / "demo"
+ROBOT = "robot1"
+HCM_NAMES = {v: k for k, v in schemas.constants("humanoid_league_msgs/msg/RobotControlState").items()}
+PANELS = ("team", "field", "relative", "hcm", "camera", "diagnostics", "robot3d", "plots")
+pytestmark = [pytest.mark.slow, pytest.mark.browser, pytest.mark.timeout(240)]
+
+
+@pytest.fixture(scope="module")
+def demo(tmp_path_factory: pytest.TempPathFactory) -> Iterator[RunningDemo]:
+    with running_demo(tmp_path_factory.mktemp("demo")) as running:
+        yield running
+
+
+@pytest.fixture
+def page(demo: RunningDemo) -> Iterator[Any]:
+    if not CHROMIUM.exists():
+        pytest.fail(f"{CHROMIUM} is missing: install Debian's chromium (apt-get install chromium)")
+    from playwright.sync_api import sync_playwright
+
+    with sync_playwright() as pw:
+        browser = pw.chromium.launch(executable_path=str(CHROMIUM), args=[
+            "--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update"])
+        page = browser.new_page(viewport={"width": 1600, "height": 2000})
+        page.errors = []
+        page.on("pageerror", lambda exc: page.errors.append(str(exc)))
+        page.goto(demo.url)
+        page.evaluate(f"localStorage.clear(); localStorage.setItem('pitchside.focus', '{ROBOT}')")
+        page.reload()
+        try:
+            yield page
+        finally:
+            OUTPUT.mkdir(parents=True, exist_ok=True)
+            page.screenshot(path=str(OUTPUT / "last.png"), full_page=True, timeout=10_000)
+            browser.close()
+
+
+def _distance_to_truth(page: Any, observer: DashboardObserver) -> float | None:
+    """How far the field view draws the robot from where the simulation has it (the newest ground truth)."""
+    truth = observer.get(ROBOT, "ground_truth")
+    drawn = page.evaluate("window.pitchside.fieldView?.drawn ?? []")
+    mine = next((d for d in drawn if d["id"] == ROBOT), None)
+    if truth is None or mine is None:
+        return None
+    data = truth["data"]
+    pose = data["robot_poses"][data["robot_ids"].index(ROBOT)]["position"]
+    return math.hypot(mine["x"] - pose["x"], mine["y"] - pose["y"])
+
+
+def _hcm_shown(page: Any, observer: DashboardObserver) -> tuple[str, str, str] | None:
+    """(state the robot last published, state on its overview card, state highlighted in the HCM graph)."""
+    state = observer.get(ROBOT, "robot_state")
+    if state is None:
+        return None
+    card, current = page.evaluate(f"""[document.querySelector('.card[data-robot="{ROBOT}"] .hcm-state')?.textContent,
+        document.querySelector('.hcm-node.current')?.dataset.state]""")
+    return HCM_NAMES[state["data"]["state"]], card or "", current or ""
+
+
+def test_every_panel_shows_the_live_demo(demo: RunningDemo, page: Any) -> None:
+    OUTPUT.mkdir(parents=True, exist_ok=True)
+    timeout = 60.0
+    started = time.monotonic()
+    with DashboardObserver(demo.ws_url, ("robot_state", "ground_truth", "diagnostics")) as observer:
+        # every panel of the default layout is on the page, none failed
+        page.wait_for_selector('.card[data-robot="robot1"]', timeout=timeout * 1000)
+        shown = set(page.eval_on_selector_all("section.panel", "els => els.map(e => e.dataset.panel)"))
+        assert shown >= set(PANELS), shown
+        assert "panel failed" not in (page.text_content("#grid") or "")
+
+        # team overview and HCM graph: the state the HCM last published
+        def hcm_agrees() -> bool:
+            shown = _hcm_shown(page, observer)
+            return shown is not None and shown[0] == shown[1] == shown[2]
+        wait_for(hcm_agrees, timeout, 0.2, f"HCM state on the card and in the graph = robot_state "
+                                          f"({_hcm_shown(page, observer)})")
+        assert page.evaluate(f"document.querySelector('.card[data-robot=\"{ROBOT}\"]')?.dataset.status") == "ok"
+        assert page.locator(".hcm-node").count() >= 5
+
+        # field view: the robot where the simulation has it, the ball drawn, the GameController's state
+        wait_for(lambda: (d := _distance_to_truth(page, observer)) is not None and d < 0.3, timeout, 0.2,
+                 f"robot drawn within 0.3 m of ground truth (off by {_distance_to_truth(page, observer)})")
+        assert page.evaluate("window.pitchside.fieldView.balls") >= 1
+        frames = page.evaluate("window.pitchside.fieldView.frames")
+        wait_for(lambda: page.evaluate("window.pitchside.fieldView.frames") > frames + 5, 20.0, 0.2,
+                 "field view redrawing as data arrives")
+
+        # camera: a rendered image with the ball marked; relative view: the ball around the robot
+        wait_for(lambda: page.evaluate("(c => c && c.images > 2 && c.width > 0)(window.pitchside.camera)"), timeout,
+                 0.2, "camera images decoded")
+        wait_for(lambda: page.evaluate("window.pitchside.camera.markers.ball_in_image") >= 1, timeout, 0.2,
+                 "a ball marker on the camera image")
+        wait_for(lambda: page.evaluate("window.pitchside.relativeView?.ball"), timeout, 0.2,
+                 "the ball in the relative view")
+
+        # diagnostics: every node of the robot reports, the world its real-time factor
+        wait_for(lambda: page.locator('section[data-panel="diagnostics"] tbody tr').count() >= 5, timeout, 0.2,
+                 "diagnostics rows")
+        assert "real_time_factor" in (page.text_content('section[data-panel="diagnostics"]') or "")
+
+        # 3D view and plots: their iframes load and the server feeds them this robot's data
+        robot3d = wait_for(lambda: httpx.get(f"{demo.url}/api/robot3d", timeout=5).json()["robots"].get(ROBOT),
+                           timeout, 0.5, "robot1 in the 3D view")
+        updates = robot3d["updates"] if isinstance(robot3d, dict) else 0
+        wait_for(lambda: httpx.get(f"{demo.url}/api/robot3d", timeout=5).json()["robots"][ROBOT]["updates"]
+                 > updates, timeout, 0.5, "3D view driven by joint_states")
+        wait_for(lambda: httpx.get(f"{demo.url}/api/plots", timeout=5).json()["logged"] > 50, timeout, 0.5,
+                 "plots fed")
+        for panel in ("robot3d", "plots"):
+            src = page.get_attribute(f'section[data-panel="{panel}"] iframe', "src")
+            assert src and httpx.get(src, timeout=10).status_code == 200, (panel, src)
+
+        page.screenshot(path=str(OUTPUT / "dashboard.png"), full_page=True)
+        for panel in PANELS:
+            box = page.locator(f'section[data-panel="{panel}"]').bounding_box()  # iframes never settle:
+            page.screenshot(path=str(OUTPUT / f"{panel}.png"), clip=box, full_page=True)  # clip, no wait
+
+        print(f"panels checked {time.monotonic() - started:.1f} s after the page opened")
+        # the simulation keeps real time while the browser shows every panel (loose bound: shared machine)
+        t0 = time.time()
+        cpu = cpu_by_process(demo.processes(), 15.0)
+        factors = [f for t, f in observer.real_time_factors if t > t0 + 1.0]
+        (OUTPUT / "cpu.txt").write_text("".join(f"{pct:6.1f} %  {name}\n" for name, pct in cpu) +
+                                        f"real_time_factor: {factors}\n")
+        assert len(factors) >= 8, observer.real_time_factors
+        assert statistics.median(factors) > 0.8, f"simulation slower than real time: {factors}\n{cpu}"
+        assert not observer.error, observer.error
+    assert not page.errors, page.errors
