@@ -230,3 +230,21 @@ def test_walking_node_walks_the_simulated_robot_through_the_hcm(chain: tuple[Muj
     count = len(listener.history["walking_active"])
     wait_for(lambda: len(listener.history["walking_active"]) > count + 5, 5.0, what="walking_active at 10 Hz")
     assert not any(m.data for m in listener.history["walking_active"][count:])
+
+
+def test_walks_on_through_the_safe_range_of_every_gait_parameter() -> None:
+    """Each gait parameter jumps to the ends of its documented range while the robot walks a mixed command."""
+    from robot_nodes.runtime.parameters import specs_of
+
+    specs = specs_of(WalkParams)
+    walk = Walk()
+    walk.run(2.0, (0.08, 0.05, 0.2))
+    for name in ("step_frequency", "double_support_ratio", "foot_lift", "trunk_height", "trunk_pitch",
+                 "trunk_x_offset", "foot_distance", "lateral_sway", "hip_roll_compensation", "imu_pitch_d",
+                 "imu_roll_d"):
+        default = getattr(walk.params, name)
+        for value in specs[name].range or ():
+            setattr(walk.params, name, value)
+            walk.run(2.0)
+        setattr(walk.params, name, default)
+    assert walk.engine.phase is Phase.WALKING and walk.min_upright > 0.9

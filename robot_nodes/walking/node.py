@@ -41,6 +41,7 @@ class WalkingNode(Node):
         self.present: dict[str, float] = {}
         self.last_active: bool | None = None
         self.last_tick = time.monotonic()
+        self.last_odometry = -math.inf
         self.cycle_s = 0.0
         self.goals_pub = self.publisher("walk_motor_goals")
         self.odom_pub = self.publisher("walk_odometry")
@@ -95,7 +96,10 @@ class WalkingNode(Node):
         self.cycle_s = time.perf_counter() - started
         if out.stepping or was_stepping:
             self.publish_goals(out)
-        self.publish_odometry(out)
+        # odometry every cycle while stepping; standing still, ACTIVE_PUBLISH_HZ is enough
+        if out.stepping or was_stepping or now - self.last_odometry >= 1.0 / ACTIVE_PUBLISH_HZ:
+            self.publish_odometry(out)
+            self.last_odometry = now
         if out.stepping != self.last_active:
             self.publish_active()
         self.set_diagnostic("phase", self.engine.phase.value)
