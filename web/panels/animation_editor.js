@@ -196,13 +196,19 @@ export default {
     }
 
     // -- recording ------------------------------------------------------------------------------------
-    let lastSent = 0, pending = null;
+    // one request in flight at a time, so goals reach the robot in the order they were made; the newest wins
+    let lastSent = 0, pending = null, inFlight = false, again = false;
     function sendGoals(now = false) {
-      const go = () => {
-        pending = null; lastSent = performance.now();
+      const go = async () => {
+        pending = null;
+        if (inFlight) { again = true; return; }
+        inFlight = true; lastSent = performance.now();
         const positions = {};
         for (const [j, v] of Object.entries(state.held)) if (!state.limp.has(j)) positions[j] = v;
-        guarded(() => api("POST", `${base()}/record/goals`, { positions, limp: [...state.limp] }));
+        await guarded(() => api("POST", `${base()}/record/goals`, { positions, limp: [...state.limp] }));
+        state.goalsSent = (state.goalsSent || 0) + 1;
+        inFlight = false;
+        if (again) { again = false; go(); }
       };
       if (now || performance.now() - lastSent > SEND_EVERY_MS) go();
       else if (!pending) pending = setTimeout(go, SEND_EVERY_MS);
