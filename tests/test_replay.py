@@ -137,3 +137,46 @@ def test_pitchside_log_seek_speed_step(server: RunningServer, tmp_path: Path) ->
     robots = httpx.get(f"{server.url}/api/robots").json()
     assert {r["robot"] for r in robots} >= {"r1", "r2"}
     assert robots[0]["streams"]["joint_states"]["source"] == "replay"
+
+
+def test_crash_cut_log_is_scanned_with_progress(tmp_path: Path) -> None:
+    """A log without its summary (a crashed recorder) is read in one pass; progress goes to 1."""
+    from server.hub import Hub
+    from server.sources.replay import ReplaySource
+
+    whole = tmp_path / "whole.mcap"
+    _pitchside_log(whole, seconds=10.0)
+    cut = tmp_path / "cut.mcap"
+    data = whole.read_bytes()
+    cut.write_bytes(data[: len(data) * 2 // 3])  # the summary and the last chunks are gone
+    seen: list[float] = []
+
+    async def main() -> dict[str, Any]:
+        hub = Hub()
+        hub.bind(asyncio.get_running_loop())
+        source = ReplaySource(hub, tmp_path)
+        original = source._on_progress
+        source._on_progress = lambda f: (seen.append(f), original(f))  # type: ignore[method-assign]
+        info = await source.open("cut.mcap")
+        status = await source.seek(3.0)
+        await source.close()
+        return {"info": info, "status": status}
+
+    result = asyncio.run(main())
+    info = result["info"]
+    assert seen and seen[-1] == 1.0 and seen == sorted(seen)
+    assert result["status"]["progress"] == 1.0 and abs(result["status"]["position_s"] - 3.0) < 1e-6
+    assert 0 < info["messages"] < 2 * 500 + 20 and info["robots"] == ["r1", "r2"]
+    assert any("not closed cleanly" in w for w in info["warnings"])
+
+
+def test_replay_and_recording_allowed_in_match_mode(testdata: Path, tmp_path: Path) -> None:
+    args = ["--match", "--no-telemetry", "--recordings", str(tmp_path / "rec"), "--replay",
+            str(testdata / "mcap" / "talker.mcap")]
+    with dashboard_server(args, tmp_path) as server:
+        wait_for(lambda: httpx.get(f"{server.url}/api/replay").json()["state"] == "paused", timeout=20,
+                 what="log opened")
+        assert _post(server, "play")["state"] == "playing"
+        assert httpx.post(f"{server.url}/api/recordings/start", json={}).status_code == 200
+        assert httpx.post(f"{server.url}/api/recordings/stop").status_code == 200
+        assert httpx.post(f"{server.url}/api/robots/r1/penalize", json={"penalize": True}).status_code == 403

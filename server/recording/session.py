@@ -7,6 +7,7 @@ import contextlib
 import json
 import logging
 import time
+from collections import deque
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -63,6 +64,15 @@ def storable(msg: HubMessage) -> tuple[str, str, bytes] | None:
         return None
 
 
+class RecorderSubscriber(Subscriber):
+    """A hub subscriber whose images share the big queue: a browser may skip images, a recording must not
+    (the hub keeps only a few images per subscriber, enough for a display, not for a writer between batches)."""
+
+    def __init__(self, hub: Hub, name: str, maxlen: int) -> None:
+        super().__init__(hub, name, maxlen)
+        self._bulk = deque(maxlen=maxlen)
+
+
 class HubRecording:
     """Subscribes to every robot and topic of the hub and writes to ``path`` (rotated ``path_001.mcap`` ...).
 
@@ -80,7 +90,8 @@ class HubRecording:
         self._wall_offset = time.time() - time.monotonic()
         self._writer = LogWriter(path, chunk_size=chunk_size, rotate_bytes=rotate_bytes, flush_interval_s=IDLE_FLUSH_S)
         self.status.files = [str(p) for p in self._writer.paths]
-        self._sub: Subscriber = hub.subscribe(f"recorder:{path.stem}", maxlen=QUEUE_MAXLEN)
+        self._sub = RecorderSubscriber(hub, f"recorder:{path.stem}", QUEUE_MAXLEN)
+        hub.subscribers.append(self._sub)
         self._sub.subscribe("*", "*", replay_latest=True)
         self._unflushed = 0
         self._stopping = False

@@ -149,7 +149,7 @@ def _overview(text: str) -> tuple[str, Any] | None:
     try:
         from robot_nodes.telemetry.datagram import OVERVIEW_TYPE, RobotOverview
 
-        fields = {k: (math.nan if v is None else v) for k, v in json.loads(text).items()}
+        fields: dict[str, Any] = {k: (math.nan if v is None else v) for k, v in json.loads(text).items()}
         return OVERVIEW_TYPE, RobotOverview(**fields)
     except (ImportError, TypeError, ValueError):
         return None
