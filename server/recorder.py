@@ -119,10 +119,12 @@ class Recorder:
         except Exception as exc:  # an undecodable or odd GameState must not end match recording
             log.warning("gamestate from %s ignored: %s", msg.robot, exc)
             return
-        for event in events:
-            await self._apply(event, msg)
+        # one moment for the message's bookmarks, a nanosecond apart so a timeline keeps their order (goal, READY)
+        when = int((msg.received + time.time() - time.monotonic()) * 1e9)
+        for k, event in enumerate(events):
+            await self._apply(event, when + k)
 
-    async def _apply(self, event: GameEvent, msg: HubMessage) -> None:
+    async def _apply(self, event: GameEvent, when: int) -> None:
         if event.kind == "start":
             if not self.match_id or event.part == "half1":  # the second half keeps the first half's match id
                 self.match_id = time.strftime("%Y%m%d-%H%M%S")
@@ -133,7 +135,6 @@ class Recorder:
         elif event.kind == "stop":
             await self._stop_match()
         elif event.kind == "bookmark" and self.match is not None:
-            when = int((msg.received + time.time() - time.monotonic()) * 1e9)
             try:
                 self.match.bookmark(event.name, event.data, log_time_ns=when)
             except LogError as exc:
