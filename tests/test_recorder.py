@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import Any
 
 import httpx
+import numpy as np
 import pytest
 
 import schemas
@@ -182,3 +183,33 @@ def test_kill_9_while_recording_keeps_the_file(router_endpoint: str, bus: BusCon
         assert log.message_count == status["flushed_messages"] >= 300
         seqs = [m.msg.position[0] for m in log.messages(topics=["joint_states"])]
         assert seqs == sorted(seqs) and len(seqs) >= 150
+
+
+def test_recording_rotates_by_size_and_reads_back_as_one(tmp_path: Path) -> None:
+    from schemas.mcap_log import LogSeriesReader
+
+    async def main() -> dict[str, Any]:
+        hub = Hub()
+        hub.bind(asyncio.get_running_loop())
+        recorder = Recorder(hub, tmp_path, auto_match=False, rotate_bytes=300_000, chunk_size=32_000)
+        await recorder.start()
+        await recorder.start_manual("rotating")
+        rng = np.random.default_rng(0)
+        for k in range(2000):
+            joints = schemas.make("sensor_msgs/msg/JointState", name=[f"j{i}" for i in range(20)],
+                                  position=[float(k), *rng.normal(size=19).tolist()])  # barely compressible
+            hub.publish(HubMessage("r1", "joint_states", joints.__msgtype__, time.time(), joints, "telemetry"))
+            if k % 200 == 0:
+                await asyncio.sleep(0.01)
+        status = await recorder.stop_manual()
+        await recorder.close()
+        assert status is not None
+        return status.as_dict()
+
+    status = asyncio.run(main())
+    assert len(status["files"]) >= 2 and status["dropped"] == 0
+    for file in status["files"]:
+        assert Path(file).stat().st_size < 300_000 + 20_000  # rotate_bytes plus at most a summary
+    with LogSeriesReader(status["files"][0]) as log:
+        seqs = [m.msg.position[0] for m in log.messages()]
+    assert seqs == [float(k) for k in range(2000)] and status["messages"] == 2000
