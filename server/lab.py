@@ -77,6 +77,7 @@ class LabTools:
         self.goals: dict[str, ClientGoal] = {}
         self._previews: dict[str, Any] = {}
         self._preview_tasks: dict[str, asyncio.Task[None]] = {}
+        self.animation_folders: dict[str, tuple[float, Path, str]] = {}  # robot -> (when asked, folder, how found)
 
     # -- publishing ---------------------------------------------------------------------------------
     def publish(self, robot: str, topic: str, msg: Any) -> None:
@@ -209,7 +210,7 @@ def lab_tools(state: ServerState) -> LabTools:
     lab = state.views.get("lab")
     if lab is None:
         lab = state.views["lab"] = LabTools(state)
-    return lab  # type: ignore[no-any-return]
+    return lab
 
 
 def finite(value: float, what: str) -> float:

@@ -208,3 +208,20 @@ def test_record_save_reload_and_play_on_the_simulated_robot(browser: Any, server
     finally:
         for node in reversed(nodes):
             node.shutdown()
+
+
+def test_teleop_keyboard_drives_and_release_stops(browser: Any, server: RunningServer,
+                                                  client: zenoh.Session) -> None:
+    from tests.test_lab_rest import Collector
+
+    cmd_vel = Collector(client, "r9", "cmd_vel")
+    page = _page(browser, server, "r9")
+    pad = page.locator('[data-panel="teleop"] [data-role="pad"]')
+    pad.focus()
+    page.keyboard.down("w")
+    wait_for(lambda: any(m.linear.x > 0.1 for _, m in cmd_vel.snapshot()), 20.0, 0.1, "forward cmd_vel")
+    page.keyboard.up("w")
+    wait_for(lambda: cmd_vel.snapshot()[-1][1].linear.x == 0.0, 20.0, 0.1, "zero cmd_vel after release")
+    forward = [m for _, m in cmd_vel.snapshot() if m.linear.x > 0.1]
+    assert forward and all(m.linear.x == pytest.approx(0.2) for m in forward)  # the speed slider's default
+    assert not page.errors, page.errors

@@ -233,3 +233,22 @@ def test_lab_endpoints_refused_in_match_mode(tmp_path: Path) -> None:
             reply = http.request(method, concrete, json={})
             assert reply.status_code == 403, (method, path, reply.text)
             assert "match mode" in reply.json()["detail"]
+
+
+@pytest.mark.slow
+def test_preview_drives_a_ghost_robot_in_the_3d_view(router_endpoint: str, tmp_path: Path) -> None:
+    from tests.conftest import free_port
+
+    anim = {"name": "nod", "keyframes": [{"duration": 0.3, "goals": {"HeadTilt": -30.0}},
+                                         {"duration": 0.3, "goals": {"HeadTilt": 0.0}}]}
+    with dashboard_server(["--connect", router_endpoint, "--no-telemetry"], tmp_path) as plain:
+        reply = httpx.post(f"{plain.url}/api/robots/r4/animation-preview", json={"animation": anim}, timeout=20)
+        assert reply.status_code == 409 and "3D view is off" in reply.json()["detail"]
+    args = ["--connect", router_endpoint, "--no-telemetry", "--robot3d", "--robot3d-port", str(free_port())]
+    with dashboard_server(args, tmp_path) as server:
+        url = f"{server.url}/api/robots/r4/animation-preview"
+        reply = httpx.post(url, json={"animation": anim}, timeout=60)
+        assert reply.status_code == 200, reply.text
+        assert reply.json()["duration"] == pytest.approx(0.6)
+        wait_for(lambda: httpx.get(url, timeout=20).json()["updates"] >= 5, 30.0, 0.2, "the ghost robot moved")
+        assert httpx.get(f"{server.url}/api/robot3d", timeout=20).json()["robots"] == {}  # the real robot: untouched

@@ -53,7 +53,6 @@ TIMEOUT_S = 3.0
 PREVIEW_FILE = "_editor_preview"  # "play up to keyframe k" plays a cut copy saved under this name
 FOLDER_CACHE_S = 10.0
 _FILE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,99}$")
-_folders: dict[str, tuple[float, Path, str]] = {}  # robot -> (when asked, folder, how it was found)
 
 
 class AnimationBody(BaseModel):
@@ -100,19 +99,23 @@ def _ask_folder(state: ServerState, robot: str) -> tuple[Path, str]:
 
 
 async def animation_folder(state: ServerState, robot: str) -> tuple[Path, str]:
-    cached = _folders.get(robot)
+    """Asked of the robot's animation node at most every FOLDER_CACHE_S (a default is asked again each time)."""
+    folders = lab_tools(state).animation_folders
+    cached = folders.get(robot)
     if cached is not None and time.monotonic() - cached[0] < FOLDER_CACHE_S and "default" not in cached[2]:
         return cached[1], cached[2]
     folder, how = await asyncio.to_thread(_ask_folder, state, robot)
-    _folders[robot] = (time.monotonic(), folder, how)
+    folders[robot] = (time.monotonic(), folder, how)
     return folder, how
 
 
 def file_path(folder: Path, file: str) -> Path:
-    name = file.removesuffix(".json")
-    if not _FILE.match(name) or ".." in name:
-        raise HTTPException(422, f"bad animation file name {file!r}: letters, digits, '_', '-', '.' only")
-    return folder / f"{name}.json"
+    """A file in the folder or one of its sub-folders (``standup/stand_up_front``); nothing outside it."""
+    parts = file.removesuffix(".json").split("/")
+    if not all(_FILE.match(p) and ".." not in p for p in parts):
+        raise HTTPException(422, f"bad animation file name {file!r}: letters, digits, '_', '-', '.' and sub-folders "
+                                 "only")
+    return folder.joinpath(*parts[:-1], f"{parts[-1]}.json")
 
 
 def joint_limits(state: ServerState, robot: str) -> JointLimits:
@@ -250,6 +253,12 @@ async def preview_animation(robot: str, body: AnimationBody, state: ServerState 
     except RuntimeError as exc:
         raise HTTPException(409, str(exc)) from exc
     return {"robot": robot, "ghost": f"{robot}_preview", "duration": duration}
+
+
+@router.get("/animation-preview")
+async def preview_status(robot: str, state: ServerState = Depends(require_control)) -> dict[str, Any]:
+    """How many poses the ghost robot has shown (0: no preview yet)."""
+    return {"robot": robot, "ghost": f"{robot}_preview", "updates": lab_tools(state).preview_updates(robot)}
 
 
 # -- on the robot ---------------------------------------------------------------------------------------

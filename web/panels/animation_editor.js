@@ -79,6 +79,7 @@ export default {
       const list = await api("GET", `${base()}/animations`);
       $('[data-role="files"]').innerHTML = list.animations.map((a) => `<option value="${esc(a.file)}">${esc(a.file)}${
         a.error ? " (broken)" : ""}</option>`).join("");
+      if (list.animations.some((a) => a.file === state.file)) $('[data-role="files"]').value = state.file;
       state.folder = list.folder;
     }
 
@@ -157,7 +158,7 @@ export default {
         <td><input type="number" step="0.05" min="0" data-field="pause" value="${kf.pause}"></td>
         <td>${Object.keys(kf.goals).length}</td>
         <td><button data-kact="up" title="move up">↑</button><button data-kact="down" title="move down">↓</button>
-          <button data-kact="duplicate" title="duplicate">⧉</button><button data-kact="delete" title="delete">✕</button></td>
+          <button data-kact="duplicate" title="duplicate">dup</button><button data-kact="delete" title="delete">✕</button></td>
         </tr>`).join("") : "";
       $('[data-role="keyframes"]').innerHTML = rows || '<tr><td colspan="6" class="empty">open, upload or start a new animation</td></tr>';
       renderDetail();
