@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import ipaddress
+import os
 import secrets
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -53,7 +54,9 @@ class ServerConfig:
     plots_grpc_port: int = 9876
     plots_max_hz: float = 10.0
     web_dir: Path = WEB_DIR
-    recordings_dir: Path = REPO / "recordings"  # where recordings go and replay looks for bare file names
+    # where recordings go and replay looks for bare file names; $PITCHSIDE_RECORDINGS overrides (e.g. for tests)
+    recordings_dir: Path = field(default_factory=lambda: Path(os.environ.get("PITCHSIDE_RECORDINGS")
+                                                              or REPO / "recordings"))
     auto_record_matches: bool = True  # record every match (per half) from the robots' gamestate
     replay_file: Path | None = None  # a log the replay source opens at start (pitchside replay FILE)
 
