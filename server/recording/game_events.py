@@ -74,8 +74,9 @@ class GameEvents:
             return events
         game = self.game
         if game is None:
-            # Joining a running game records nothing: a match starts when it is seen leaving INITIAL (a server
-            # restarted mid-match is restarted by hand, so test stands that always say PLAYING never record).
+            # The first message only tells where the game is: recording starts with the first change seen out of
+            # INITIAL (the game leaving INITIAL, or the next state change of a game joined later), so a test
+            # stand that always says PLAYING never records.
             self.game = view
         elif view != game:
             events += self._change(robot, before, game, view)
