@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import socket
 from collections.abc import Iterator
 from pathlib import Path
@@ -18,6 +19,19 @@ def free_port(kind: int = socket.SOCK_STREAM) -> int:
     with socket.socket(socket.AF_INET, kind) as s:
         s.bind(("127.0.0.1", 0))
         return int(s.getsockname()[1])
+
+
+@pytest.fixture(scope="session", autouse=True)
+def recordings_elsewhere(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
+    """Servers started by tests (and their subprocesses) record matches into a temp folder, not recordings/."""
+    folder = tmp_path_factory.mktemp("recordings")
+    old = os.environ.get("PITCHSIDE_RECORDINGS")
+    os.environ["PITCHSIDE_RECORDINGS"] = str(folder)
+    yield folder
+    if old is None:
+        os.environ.pop("PITCHSIDE_RECORDINGS", None)
+    else:
+        os.environ["PITCHSIDE_RECORDINGS"] = old
 
 
 @pytest.fixture
