@@ -117,8 +117,13 @@ def chain(endpoint: str, hz: float, seconds: float, folder: Path) -> tuple[dict[
         rate = bench.goals / (time.monotonic() - t0)
         return cpu, list(bench.latencies), rate
     finally:
-        for p in procs.values():
-            p.terminate()
+        for name in ("hcm", "animation", "cm730"):  # the HCM first: its sit-down needs the animation node
+            procs[name].terminate()
+            if name == "hcm":
+                try:
+                    procs[name].wait(6)
+                except subprocess.TimeoutExpired:
+                    procs[name].kill()
         for p in procs.values():
             try:
                 p.wait(10)
