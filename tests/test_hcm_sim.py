@@ -88,7 +88,7 @@ class Stack:
                 z = float(self.robot.torso_pose()[0][2])
             with self.lock:
                 self.heights.append((time.monotonic(), z))
-            time.sleep(0.002)
+            time.sleep(0.005)  # 5 ms resolution is plenty against a fall of about a second
 
     # -- what the test looks at --------------------------------------------------------------------------
     def state(self) -> int | None:
@@ -112,13 +112,21 @@ class Stack:
         with self.world.lock:
             return self.robot.uprightness() > UPRIGHT and float(self.robot.torso_pose()[0][2]) > STANDING_HEIGHT
 
+    def wait(self, condition: Callable[[], Any], timeout: float, what: str, since: float = 0.0) -> Any:
+        """wait_for, but a timeout reports the states published since ``since`` as they are then."""
+        try:
+            return wait_for(condition, timeout, what=what)
+        except AssertionError as exc:
+            raise AssertionError(f"{exc}; states seen {self.sequence(since)}, HCM in {self.hcm.machine.state}, "
+                                 f"{'standing' if self.standing() else 'not standing'}") from None
+
     def wait_state(self, state: int, timeout: float, what: str = "") -> float:
-        wait_for(lambda: self.state() == state, timeout, what=what or f"state {state} (seen {self.sequence()})")
+        self.wait(lambda: self.state() == state, timeout, what or f"state {state}")
         return time.monotonic()
 
-    def wait_controllable_standing(self, timeout: float = 30.0) -> None:
-        wait_for(lambda: self.state() == CONTROLLABLE and self.standing(), timeout,
-                 what=f"CONTROLLABLE and standing (seen {self.sequence()})")
+    def wait_controllable_standing(self, timeout: float = 30.0, since: float = 0.0) -> None:
+        self.wait(lambda: self.state() == CONTROLLABLE and self.standing(), timeout, "CONTROLLABLE and standing",
+                  since)
 
     def publisher(self, topic: str) -> Any:
         return self.session.declare_publisher(topic_key("robot1", topic))
@@ -178,10 +186,8 @@ def test_pushed_over_falls_protected_and_gets_up(make_stack: Callable[..., Stack
             return next((t for t, z in stack.heights if t > pushed and z < GROUND_HEIGHT), None)
 
     hit = wait_for(on_the_ground, 10.0, what="the torso on the ground")
-    wait_for(lambda: stack.first_time(GETTING_UP, pushed) is not None, 15.0,
-             what=f"GETTING_UP (seen {stack.sequence(pushed)})")
-    wait_for(lambda: stack.state() == CONTROLLABLE and stack.standing(), 20.0,
-             what=f"standing again (seen {stack.sequence(pushed)})")
+    stack.wait(lambda: stack.first_time(GETTING_UP, pushed) is not None, 15.0, "GETTING_UP", pushed)
+    stack.wait_controllable_standing(20.0, pushed)
     up = time.monotonic()
     seq = stack.sequence(pushed)
     while seq and seq[0] == CONTROLLABLE:  # robot_state of before the push, still on its way
@@ -207,8 +213,7 @@ def _penalty_round(stack: Stack, penalize: Callable[[bool], None], torque_off: b
     stack.wait_controllable_standing()
     asked = time.monotonic()
     penalize(True)
-    wait_for(lambda: stack.first_time(PENALTY, asked) is not None, 5.0,
-             what=f"PENALTY (seen {stack.sequence(asked)})")
+    stack.wait(lambda: stack.first_time(PENALTY, asked) is not None, 5.0, "PENALTY", asked)
     first = stack.first_time(PENALTY_ANIMATION, asked) or stack.first_time(PENALTY, asked)
     reached = stack.first_time(PENALTY, asked)
     assert first is not None and reached is not None
@@ -224,9 +229,7 @@ def _penalty_round(stack: Stack, penalize: Callable[[bool], None], torque_off: b
     assert stack.state() == PENALTY
     freed = time.monotonic()
     penalize(False)
-    wait_for(lambda: stack.state() == CONTROLLABLE and stack.standing(), 25.0,
-             what=f"standing and CONTROLLABLE after the penalty (seen {stack.sequence(freed)}, "
-                  f"HCM in {stack.hcm.machine.state}, {len(stack.states)} robot_state messages in all)")
+    stack.wait_controllable_standing(25.0, freed)
     assert stack.robot.torque_enabled.all()
 
 
