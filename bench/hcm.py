@@ -52,11 +52,13 @@ class Bench(Node):
     def setup(self) -> None:
         self.state: int | None = None
         self.latencies: list[float] = []
+        self.first_hop: list[float] = []  # animation -> here, the same stamp: what the HCM adds is the difference
         self.goals = 0
         self.measuring = False
         self.playing: Any = None
         self.subscribe("robot_state", self.on_state)
         self.subscribe("motor_goals", self.on_goals)
+        self.subscribe("animation", self.on_animation)
         self.client = self.action_client("animation")
         self.timer(5.0, self.keep_playing)
 
@@ -70,6 +72,12 @@ class Bench(Node):
         stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
         self.latencies.append((now - stamp) / 1e6)
         self.goals += 1
+
+    def on_animation(self, msg: Any) -> None:
+        now = time.time_ns()
+        if self.measuring and list(msg.position.joint_names) == ["HeadPan"]:
+            stamp = msg.position.header.stamp
+            self.first_hop.append((now - (stamp.sec * 1_000_000_000 + stamp.nanosec)) / 1e6)
 
     def keep_playing(self) -> None:
         if self.state not in (0, 4) or (self.playing is not None and not self.playing.done):
@@ -87,8 +95,9 @@ def start(module: str, endpoint: str, settings: list[str]) -> subprocess.Popen[b
     return subprocess.Popen(cmd, cwd=REPO)
 
 
-def chain(endpoint: str, hz: float, seconds: float, folder: Path) -> tuple[dict[str, float], list[float], float]:
-    """({process: CPU %}, latencies in ms, motor_goals per second) with the chain at hz."""
+def chain(endpoint: str, hz: float, seconds: float, folder: Path) -> tuple[dict[str, float], list[float], float,
+                                                                         list[float]]:
+    """({process: CPU %}, latencies in ms, motor_goals per second, first-hop latencies in ms) with the chain at hz."""
     bench = Bench("robot1", BusConfig(connect=[endpoint]))
     bench.start()
     procs = {
@@ -108,6 +117,7 @@ def chain(endpoint: str, hz: float, seconds: float, folder: Path) -> tuple[dict[
         for p in ps.values():
             p.cpu_percent(None)
         bench.latencies.clear()
+        bench.first_hop.clear()
         bench.goals = 0
         bench.measuring = True
         t0 = time.monotonic()
@@ -115,7 +125,7 @@ def chain(endpoint: str, hz: float, seconds: float, folder: Path) -> tuple[dict[
         bench.measuring = False
         cpu = {name: p.cpu_percent(None) for name, p in ps.items()}
         rate = bench.goals / (time.monotonic() - t0)
-        return cpu, list(bench.latencies), rate
+        return cpu, list(bench.latencies), rate, list(bench.first_hop)
     finally:
         for name in ("hcm", "animation", "cm730"):  # the HCM first: its sit-down needs the animation node
             procs[name].terminate()
@@ -175,19 +185,22 @@ def main() -> None:
     print(f"load average {' '.join(f'{v:.1f}' for v in psutil.getloadavg())} on {psutil.cpu_count()} cores")
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     router = open_router([endpoint])
-    results: dict[float, tuple[dict[str, float], list[float], float]] = {}
+    results: dict[float, tuple[dict[str, float], list[float], float, list[float]]] = {}
     try:
         with tempfile.TemporaryDirectory() as tmp:
             (Path(tmp) / "bench_sway.json").write_text(json.dumps(SWAY))
             for hz in (100.0, 500.0):
-                cpu, lat, rate = chain(endpoint, hz, args.seconds, Path(tmp))
-                results[hz] = (cpu, lat, rate)
+                cpu, lat, rate, hop = chain(endpoint, hz, args.seconds, Path(tmp))
+                results[hz] = (cpu, lat, rate, hop)
                 parts = "  ".join(f"{name} {value:5.1f} %" for name, value in cpu.items())
                 print(f"{hz:5.0f} Hz: {sum(cpu.values()):5.1f} % of one core ({parts}); "
                       f"{rate:6.1f} animation goals/s reached motor_goals")
                 if lat:
                     print(f"         latency animation -> HCM -> motor_goals  p50 {statistics.median(lat):6.3f} ms"
                           f"  p99 {float(np.percentile(lat, 99)):6.3f} ms  ({len(lat)} goals)")
+                if hop:
+                    print(f"         of which animation -> this process (1 hop)  p50 {statistics.median(hop):6.3f} ms"
+                          f"  p99 {float(np.percentile(hop, 99)):6.3f} ms")
         base = raw_hop(endpoint)
     finally:
         router.close()
