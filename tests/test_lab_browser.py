@@ -118,29 +118,33 @@ def _output() -> Path:
     return OUTPUT
 
 
-POSES = [  # the three recorded keyframes (deg)
-    {"HeadPan": 20.0, "LShoulderPitch": 30.0, "RShoulderPitch": -30.0},
-    {"HeadPan": -30.0, "LShoulderPitch": 15.0, "RShoulderPitch": -40.0},
-    {"HeadPan": 35.0, "LShoulderPitch": 20.0, "RShoulderPitch": -20.0},
+POSES = [  # the three recorded keyframes (deg): small, slow-enough moves that keep the robot standing
+    {"HeadPan": 20.0, "LShoulderPitch": 20.0, "RShoulderPitch": -20.0},
+    {"HeadPan": -20.0, "LShoulderPitch": 10.0, "RShoulderPitch": -30.0},
+    {"HeadPan": 30.0, "LShoulderPitch": 25.0, "RShoulderPitch": -15.0},
 ]
 
 
 def _wait_pose(server: RunningServer, robot: str, goals: dict[str, float], tolerance: float, timeout: float,
-               what: str) -> None:
+               what: str, page: Any = None) -> None:
     """Waits until the hub's newest joint_states are within tolerance (deg) of goals; says where the joints are."""
-    seen: dict[str, float] = {}
+    seen: dict[str, Any] = {}
 
     def near() -> bool:
         pose = httpx.get(f"{server.url}/api/robots/{robot}/record/pose", timeout=20)
         if pose.status_code != 200:
             return False
-        seen.update({j: pose.json()["positions"].get(j, float("nan")) for j in goals})
+        seen.update({j: pose.json()["positions"].get(j, float("nan")) for j in goals}, age_s=pose.json()["age_s"])
         return all(abs(seen[j] - v) <= tolerance for j, v in goals.items())
 
     try:
         wait_for(near, timeout, 0.2, what)
     except AssertionError as exc:
-        raise AssertionError(f"{exc}: wanted {goals}, joints at {seen}") from None
+        editor = page.evaluate(
+            "(() => { const s = window.pitchside.animEditor; return {held: s.held, sent: s.goalsSent, "
+            "error: s.lastError, record: s.recordOn, "
+            "hcm: window.pitchside.store.get('r1', 'robot_state')?.data.state}; })()") if page else {}
+        raise AssertionError(f"{exc}: wanted {goals}, joints at {seen}; editor {editor}") from None
 
 
 def test_record_save_reload_and_play_on_the_simulated_robot(browser: Any, server: RunningServer,
@@ -171,7 +175,7 @@ def test_record_save_reload_and_play_on_the_simulated_robot(browser: Any, server
                 held.fill(str(deg))
                 held.press("Tab")
             # servos under gravity settle a little short of their goal: the keyframe records where they are
-            _wait_pose(server, "r1", pose, 2.5, 30.0, f"the robot in pose {k}")
+            _wait_pose(server, "r1", pose, 2.5, 30.0, f"the robot in pose {k}", page)
             page.click(f'{editor} button[data-act="record-kf"]')
             page.wait_for_function(f"window.pitchside.animEditor.anim.keyframes.length === {k + 1}",
                                    timeout=TIMEOUT_MS)

@@ -288,7 +288,8 @@ async def play_animation_file(robot: str, request: PlayRequest, state: ServerSta
 
     def send() -> Any:
         with contextlib.suppress(ParameterError):  # a robot without HCM plays anyway
-            _set_record_mode(state, robot, False)
+            if "record_mode" in _set_record_mode(state, robot, False).get("changed", []):
+                _wait_controllable(state, robot, time.time(), request.retry_s)
         return lab.play(robot, name, request.retry_s)
 
     try:
@@ -299,6 +300,20 @@ async def play_animation_file(robot: str, request: PlayRequest, state: ServerSta
         raise HTTPException(409, f"animation {name!r} rejected: {handle.reason}")
     return {"robot": robot, "animation": name, "accepted": True, "keyframes": len(anim.keyframes)
             if request.upto is None else request.upto + 1}
+
+
+def _wait_controllable(state: ServerState, robot: str, since: float, timeout: float) -> bool:
+    """After RECORD the HCM starts up again (walk-ready, its own animation, would preempt ours): wait for a
+    robot_state newer than ``since`` (wall clock) that says CONTROLLABLE or WALKING."""
+    consts = schemas.constants("humanoid_league_msgs/msg/RobotControlState")
+    ready = {consts["CONTROLLABLE"], consts["WALKING"]}
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        latest = state.hub.latest.get((robot, "robot_state"))
+        if latest is not None and latest.stamp > since and latest.message.state in ready:
+            return True
+        time.sleep(0.05)
+    return False
 
 
 @router.get("/animation-play")

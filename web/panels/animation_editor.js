@@ -4,6 +4,7 @@
 import { api, esc, MATCH_MODE_TEXT, robotPicker } from "../lab_api.js";
 
 const SEND_EVERY_MS = 100; // record goals while a slider is dragged
+const RESEND_MS = 300; // in RECORD the held pose is sent again and again: a lost message costs nothing
 
 function torqueLabel(v) { return v === undefined ? "" : v >= 0.5 ? "on" : "off"; }
 
@@ -203,9 +204,10 @@ export default {
       const go = async () => {
         pending = null;
         if (inFlight) { again = true; return; }
-        inFlight = true; lastSent = performance.now();
         const positions = {};
         for (const [j, v] of Object.entries(state.held)) if (!state.limp.has(j)) positions[j] = v;
+        if (!Object.keys(positions).length && !state.limp.size) return;
+        inFlight = true; lastSent = performance.now();
         await guarded(() => api("POST", `${base()}/record/goals`, { positions, limp: [...state.limp] }));
         state.goalsSent = (state.goalsSent || 0) + 1;
         inFlight = false;
@@ -215,13 +217,15 @@ export default {
       else if (!pending) pending = setTimeout(go, SEND_EVERY_MS);
     }
     async function recordMode(on) {
-      await api("POST", `${base()}/record`, { on });
-      state.recordOn = on;
-      if (on) {
+      state.recordOn = false;
+      if (on) { // hold the pose the robot is in, so nothing jumps when RECORD starts
         const pose = (await api("GET", `${base()}/record/pose`)).positions;
+        state.held = {};
         for (const j of state.joints) if (j.name in pose) state.held[j.name] = pose[j.name];
         renderJoints();
       }
+      await api("POST", `${base()}/record`, { on });
+      state.recordOn = on;
       status(on ? "RECORD: move the sliders (or the limp joints by hand), then record keyframes" : "RECORD off");
     }
     async function recordKeyframe() {
@@ -364,7 +368,8 @@ export default {
       row.querySelector("[data-held]").value = Number(t.value).toFixed(1);
       sendGoals();
     });
+    const resend = setInterval(() => { if (state.recordOn && state.robot) sendGoals(); }, RESEND_MS);
     render();
-    return { destroy() { picker.off(); if (pending) clearTimeout(pending); } };
+    return { destroy() { picker.off(); clearInterval(resend); if (pending) clearTimeout(pending); } };
   },
 };
