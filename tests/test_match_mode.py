@@ -23,13 +23,14 @@ DUMMY_BODIES = {"/params/{node}": {"values": {"rate_hz": 10}}, "/penalize": {"pe
 
 
 def control_calls(server: RunningServer) -> list[tuple[str, str, dict[str, Any] | None]]:
-    """Every endpoint of the control API, read from the running server's own OpenAPI description."""
+    """Every endpoint that acts on a robot (control, parameters, animations, teleop: all of /api/robots/{robot}/),
+    read from the running server's own OpenAPI description, so endpoints added later are covered too."""
     spec = httpx.get(f"{server.url}/openapi.json").json()
     calls = []
     for path, methods in spec["paths"].items():
         for method, op in methods.items():
-            if "control" in op.get("tags", []):
-                concrete = path.replace("{robot}", "r7").replace("{node}", "teststand")
+            if "control" in op.get("tags", []) or path.startswith("/api/robots/{robot}/"):
+                concrete = path.replace("{robot}", "r7").replace("{node}", "teststand").replace("{file}", "stand")
                 body = next((b for suffix, b in DUMMY_BODIES.items() if path.endswith(suffix)), None)
                 calls.append((method.upper(), concrete, body if method == "post" else None))
     assert len(calls) >= 5, calls  # params list/get/set, penalize, animation
