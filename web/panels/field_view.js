@@ -21,7 +21,7 @@ export default {
     const { store } = ctx;
     const canvas = document.createElement("canvas");
     body.append(canvas);
-    const stats = { drawn: [], frames: 0, fps: 0, balls: 0 };
+    const stats = { drawn: [], frames: 0, fps: 0, balls: 0, drawMs: 0 }; // drawMs: time per draw (moving average)
     window.pitchside.fieldView = stats;
     let dirty = true, view = null, raf = 0, fpsStart = performance.now(), fpsFrames = 0;
     const offs = TOPICS.map(([topic, hz]) => ctx.subscribe(topic, hz, () => { dirty = true; }));
@@ -161,7 +161,9 @@ export default {
       raf = requestAnimationFrame(loop);
       if (!dirty) return;
       dirty = false;
+      const t0 = performance.now();
       draw();
+      stats.drawMs = stats.frames ? 0.9 * stats.drawMs + 0.1 * (performance.now() - t0) : performance.now() - t0;
       stats.frames++;
       fpsFrames++;
       const now = performance.now();
