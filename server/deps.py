@@ -12,7 +12,8 @@ from server.zenoh_link import MATCH_MODE_REASON
 
 
 def get_state(conn: HTTPConnection) -> ServerState:
-    return conn.app.state.pitchside  # type: ignore[no-any-return]
+    state: ServerState = conn.app.state.pitchside
+    return state
 
 
 def presented_token(conn: HTTPConnection) -> str | None:

@@ -41,7 +41,7 @@ class HubMessage:
     def message(self) -> Any:
         """The decoded message; schemas.SchemaError if CDR bytes do not decode as ``typename``."""
         if isinstance(self.data, bytes | bytearray | memoryview):
-            self.data = schemas.decode(self.data, self.typename)
+            self.data = schemas.decode(bytes(self.data), self.typename)
         return self.data
 
     @property
@@ -143,7 +143,7 @@ class Subscriber:
 
     def drain(self, limit: int = 256) -> list[HubMessage]:
         """Up to ``limit`` queued messages, oldest first (images after the small messages)."""
-        out = []
+        out: list[HubMessage] = []
         while self._queue and len(out) < limit:
             out.append(self._queue.popleft())
         while self._bulk and len(out) < limit:

@@ -15,7 +15,7 @@ import os
 from typing import Any
 
 from server.config import ServerConfig
-from server.hub import Hub, HubMessage
+from server.hub import Hub, HubMessage, Subscriber
 
 log = logging.getLogger(__name__)
 TOPICS = ("joint_states", "motor_goals", "imu/data", "diagnostics", "robot_state", "gamestate")
@@ -74,7 +74,7 @@ class PlotFeed:
         self.logged = 0
         self.robots: list[str] = []
         self.rec: Any = None
-        self._sub = None
+        self._sub: Subscriber | None = None
         self._task: asyncio.Task[None] | None = None
 
     def urls(self) -> dict[str, int]:

@@ -88,7 +88,8 @@ class Cm730Node(Node):
             return MujocoBackend.standalone(real_time_factor=p.real_time_factor)
         # the Dynamixel backend lives in robot_nodes/cm730/dynamixel and is imported only when chosen
         dynamixel = importlib.import_module("robot_nodes.cm730.dynamixel")
-        return dynamixel.open_backend(device=p.device, baudrate=p.baudrate)  # type: ignore[no-any-return]
+        backend: ServoBackend = dynamixel.open_backend(device=p.device, baudrate=p.baudrate)
+        return backend
 
     def on_shutdown(self) -> None:
         if self._sim is not None and self._camera is not None:
@@ -184,6 +185,7 @@ class Cm730Node(Node):
     def _setup_sim(self) -> None:
         from robot_nodes.cm730.sim_topics import SimTopics
 
+        assert self._sim is not None, "simulation extras need the MuJoCo backend"
         self._sim_topics = SimTopics(self)
         self._camera = self._sim.runner.add_camera(
             self._sim.robot, self._sim_topics.on_frame, self.params.camera_width, self.params.camera_height,

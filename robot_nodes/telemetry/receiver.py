@@ -390,8 +390,8 @@ class TelemetryReceiver:
         self._robots.pop(robot_id, None)
         for key in [k for k in self._streams if k[0] == robot_id]:
             del self._streams[key]
-        for key in [k for k in self._frames if k[0] == robot_id]:
-            self._drop(key, "forgotten")
+        for frame_key in [k for k in self._frames if k[0] == robot_id]:
+            self._drop(frame_key, "forgotten")
 
     # -- link health ----------------------------------------------------------------------------------
     def streams(self, robot_id: str) -> dict[int, StreamInfo]:

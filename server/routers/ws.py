@@ -40,9 +40,9 @@ async def _read_requests(ws: WebSocket, sub: Subscriber) -> None:
             await ws.send_text(protocol.error_frame(str(exc)))
             continue
         if request["op"] == "subscribe":
-            sub.subscribe(request["robot"], request["topic"], request.get("max_hz") or None)  # type: ignore[typeddict-item]
+            sub.subscribe(request["robot"], request["topic"], request.get("max_hz") or None)
         elif request["op"] == "unsubscribe":
-            sub.unsubscribe(request["robot"], request["topic"])  # type: ignore[typeddict-item]
+            sub.unsubscribe(request["robot"], request["topic"])
         else:
             await ws.send_text(protocol.pong_frame(request.get("id")))
 

@@ -16,12 +16,12 @@ from pathlib import Path
 from robot_nodes.cm730.node import Cm730Node
 from robot_nodes.cm730.sim import SimRunner, SimWorld
 from robot_nodes.cm730.sim_backend import MujocoBackend
-from robot_nodes.runtime import BusConfig, open_session
+from robot_nodes.runtime import BusConfig, Node, open_session
 from robot_nodes.runtime.node import parse_overrides
 
 
 def serve(n_robots: int, bus: BusConfig, params: Path | None = None, overrides: dict | None = None,
-          real_time_factor: float = 1.0) -> tuple[SimRunner, list[Cm730Node], object]:
+          real_time_factor: float = 1.0) -> tuple[SimRunner, list[Node], object]:
     """Starts the world and its nodes; returns (runner, nodes, session) for the caller to stop."""
     world = SimWorld(n_robots=n_robots)
     runner = SimRunner(world, real_time_factor).start()

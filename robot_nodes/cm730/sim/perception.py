@@ -9,6 +9,7 @@ field lines and obstacles are reported without occlusion tests.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import mujoco
@@ -243,9 +244,11 @@ class GroundTruthVision:
 
         best = min(goals, key=bearing)  # the goal the robot faces
         if keep():
-            a, b = (self._noisy(to_rel(np.array([*p, 0.0]))) for p in best)
-            left, right = (a, b) if math.atan2(a[1], a[0]) >= math.atan2(b[1], b[0]) else (b, a)
-            obs.goal_relative = (left, right)
+            one = self._noisy(to_rel(np.array([*best[0], 0.0])))
+            two = self._noisy(to_rel(np.array([*best[1], 0.0])))
+            one_is_left = math.atan2(one[1], one[0]) >= math.atan2(two[1], two[0])
+            left_post, right_post = (one, two) if one_is_left else (two, one)
+            obs.goal_relative = (left_post, right_post)
             obs.goal_relative_confidence = 1.0 if obs.posts else 0.3
         for other in self.world.robots:
             if other is not self.robot and keep():
@@ -283,7 +286,7 @@ class GroundTruthVision:
         return p
 
 
-def _footprint_transform(x: float, y: float, yaw: float):  # type: ignore[no-untyped-def]
+def _footprint_transform(x: float, y: float, yaw: float) -> Callable[[np.ndarray], np.ndarray]:
     c, s = math.cos(yaw), math.sin(yaw)
 
     def to_rel(p: np.ndarray) -> np.ndarray:
