@@ -2,9 +2,6 @@
 
 from __future__ import annotations
 
-import contextlib
-import socket
-import threading
 import time
 from dataclasses import dataclass
 from typing import Any
@@ -23,6 +20,7 @@ from robot_nodes.game_controller.packets import (
     parse_state_packet,
 )
 from robot_nodes.runtime import Node, header, param, run
+from robot_nodes.runtime.udp import UdpPort
 
 _RECV_SIZE = 2048  # larger than any GC packet, so oversized datagrams arrive whole and are rejected by size
 
@@ -105,9 +103,7 @@ class GameControllerNode(Node):
         self._last_fields: dict[str, Any] | None = None
         self._last_packet_time = 0.0
         self._last_publish_time = 0.0
-        self._sock: socket.socket | None = None
-        self._reader: threading.Thread | None = None
-        self._stop_reader = threading.Event()
+        self._udp: UdpPort | None = None
         self._open_socket()
         self._return_timer = self.timer(self.params.return_rate_hz, self._send_alive, "return_packets")
         self.timer(10.0, self._keepalive, "keepalive")
@@ -115,44 +111,18 @@ class GameControllerNode(Node):
 
     # -- socket ---------------------------------------------------------------------------------------------
     def _open_socket(self) -> None:
-        sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-        with contextlib.suppress(OSError):  # GCs broadcast; some systems need this to receive them
-            sock.setsockopt(socket.SOL_SOCKET, socket.SO_BROADCAST, 1)
-        sock.bind((self.params.listen_address, self.params.listen_port))
-        sock.settimeout(0.2)
-        self._sock = sock
-        self._stop_reader = threading.Event()
-        self._reader = threading.Thread(target=self._read, args=(sock, self._stop_reader),
-                                        name="gc-receiver", daemon=True)
-        self._reader.start()
+        self._udp = UdpPort(self.loop, self.params.listen_address, self.params.listen_port,
+                            lambda data, addr: self._on_datagram(data, addr[0]), _RECV_SIZE, "gc-receiver")
 
     def _close_socket(self) -> None:
-        self._stop_reader.set()
-        if self._reader is not None and self._reader is not threading.current_thread():
-            self._reader.join(2.0)
-        if self._sock is not None:
-            self._sock.close()
-        self._sock = None
-
-    def _read(self, sock: socket.socket, stop: threading.Event) -> None:
-        """Reader thread: only receives, the loop thread decodes."""
-        while not stop.is_set():
-            try:
-                data, addr = sock.recvfrom(_RECV_SIZE)
-            except TimeoutError:
-                continue
-            except OSError:
-                if stop.is_set():
-                    return
-                time.sleep(0.05)
-                continue
-            self.loop.call_soon(self._on_datagram, data, addr[0])
+        if self._udp is not None:
+            self._udp.close()
+        self._udp = None
 
     @property
     def listen_port(self) -> int:
         """The bound port (useful when listen_port was given as a free port)."""
-        return int(self._sock.getsockname()[1]) if self._sock is not None else 0
+        return self._udp.port if self._udp is not None else 0
 
     # -- packets --------------------------------------------------------------------------------------------
     def _on_datagram(self, data: bytes, sender: str) -> None:
@@ -193,13 +163,13 @@ class GameControllerNode(Node):
             self._publish()
 
     def _send_alive(self) -> None:
-        if self.gc_address is None or self._sock is None:
+        if self.gc_address is None or self._udp is None:
             return
         if time.monotonic() - self._last_packet_time > self.params.gc_timeout_s:
             return
         packet = build_return_packet(self.params.team_number, self.params.player_number, ReturnMessage.ALIVE)
         try:
-            self._sock.sendto(packet, (self.gc_address, self.params.return_port))
+            self._udp.sendto(packet, (self.gc_address, self.params.return_port))
             self.returns_sent += 1
             self.set_diagnostic("return_packets_sent", self.returns_sent)
         except OSError as exc:
@@ -207,10 +177,10 @@ class GameControllerNode(Node):
 
     def send_return(self, message: ReturnMessage) -> bool:
         """Ask the GC for a manual (un)penalty; False while no GC has been heard."""
-        if self.gc_address is None or self._sock is None:
+        if self.gc_address is None or self._udp is None:
             return False
         packet = build_return_packet(self.params.team_number, self.params.player_number, message)
-        self._sock.sendto(packet, (self.gc_address, self.params.return_port))
+        self._udp.sendto(packet, (self.gc_address, self.params.return_port))
         return True
 
     def _update_diagnostics(self) -> None:

@@ -2,10 +2,7 @@
 
 from __future__ import annotations
 
-import contextlib
 import math
-import socket
-import threading
 import time
 from dataclasses import dataclass
 from typing import Any
@@ -17,6 +14,7 @@ from robot_nodes.mitecom.codec import MitecomError, Orientation
 from robot_nodes.mitecom.protobuf_codec import TeamMessageError
 from robot_nodes.mitecom.report import HCM_PENALTY, NOT_TOLD, SeenRobot, TeammateReport
 from robot_nodes.runtime import Node, header, param, run
+from robot_nodes.runtime.udp import UdpPort
 
 _RECV_SIZE = 65535
 _ROBOT_MAGENTA, _ROBOT_CYAN = 2, 3  # ObstacleRelative colours
@@ -75,9 +73,7 @@ class MitecomNode(Node):
         self.other_teams = 0
         self.send_errors = 0
         self._destinations: list[tuple[str, int]] = []
-        self._sock: socket.socket | None = None
-        self._reader: threading.Thread | None = None
-        self._stop_reader = threading.Event()
+        self._udp: UdpPort | None = None
         self._update_destinations()
         self._open_socket()
         self._send_timer = self.timer(self.params.send_rate_hz, self._tick, "team_messages")
@@ -174,46 +170,21 @@ class MitecomNode(Node):
         self._destinations = destinations
 
     def _open_socket(self) -> None:
-        sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-        with contextlib.suppress(OSError):
-            sock.setsockopt(socket.SOL_SOCKET, socket.SO_BROADCAST, 1)
-        sock.bind((self.params.listen_address, self.params.port))
-        sock.settimeout(0.2)
-        self._sock = sock
-        self._stop_reader = threading.Event()
-        self._reader = threading.Thread(target=self._read, args=(sock, self._stop_reader), name="mitecom-receiver",
-                                        daemon=True)
-        self._reader.start()
+        self._udp = UdpPort(self.loop, self.params.listen_address, self.params.port,
+                            lambda data, _addr: self._on_datagram(data), _RECV_SIZE, "mitecom-receiver",
+                            reuse_address=True)
 
     def _close_socket(self) -> None:
-        self._stop_reader.set()
-        if self._reader is not None and self._reader is not threading.current_thread():
-            self._reader.join(2.0)
-        if self._sock is not None:
-            self._sock.close()
-        self._sock = None
-
-    def _read(self, sock: socket.socket, stop: threading.Event) -> None:
-        """Reader thread: only receives, the loop thread decodes."""
-        while not stop.is_set():
-            try:
-                data, _addr = sock.recvfrom(_RECV_SIZE)
-            except TimeoutError:
-                continue
-            except OSError:
-                if stop.is_set():
-                    return
-                time.sleep(0.05)
-                continue
-            self.loop.call_soon(self._on_datagram, data)
+        if self._udp is not None:
+            self._udp.close()
+        self._udp = None
 
     def _tick(self) -> None:
         self._send()
         self._publish_team_data()
 
     def _send(self) -> None:
-        if self._sock is None:
+        if self._udp is None:
             return
         try:
             data = self.encode(self.own_report())
@@ -222,7 +193,7 @@ class MitecomNode(Node):
             return
         for dest in self._destinations:
             try:
-                self._sock.sendto(data, dest)
+                self._udp.sendto(data, dest)
                 self.sent += 1
             except OSError as exc:  # a peer that is not up yet, or no route: the next tick tries again
                 self.send_errors += 1
