@@ -20,6 +20,9 @@ from server.hub import Hub, HubMessage
 
 log = logging.getLogger(__name__)
 ROBOT_SPACING_M = 0.6
+CAMERA_POSITION = (0.9, -0.9, 0.6)  # a kid-size robot (about 0.5 m) fills the view
+CAMERA_LOOK_AT = (0.0, 0.0, 0.25)
+GROUND_SIZE_M = 4.0
 
 
 def package_resolver(description: RobotDescription) -> Any:
@@ -89,12 +92,15 @@ class Robot3DView:
         host = "127.0.0.1" if self.config.host in ("localhost", "127.0.0.1") else self.config.host
         self.server = await asyncio.to_thread(viser.ViserServer, host=host, port=self.port, verbose=False)
         self.port = self.server.get_port()
-        self.server.initial_camera.position = (1.2, -1.2, 0.8)  # a kid-size robot fills the view
-        self.server.initial_camera.look_at = (0.0, 0.0, 0.3)
+        self.server.initial_camera.position = CAMERA_POSITION
+        self.server.initial_camera.look_at = CAMERA_LOOK_AT
         self.server.scene.world_axes.visible = False
-        # the view lives in a small panel: keep viser's own controls out of the robot's way
+        self.server.scene.add_grid("/ground", width=GROUND_SIZE_M, height=GROUND_SIZE_M, cell_size=0.1,
+                                   section_size=0.5, plane="xy", shadow_opacity=0.2)
+        # the view lives in a small dashboard panel: viser's own controls start folded to a rail on the right
         self.server.gui.configure_theme(control_width="small", show_logo=False, show_share_button=False)
         self.server.gui.main_panel.dock_right()
+        self.server.gui.main_panel.minimize()
         self._sub = self.hub.subscribe("robot3d", maxlen=64)
         self._sub.subscribe("*", "joint_states", max_hz=self.config.robot3d_max_hz)
         self._task = asyncio.create_task(self._run())
