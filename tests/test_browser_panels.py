@@ -9,7 +9,8 @@ from typing import Any
 import httpx
 import pytest
 
-from robot_nodes.runtime import BusConfig
+import schemas
+from robot_nodes.runtime import BusConfig, Node
 from tests.conftest import REPO
 from tests.dashboard_server import RunningServer, dashboard_server
 from tests.teststand import SceneStand
@@ -34,6 +35,22 @@ def browser() -> Iterator[Any]:
         browser.close()
 
 
+class Talker(Node):
+    """Event-driven and slow streams: a sentence now and then, a strategy every few seconds."""
+
+    __test__ = False
+    name = "talker"
+
+    def setup(self) -> None:
+        self.speak = self.publisher("speak")
+        self.strategy = self.publisher("strategy")
+        self.timer(0.2, self.tick)
+
+    def tick(self) -> None:
+        self.speak.publish(schemas.make("humanoid_league_msgs/msg/Speak", text="ball"))
+        self.strategy.publish(schemas.make("humanoid_league_msgs/msg/Strategy"))
+
+
 @pytest.fixture
 def stands(bus: BusConfig) -> Iterator[dict[str, SceneStand]]:
     nodes = {"r1": SceneStand("r1", bus, overrides={"x": -2.0, "y": 1.0}).start(),
@@ -49,7 +66,8 @@ def scene(router_endpoint: str, stands: dict[str, SceneStand], tmp_path: Path) -
         yield server
 
 
-def test_panels_show_live_data(browser: Any, scene: RunningServer, stands: dict[str, SceneStand]) -> None:
+def test_panels_show_live_data(browser: Any, scene: RunningServer, stands: dict[str, SceneStand],
+                               bus: BusConfig) -> None:
     OUTPUT.mkdir(exist_ok=True)
     page = browser.new_page(viewport={"width": 1600, "height": 2100})
     errors: list[str] = []
@@ -65,6 +83,17 @@ def test_panels_show_live_data(browser: Any, scene: RunningServer, stands: dict[
     assert page.text_content('.card[data-robot="r1"] .game-state') == "PLAYING"
     assert "joint2 42 °C" in page.text_content('.card[data-robot="r1"]')
     assert page.get_attribute('.card[data-robot="r1"]', "data-status") == "ok"
+
+    # link health: a silent event-driven (speak) or slow (strategy) stream is shown grey, never stale or lost
+    talker = Talker("r1", bus).start()
+    row = '.card[data-robot="r1"] tr[data-topic="{}"]'
+    page.wait_for_selector(row.format("robot_state") + '[data-health="ok"]', timeout=timeout)
+    for topic in ("speak", "strategy"):
+        page.wait_for_function(f"""() => {{ const r = document.querySelector('{row.format(topic)}');
+            return r && Number(r.cells[1].textContent) >= 2 * window.pitchside.config.stale_after_s; }}""",
+                               timeout=timeout)
+        assert page.get_attribute(row.format(topic), "data-health") == "event"
+        assert page.get_attribute(row.format(topic), "class") == "event-row"
 
     # field view: both robots drawn where they are, the ball seen by them, the game state bar
     page.wait_for_function("window.pitchside.fieldView && window.pitchside.fieldView.drawn.length === 2",
@@ -108,8 +137,11 @@ def test_panels_show_live_data(browser: Any, scene: RunningServer, stands: dict[
 
     # a robot that goes silent is marked stale, then lost after 5 s
     stands["r1"].shutdown()
+    talker.shutdown()
     page.wait_for_selector('.card[data-robot="r1"][data-status="stale"]', timeout=timeout)
     page.wait_for_selector('.card[data-robot="r1"][data-status="lost"]', timeout=timeout)
+    page.wait_for_selector(row.format("robot_state") + '[data-health="lost"].lost-row', timeout=timeout)
+    assert page.get_attribute(row.format("speak"), "data-health") == "event"
     assert page.get_attribute('.card[data-robot="r2"]', "data-status") == "ok"
     page.wait_for_function("window.pitchside.fieldView.drawn.find(r => r.id === 'r1').silent === true",
                            timeout=timeout)

@@ -1,5 +1,12 @@
 // What the page knows: latest message per (robot, topic), the robots list with link health, the focused robot.
 
+/** Topics published only when something happens (an animation plays, the robot walks or talks, a teammate is
+ * heard...): silence on them is normal, so their age is shown but never as stale or lost. */
+export const EVENT_TOPICS = new Set(["animation", "motor_torque", "speak", "cmd_vel", "walk_odometry",
+  "walk_motor_goals", "head_motor_goals", "record_motor_goals", "motor_goals", "team_data"]);
+/** A stream that arrived at least this often (Hz) is periodic: once it stops, that is news. */
+export const PERIODIC_HZ = 0.9;
+
 export class Store {
   constructor() {
     this.latest = new Map();   // robot -> Map(topic -> frame)
@@ -9,6 +16,7 @@ export class Store {
     this.focus = localStorage.getItem("pitchside.focus") || "";
     this.listeners = new Map(); // event -> Set(fn)
     this.matchMode = false;
+    this.periodic = new Set(); // "robot|topic" of streams seen arriving at PERIODIC_HZ or more
   }
 
   on(event, fn) {
@@ -35,6 +43,11 @@ export class Store {
     } else if (frame.type === "robots") {
       this.robots = frame.robots;
       this.robotsAt = performance.now();
+      for (const info of frame.robots) {
+        for (const [topic, s] of Object.entries(info.streams)) {
+          if (s.rate_hz >= PERIODIC_HZ) this.periodic.add(`${info.robot}|${topic}`);
+        }
+      }
       this.emit("robots", frame.robots);
       if (!this.focus && frame.robots.length) this.setFocus(frame.robots[0].robot);
     } else if (frame.type === "hello") {
@@ -56,6 +69,14 @@ export class Store {
     const serverAge = (topic ? info.streams[topic].age_s : info.age_s) + (now - this.robotsAt) / 1000;
     const seen = this.arrivals.get(topic ? `${info.robot}|${topic}` : info.robot);
     return seen === undefined ? serverAge : Math.min(serverAge, (now - seen) / 1000);
+  }
+
+  /** Link health of one stream: "ok", "stale", "lost", or "event" for a stream whose silence means nothing
+   * (an event topic, or one never seen arriving periodically). The robot's own status uses robotAge(info). */
+  streamHealth(info, topic, staleAfter, lostAfter) {
+    if (EVENT_TOPICS.has(topic) || !this.periodic.has(`${info.robot}|${topic}`)) return "event";
+    const age = this.robotAge(info, topic);
+    return age >= lostAfter ? "lost" : age >= staleAfter ? "stale" : "ok";
   }
 
   robotIds() {

@@ -3,6 +3,8 @@
 import { BAD_HCM_STATES, gameName, hcmName } from "../msgtypes.js";
 
 const TOPICS = [["robot_state", 5], ["gamestate", 2], ["servo_data", 1], ["overview", 5]];
+const ROW_CLASS = { ok: "", event: "event-row", stale: "stale-row", lost: "lost-row" };
+const EVENT_TITLE = "sent only when something happens: silence is normal";
 
 function esc(text) {
   return String(text).replace(/[&<>"]/g, (c) => ({ "&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;" })[c]);
@@ -63,10 +65,12 @@ export default {
       const streams = info ? Object.entries(info.streams) : [];
       const rows = streams.map(([topic, s]) => {
         const sAge = store.robotAge(info, topic);
-        const cls = sAge >= config.lost_after_s ? "lost-row" : sAge >= config.stale_after_s ? "stale-row" : "";
+        const health = store.streamHealth(info, topic, config.stale_after_s, config.lost_after_s);
         const loss = s.loss_pct === undefined ? "–" : `${s.loss_pct.toFixed(1)}`;
         const share = s.budget_share === undefined ? "–" : `${(100 * s.budget_share).toFixed(0)}`;
-        return `<tr class="${cls}"><td>${esc(topic)}</td><td>${sAge.toFixed(1)}</td><td>${loss}</td>
+        const ageAttrs = health === "event" ? ` style="color: var(--muted)" title="${EVENT_TITLE}"` : "";
+        return `<tr class="${ROW_CLASS[health]}" data-topic="${esc(topic)}" data-health="${health}">
+          <td>${esc(topic)}</td><td${ageAttrs}>${sAge.toFixed(1)}</td><td>${loss}</td>
           <td>${s.rate_hz.toFixed(1)}</td><td>${share}</td></tr>`;
       }).join("");
       const label = status === "ok" ? "OK" : status === "stale" ? `STALE ${age.toFixed(1)} s` : "LOST";
