@@ -29,9 +29,7 @@ class Topic:
 
 _HL = "humanoid_league_msgs/msg/"
 
-TOPICS: dict[str, Topic] = {
-    t.name: t
-    for t in (
+_TABLE: tuple[Topic, ...] = (
         Topic("joint_states", "sensor_msgs/msg/JointState", "measured joint positions, cm730 -> all"),
         Topic("imu/data", "sensor_msgs/msg/Imu", "orientation, angular velocity, acceleration; cm730 -> hcm"),
         Topic("servo_data", _HL + "AdditionalServoData", "servo temperatures and voltage", Priority.PERCEPTION),
@@ -39,8 +37,6 @@ TOPICS: dict[str, Topic] = {
         Topic("motor_torque", "sensor_msgs/msg/JointState",
               "servo torque on/off per joint: name lists joints, effort 1.0 = on, 0.0 = off (limp); hcm -> cm730",
               Priority.CRITICAL),
-        Topic("motor_torque", "sensor_msgs/msg/JointState",
-              "torque per joint, hcm -> cm730: name lists joints, effort 1.0 = on, 0.0 = off (limp)"),
         Topic("walk_motor_goals", "trajectory_msgs/msg/JointTrajectory", "walking -> hcm"),
         Topic("head_motor_goals", "trajectory_msgs/msg/JointTrajectory", "head behaviour -> hcm"),
         Topic("record_motor_goals", "trajectory_msgs/msg/JointTrajectory", "animation recorder -> hcm"),
@@ -71,8 +67,21 @@ TOPICS: dict[str, Topic] = {
         Topic("position", _HL + "Position2D", "own position on the field"),
         Topic("ground_truth", "pitchside_msgs/msg/GroundTruth", "simulation ground truth poses"),
         Topic("diagnostics", "diagnostic_msgs/msg/DiagnosticArray", "node health, every node -> dashboard"),
-    )
-}
+
+)
+
+
+def _by_name(topics: tuple[Topic, ...]) -> dict[str, Topic]:
+    """The table by name; a topic defined twice is a mistake, not an override."""
+    table: dict[str, Topic] = {}
+    for t in topics:
+        if t.name in table:
+            raise ValueError(f"topic {t.name!r} is defined twice in the topic table")
+        table[t.name] = t
+    return table
+
+
+TOPICS: dict[str, Topic] = _by_name(_TABLE)
 
 
 @dataclass(frozen=True, slots=True)

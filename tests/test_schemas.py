@@ -105,3 +105,11 @@ def test_to_dict_has_fields_not_constants() -> None:
     assert schemas.to_dict(msg) == {"state": 2}
     state = schemas.to_dict(schemas.make("sensor_msgs/msg/JointState", name=["a"], position=[1.5]))
     assert state["position"] == [1.5] and state["header"]["stamp"] == {"sec": 0, "nanosec": 0}
+
+
+def test_a_topic_defined_twice_is_refused() -> None:
+    from schemas.topics import Topic, _by_name
+
+    twice = (Topic("a", "std_msgs/msg/Bool", "one"), Topic("a", "std_msgs/msg/Bool", "two"))
+    with pytest.raises(ValueError, match="defined twice"):
+        _by_name(twice)
