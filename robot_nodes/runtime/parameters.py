@@ -178,12 +178,12 @@ class ParameterStore:
                 spec = self.specs.get(name)
                 if spec is None:
                     raise ParameterError(f"node {self.node!r} has no parameter {name!r}")
+                checked[name] = spec.validate(value)  # a bad value is named as such, whatever its revision
                 if revisions and name in revisions and revisions[name] != self.revisions[name]:
                     raise ParameterError(
                         f"{name} was changed meanwhile (revision {self.revisions[name]}, "
                         f"write based on {revisions[name]}); reload and try again"
                     )
-                checked[name] = spec.validate(value)
             changed = {n: v for n, v in checked.items() if getattr(self.values, n) != v}
             for name, value in changed.items():
                 setattr(self.values, name, value)

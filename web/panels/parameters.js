@@ -127,8 +127,15 @@ export default {
       for (const p of state.nodes[node] || []) showValue(node, p);
     }
 
+    // writes go one after another, so each is based on the revision the previous one's reply brought
+    let writes = Promise.resolve();
+    function write(node, name, value, options = {}) {
+      writes = writes.then(() => writeNow(node, name, value, options));
+      return writes;
+    }
+
     /** Writes one value based on the revision we showed; a refusal is shown at the row and the value reverts. */
-    async function write(node, name, value, { recordUndo = true } = {}) {
+    async function writeNow(node, name, value, { recordUndo = true } = {}) {
       const p = find(node, name);
       const row = nodesEl.querySelector(`tr[data-param="${CSS.escape(`${node}/${name}`)}"]`);
       const errEl = row?.querySelector('[data-role="error"]');
