@@ -1,29 +1,4 @@
-"""The stable import path of pitchside's MCAP logs (implementation in schemas/logs/)."""
+"""The stable import path of pitchside's MCAP logs; the implementation and its public names are in schemas/logs/."""
 
-from schemas.logs import (
-    BOOKMARK_TOPIC,
-    Bookmark,
-    ChannelInfo,
-    LogError,
-    LogMessage,
-    LogReader,
-    LogSeriesReader,
-    LogWriter,
-    channel_topic,
-    log_series,
-    rotated_path,
-)
-
-__all__ = [
-    "BOOKMARK_TOPIC",
-    "Bookmark",
-    "ChannelInfo",
-    "LogError",
-    "LogMessage",
-    "LogReader",
-    "LogSeriesReader",
-    "LogWriter",
-    "channel_topic",
-    "log_series",
-    "rotated_path",
-]
+from schemas.logs import *  # noqa: F403 - re-exports exactly schemas.logs.__all__
+from schemas.logs import __all__ as __all__

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from server.config import RobotDescription, ServerConfig
-from server.hub import Hub, HubMessage
+from server.hub import Hub, HubMessage, Subscriber
 
 log = logging.getLogger(__name__)
 ROBOT_SPACING_M = 0.6
@@ -84,7 +84,7 @@ class Robot3DView:
         self.robots: dict[str, RobotModel] = {}
         self.failed: dict[str, str] = {}
         self._task: asyncio.Task[None] | None = None
-        self._sub = None
+        self._sub: Subscriber | None = None
 
     async def start(self) -> None:
         import viser
