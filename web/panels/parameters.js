@@ -110,10 +110,12 @@ export default {
 
     function find(node, name) { return state.nodes[node]?.find((p) => p.name === name); }
 
-    function showValue(node, p) {
+    /** Shows a value; an input the user is typing into is left alone unless forced (a refused write reverts). */
+    function showValue(node, p, force = false) {
       const row = nodesEl.querySelector(`tr[data-param="${CSS.escape(`${node}/${p.name}`)}"]`);
       if (!row) return;
       const el = row.querySelector('[data-role="value"]');
+      if (el === document.activeElement && !force) return;
       if (p.type === "bool") el.checked = p.value;
       else if (p.choices) el.value = JSON.stringify(p.value);
       else if (p.type === "list") el.value = JSON.stringify(p.value);
@@ -153,7 +155,7 @@ export default {
         state.errors++;
         if (errEl) errEl.textContent = err.message;
         row?.classList.add("refused");
-        showValue(node, p);
+        showValue(node, p, true);
         if (err.status === 409) { // someone else changed it meanwhile: show theirs, keep the message
           try {
             const fresh = await api("GET", `api/robots/${encodeURIComponent(state.robot)}/params/${encodeURIComponent(node)}`);
