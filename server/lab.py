@@ -77,6 +77,8 @@ class LabTools:
         self.goals: dict[str, ClientGoal] = {}
         self._previews: dict[str, Any] = {}
         self._preview_tasks: dict[str, asyncio.Task[None]] = {}
+        self._ghost_slots: dict[str, tuple[float, float, float]] = {}  # robot -> where its ghosts stand
+        self._keyframe_ghosts: dict[str, Any] = {}  # robot -> KeyframeGhosts
         self.animation_folders: dict[str, tuple[float, Path, str]] = {}  # robot -> (when asked, folder, how found)
 
     # -- publishing ---------------------------------------------------------------------------------
@@ -146,17 +148,32 @@ class LabTools:
         return handle.cancel(timeout=GOAL_TIMEOUT_S)
 
     # -- 3D preview ---------------------------------------------------------------------------------
-    async def preview(self, robot: str, anim: Animation, start: dict[str, float] | None) -> float:
-        """Plays the animation on a ghost robot in the 3D view; the real robot does not move."""
+    def _view(self) -> Any:
         view = self.state.views.get("robot3d")
         if view is None or view.server is None:
             raise RuntimeError("the 3D view is off (start the server with --robot3d)")
+        return view
+
+    def _ghost_slot(self, robot: str, view: Any) -> tuple[float, float, float]:
+        """Where a robot's preview and keyframe ghosts stand: one place per robot, beside the real robots."""
+        from server.robot3d import ROBOT_SPACING_M
+
+        slot = self._ghost_slots.get(robot)
+        if slot is None:
+            slot = self._ghost_slots[robot] = (0.0, (len(view.robots) + 1 + len(self._ghost_slots)) * ROBOT_SPACING_M,
+                                               0.0)
+        return slot
+
+    async def preview(self, robot: str, anim: Animation, start: dict[str, float] | None) -> float:
+        """Plays the animation on a ghost robot in the 3D view; the real robot does not move."""
+        view = self._view()
         ghost = self._previews.get(robot)
         if ghost is None:
             from server.robot3d import RobotModel
 
             ghost = await asyncio.to_thread(RobotModel, view.server, f"{robot}_preview",
-                                            self.state.config.description_for(robot), len(view.robots) + 1)
+                                            self.state.config.description_for(robot), 0,
+                                            position=self._ghost_slot(robot, view))
             self._previews[robot] = ghost
         old = self._preview_tasks.pop(robot, None)
         if old is not None:
@@ -164,6 +181,35 @@ class LabTools:
         player = AnimationPlayer(anim, start)
         self._preview_tasks[robot] = asyncio.create_task(self._preview_loop(ghost, player))
         return float(player.duration)
+
+    async def show_keyframes(self, robot: str, anim: Animation, keyframes: list[int], selected: int,
+                             start: dict[str, float] | None) -> list[int]:
+        """Still ghosts of the chosen keyframes, where the preview ghost moves; replaces the ones shown before.
+
+        Each ghost is posed as the robot would be when its keyframe's duration ends: the keyframe's goals, and for
+        joints the keyframe leaves out, the animation's curve at that moment (or the measured start pose).
+        """
+        view = self._view()
+        from server.robot3d import KeyframeGhosts
+
+        ghosts = self._keyframe_ghosts.get(robot)
+        if ghosts is None:
+            ghosts = self._keyframe_ghosts[robot] = KeyframeGhosts(
+                view.server, robot, self.state.config.description_for(robot), self._ghost_slot(robot, view))
+        chosen = sorted({k for k in keyframes if 0 <= k < len(anim.keyframes)})
+        poses: list[tuple[int, dict[str, float]]] = []
+        if chosen:
+            player = AnimationPlayer(anim, start)
+            for k in chosen:
+                pose = dict(start or {})
+                pose.update(player.goals_at(player.keyframe_times[k]))
+                poses.append((k, pose))
+        await asyncio.to_thread(ghosts.show, poses, selected)
+        return chosen
+
+    async def clear_keyframes(self, robot: str) -> int:
+        ghosts = self._keyframe_ghosts.get(robot)
+        return 0 if ghosts is None else int(await asyncio.to_thread(ghosts.clear))
 
     async def _preview_loop(self, ghost: Any, player: AnimationPlayer) -> None:
         t0 = time.monotonic()
@@ -173,6 +219,13 @@ class LabTools:
             if t >= player.duration:
                 return
             await asyncio.sleep(1.0 / PREVIEW_HZ)
+
+    def keyframe_status(self, robot: str) -> dict[str, Any]:
+        """The keyframe ghosts (with the joint angles the scene holds) and the ghost nodes in the scene."""
+        ghosts = self._keyframe_ghosts.get(robot)
+        if ghosts is None:
+            return {"ghosts": [], "scene_nodes": []}
+        return {"ghosts": ghosts.status(), "scene_nodes": ghosts.scene_nodes()}
 
     def preview_updates(self, robot: str) -> int:
         ghost = self._previews.get(robot)

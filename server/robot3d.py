@@ -10,6 +10,8 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
+import math
+import threading
 from pathlib import Path
 from typing import Any
 
@@ -23,6 +25,9 @@ ROBOT_SPACING_M = 0.6
 CAMERA_POSITION = (0.9, -0.9, 0.6)  # a kid-size robot (about 0.5 m) fills the view
 CAMERA_LOOK_AT = (0.0, 0.0, 0.25)
 GROUND_SIZE_M = 4.0
+# keyframe ghosts (onion skin): faint copies of the robot, the selected keyframe stronger and in another colour
+GHOST_RGBA = (0.35, 0.55, 0.95, 0.2)
+GHOST_SELECTED_RGBA = (1.0, 0.55, 0.1, 0.5)
 
 
 def package_resolver(description: RobotDescription) -> Any:
@@ -42,23 +47,38 @@ def package_resolver(description: RobotDescription) -> Any:
     return handler
 
 
-class RobotModel:
-    """One robot in the scene: its URDF under ``/<robot>`` and the joint order viser expects."""
+def load_urdf(description: RobotDescription) -> Any:
+    """The robot's yourdfpy URDF with its meshes (the slow part of adding a robot: about 0.6 s for the minibot)."""
+    import yourdfpy
 
-    def __init__(self, server: Any, robot: str, description: RobotDescription, index: int) -> None:
-        import yourdfpy
+    if not description.urdf.exists():
+        raise FileNotFoundError(f"URDF not found: {description.urdf}")
+    return yourdfpy.URDF.load(str(description.urdf), filename_handler=package_resolver(description))
+
+
+class RobotModel:
+    """One robot in the scene: its URDF under ``/<robot>`` and the joint order viser expects.
+
+    ``color`` (RGBA) draws every mesh in one colour and opacity (a ghost); ``urdf`` shares an already loaded
+    yourdfpy URDF, which is safe only while its users are posed one after another (viser poses through it).
+    """
+
+    def __init__(self, server: Any, robot: str, description: RobotDescription, index: int, *,
+                 color: tuple[float, float, float, float] | None = None, urdf: Any = None,
+                 position: tuple[float, float, float] | None = None) -> None:
         from viser.extras import ViserUrdf
 
-        if not description.urdf.exists():
-            raise FileNotFoundError(f"URDF of robot {robot!r} not found: {description.urdf}")
-        urdf = yourdfpy.URDF.load(str(description.urdf), filename_handler=package_resolver(description))
-        self.frame = server.scene.add_frame(f"/{robot}", position=(0.0, index * ROBOT_SPACING_M, 0.0),
-                                            show_axes=False)
-        self.view = ViserUrdf(server, urdf, root_node_name=f"/{robot}")
+        if urdf is None:
+            urdf = load_urdf(description)
+        self.name = f"/{robot}"
+        self.frame = server.scene.add_frame(self.name, show_axes=False,
+                                            position=position or (0.0, index * ROBOT_SPACING_M, 0.0))
+        self.view = ViserUrdf(server, urdf, root_node_name=self.name, mesh_color_override=color)
         self.joint_names = list(self.view.get_actuated_joint_names())
         self.cfg = np.zeros(len(self.joint_names))
         self._index = {name: i for i, name in enumerate(self.joint_names)}
         self.updates = 0
+        self.color = color
 
     def apply(self, names: list[str], positions: Any) -> int:
         """Sets the named joints (others keep their angle); returns how many joints the URDF knew."""
@@ -71,6 +91,103 @@ class RobotModel:
         self.view.update_cfg(self.cfg)
         self.updates += 1
         return known
+
+    def tint(self, color: tuple[float, float, float, float]) -> None:
+        """Recolours a ghost's meshes in place (no mesh is sent again)."""
+        if color == self.color or self.color is None:
+            return
+        mesh: Any
+        for mesh in self.view._meshes:  # ViserUrdf keeps its mesh handles here; viser has no public list
+            mesh.color = color[:3]
+            mesh.opacity = color[3]
+        self.color = color
+
+    def scene_angles(self) -> dict[str, float]:
+        """Joint angles (rad) as the viser scene holds them, read back from each joint frame's rotation.
+
+        A test of what the browser is sent, not of what we meant to send: R_frame = R_origin * R(axis, q).
+        """
+        from viser import transforms as tf
+
+        out: dict[str, float] = {}
+        # ViserUrdf pairs its joint frames with the URDF's joints in these two private lists
+        for joint, handle in zip(self.view._joint_map_values, self.view._joint_frames, strict=False):
+            if joint.type not in ("revolute", "continuous") or joint.name not in self._index:
+                continue
+            origin = joint.origin if joint.origin is not None else np.eye(4)
+            r = origin[:3, :3].T @ tf.SO3(np.asarray(handle.wxyz, dtype=float)).as_matrix()
+            axis = np.asarray(joint.axis if joint.axis is not None else (1.0, 0.0, 0.0), dtype=float)
+            axis /= np.linalg.norm(axis)
+            sin = 0.5 * float(axis @ np.array([r[2, 1] - r[1, 2], r[0, 2] - r[2, 0], r[1, 0] - r[0, 1]]))
+            cos = 0.5 * (float(np.trace(r)) - 1.0)
+            out[joint.name] = math.atan2(sin, cos)
+        return out
+
+    def remove(self) -> None:
+        self.frame.remove()  # the URDF's frames and meshes are its children
+
+
+class KeyframeGhosts:
+    """A robot's animation shown as still ghosts, one per chosen keyframe, overlaid where its preview ghost moves.
+
+    The ghosts are a pool: a new set of poses re-poses the ghosts already in the scene (a few ms each) and only
+    adds or removes the difference; the URDF is loaded once and shared, so every pose change holds the lock.
+    """
+
+    def __init__(self, server: Any, robot: str, description: RobotDescription,
+                 position: tuple[float, float, float]) -> None:
+        self.server = server
+        self.robot = robot
+        self.description = description
+        self.name = f"/{robot}_keyframes"
+        self.root = server.scene.add_frame(self.name, position=position, show_axes=False)
+        self.models: list[RobotModel] = []
+        self.keyframes: list[int] = []
+        self.selected = -1
+        self._urdf: Any = None
+        self._lock = threading.Lock()
+
+    def show(self, poses: list[tuple[int, dict[str, float]]], selected: int) -> None:
+        """poses: (keyframe index, joint -> rad) per ghost; the selected keyframe's ghost is drawn stronger."""
+        with self._lock:
+            if self._urdf is None and poses:
+                self._urdf = load_urdf(self.description)
+            while len(self.models) > len(poses):
+                self.models.pop().remove()
+            while len(self.models) < len(poses):
+                self.models.append(RobotModel(self.server, f"{self.robot}_keyframes/ghost{len(self.models)}",
+                                              self.description, 0, color=GHOST_RGBA, urdf=self._urdf,
+                                              position=(0.0, 0.0, 0.0)))
+            for model, (index, pose) in zip(self.models, poses, strict=True):
+                model.cfg[:] = 0.0
+                model.apply(list(pose), list(pose.values()))
+                model.tint(GHOST_SELECTED_RGBA if index == selected else GHOST_RGBA)
+            self.keyframes = [index for index, _ in poses]
+            self.selected = selected
+
+    def clear(self) -> int:
+        with self._lock:
+            removed = len(self.models)
+            for model in self.models:
+                model.remove()
+            self.models.clear()
+            self.keyframes = []
+            return removed
+
+    def scene_nodes(self) -> list[str]:
+        """The ghost roots the viser scene holds under ours (whatever we think we added)."""
+        prefix = f"{self.name}/"
+        names = list(self.server.scene._handle_from_node_name)  # viser's node registry; no public listing exists
+        return sorted(n for n in names if n.startswith(prefix) and "/" not in n[len(prefix):])
+
+    def status(self) -> list[dict[str, Any]]:
+        """Per ghost: its scene node, keyframe, colour and the joint angles (deg) the scene holds."""
+        with self._lock:
+            return [{"node": model.name, "keyframe": index, "selected": index == self.selected,
+                     "opacity": model.color[3] if model.color else 1.0,
+                     "exists": self.server.scene.get_handle_by_name(model.name) is not None,
+                     "joints": {j: math.degrees(q) for j, q in model.scene_angles().items()}}
+                    for model, index in zip(self.models, self.keyframes, strict=True)]
 
 
 class Robot3DView:

@@ -252,3 +252,48 @@ def test_preview_drives_a_ghost_robot_in_the_3d_view(router_endpoint: str, tmp_p
         assert reply.json()["duration"] == pytest.approx(0.6)
         wait_for(lambda: httpx.get(url, timeout=20).json()["updates"] >= 5, 30.0, 0.2, "the ghost robot moved")
         assert httpx.get(f"{server.url}/api/robot3d", timeout=20).json()["robots"] == {}  # the real robot: untouched
+
+
+@pytest.mark.slow
+def test_keyframe_ghosts_in_the_3d_view_hold_each_keyframes_pose(router_endpoint: str, tmp_path: Path) -> None:
+    """The viser scene gets a still ghost per keyframe whose joint frames are posed at the keyframe's goals."""
+    from tests.conftest import free_port
+
+    anim = {"name": "wave", "keyframes": [
+        {"duration": 0.5, "goals": {"LShoulderPitch": 40.0, "RShoulderPitch": -40.0, "HeadPan": 10.0}},
+        {"duration": 0.5, "goals": {"LShoulderRoll": 60.0, "HeadPan": -25.0}},
+        {"duration": 0.5, "pause": 0.2, "goals": {"LShoulderPitch": -30.0, "LElbow": -45.0, "HeadPan": 0.0}}]}
+    args = ["--connect", router_endpoint, "--no-telemetry", "--robot3d", "--robot3d-port", str(free_port())]
+    with dashboard_server(args, tmp_path) as server:
+        url = f"{server.url}/api/robots/r5/animation-ghosts"
+        reply = httpx.post(url, json={"animation": anim, "selected": 1}, timeout=60)
+        assert reply.status_code == 200, reply.text
+        assert reply.json()["keyframes"] == [0, 1, 2]
+        status = httpx.get(url, timeout=20).json()
+        assert status["scene_nodes"] == [f"/r5_keyframes/ghost{i}" for i in range(3)]
+        ghosts = status["ghosts"]
+        assert [g["keyframe"] for g in ghosts] == [0, 1, 2] and all(g["exists"] for g in ghosts)
+        for ghost, kf in zip(ghosts, anim["keyframes"], strict=True):
+            for joint, goal in kf["goals"].items():
+                assert ghost["joints"][joint] == pytest.approx(goal, abs=0.01), (ghost["keyframe"], joint)
+            assert ghost["joints"]["LKnee"] == pytest.approx(0.0, abs=0.01)  # in no keyframe, no joint_states
+        # a joint a keyframe leaves out stands where the animation has it then: LShoulderRoll reaches 60 only at 1
+        assert ghosts[2]["joints"]["LShoulderRoll"] == pytest.approx(60.0, abs=0.01)
+        assert [g["selected"] for g in ghosts] == [False, True, False]
+        assert ghosts[1]["opacity"] > ghosts[0]["opacity"] and ghosts[0]["opacity"] < 0.5  # faint, selected stronger
+
+        # the animation changed (mirrored, only keyframe 2 and its neighbour wanted): the ghosts follow
+        mirrored = httpx.post(f"{server.url}/api/robots/r5/animation-edit", json={"animation": anim, "op": "mirror"},
+                              timeout=20).json()["animation"]
+        reply = httpx.post(url, json={"animation": mirrored, "keyframes": [1, 2, 7], "selected": 2}, timeout=60)
+        assert reply.json()["keyframes"] == [1, 2]
+        status = httpx.get(url, timeout=20).json()
+        assert status["scene_nodes"] == ["/r5_keyframes/ghost0", "/r5_keyframes/ghost1"]
+        assert status["ghosts"][1]["joints"]["RShoulderPitch"] == pytest.approx(
+            mirrored["keyframes"][2]["goals"]["RShoulderPitch"], abs=0.01)
+        assert status["ghosts"][1]["joints"]["RShoulderPitch"] == pytest.approx(30.0, abs=0.01)
+
+        # switched off: nothing of them stays in the scene
+        assert httpx.delete(url, timeout=20).json()["removed"] == 2
+        status = httpx.get(url, timeout=20).json()
+        assert status["ghosts"] == [] and status["scene_nodes"] == []

@@ -14,12 +14,14 @@ export class ApiError extends Error {
   }
 }
 
-/** fetch() against the server; throws ApiError with the server's "detail" (e.g. the node's own refusal). */
-export async function api(method, path, body) {
+/** fetch() against the server; throws ApiError with the server's "detail" (e.g. the node's own refusal).
+ * keepalive: the request outlives the page (a clean-up sent while the page goes away). */
+export async function api(method, path, body, { keepalive = false } = {}) {
   const headers = { "content-type": "application/json" };
   const t = token();
   if (t) headers.authorization = `Bearer ${t}`;
-  const reply = await fetch(path, { method, headers, body: body === undefined ? undefined : JSON.stringify(body) });
+  const reply = await fetch(path, { method, headers, keepalive,
+    body: body === undefined ? undefined : JSON.stringify(body) });
   let data = null;
   try { data = await reply.json(); } catch { data = null; }
   if (!reply.ok) throw new ApiError(reply.status, data?.detail ?? reply.statusText);

@@ -71,6 +71,12 @@ class EditRequest(BaseModel):
     keyframe: dict[str, Any] | None = None  # insert: the new keyframe (Bit-Bots JSON)
 
 
+class GhostRequest(BaseModel):
+    animation: dict[str, Any]
+    keyframes: list[int] | None = None  # which keyframes get a ghost (default all)
+    selected: int = -1  # drawn stronger
+
+
 class PlayRequest(BaseModel):
     file: str
     upto: int | None = None  # play keyframes 0..upto only
@@ -243,13 +249,8 @@ async def preview_animation(robot: str, body: AnimationBody, state: ServerState 
     anim = _parse(body, "<editor>")
     if not anim.keyframes:
         raise HTTPException(422, "the animation has no keyframes")
-    latest = state.hub.latest.get((robot, "joint_states"))
-    start = None
-    if latest is not None:
-        msg = latest.message
-        start = {n: float(p) for n, p in zip(msg.name, msg.position, strict=False) if math.isfinite(p)}
     try:
-        duration = await lab_tools(state).preview(robot, anim, start)
+        duration = await lab_tools(state).preview(robot, anim, _start_pose(state, robot))
     except RuntimeError as exc:
         raise HTTPException(409, str(exc)) from exc
     return {"robot": robot, "ghost": f"{robot}_preview", "duration": duration}
@@ -259,6 +260,43 @@ async def preview_animation(robot: str, body: AnimationBody, state: ServerState 
 async def preview_status(robot: str, state: ServerState = Depends(require_control)) -> dict[str, Any]:
     """How many poses the ghost robot has shown (0: no preview yet)."""
     return {"robot": robot, "ghost": f"{robot}_preview", "updates": lab_tools(state).preview_updates(robot)}
+
+
+def _start_pose(state: ServerState, robot: str) -> dict[str, float] | None:
+    """The robot's measured joints (rad), where a preview starts and what keyframes leave out; None if unknown."""
+    latest = state.hub.latest.get((robot, "joint_states"))
+    if latest is None:
+        return None
+    msg = latest.message
+    return {n: float(p) for n, p in zip(msg.name, msg.position, strict=False) if math.isfinite(p)}
+
+
+@router.post("/animation-ghosts")
+async def show_keyframe_ghosts(robot: str, request: GhostRequest, state: ServerState = Depends(require_control)
+                               ) -> dict[str, Any]:
+    """A still, faint ghost per keyframe in the 3D view (onion skin where the preview ghost moves); replaces the
+    ghosts shown before, so the editor sends this again whenever the animation or the selection changes."""
+    anim = _parse(AnimationBody(animation=request.animation), "<editor>")
+    wanted = list(range(len(anim.keyframes))) if request.keyframes is None else request.keyframes
+    try:
+        shown = await lab_tools(state).show_keyframes(robot, anim, wanted, request.selected,
+                                                      _start_pose(state, robot))
+    except RuntimeError as exc:
+        raise HTTPException(409, str(exc)) from exc
+    return {"robot": robot, "ghost": f"{robot}_keyframes", "keyframes": shown}
+
+
+@router.get("/animation-ghosts")
+async def keyframe_ghosts_status(robot: str, state: ServerState = Depends(require_control)) -> dict[str, Any]:
+    """The keyframe ghosts in the scene, with the joint angles (deg) read back from viser's scene nodes."""
+    status = await asyncio.to_thread(lab_tools(state).keyframe_status, robot)
+    return {"robot": robot, "ghost": f"{robot}_keyframes", **status}
+
+
+@router.delete("/animation-ghosts")
+async def clear_keyframe_ghosts(robot: str, state: ServerState = Depends(require_control)) -> dict[str, Any]:
+    """Removes the keyframe ghosts (the editor closed, or ghosts switched off)."""
+    return {"robot": robot, "removed": await lab_tools(state).clear_keyframes(robot)}
 
 
 # -- on the robot ---------------------------------------------------------------------------------------

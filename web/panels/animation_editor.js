@@ -5,6 +5,7 @@ import { api, esc, MATCH_MODE_TEXT, robotPicker } from "../lab_api.js";
 
 const SEND_EVERY_MS = 100; // record goals while a slider is dragged
 const RESEND_MS = 300; // in RECORD the held pose is sent again and again: a lost message costs nothing
+const GHOSTS_AFTER_MS = 150; // keyframe ghosts follow edits and the selection, at most this often
 
 function torqueLabel(v) { return v === undefined ? "" : v >= 0.5 ? "on" : "off"; }
 
@@ -36,6 +37,9 @@ export default {
       </div>
       <div class="lab-bar">
         <button data-act="preview" title="ghost robot in the 3D view; the robot does not move">preview 3D</button>
+        <label title="still, faint ghosts of the keyframes in the 3D view (the selected one stronger)">ghosts
+          <select data-role="ghosts"><option value="off">off</option><option value="near">selected ±1</option>
+            <option value="all">all keyframes</option></select></label>
         <button data-act="play" title="save, then play on the robot">▶ play</button>
         <button data-act="play-upto" title="save, then play up to the selected keyframe">▶ to selected</button>
         <button data-act="stop" class="stop" title="cancel the animation and leave RECORD">■ STOP</button>
@@ -58,8 +62,10 @@ export default {
     const state = {
       robot: "", file: "", anim: null, selected: -1, undo: [], redo: [], check: null, joints: [],
       held: {}, limp: new Set(), recordJoints: new Set(), recordOn: false, lastError: "", saved: 0,
+      ghosts: "off", ghostsShown: 0, ghostsFor: "",
     };
     window.pitchside.animEditor = state;
+    let ghostTimer = null, ghostBusy = false, ghostAgain = false; // keyframe ghosts, see sendGhosts
     const base = () => `api/robots/${encodeURIComponent(state.robot)}`;
     const statusEl = $('[data-role="status"]');
     const status = (text, bad = false) => {
@@ -71,8 +77,10 @@ export default {
     }
 
     const picker = robotPicker($('[data-role="robot"]'), ctx, (robot) => {
+      clearGhosts();
       state.robot = robot;
       guarded(async () => { await listFiles(); await loadJoints(); });
+      scheduleGhosts();
     });
 
     async function listFiles() {
@@ -145,6 +153,49 @@ export default {
       if (name) state.anim.name = name;
     }
 
+    // -- keyframe ghosts in 3D -----------------------------------------------------------------------
+    // one request at a time, the newest state wins; the server replaces the ghosts it showed before
+    function ghostKeyframes() {
+      const n = state.anim?.keyframes.length ?? 0;
+      if (state.ghosts === "all") return [...Array(n).keys()];
+      const s = state.selected;
+      return s < 0 ? [] : [s - 1, s, s + 1].filter((k) => k >= 0 && k < n);
+    }
+    function scheduleGhosts() {
+      if (state.ghosts === "off" || !state.robot) return;
+      if (!ghostTimer) ghostTimer = setTimeout(sendGhosts, GHOSTS_AFTER_MS);
+    }
+    async function sendGhosts() {
+      ghostTimer = null;
+      if (ghostBusy) { ghostAgain = true; return; }
+      if (state.ghosts === "off" || !state.robot) return;
+      ghostBusy = true;
+      const robot = state.robot;
+      try {
+        const animation = state.anim ?? { name: "none", keyframes: [] };
+        const r = await api("POST", `${base()}/animation-ghosts`, { animation, keyframes: ghostKeyframes(),
+          selected: state.selected });
+        state.ghostsShown = r.keyframes.length; state.ghostsFor = robot;
+        state.ghostUpdates = (state.ghostUpdates || 0) + 1;
+        if (state.ghosts === "off" || state.robot !== robot) clearGhosts(); // switched off while under way
+      } catch (err) {
+        status(`keyframe ghosts: ${err.message}`, true);
+        state.ghosts = "off"; $('[data-role="ghosts"]').value = "off";
+      }
+      ghostBusy = false;
+      if (ghostAgain) { ghostAgain = false; sendGhosts(); }
+    }
+    /** Removes the ghosts from the 3D view (switched off, another robot, the editor closed). */
+    function clearGhosts({ leaving = false } = {}) {
+      if (!state.ghostsFor) return;
+      const robot = state.ghostsFor;
+      state.ghostsFor = ""; state.ghostsShown = 0;
+      const path = `api/robots/${encodeURIComponent(robot)}/animation-ghosts`;
+      api("DELETE", path, undefined, { keepalive: leaving }).catch((err) => {
+        if (!leaving) status(`keyframe ghosts: ${err.message}`, true);
+      });
+    }
+
     // -- rendering ------------------------------------------------------------------------------------
     function render() {
       const anim = state.anim;
@@ -164,6 +215,7 @@ export default {
       $('[data-role="keyframes"]').innerHTML = rows || '<tr><td colspan="6" class="empty">open, upload or start a new animation</td></tr>';
       renderDetail();
       renderWarnings();
+      scheduleGhosts();
     }
 
     function renderWarnings() {
@@ -315,6 +367,11 @@ export default {
 
     body.addEventListener("change", (e) => {
       const t = e.target;
+      if (t.dataset.role === "ghosts") {
+        state.ghosts = t.value;
+        if (t.value === "off") clearGhosts(); else scheduleGhosts();
+        return;
+      }
       if (t.dataset.role === "upload" && t.files?.length) {
         const f = t.files[0];
         guarded(async () => {
@@ -369,7 +426,14 @@ export default {
       sendGoals();
     });
     const resend = setInterval(() => { if (state.recordOn && state.robot) sendGoals(); }, RESEND_MS);
+    const leave = () => clearGhosts({ leaving: true });
+    window.addEventListener("pagehide", leave);
     render();
-    return { destroy() { picker.off(); clearInterval(resend); if (pending) clearTimeout(pending); } };
+    return {
+      destroy() {
+        picker.off(); clearInterval(resend); if (pending) clearTimeout(pending); if (ghostTimer) clearTimeout(ghostTimer);
+        state.ghosts = "off"; window.removeEventListener("pagehide", leave); clearGhosts();
+      },
+    };
   },
 };
