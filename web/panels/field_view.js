@@ -1,4 +1,6 @@
 // Field view: the kid-size field to scale, robot poses with confidence, ball, obstacles, teammates, game state.
+// Drawn on every animation frame while the panel is on screen (none while hidden, scrolled away or in a background
+// tab); poses glide between the 15 Hz updates: extrapolated a short way past the newest sample, never further.
 
 import { css, fitCanvas, fmtClock, gameName, SECONDARY_STATES, yaw } from "../msgtypes.js";
 
@@ -7,10 +9,78 @@ export const FIELD = { length: 9, width: 6, goalDepth: 0.6, goalWidth: 2.6, goal
   penaltyAreaLength: 2, penaltyAreaWidth: 5, penaltyMark: 1.5, centerCircle: 1.5, border: 0.7 };
 const TOPICS = [["position", 15], ["ground_truth", 15], ["ball_relative", 15], ["obstacles_relative", 5],
   ["team_data", 2], ["gamestate", 2]];
+export const MOTION = {
+  horizonS: 0.15,  // extrapolate at most this far past the newest sample (and at most 1.5 sample intervals)
+  smoothS: 0.06,   // a new sample's correction fades in with this time constant instead of a jump
+  jumpM: 0.75,     // a correction bigger than this (teleport, replay seek) is shown at once
+  maxSpeed: 4,     // m/s; faster apparent motion is noise or a jump, not velocity
+  maxTurn: 8,      // rad/s
+};
+const HEADER = 28; // px: the game state bar
 
 function transform(pose, p) {
   const c = Math.cos(pose.theta), s = Math.sin(pose.theta);
   return { x: pose.x + c * p.x - s * p.y, y: pose.y + s * p.x + c * p.y };
+}
+
+function angleDiff(a, b) {
+  return Math.atan2(Math.sin(a - b), Math.cos(a - b));
+}
+
+const clamp = (v, lim) => Math.max(-lim, Math.min(lim, v));
+
+/** One moving thing (a robot pose or a ball): its newest sample, velocity from the two newest, and the pose it is
+ * shown at, which follows the samples smoothly. A stream that stops is shown where it was last seen (plus at most
+ * one short extrapolation step), never carried on. */
+export class Track {
+  constructor() {
+    this.key = null;   // the frame the newest sample came from
+    this.p = null;     // newest sample {x, y, theta}
+    this.stamp = 0;    // its time (s, the message's stamp)
+    this.at = 0;       // performance.now() when it arrived
+    this.interval = 0; // s between the two newest samples
+    this.v = { x: 0, y: 0, theta: 0 };
+    this.off = { x: 0, y: 0, theta: 0 }; // shown minus predicted: fades out
+    this.shown = null;
+    this.drawnAt = 0;
+  }
+
+  update(key, p, stamp, now) {
+    if (key === this.key) return;
+    this.key = key;
+    const prev = this.p, dt = stamp - this.stamp;
+    this.v = { x: 0, y: 0, theta: 0 };
+    this.interval = 0;
+    if (prev && dt > 0.005 && dt < 1) {
+      this.interval = dt;
+      this.v = { x: (p.x - prev.x) / dt, y: (p.y - prev.y) / dt, theta: angleDiff(p.theta, prev.theta) / dt };
+      if (Math.hypot(this.v.x, this.v.y) > MOTION.maxSpeed || Math.abs(this.v.theta) > MOTION.maxTurn) {
+        this.v = { x: 0, y: 0, theta: 0 };
+      }
+    }
+    this.p = p;
+    this.stamp = stamp;
+    this.at = now;
+    const s = this.shown;
+    this.off = { x: 0, y: 0, theta: 0 };
+    if (s) {
+      const off = { x: s.x - p.x, y: s.y - p.y, theta: angleDiff(s.theta, p.theta) };
+      if (Math.hypot(off.x, off.y) < MOTION.jumpM && Math.abs(off.theta) < 1) this.off = off;
+    }
+  }
+
+  pose(now) {
+    const horizon = Math.min(MOTION.horizonS, 1.5 * this.interval);
+    const age = Math.max(0, Math.min((now - this.at) / 1000, horizon));
+    const fade = Math.exp(-Math.max(0, now - (this.drawnAt || now)) / 1000 / MOTION.smoothS);
+    this.drawnAt = now;
+    for (const k of ["x", "y", "theta"]) {
+      this.off[k] = Math.abs(this.off[k] * fade) < 1e-4 ? 0 : this.off[k] * fade;
+    }
+    const p = this.p, v = this.v, off = this.off;
+    this.shown = { x: p.x + v.x * age + off.x, y: p.y + v.y * age + off.y, theta: p.theta + v.theta * age + off.theta };
+    return { ...this.shown, confidence: p.confidence };
+  }
 }
 
 export default {
@@ -21,33 +91,46 @@ export default {
     const { store } = ctx;
     const canvas = document.createElement("canvas");
     body.append(canvas);
-    const stats = { drawn: [], frames: 0, fps: 0, balls: 0, drawMs: 0 }; // drawMs: time per draw (moving average)
+    // frames: drawn so far (tests and bench/server.py read it); fps: over the last second; drawMs: per draw (average)
+    const stats = { drawn: [], frames: 0, fps: 0, balls: 0, drawMs: 0, running: false };
     window.pitchside.fieldView = stats;
-    let dirty = true, view = null, raf = 0, fpsStart = performance.now(), fpsFrames = 0;
-    const offs = TOPICS.map(([topic, hz]) => ctx.subscribe(topic, hz, () => { dirty = true; }));
-    offs.push(store.on("focus", () => { dirty = true; }), store.on("theme", () => { dirty = true; }));
-    offs.push(store.on("robots", () => { dirty = true; }));
+    let view = null, raf = 0, fpsStart = performance.now(), fpsFrames = 0, onScreen = true, destroyed = false;
+    let theme = 0, field = null; // the static field (grass, lines, goals) drawn once per size and theme
+    const tracks = new Map(); // "kind|robot" -> Track
+    const offs = TOPICS.map(([topic, hz]) => ctx.subscribe(topic, hz, () => {}));
+    offs.push(store.on("theme", () => { theme++; }));
 
-    /** Estimated poses (position) and ground truth, per robot id. */
-    function poses() {
+    function track(key, frame, p, now) {
+      let t = tracks.get(key);
+      if (!t) tracks.set(key, t = new Track());
+      t.update(frame, p, frame.stamp, now);
+      t.used = true;
+      return t.pose(now);
+    }
+
+    /** Shown poses of estimates (position) and ground truth, per robot id. */
+    function poses(now) {
       const out = new Map();
+      const truths = new Map(); // id -> newest ground truth frame that has it
       for (const robot of store.latest.keys()) {
-        const gt = store.get(robot, "ground_truth")?.data;
-        if (gt) {
-          gt.robot_ids.forEach((id, i) => {
-            const p = gt.robot_poses[i];
-            const entry = out.get(id) || {};
-            entry.truth = { x: p.position.x, y: p.position.y, theta: yaw(p.orientation) };
-            out.set(id, entry);
-          });
-        }
+        const frame = store.get(robot, "ground_truth");
+        if (!frame) continue;
+        for (const id of frame.data.robot_ids) if (!(truths.get(id)?.stamp >= frame.stamp)) truths.set(id, frame);
+      }
+      for (const [id, frame] of truths) {
+        const p = frame.data.robot_poses[frame.data.robot_ids.indexOf(id)];
+        out.set(id, { truth: track(`truth|${id}`, frame,
+          { x: p.position.x, y: p.position.y, theta: yaw(p.orientation) }, now) });
       }
       for (const robot of store.latest.keys()) {
-        const pos = store.get(robot, "position")?.data;
+        const frame = store.get(robot, "position");
         const overview = store.get(robot, "overview")?.data;
         const entry = out.get(robot) || {};
-        if (pos) entry.estimate = { x: pos.pose.x, y: pos.pose.y, theta: pos.pose.theta, confidence: pos.confidence };
-        else if (overview?.pose_known) {
+        if (frame) {
+          const pos = frame.data;
+          entry.estimate = track(`estimate|${robot}`, frame,
+            { x: pos.pose.x, y: pos.pose.y, theta: pos.pose.theta, confidence: pos.confidence }, now);
+        } else if (overview?.pose_known) {
           entry.estimate = { x: overview.pose_x, y: overview.pose_y, theta: overview.pose_theta,
             confidence: overview.pose_confidence };
         }
@@ -56,16 +139,19 @@ export default {
       return out;
     }
 
-    function draw() {
-      const { ctx: g, w, h } = fitCanvas(canvas);
+    /** Grass, lines and goals into an offscreen canvas of the visible one's size: one drawImage per frame. */
+    function staticField(w, h, scale, X, Y) {
+      const key = `${canvas.width}x${canvas.height}|${theme}`;
+      if (field?.key === key) return field.canvas;
+      const off = field?.canvas || document.createElement("canvas");
+      off.width = canvas.width;
+      off.height = canvas.height;
+      const g = off.getContext("2d");
+      g.setTransform(canvas.width / w, 0, 0, canvas.height / h, 0, 0);
       const F = FIELD;
-      const scale = Math.min(w / (F.length + 2 * F.border), (h - 28) / (F.width + 2 * F.border));
-      const ox = w / 2, oy = 28 + (h - 28) / 2;
-      const X = (x) => ox + x * scale, Y = (y) => oy - y * scale;
-      view = { X, Y, scale };
       g.fillStyle = css("--field");
       g.fillRect(0, 0, w, h);
-      g.strokeStyle = "#ffffff";
+      g.strokeStyle = css("--field-line") || "#ffffff";
       g.lineWidth = Math.max(2, 0.05 * scale);
       const L = F.length / 2, W = F.width / 2;
       g.strokeRect(X(-L), Y(W), F.length * scale, F.width * scale);
@@ -86,7 +172,24 @@ export default {
           F.goalWidth * scale);
         g.restore();
       }
-      const all = poses();
+      field = { key, canvas: off };
+      return off;
+    }
+
+    function draw(now) {
+      const { ctx: g, w, h } = fitCanvas(canvas);
+      const F = FIELD;
+      const scale = Math.min(w / (F.length + 2 * F.border), (h - HEADER) / (F.width + 2 * F.border));
+      const ox = w / 2, oy = HEADER + (h - HEADER) / 2;
+      const X = (x) => ox + x * scale, Y = (y) => oy - y * scale;
+      view = { X, Y, scale };
+      const background = staticField(w, h, scale, X, Y);
+      g.save();
+      g.setTransform(1, 0, 0, 1, 0, 0);
+      g.drawImage(background, 0, 0);
+      g.restore();
+      for (const t of tracks.values()) t.used = false;
+      const all = poses(now);
       const drawn = [];
       let balls = 0;
       // teammates reported over team communication (small, hollow)
@@ -118,9 +221,11 @@ export default {
         g.fillStyle = "#ffffff"; g.strokeStyle = "#000"; g.lineWidth = 3; g.font = "bold 14px sans-serif";
         g.strokeText(name, X(pose.x) + 12, Y(pose.y) + 18); g.fillText(name, X(pose.x) + 12, Y(pose.y) + 18);
         drawn.push({ id, x: pose.x, y: pose.y, silent: silent.has(id) });
-        const ball = store.get(id, "ball_relative")?.data;
+        const ballFrame = store.get(id, "ball_relative");
+        const ball = ballFrame?.data;
         if (ball && entry.estimate && ball.confidence > 0) {
-          const b = transform(entry.estimate, ball.ball_relative);
+          const rel = track(`ball|${id}`, ballFrame, { x: ball.ball_relative.x, y: ball.ball_relative.y, theta: 0 }, now);
+          const b = transform(entry.estimate, rel);
           ballShape(g, X(b.x), Y(b.y), scale, 0.3 + 0.7 * Math.min(1, ball.confidence));
           balls++;
         }
@@ -132,9 +237,13 @@ export default {
         }
       }
       for (const robot of store.latest.keys()) {
-        const gt = store.get(robot, "ground_truth")?.data;
-        if (gt) { ballShape(g, X(gt.ball.x), Y(gt.ball.y), scale, 1, true); balls++; }
+        const frame = store.get(robot, "ground_truth");
+        if (!frame) continue;
+        const b = track(`truthball|${robot}`, frame, { x: frame.data.ball.x, y: frame.data.ball.y, theta: 0 }, now);
+        ballShape(g, X(b.x), Y(b.y), scale, 1, true);
+        balls++;
       }
+      for (const [key, t] of tracks) if (!t.used) tracks.delete(key); // gone from the store
       drawGameState(g, w);
       stats.drawn = drawn;
       stats.balls = balls;
@@ -142,7 +251,7 @@ export default {
 
     function drawGameState(g, w) {
       g.fillStyle = "#000000";
-      g.fillRect(0, 0, w, 28);
+      g.fillRect(0, 0, w, HEADER);
       const ids = [store.focus, ...store.latest.keys()];
       const game = ids.map((id) => store.get(id, "gamestate")?.data).find(Boolean);
       g.fillStyle = "#ffffff";
@@ -157,19 +266,38 @@ export default {
       g.fillText(text, 8, 20);
     }
 
+    function wanted() {
+      return !destroyed && onScreen && canvas.isConnected && document.visibilityState !== "hidden";
+    }
+
+    /** Starts or stops the animation loop: it runs only while the panel can be seen. */
+    function schedule() {
+      if (wanted() && !raf) raf = requestAnimationFrame(loop);
+      else if (!wanted() && raf) { cancelAnimationFrame(raf); raf = 0; }
+      stats.running = !!raf;
+    }
+
     function loop() {
+      raf = 0;
+      if (!wanted()) { stats.running = false; return; }
       raf = requestAnimationFrame(loop);
-      if (!dirty) return;
-      dirty = false;
       const t0 = performance.now();
-      draw();
-      stats.drawMs = stats.frames ? 0.9 * stats.drawMs + 0.1 * (performance.now() - t0) : performance.now() - t0;
+      draw(t0);
+      const t1 = performance.now();
+      stats.drawMs = stats.frames ? 0.9 * stats.drawMs + 0.1 * (t1 - t0) : t1 - t0;
       stats.frames++;
       fpsFrames++;
-      const now = performance.now();
-      if (now - fpsStart >= 1000) { stats.fps = fpsFrames * 1000 / (now - fpsStart); fpsFrames = 0; fpsStart = now; }
+      if (t1 - fpsStart >= 1000) { stats.fps = fpsFrames * 1000 / (t1 - fpsStart); fpsFrames = 0; fpsStart = t1; }
     }
-    raf = requestAnimationFrame(loop);
+
+    const seen = new IntersectionObserver((entries) => {
+      onScreen = entries[entries.length - 1].isIntersecting;
+      schedule();
+    });
+    seen.observe(canvas);
+    document.addEventListener("visibilitychange", schedule);
+    raf = requestAnimationFrame(loop); // the observer's first report follows; until then, assume on screen
+    stats.running = true;
 
     canvas.addEventListener("click", (e) => {
       if (!view) return;
@@ -183,8 +311,14 @@ export default {
       if (best) store.setFocus(best);
     });
     return {
-      destroy() { cancelAnimationFrame(raf); offs.forEach((off) => off()); },
-      resize() { dirty = true; },
+      destroy() {
+        destroyed = true;
+        schedule();
+        seen.disconnect();
+        document.removeEventListener("visibilitychange", schedule);
+        offs.forEach((off) => off());
+      },
+      resize() { schedule(); },
     };
   },
 };
