@@ -153,7 +153,12 @@ def telemetry_worker(argv: list[str]) -> None:
     sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, 4 << 20)
     sock.connect(("127.0.0.1", port))
     stop = threading.Event()
-    threading.Thread(target=lambda: (sys.stdin.read(), stop.set()), daemon=True).start()
+
+    def until_stdin_closes() -> None:
+        sys.stdin.read()
+        stop.set()
+
+    threading.Thread(target=until_stdin_closes, daemon=True).start()
     sent = errors = 0
     next_table = next_tick = t0 = time.monotonic()
     while not stop.is_set():
