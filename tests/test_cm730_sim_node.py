@@ -155,7 +155,8 @@ def test_camera_image_and_detections_are_published(node: Cm730Node, client: zeno
         wait_for(lambda: listener.count("camera/image/compressed") >= 2, timeout=30, what="camera images")
         image = listener.last("camera/image/compressed")
         assert image.format == "jpeg" and bytes(image.data[:2]) == b"\xff\xd8"
-        info = listener.last("camera/camera_info")
+        # camera_info goes out right after its image, on another key: it may arrive a moment later
+        info = wait_for(lambda: listener.last("camera/camera_info"), timeout=10, what="camera_info")
         assert (info.width, info.height) == (320, 240)
         wait_for(lambda: listener.last("ball_in_image") is not None and listener.last("ball_in_image").candidates,
                  timeout=20, what="ball seen")

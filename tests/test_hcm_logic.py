@@ -163,6 +163,23 @@ def test_stand_up_that_ends_on_the_other_side_stands_up_from_there() -> None:
     assert machine.state is S.GETTING_UP and actions.calls[-1] == ("play", "stand_up_front")
 
 
+def test_stand_up_that_ends_still_rolling_waits_until_the_robot_lies() -> None:
+    bb = Blackboard()
+    machine, actions = started(bb)
+    bb.fallen = Side.BACK
+    machine.step(bb)
+    machine.step(bb)
+    assert machine.state is S.GETTING_UP
+    bb.fallen, bb.falling, bb.upright, bb.animation_busy = None, Side.FRONT, False, False  # rolling over
+    machine.step(bb)
+    assert machine.state is S.GETTING_UP, "no walkready and no falling animation while still rolling"
+    bb.fallen, bb.falling = Side.FRONT, None  # now lying on the front
+    machine.step(bb)
+    assert machine.state is S.FALLEN
+    machine.step(bb)
+    assert machine.state is S.GETTING_UP and actions.calls[-1] == ("play", "stand_up_front")
+
+
 def test_penalty_from_walking_lets_the_walk_stop_first() -> None:
     bb = Blackboard()
     machine, actions = started(bb)

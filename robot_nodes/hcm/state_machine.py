@@ -164,7 +164,10 @@ def build_transitions() -> list[Transition]:
         # stand_up_back may end lying on the front (it rolls over): then stand up from there at once
         _t(S.GETTING_UP, S.FALLEN, "stand-up left it lying",
            lambda bb: not bb.animation_busy and bb.fallen is not None),
-        _t(S.GETTING_UP, S.GETTING_UP_SETTLE, "stand-up animation done", lambda bb: not bb.animation_busy),
+        # a robot still rolling when its stand-up ends (stand_up_back onto the front) is not falling from a stand:
+        # wait until it lies still, then stand up from there, instead of playing walkready and a falling animation
+        _t(S.GETTING_UP, S.GETTING_UP_SETTLE, "stand-up animation done",
+           lambda bb: not bb.animation_busy and (bb.upright or bb.falling is None)),
         _t(S.GETTING_UP_SETTLE, S.FALLING, "falling again",
            lambda bb: not bb.animation_busy and bb.falling is not None),
         _t(S.GETTING_UP_SETTLE, S.FALLEN, "still lying", lambda bb: not bb.animation_busy and bb.fallen is not None),

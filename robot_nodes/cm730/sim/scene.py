@@ -34,7 +34,10 @@ class ServoClass:
 class PhysicsConfig:
     timestep: float = 0.002
     mx64: ServoClass = ServoClass(kp=12.0, kv=0.2)  # head and arms
-    mx106: ServoClass = ServoClass(kp=40.0, kv=0.6)  # legs
+    # legs: stiff enough that a leg carrying the body sags < 1.5 deg (at 40 Nm/rad it was 4 deg). An integral
+    # term (a Dynamixel's Position I Gain) removed the sag too but made the walking robot fall: it fights
+    # the other leg through the ground and lags the gait.
+    mx106: ServoClass = ServoClass(kp=100.0, kv=1.5)
     armature: float = 0.012  # kg m^2, reflected rotor inertia through the servo gearbox
     turf_friction: tuple[float, float, float] = (1.0, 0.005, 0.0001)  # sliding, torsional, rolling
     ball_friction: tuple[float, float, float] = (0.8, 0.005, 0.03)  # rolling 0.03: turf stops a ball within metres

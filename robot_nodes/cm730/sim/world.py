@@ -246,8 +246,11 @@ class RobotHandle:
 
     def set_torque(self, names: list[str], enabled: bool) -> None:
         """Torque off makes a joint really limp (no stiffness, only gearbox damping and friction).
-        Torque on holds the present position, as a Dynamixel does."""
+        Torque on holds the present position, as a Dynamixel does; enabling a servo that is already on changes
+        nothing, so a torque switch that arrives after its goals does not undo them."""
         idx = self._indices(names)
+        if enabled:
+            idx = idx[~self.torque_enabled[idx]]
         w, m, d = self.world, self.world.model, self.world.data
         acts = self._act[idx]
         if enabled:
