@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import functools
 import math
 import time
 import xml.etree.ElementTree as ET
@@ -16,8 +17,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 import schemas
-from robot_nodes.animation import Animation, AnimationPlayer
+from robot_nodes.animation import Animation, AnimationPlayer, mirror_signs_from_axes
 from robot_nodes.runtime import keys
 from robot_nodes.runtime.actions import ActionClient, ClientGoal
 from server.state import ServerState
@@ -54,6 +57,26 @@ def urdf_joint_limits(path: Path) -> JointLimits:
         if limit.get("velocity"):
             out.velocity[name] = float(limit.get("velocity", 0))
     return out
+
+
+def urdf_mirror_signs(path: Path) -> dict[str, float]:
+    """Mirror signs of the robot's joints from its URDF's axes (robot_nodes.animation.editing explains the rule),
+    so mirror is right for any robot the server is given, not only for Bit-Bots' axis conventions."""
+    return dict(_mirror_signs(str(path), path.stat().st_mtime))
+
+
+@functools.lru_cache(maxsize=8)
+def _mirror_signs(path: str, mtime: float) -> dict[str, float]:
+    import yourdfpy
+
+    urdf = yourdfpy.URDF.load(path, load_meshes=False, build_scene_graph=True)
+    axes = {}
+    for joint in urdf.robot.joints:
+        if joint.type in ("revolute", "continuous"):
+            rotation = urdf.get_transform(joint.child, urdf.base_link)[:3, :3]  # zero pose, in the base frame
+            axis = joint.axis if joint.axis is not None else (1.0, 0.0, 0.0)
+            axes[joint.name] = rotation @ np.asarray(axis, dtype=float)
+    return mirror_signs_from_axes(axes)
 
 
 @dataclass(slots=True)

@@ -9,11 +9,12 @@ from pathlib import Path
 from typing import Any
 
 import httpx
+import numpy as np
 import pytest
 
 from robot_nodes.animation.node import AnimationNode
 from robot_nodes.runtime import BusConfig
-from tests.conftest import free_port
+from tests.conftest import REPO, free_port
 from tests.dashboard_server import RunningServer, dashboard_server
 from tests.waiting import wait_for
 
@@ -22,9 +23,9 @@ CHROMIUM = Path("/usr/bin/chromium")
 TIMEOUT_MS = 30_000
 EDITOR = '[data-panel="animation"]'
 ROBOT = "e1"
-WAVE = {"name": "wave", "author": "test", "keyframes": [
-    {"name": "up", "duration": 0.5, "goals": {"LShoulderPitch": 40.0, "LShoulderRoll": 20.0, "HeadPan": 10.0}},
-    {"name": "out", "duration": 0.6, "pause": 0.1, "goals": {"LShoulderRoll": 60.0, "LElbow": -30.0}},
+WAVE = {"name": "wave", "author": "test", "keyframes": [  # within the minibot's limits and servo speeds
+    {"name": "up", "duration": 0.5, "goals": {"LShoulderPitch": 40.0, "LShoulderRoll": -20.0, "HeadPan": 10.0}},
+    {"name": "out", "duration": 0.6, "pause": 0.1, "goals": {"LShoulderRoll": -60.0, "LElbow": -30.0}},
     {"name": "down", "duration": 0.8, "goals": {"LShoulderPitch": 0.0, "LShoulderRoll": 0.0, "LElbow": 0.0,
                                                 "HeadPan": 0.0}}]}
 
@@ -146,5 +147,180 @@ def test_keyframe_ghosts_follow_the_editor(browser: Any, server: RunningServer) 
     page = editor_page(browser, server)
     page.select_option(f'{EDITOR} [data-role="ghosts"]', "all")
     wait_for(lambda: len(ghosts(server)["scene_nodes"]) == 3, 20.0, 0.2, "ghosts on the second page")
+    page.wait_for_function("window.pitchside.animEditor.ghostsShown === 3", timeout=TIMEOUT_MS)  # reply arrived
     page.close(run_before_unload=True)
     wait_for(lambda: ghosts(server)["scene_nodes"] == [], 20.0, 0.2, "no ghosts after the page closed")
+
+
+def click(page: Any, act: str) -> None:
+    page.click(f'{EDITOR} button[data-act="{act}"]')
+
+
+def wait_keyframes(page: Any, condition: str, what: str) -> list[dict[str, Any]]:
+    """Until a JS condition on ``kfs`` (the editor's keyframes) holds; then the keyframes."""
+    try:
+        page.wait_for_function(
+            f"(() => {{ const kfs = window.pitchside.animEditor.anim.keyframes; return {condition}; }})()",
+            timeout=TIMEOUT_MS)
+    except Exception as exc:
+        raise AssertionError(f"{what}: {condition} never held; keyframes {keyframes(page)}, "
+                             f"status {page.locator(f'{EDITOR} [data-role=status]').text_content()}") from exc
+    return keyframes(page)
+
+
+def hand_positions(goals: dict[str, float]) -> dict[str, np.ndarray]:
+    """Where the minibot's lower arms are (base frame, m) in a pose given in degrees: forward kinematics."""
+    import yourdfpy
+
+    urdf = yourdfpy.URDF.load(str(REPO / "robots" / "minibot" / "urdf" / "minibot.urdf"), load_meshes=False,
+                              build_scene_graph=True)
+    urdf.update_cfg({j: np.radians(v) for j, v in goals.items()})
+    return {side: urdf.get_transform(f"{side}_lower_arm", urdf.base_link)[:3, 3] @ np.eye(3) for side in "lr"}
+
+
+def test_mirror_invert_undo_redo(browser: Any, server: RunningServer) -> None:
+    page = editor_page(browser, server)
+    original = keyframes(page)
+    undo, redo = f'{EDITOR} button[data-act="undo"]', f'{EDITOR} button[data-act="redo"]'
+    assert page.locator(undo).is_disabled() and page.locator(redo).is_disabled()
+
+    # mirror the selected keyframe: the left arm's motion becomes the right arm's, the head pans the other way
+    page.click(f'{EDITOR} tr[data-kf="0"] td:first-child')
+    click(page, "mirror")
+    kfs = wait_keyframes(page, "'RShoulderPitch' in kfs[0].goals", "keyframe 0 mirrored")
+    assert kfs[0]["goals"] == {"RShoulderPitch": -40.0, "RShoulderRoll": 20.0, "HeadPan": -10.0}
+    assert kfs[1:] == original[1:]  # only the selected keyframe
+    # the sign convention is the robot's: the mirrored pose puts the right arm where the left one was, reflected
+    left = hand_positions(original[0]["goals"])["l"]
+    right = hand_positions(kfs[0]["goals"])["r"]
+    assert right == pytest.approx(left * np.array([1.0, -1.0, 1.0]), abs=1e-6)
+    assert not page.locator(undo).is_disabled()
+
+    # undo restores, redo re-applies
+    click(page, "undo")
+    assert wait_keyframes(page, "'LShoulderPitch' in kfs[0].goals", "undone") == original
+    assert page.locator(undo).is_disabled() and not page.locator(redo).is_disabled()
+    click(page, "redo")
+    assert wait_keyframes(page, "'RShoulderPitch' in kfs[0].goals", "redone") == kfs
+    assert page.locator(redo).is_disabled()
+    click(page, "undo")
+    wait_keyframes(page, "'LShoulderPitch' in kfs[0].goals", "undone again")
+
+    # mirror all: every keyframe on the other side
+    click(page, "mirror-all")
+    kfs = wait_keyframes(page, "kfs.every((kf) => !Object.keys(kf.goals).some((j) => j.startsWith('L')))",
+                         "all keyframes mirrored")
+    assert kfs[1]["goals"] == {"RShoulderRoll": 60.0, "RElbow": 30.0}
+    assert kfs[2]["goals"] == {"RShoulderPitch": -0.0, "RShoulderRoll": -0.0, "RElbow": -0.0, "HeadPan": -0.0}
+
+    # invert: poses backwards, each move taking as long as the forward move out of it; pauses stay with their pose
+    click(page, "invert")
+    kfs = wait_keyframes(page, "kfs[0].name === 'down'", "inverted")
+    assert [kf["name"] for kf in kfs] == ["down", "out", "up"]
+    assert [kf["duration"] for kf in kfs] == [0.5, 0.8, 0.6]
+    assert [kf["pause"] for kf in kfs] == [0.0, 0.1, 0.0]
+
+    # two undos: back to the file as opened; a new edit clears redo
+    click(page, "undo")
+    click(page, "undo")
+    assert wait_keyframes(page, "'LShoulderPitch' in kfs[0].goals && kfs[0].name === 'up'", "undone twice") == original
+    assert not page.locator(redo).is_disabled()
+    click(page, "invert")
+    wait_keyframes(page, "kfs[0].name === 'down'", "inverted the original")
+    assert page.locator(redo).is_disabled()
+    assert not page.errors, page.errors
+
+
+def test_keyframe_insert_duplicate_reorder_delete(browser: Any, server: RunningServer) -> None:
+    page = editor_page(browser, server)
+    original = keyframes(page)
+
+    # insert after keyframe 1: posed where keyframe 1 ends (every goal so far, the newest per joint)
+    page.click(f'{EDITOR} tr[data-kf="1"] td:first-child')
+    click(page, "insert")
+    kfs = wait_keyframes(page, "kfs.length === 4", "a keyframe inserted")
+    assert kfs[2]["goals"] == {"LShoulderPitch": 40.0, "LShoulderRoll": -60.0, "HeadPan": 10.0, "LElbow": -30.0}
+    assert kfs[2]["duration"] == 1.0 and [kf.get("name") for kf in kfs[:2]] == ["up", "out"]
+    assert page.evaluate("window.pitchside.animEditor.selected") == 2
+    assert page.locator(f'{EDITOR} tr[data-kf="2"]').get_attribute("class") == "selected"
+
+    # duplicate keyframe 0
+    page.click(f'{EDITOR} tr[data-kf="0"] button[data-kact="duplicate"]')
+    kfs = wait_keyframes(page, "kfs.length === 5", "keyframe 0 duplicated")
+    assert kfs[1] == kfs[0] == original[0]
+    assert page.locator(f"{EDITOR} tr[data-kf]").count() == 5
+
+    # reorder: the last keyframe ("down") up by one, then keyframe 0 down by one
+    page.click(f'{EDITOR} tr[data-kf="4"] button[data-kact="up"]')
+    kfs = wait_keyframes(page, "kfs[3].name === 'down'", "down moved up")
+    page.click(f'{EDITOR} tr[data-kf="0"] button[data-kact="down"]')
+    kfs = wait_keyframes(page, "kfs[1].name === 'up' && kfs[0].name === 'up'", "up moved down")
+    assert [kf.get("name") for kf in kfs] == ["up", "up", "out", "down", None]
+
+    # delete the inserted keyframe (now the last), then the duplicate
+    page.click(f'{EDITOR} tr[data-kf="4"] button[data-kact="delete"]')
+    wait_keyframes(page, "kfs.length === 4", "inserted keyframe deleted")
+    page.click(f'{EDITOR} tr[data-kf="0"] button[data-kact="delete"]')
+    kfs = wait_keyframes(page, "kfs.length === 3", "duplicate deleted")
+    assert [kf["name"] for kf in kfs] == ["up", "out", "down"]
+
+    # a field edited in place: duration of keyframe 1, undone on its own
+    duration = page.locator(f'{EDITOR} tr[data-kf="1"] input[data-field="duration"]')
+    duration.fill("1.25")
+    duration.press("Tab")
+    assert wait_keyframes(page, "kfs[1].duration === 1.25", "duration edited")[1]["duration"] == 1.25
+    click(page, "undo")
+    wait_keyframes(page, "kfs[1].duration === 0.6", "duration undone")
+
+    # undo every structural edit: the file as opened
+    for _ in range(6):
+        click(page, "undo")
+    assert wait_keyframes(page, "kfs.length === 3 && kfs[2].name === 'down'", "all undone") == original
+    assert page.locator(f'{EDITOR} button[data-act="undo"]').is_disabled()
+    assert page.evaluate("window.pitchside.animEditor.selected") < 3  # the selection stays inside the animation
+    assert not page.errors, page.errors
+
+
+def test_joint_limit_and_servo_speed_warnings_and_preview(browser: Any, server: RunningServer) -> None:
+    page = editor_page(browser, server)
+    warnings = f'{EDITOR} [data-role="warnings"] li'
+    assert page.locator(warnings).count() == 0  # the file is within limits and servo speeds
+
+    # keyframe 1: the elbow past its limit (URDF: [-90.0, 44.7] deg)
+    page.click(f'{EDITOR} tr[data-kf="1"] td:first-child')
+    goal = page.locator(f'{EDITOR} [data-role="detail"] tr[data-joint="LElbow"] input[data-goal]')
+    goal.fill("80")
+    goal.press("Tab")
+    page.wait_for_selector(f'{warnings}.warn:has-text("goal 80 deg for joint \'LElbow\' is outside its limits")',
+                           timeout=TIMEOUT_MS)
+    assert "[-90.0, 44.7]" in page.locator(warnings).first.text_content()
+    goal = page.locator(f'{EDITOR} [data-role="detail"] tr[data-joint="LElbow"] input[data-goal]')
+    goal.fill("-30")
+    goal.press("Tab")
+    page.wait_for_function(f"document.querySelectorAll('{warnings}').length === 0", timeout=TIMEOUT_MS)
+
+    # not a number: refused at the field, the keyframe keeps its goal
+    goal = page.locator(f'{EDITOR} [data-role="detail"] tr[data-joint="LElbow"] input[data-goal]')
+    goal.fill("")
+    goal.press("Tab")
+    page.wait_for_selector(f'{EDITOR} .lab-status.bad:has-text("LElbow")', timeout=TIMEOUT_MS)
+    assert keyframes(page)[1]["goals"]["LElbow"] == -30.0
+
+    # keyframe 2 in 0.05 s: the shoulder roll (-60 -> 0 deg since keyframe 1's pause ended) would need 1200 deg/s,
+    # more than its servo's 468
+    duration = page.locator(f'{EDITOR} tr[data-kf="2"] input[data-field="duration"]')
+    duration.fill("0.05")
+    duration.press("Tab")
+    page.wait_for_selector(f"{warnings}.warn:has-text(\"joint 'LShoulderRoll' needs 1200 deg/s\")", timeout=TIMEOUT_MS)
+    assert "468 deg/s" in page.locator(f'{warnings}:has-text("LShoulderRoll")').text_content()
+    assert page.locator(f'{warnings}:has-text("LShoulderPitch")').count() == 0  # 40 deg in 0.75 s: slow enough
+    click(page, "undo")
+    page.wait_for_function(f"document.querySelectorAll('{warnings}').length === 0", timeout=TIMEOUT_MS)
+
+    # preview: the ghost robot plays it in the 3D view; the real robot's model is not touched
+    click(page, "preview")
+    page.wait_for_selector(f'{EDITOR} .lab-status:has-text("preview on {ROBOT}_preview")', timeout=TIMEOUT_MS)
+    url = f"{server.url}/api/robots/{ROBOT}/animation-preview"
+    wait_for(lambda: httpx.get(url, timeout=20).json()["updates"] >= 5, 30.0, 0.2, "the preview ghost moved")
+    assert httpx.get(f"{server.url}/api/robot3d", timeout=20).json()["robots"] == {}
+    assert not page.errors, page.errors

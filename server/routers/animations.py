@@ -44,7 +44,7 @@ from robot_nodes.runtime import ActionError, header
 from robot_nodes.runtime.param_client import ParameterClient
 from robot_nodes.runtime.parameters import ParameterError
 from server.deps import require_control
-from server.lab import JointLimits, lab_tools, urdf_joint_limits
+from server.lab import JointLimits, lab_tools, urdf_joint_limits, urdf_mirror_signs
 from server.state import ServerState
 
 router = APIRouter(prefix="/api/robots/{robot}", tags=["animations"])
@@ -128,6 +128,15 @@ def joint_limits(state: ServerState, robot: str) -> JointLimits:
     urdf = state.config.description_for(robot).urdf
     try:
         return urdf_joint_limits(urdf)
+    except (OSError, ValueError) as exc:
+        raise HTTPException(500, f"cannot read the URDF of {robot!r} ({urdf}): {exc}") from exc
+
+
+def mirror_signs(state: ServerState, robot: str) -> dict[str, float]:
+    """The robot's mirror signs from its URDF's joint axes."""
+    urdf = state.config.description_for(robot).urdf
+    try:
+        return urdf_mirror_signs(urdf)
     except (OSError, ValueError) as exc:
         raise HTTPException(500, f"cannot read the URDF of {robot!r} ({urdf}): {exc}") from exc
 
@@ -217,9 +226,9 @@ async def edit_animation(robot: str, request: EditRequest, state: ServerState = 
     anim = _parse(AnimationBody(animation=request.animation), "<editor>")
     try:
         if request.op == "mirror":
-            out = mirror(anim, keyframes=request.keyframes)
+            out = mirror(anim, mirror_signs(state, robot), keyframes=request.keyframes)
         elif request.op == "copy_side":
-            out = copy_side(anim, request.source, keyframes=request.keyframes)
+            out = copy_side(anim, request.source, mirror_signs(state, robot), keyframes=request.keyframes)
         elif request.op == "invert":
             out = invert(anim)
         elif request.op == "insert":

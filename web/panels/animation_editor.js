@@ -31,6 +31,7 @@ export default {
         <label>author <input data-role="author" size="8"></label>
         <button data-act="save">save</button>
         <button data-act="undo" disabled>undo</button><button data-act="redo" disabled>redo</button>
+        <button data-act="insert" title="a new keyframe after the selected one, posed where that one ends">+ keyframe</button>
         <button data-act="mirror" title="swap left and right in the selected keyframe">mirror kf</button>
         <button data-act="mirror-all">mirror all</button>
         <button data-act="invert" title="play backwards">invert</button>
@@ -118,6 +119,27 @@ export default {
       guarded(runCheck);
     }
     function snapshot() { if (state.anim) state.undo.push(JSON.stringify(state.anim)); }
+    /** An undo/redo step: the animation as it was, the selection kept inside it. */
+    function restore(text) {
+      state.anim = JSON.parse(text);
+      const n = state.anim.keyframes.length;
+      state.selected = Math.min(Math.max(state.selected, n ? 0 : -1), n - 1);
+      render();
+    }
+    /** The pose the animation holds at the end of keyframe k: every goal up to k, the newest per joint. */
+    function poseAfter(k) {
+      const pose = {};
+      for (const kf of state.anim.keyframes.slice(0, k + 1)) Object.assign(pose, kf.goals);
+      return pose;
+    }
+    async function insertKeyframe() {
+      if (!state.anim) throw new Error("open, upload or start a new animation first");
+      const index = state.selected + 1;
+      await edit("insert", { index, keyframe: { duration: 1.0, pause: 0.0, goals: poseAfter(state.selected), torque: {} } });
+      state.selected = index;
+      render();
+      status(`inserted keyframe ${index}`);
+    }
 
     async function edit(op, extra = {}) {
       const reply = await api("POST", `${base()}/animation-edit`, { animation: state.anim, op, ...extra });
@@ -171,11 +193,12 @@ export default {
       if (state.ghosts === "off" || !state.robot) return;
       ghostBusy = true;
       const robot = state.robot;
+      state.ghostsFor = robot; // from now on the server may hold ghosts of this robot: clean them up on leaving
       try {
         const animation = state.anim ?? { name: "none", keyframes: [] };
         const r = await api("POST", `${base()}/animation-ghosts`, { animation, keyframes: ghostKeyframes(),
           selected: state.selected });
-        state.ghostsShown = r.keyframes.length; state.ghostsFor = robot;
+        state.ghostsShown = r.keyframes.length;
         state.ghostUpdates = (state.ghostUpdates || 0) + 1;
         if (state.ghosts === "off" || state.robot !== robot) clearGhosts(); // switched off while under way
       } catch (err) {
@@ -305,7 +328,10 @@ export default {
           if (kact === "up" && i > 0) { await edit("move", { index: i, new_index: i - 1 }); state.selected = i - 1; }
           if (kact === "down" && i < state.anim.keyframes.length - 1) { await edit("move", { index: i, new_index: i + 1 }); state.selected = i + 1; }
           if (kact === "duplicate") { await edit("duplicate", { index: i }); state.selected = i + 1; }
-          if (kact === "delete") await edit("delete", { index: i });
+          if (kact === "delete") {
+            await edit("delete", { index: i });
+            if (i < state.selected) state.selected--; // the selection stays on its keyframe
+          }
           render();
         });
         return;
@@ -329,11 +355,12 @@ export default {
         } else if (act === "save") await save();
         else if (act === "undo" && state.undo.length) {
           state.redo.push(JSON.stringify(state.anim));
-          state.anim = JSON.parse(state.undo.pop()); render(); await runCheck();
+          restore(state.undo.pop()); await runCheck();
         } else if (act === "redo" && state.redo.length) {
           state.undo.push(JSON.stringify(state.anim));
-          state.anim = JSON.parse(state.redo.pop()); render(); await runCheck();
-        } else if (act === "mirror" && state.selected >= 0) await edit("mirror", { keyframes: [state.selected] });
+          restore(state.redo.pop()); await runCheck();
+        } else if (act === "insert") await insertKeyframe();
+        else if (act === "mirror" && state.selected >= 0) await edit("mirror", { keyframes: [state.selected] });
         else if (act === "mirror-all") await edit("mirror");
         else if (act === "invert") await edit("invert");
         else if (act === "preview") {
@@ -396,7 +423,11 @@ export default {
         snapshot();
         const kf = state.anim.keyframes[state.selected];
         const j = detailRow.dataset.joint;
-        if (t.dataset.goal !== undefined) kf.goals[j] = Number(t.value);
+        if (t.dataset.goal !== undefined) {
+          const v = t.value.trim() === "" ? NaN : Number(t.value);
+          if (!Number.isFinite(v)) { state.undo.pop(); t.value = kf.goals[j]; status(`${j}: a goal is a number of degrees`, true); return; }
+          kf.goals[j] = v;
+        }
         if (t.dataset.torque !== undefined) {
           kf.torque = kf.torque || {};
           if (t.value === "") delete kf.torque[j]; else kf.torque[j] = Number(t.value);
