@@ -67,6 +67,7 @@ def running_demo(log_dir: Path, *args: str) -> Iterator[RunningDemo]:
                                    cwd=REPO, stdout=out, stderr=subprocess.STDOUT, env=env, start_new_session=True)
     try:
         url = wait_for(lambda: _up(process, log), timeout=90.0, interval=0.2, what="demo dashboard up")
+        assert url is not None  # wait_for returns only a truthy value
         yield RunningDemo(process, url, log)
     finally:
         process.send_signal(signal.SIGTERM)
