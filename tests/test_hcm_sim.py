@@ -401,7 +401,7 @@ def test_silent_hardware_is_a_hardware_problem(make_stack: Callable[..., Stack],
     finally:
         undo()
     back = time.monotonic()
-    assert problem - broken < 1.5, f"HARDWARE_PROBLEM {problem - broken:.2f} s after the {fault} fell silent"
+    assert problem - broken < 1.0, f"HARDWARE_PROBLEM {problem - broken:.2f} s after the {fault} fell silent"
     stack.wait_controllable_standing(15.0)
     assert STARTUP in stack.sequence(back), stack.sequence(back)
     print(f"\n{fault}: HARDWARE_PROBLEM {problem - broken:.3f} s after it fell silent; "
