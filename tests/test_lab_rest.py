@@ -297,3 +297,44 @@ def test_keyframe_ghosts_in_the_3d_view_hold_each_keyframes_pose(router_endpoint
         assert httpx.delete(url, timeout=20).json()["removed"] == 2
         status = httpx.get(url, timeout=20).json()
         assert status["ghosts"] == [] and status["scene_nodes"] == []
+
+
+def test_parameter_events_follow_changes_made_anywhere(server: RunningServer, bus: BusConfig,
+                                                       client: zenoh.Session) -> None:
+    """Server-sent events carry every accepted change with its revision: a client's set, a reset, the node's own."""
+    hcm = HcmNode("r6", bus).start()
+    events: list[dict[str, Any]] = []
+    lines: list[str] = []
+    opened = threading.Event()
+
+    def listen() -> None:
+        with httpx.stream("GET", f"{server.url}/api/robots/r6/params/*/events", timeout=60) as reply:
+            assert reply.status_code == 200 and reply.headers["content-type"].startswith("text/event-stream")
+            for line in reply.iter_lines():
+                opened.set()
+                lines.append(line)
+                if line.startswith("data: "):
+                    events.append(json.loads(line[len("data: "):]))
+                if len(events) >= 3:
+                    return
+
+    reader = threading.Thread(target=listen, daemon=True)
+    reader.start()
+    try:
+        assert opened.wait(30), "the event stream did not open"
+        params = ParameterClient(client, "r6")
+        params.set("hcm", {"falling_gyro_pitch": 11.5})
+        wait_for(lambda: len(events) >= 1, 20.0, 0.05, "the event of a client's set")
+        assert events[0] == {"node": "hcm", "changed": {"falling_gyro_pitch": 11.5},
+                             "revisions": {"falling_gyro_pitch": 1}}
+        params.reset("hcm", ["falling_gyro_pitch"])
+        wait_for(lambda: len(events) >= 2, 20.0, 0.05, "the event of a reset")
+        assert events[1]["changed"] == {"falling_gyro_pitch": 7.0} and events[1]["revisions"] == {
+            "falling_gyro_pitch": 2}
+        hcm.parameters.set({"upright_deg": 35.0})  # the node changes its own parameter
+        wait_for(lambda: len(events) >= 3, 20.0, 0.05, "the event of the node's own change")
+        assert events[2] == {"node": "hcm", "changed": {"upright_deg": 35.0}, "revisions": {"upright_deg": 1}}
+        assert httpx.get(f"{server.url}/api/robots/r6/params/a*b/events", timeout=20).status_code == 422
+    finally:
+        hcm.shutdown()
+    reader.join(10)

@@ -28,6 +28,12 @@ export async function api(method, path, body, { keepalive = false } = {}) {
   return data;
 }
 
+/** A path with the control token as ?token= (for EventSource, which cannot send headers). */
+export function withToken(path) {
+  const t = token();
+  return t ? `${path}${path.includes("?") ? "&" : "?"}token=${encodeURIComponent(t)}` : path;
+}
+
 export function esc(text) {
   return String(text).replace(/[&<>"']/g, (c) => ({ "&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;",
     "'": "&#39;" })[c]);

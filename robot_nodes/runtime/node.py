@@ -148,6 +148,7 @@ class Node:
         self._declared.append(self.session.declare_queryable(keys.params_key(robot_id, self.name),
                                                              self._on_params_query))
         self._params_changed = self.session.declare_publisher(keys.params_changed_key(robot_id, self.name))
+        self.parameters.on_change(self._announce_parameters)
         self.timer(1.0 / self.diagnostics_period, self._publish_diagnostics)
         self.setup()
 
@@ -292,6 +293,16 @@ class Node:
         self._diag_pub.publish(schemas.make("diagnostic_msgs/msg/DiagnosticArray", header=header(),
                                             status=[status]))
 
+    def _announce_parameters(self, changed: dict[str, Any]) -> None:
+        """Every accepted change (set, reset, or the node's own) as a JSON event with the new revisions, so
+        dashboards follow changes made elsewhere without asking again and again."""
+        event = {"node": self.name, "changed": changed,
+                 "revisions": {name: self.parameters.revisions[name] for name in changed}}
+        try:
+            self._params_changed.put(json.dumps(event))
+        except Exception as exc:  # closing, or a value JSON cannot carry: the change itself stands
+            self.log.debug("parameter event not sent: %s", exc)
+
     def _on_params_query(self, query: zenoh.Query) -> None:
         """Runs on a Zenoh thread: the store has its own lock, change callbacks go to the loop."""
         reply: dict[str, Any]
@@ -306,8 +317,6 @@ class Node:
             elif op == "set":
                 changed = self.parameters.set(request.get("values", {}), request.get("revisions"))
                 reply = {"ok": True, "changed": sorted(changed)}
-                if changed:
-                    self._params_changed.put(json.dumps({"node": self.name, "changed": changed}))
             elif op == "reset":
                 changed = self.parameters.reset(request.get("names"))
                 reply = {"ok": True, "changed": sorted(changed)}

@@ -1,7 +1,9 @@
 // Parameters: every node of a robot with its parameters, edited live (the node validates), undo, diff, save, reset,
-// and a small plot of a numeric field against time with a parameter drawn as a threshold line.
+// and a small plot of a numeric field against time with a parameter drawn as a threshold line. The panel follows
+// changes made elsewhere (another dashboard, the command line, the node itself) through the server's stream of the
+// nodes' parameter events; an input being typed into is never overwritten.
 
-import { api, esc, MATCH_MODE_TEXT, robotPicker } from "../lab_api.js";
+import { api, esc, MATCH_MODE_TEXT, robotPicker, withToken } from "../lab_api.js";
 
 const PLOT_SECONDS = 20;
 const PLOT_FIELDS = [
@@ -71,11 +73,14 @@ export default {
     const nodesEl = $('[data-role="nodes"]');
     const statusEl = $('[data-role="status"]');
     const undoBtn = $('[data-act="undo"]');
-    const state = { robot: "", nodes: {}, undo: [], writes: 0, errors: 0, series: [] };
+    const state = { robot: "", nodes: {}, undo: [], writes: 0, errors: 0, series: [], events: 0, deferred: new Map() };
     window.pitchside.params = state;
+    let source = null; // EventSource of the robot's parameter events, see follow()
 
     const status = (text, bad = false) => { statusEl.textContent = text; statusEl.classList.toggle("bad", bad); };
-    const picker = robotPicker($('[data-role="robot"]'), ctx, (robot) => { state.robot = robot; state.series = []; load(); });
+    const picker = robotPicker($('[data-role="robot"]'), ctx, (robot) => {
+      state.robot = robot; state.series = []; state.deferred.clear(); load(); follow();
+    });
 
     async function load() {
       if (!state.robot) return;
@@ -100,7 +105,9 @@ export default {
           <th></th></tr></thead><tbody>${state.nodes[node].map((p) => `
           <tr data-param="${esc(node)}/${esc(p.name)}" title="${esc(p.doc)}">
             <td><b>${esc(p.name)}</b> <span class="muted">${esc(p.type)}</span><div class="muted doc">${esc(p.doc)}</div></td>
-            <td class="param-control">${controlFor(p)}<div class="param-error" data-role="error"></div></td>
+            <td class="param-control">${controlFor(p)} <span class="muted" data-role="revision"
+              title="revision: how often the value changed since the node started">rev ${p.revision}</span>
+              <div class="param-elsewhere" data-role="elsewhere"></div><div class="param-error" data-role="error"></div></td>
             <td>${esc(JSON.stringify(p.default))}</td>
             <td>${p.range ? `[${p.range[0]}, ${p.range[1]}]` : p.choices ? esc(p.choices.join(", ")) : ""}</td>
             <td><button data-act="reset" title="reset to default">↺</button></td></tr>`).join("")}</tbody></table>
@@ -114,6 +121,8 @@ export default {
     function showValue(node, p, force = false) {
       const row = nodesEl.querySelector(`tr[data-param="${CSS.escape(`${node}/${p.name}`)}"]`);
       if (!row) return;
+      const rev = row.querySelector('[data-role="revision"]');
+      if (rev) rev.textContent = `rev ${p.revision}`;
       const el = row.querySelector('[data-role="value"]');
       if (el === document.activeElement && !force) return;
       if (p.type === "bool") el.checked = p.value;
@@ -127,6 +136,84 @@ export default {
     function applyReply(node, reply) {
       if (reply?.params) state.nodes[node] = reply.params;
       for (const p of state.nodes[node] || []) showValue(node, p);
+    }
+
+    // -- following changes made elsewhere ----------------------------------------------------------
+    /** The server's stream of the robot's parameter events (every node); reconnects by itself. */
+    function follow() {
+      source?.close();
+      source = null;
+      if (!state.robot) return;
+      let opened = false;
+      source = new EventSource(withToken(`api/robots/${encodeURIComponent(state.robot)}/params/*/events`));
+      source.onopen = () => { if (opened) refreshValues(); opened = true; }; // reconnected: catch up
+      source.onmessage = (e) => { try { applyEvent(JSON.parse(e.data)); } catch (err) { console.warn(err); } };
+      source.addEventListener("resync", refreshValues);
+    }
+
+    /** Is the user editing this parameter (typing, or holding its slider)? */
+    function editing(node, name) {
+      const row = nodesEl.querySelector(`tr[data-param="${CSS.escape(`${node}/${name}`)}"]`);
+      const active = document.activeElement;
+      return Boolean(row && active && row.contains(active) && active.matches("input, select"));
+    }
+
+    /** A change made elsewhere: shown at once, unless the user is editing that parameter. Then the panel keeps
+     * the revision the user's edit is based on (so writing it is refused as a conflict, as it should be) and shows
+     * the other value beside the input until the user leaves it. */
+    function applyEvent(event, { authoritative = false } = {}) {
+      const params = state.nodes[event.node];
+      if (!params) { load(); return; } // a node we have not seen yet
+      for (const [name, value] of Object.entries(event.changed || {})) {
+        const p = params.find((x) => x.name === name);
+        const revision = event.revisions?.[name];
+        if (!p || revision === undefined) { refreshValues(); continue; }
+        // we already show this or newer (e.g. our own write's reply); a full read is taken as it is (a node that
+        // restarted counts its revisions from 0 again)
+        if (authoritative ? revision === p.revision && value === p.value : revision <= p.revision) continue;
+        const key = `${event.node}/${name}`;
+        if (editing(event.node, name)) {
+          state.deferred.set(key, { value, revision });
+          const note = nodesEl.querySelector(`tr[data-param="${CSS.escape(key)}"] [data-role="elsewhere"]`);
+          if (note) note.textContent = `changed elsewhere to ${JSON.stringify(value)} (rev ${revision})`;
+          continue;
+        }
+        Object.assign(p, { value, revision });
+        showValue(event.node, p);
+      }
+      state.events++;
+    }
+
+    /** The user left a parameter's input: a change made elsewhere meanwhile is shown now, after any write the
+     * input started (that write was based on the revision the user saw, and is refused if it was overtaken). */
+    nodesEl.addEventListener("focusout", (e) => {
+      const row = e.target.closest("tr[data-param]");
+      if (!row) return;
+      const key = row.dataset.param;
+      writes.then(() => {
+        const fresh = state.deferred.get(key);
+        if (!fresh || editing(...key.split("/"))) return;
+        state.deferred.delete(key);
+        row.querySelector('[data-role="elsewhere"]').textContent = "";
+        const [node, name] = key.split("/");
+        const p = find(node, name);
+        if (p && fresh.revision !== p.revision) { Object.assign(p, fresh); showValue(node, p); }
+      });
+    });
+
+    /** Every node's values again, into the rows already shown (no re-render: inputs keep focus and text). */
+    async function refreshValues() {
+      if (!state.robot) return;
+      try {
+        const fresh = await api("GET", `api/robots/${encodeURIComponent(state.robot)}/params`);
+        if (Object.keys(fresh).sort().join() !== Object.keys(state.nodes).sort().join()) { state.nodes = fresh; render(); return; }
+        for (const [node, params] of Object.entries(fresh)) {
+          applyEvent({ node, changed: Object.fromEntries(params.map((p) => [p.name, p.value])),
+            revisions: Object.fromEntries(params.map((p) => [p.name, p.revision])) }, { authoritative: true });
+        }
+      } catch (err) {
+        status(String(err.message), true);
+      }
     }
 
     // writes go one after another, so each is based on the revision the previous one's reply brought
@@ -277,6 +364,6 @@ export default {
       g.lineWidth = 1;
     }
     const timer = setInterval(draw, 200);
-    return { destroy() { clearInterval(timer); picker.off(); offs.forEach((off) => off()); } };
+    return { destroy() { clearInterval(timer); picker.off(); offs.forEach((off) => off()); source?.close(); } };
   },
 };
