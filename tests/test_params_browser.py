@@ -136,3 +136,49 @@ def test_panel_follows_changes_made_elsewhere(browser: Any, server: RunningServe
     wait_shown(page, "hcm", "falling_gyro_pitch", "13", 4, "the deferred value after leaving the input")
     assert wait_for(lambda: params.get("hcm", "falling_gyro_pitch") == 13.0, 5.0, 0.1, "nothing written back")
     assert not page.errors, page.errors
+
+
+def test_threshold_line_over_any_numeric_field_of_any_topic(browser: Any, server: RunningServer, hcm: HcmNode,
+                                                            bus: BusConfig, client: zenoh.Session) -> None:
+    from tests.teststand import TestStand
+
+    stand = TestStand("p1", bus, overrides={"rate_hz": 20.0, "joints": "HeadPan,LKnee,RKnee"}).start()
+    try:
+        page = panel_page(browser, server, "p1")
+        page.wait_for_selector(row("hcm", "falling_gyro_pitch"), timeout=TIMEOUT_MS)
+        page.locator(f"{PANEL} .lab-plot summary").click()
+        topics = f'{PANEL} [data-role="topic"]'
+        # the robot's topics are offered, not only the IMU: joint_states of the test stand, robot_state, diagnostics
+        page.wait_for_selector(f'{topics} option[value="joint_states"]', state="attached", timeout=TIMEOUT_MS)
+        page.wait_for_selector(f'{topics} option[value="diagnostics"]', state="attached", timeout=TIMEOUT_MS)
+        page.select_option(topics, "joint_states")
+        fields = f'{PANEL} [data-role="field"]'
+        page.wait_for_selector(f'{fields} option[value="position/2"]', state="attached", timeout=TIMEOUT_MS)
+        assert page.locator(f'{fields} option[value="position/2"]').text_content() == "position/2 (RKnee)"
+        page.select_option(fields, "position/2")
+        page.select_option(f'{PANEL} [data-role="threshold"]', "hcm/upright_deg")
+        page.locator(f'{PANEL} [data-role="both-signs"]').uncheck()
+
+        # the plot draws the chosen field (the newest value equals the newest message's) and the parameter's line
+        page.wait_for_function("(window.pitchside.params.drawn?.points ?? 0) >= 10", timeout=TIMEOUT_MS)
+        drawn = page.evaluate("""(() => { const p = window.pitchside.params;
+            return {...p.drawn, latest: window.pitchside.store.get('p1', 'joint_states').data.position[2]}; })()""")
+        assert drawn["topic"] == "joint_states" and drawn["field"] == "position/2"
+        assert abs(drawn["last"]) <= 0.3 + 1e-9  # the stand's joints swing within +-0.3 rad
+        assert drawn["lines"] == [30.0]  # upright_deg's value, one line without the ±
+        series = page.evaluate("window.pitchside.params.series.map((s) => s[1])")
+        assert all(abs(v) <= 0.3 + 1e-9 for v in series) and len(set(series)) > 3  # a moving joint, not a constant
+
+        # the line follows the parameter, changed from elsewhere
+        ParameterClient(client, "p1").set("hcm", {"upright_deg": 40.0})
+        page.wait_for_function("JSON.stringify(window.pitchside.params.drawn?.lines) === '[40]'", timeout=FOLLOW_MS)
+
+        # another topic and a scalar field: robot_state's state
+        page.select_option(topics, "robot_state")
+        page.wait_for_selector(f'{fields} option[value="state"]', state="attached", timeout=TIMEOUT_MS)
+        page.select_option(fields, "state")
+        page.wait_for_function("window.pitchside.params.drawn?.field === 'state' && "
+                               "window.pitchside.params.drawn.points >= 3", timeout=TIMEOUT_MS)
+        assert not page.errors, page.errors
+    finally:
+        stand.shutdown()

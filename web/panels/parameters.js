@@ -6,15 +6,29 @@
 import { api, esc, MATCH_MODE_TEXT, robotPicker, withToken } from "../lab_api.js";
 
 const PLOT_SECONDS = 20;
-const PLOT_FIELDS = [
-  ["imu/data", "angular_velocity.y", "gyro pitch (rad/s)"],
-  ["imu/data", "angular_velocity.x", "gyro roll (rad/s)"],
-  ["imu/data", "angular_velocity.z", "gyro yaw (rad/s)"],
-  ["imu/data", "linear_acceleration.z", "acceleration z (m/s²)"],
-];
+const PLOT_HZ = 30;
+const DEFAULT_PLOT = ["imu/data", "angular_velocity/y"]; // the fall checker's gyro pitch against its threshold
+const MAX_ARRAY = 32; // numeric array fields offered per element up to this many
 
 function pick(obj, path) {
-  return path.split(".").reduce((o, k) => (o == null ? undefined : o[k]), obj);
+  return path.split("/").reduce((o, k) => (o == null ? undefined : o[k]), obj);
+}
+
+/** Paths of the numeric fields of a msg frame's data ("angular_velocity/y", "position/3"), with a label that names
+ * an array element after the message's own name list where it has one (JointState: "position/3 (LKnee)"). */
+function numericFields(data, prefix = "", out = [], names = null) {
+  if (typeof data === "number") out.push([prefix, prefix]);
+  else if (Array.isArray(data)) {
+    data.slice(0, MAX_ARRAY).forEach((v, i) => {
+      const path = prefix ? `${prefix}/${i}` : `${i}`;
+      if (typeof v === "number" && names?.[i] !== undefined) out.push([path, `${path} (${names[i]})`]);
+      else numericFields(v, path, out);
+    });
+  } else if (data && typeof data === "object" && !("bytes" in data)) {
+    const own = Array.isArray(data.name) ? data.name : Array.isArray(data.joint_names) ? data.joint_names : null;
+    for (const [k, v] of Object.entries(data)) numericFields(v, prefix ? `${prefix}/${k}` : k, out, own);
+  }
+  return out;
 }
 
 function controlFor(p) {
@@ -63,9 +77,11 @@ export default {
         <span class="lab-status" data-role="status"></span>
       </div>
       <details class="lab-plot"><summary>threshold plot</summary>
-        <div class="lab-bar"><select data-role="field">${PLOT_FIELDS.map(([t, f, label], i) =>
-          `<option value="${i}">${esc(label)}</option>`).join("")}</select>
-        <label>line <select data-role="threshold"><option value="">(none)</option></select></label></div>
+        <div class="lab-bar"><label>topic <select data-role="topic" title="any topic of the robot"></select></label>
+        <label>field <select data-role="field" title="any numeric field of the topic"></select></label>
+        <label>line <select data-role="threshold"><option value="">(none)</option></select></label>
+        <label title="draw the line at +value and -value (a threshold on a magnitude, e.g. the gyro's)">
+          <input type="checkbox" data-role="both-signs" checked> ±</label></div>
         <canvas data-role="plot" height="140"></canvas>
       </details>
       <div data-role="nodes"><div class="empty">waiting for a robot</div></div>`;
@@ -318,16 +334,59 @@ export default {
       thresholdSel.innerHTML = opts.join("");
       thresholdSel.value = keep || (find("hcm", "falling_gyro_pitch") ? "hcm/falling_gyro_pitch" : "");
     }
-    const offs = [ctx.subscribe("imu/data", 30, (frame) => {
-      if (frame.robot !== state.robot) return;
-      const [, path] = PLOT_FIELDS[+fieldSel.value];
-      const v = pick(frame.data, path);
-      if (typeof v !== "number") return;
-      const now = performance.now() / 1000;
-      state.series.push([now, v]);
-      while (state.series.length && state.series[0][0] < now - PLOT_SECONDS) state.series.shift();
-    })];
-    fieldSel.addEventListener("change", () => { state.series = []; });
+    // any numeric field of any topic of the robot: topics from the server's list of the robot's streams, fields
+    // from the newest message of the chosen topic
+    const topicSel = $('[data-role="topic"]');
+    const bothSigns = $('[data-role="both-signs"]');
+    const plot = { topic: "", field: "", off: null, fieldsOf: "" };
+    state.plot = plot;
+    function robotTopics() {
+      const info = ctx.store.robots.find((r) => r.robot === state.robot);
+      const topics = new Set(Object.entries(info?.streams ?? {})
+        .filter(([, st]) => !/Image$/.test(st.msgtype ?? "")).map(([t]) => t));
+      for (const [t, frame] of ctx.store.latest.get(state.robot) ?? []) if (frame.type === "msg") topics.add(t);
+      if (plot.topic) topics.add(plot.topic);
+      return [...topics].sort();
+    }
+    function refreshTopics() {
+      const topics = robotTopics();
+      const html = topics.map((t) => `<option value="${esc(t)}">${esc(t)}</option>`).join("");
+      if (topicSel.innerHTML !== html) topicSel.innerHTML = html;
+      if (!plot.topic && topics.includes(DEFAULT_PLOT[0])) chooseTopic(DEFAULT_PLOT[0], DEFAULT_PLOT[1]);
+      topicSel.value = plot.topic;
+    }
+    function refreshFields(frame) {
+      const fields = numericFields(frame.data);
+      const key = fields.map(([f]) => f).join();
+      if (key === plot.fieldsOf) return;
+      plot.fieldsOf = key;
+      fieldSel.innerHTML = '<option value="">field…</option>' +
+        fields.map(([f, label]) => `<option value="${esc(f)}">${esc(label)}</option>`).join("");
+      if (!plot.field && plot.topic === DEFAULT_PLOT[0] && key.split(",").includes(DEFAULT_PLOT[1])) plot.field = DEFAULT_PLOT[1];
+      fieldSel.value = plot.field;
+    }
+    function chooseTopic(topic, field = "") {
+      plot.off?.();
+      Object.assign(plot, { topic, field, off: null, fieldsOf: "" });
+      state.series = [];
+      fieldSel.innerHTML = '<option value="">field…</option>';
+      if (!topic) return;
+      plot.off = ctx.subscribe(topic, PLOT_HZ, (frame) => {
+        if (frame.robot !== state.robot || frame.type !== "msg" || frame.topic !== plot.topic) return;
+        refreshFields(frame);
+        const v = plot.field ? pick(frame.data, plot.field) : undefined;
+        if (typeof v !== "number") return;
+        const now = performance.now() / 1000;
+        state.series.push([now, v]);
+        while (state.series.length && state.series[0][0] < now - PLOT_SECONDS) state.series.shift();
+      });
+      const latest = ctx.store.get(state.robot, topic);
+      if (latest?.type === "msg") refreshFields(latest);
+    }
+    topicSel.addEventListener("change", () => chooseTopic(topicSel.value));
+    fieldSel.addEventListener("change", () => { plot.field = fieldSel.value; state.series = []; });
+    const offs = [ctx.store.on("robots", refreshTopics), () => plot.off?.()];
+    refreshTopics();
 
     function draw() {
       if (!body.querySelector(".lab-plot").open) return;
@@ -338,10 +397,12 @@ export default {
       g.clearRect(0, 0, w, h);
       const [tn, tp] = thresholdSel.value ? thresholdSel.value.split("/") : [];
       const line = tn ? find(tn, tp)?.value : undefined;
-      const values = state.series.map((s) => s[1]);
-      if (line !== undefined) values.push(line, -line);
-      const hi = Math.max(1e-3, ...values.map(Math.abs)) * 1.1;
-      const y = (v) => h / 2 - (v / hi) * (h / 2 - 4);
+      const lines = line === undefined ? [] : bothSigns.checked ? [line, -line] : [line];
+      const values = [0, ...state.series.map((s) => s[1]), ...lines];
+      let lo = Math.min(...values), hi = Math.max(...values);
+      const pad = Math.max(1e-3, (hi - lo) * 0.05);
+      lo -= pad; hi += pad;
+      const y = (v) => h - 4 - ((v - lo) / (hi - lo)) * (h - 8);
       const now = performance.now() / 1000;
       g.strokeStyle = css.getPropertyValue("--muted");
       g.beginPath(); g.moveTo(0, y(0)); g.lineTo(w, y(0)); g.stroke();
@@ -353,15 +414,20 @@ export default {
         if (i) g.lineTo(x, y(v)); else g.moveTo(x, y(v));
       });
       g.stroke();
-      if (line !== undefined) {
+      g.fillStyle = css.getPropertyValue("--fg");
+      if (state.series.length) g.fillText(`${plot.topic} ${plot.field} = ${state.series.at(-1)[1].toPrecision(4)}`, 4, 10);
+      if (lines.length) {
         g.strokeStyle = css.getPropertyValue("--bad");
         g.setLineDash([6, 4]);
-        for (const v of [line, -line]) { g.beginPath(); g.moveTo(0, y(v)); g.lineTo(w, y(v)); g.stroke(); }
+        for (const v of lines) { g.beginPath(); g.moveTo(0, y(v)); g.lineTo(w, y(v)); g.stroke(); }
         g.setLineDash([]);
         g.fillStyle = css.getPropertyValue("--bad");
         g.fillText(`${tp} = ${line}`, 4, y(line) - 3);
       }
       g.lineWidth = 1;
+      // what is drawn, for tests and the curious: the plotted field, its newest value and the lines' pixel rows
+      state.drawn = { topic: plot.topic, field: plot.field, points: state.series.length,
+        last: state.series.at(-1)?.[1], lines, lineRows: lines.map((v) => Math.round(y(v))) };
     }
     const timer = setInterval(draw, 200);
     return { destroy() { clearInterval(timer); picker.off(); offs.forEach((off) => off()); source?.close(); } };
