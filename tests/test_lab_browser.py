@@ -87,9 +87,10 @@ def test_parameter_panel_changes_the_node(browser: Any, server: RunningServer, b
         assert params.get("hcm", "falling_gyro_pitch") == 9.25
         assert value.input_value() == "9.25"
 
-        # someone else writes meanwhile: the panel's write is refused and shown, theirs stays
-        params.set("hcm", {"falling_gyro_pitch": 12.0})
+        # someone else writes while the user types: the panel's write is refused and shown, theirs stays
         value.fill("8")
+        params.set("hcm", {"falling_gyro_pitch": 12.0})
+        page.wait_for_selector(f'{row} [data-role="elsewhere"]:has-text("12")', timeout=TIMEOUT_MS)
         value.press("Tab")
         page.wait_for_selector(f'{row} .param-error:has-text("changed meanwhile")', timeout=TIMEOUT_MS)
         assert params.get("hcm", "falling_gyro_pitch") == 12.0
