@@ -1,4 +1,5 @@
-"""Shared fixtures: a Zenoh router on a free loopback port, and paths to the shared test data."""
+"""Shared fixtures: a Zenoh router on a free loopback port, a client session on it, Debian's chromium through
+Playwright, and paths to the shared test data."""
 
 from __future__ import annotations
 
@@ -6,13 +7,17 @@ import os
 import socket
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import pytest
+import zenoh
 
-from robot_nodes.runtime import BusConfig, open_router
+from robot_nodes.runtime import BusConfig, open_router, open_session
 
 REPO = Path(__file__).resolve().parents[1]
 TESTDATA = REPO.parent / "shared" / "testdata"
+CHROMIUM = Path("/usr/bin/chromium")
+CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update"]
 
 
 def free_port(kind: int = socket.SOCK_STREAM) -> int:
@@ -54,3 +59,29 @@ def testdata() -> Path:
     if not TESTDATA.exists():
         pytest.fail(f"shared test data not found at {TESTDATA}")
     return TESTDATA
+
+
+@pytest.fixture
+def client(bus: BusConfig) -> Iterator[zenoh.Session]:
+    """The test's own Zenoh session on the test's router, to publish, subscribe and query like another node."""
+    session = open_session(bus)
+    yield session
+    session.close()
+
+
+def launch_chromium(playwright: Any) -> Any:
+    """Debian's chromium, headless, through Playwright: the browser tests never download a browser."""
+    if not CHROMIUM.exists():
+        pytest.fail(f"{CHROMIUM} is missing: install Debian's chromium (apt-get install chromium); "
+                    "the browser tests never download a browser")
+    return playwright.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_ARGS)
+
+
+@pytest.fixture
+def browser() -> Iterator[Any]:
+    from playwright.sync_api import sync_playwright
+
+    with sync_playwright() as pw:
+        launched = launch_chromium(pw)
+        yield launched
+        launched.close()

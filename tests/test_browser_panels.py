@@ -16,23 +16,8 @@ from tests.dashboard_server import RunningServer, dashboard_server
 from tests.teststand import SceneStand
 from tests.waiting import wait_for
 
-CHROMIUM = Path("/usr/bin/chromium")
 OUTPUT = REPO / "test-output"
 pytestmark = [pytest.mark.slow, pytest.mark.browser]
-
-
-@pytest.fixture
-def browser() -> Iterator[Any]:
-    if not CHROMIUM.exists():
-        pytest.fail(f"{CHROMIUM} is missing: install Debian's chromium (apt-get install chromium); "
-                    "the browser tests never download a browser")
-    from playwright.sync_api import sync_playwright
-
-    with sync_playwright() as pw:
-        browser = pw.chromium.launch(executable_path=str(CHROMIUM), args=[
-            "--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update"])
-        yield browser
-        browser.close()
 
 
 class Talker(Node):

@@ -13,7 +13,7 @@ import zenoh
 
 import schemas
 from robot_nodes.cm730.node import Cm730Node
-from robot_nodes.runtime import BusConfig, open_session
+from robot_nodes.runtime import BusConfig
 from robot_nodes.runtime.keys import topic_key
 from tests.waiting import wait_for
 
@@ -54,13 +54,6 @@ def node(bus: BusConfig) -> Iterator[Cm730Node]:
     n = Cm730Node(robot_id="robot1", bus=bus, overrides={"publish_rate": 100.0, "imu_gyro_noise": 0.0}).start()
     yield n
     n.shutdown()
-
-
-@pytest.fixture
-def client(bus: BusConfig) -> Iterator[zenoh.Session]:
-    s = open_session(bus)
-    yield s
-    s.close()
 
 
 def _goals(names: list[str], positions: list[float]) -> Any:

@@ -13,7 +13,6 @@ import os
 import statistics
 import time
 from collections.abc import Iterator
-from pathlib import Path
 from typing import Any
 
 import httpx
@@ -21,11 +20,10 @@ import psutil
 import pytest
 
 import schemas
-from tests.conftest import REPO
+from tests.conftest import REPO, launch_chromium
 from tests.running_demo import DashboardObserver, RunningDemo, cpu_by_process, running_demo
 from tests.waiting import wait_for
 
-CHROMIUM = Path("/usr/bin/chromium")
 OUTPUT = REPO / "test-output" / "demo"
 ROBOT = "robot1"
 HCM_NAMES = {v: k for k, v in schemas.constants("humanoid_league_msgs/msg/RobotControlState").items()}
@@ -43,13 +41,10 @@ def demo(tmp_path_factory: pytest.TempPathFactory) -> Iterator[RunningDemo]:
 
 @pytest.fixture
 def page(demo: RunningDemo) -> Iterator[Any]:
-    if not CHROMIUM.exists():
-        pytest.fail(f"{CHROMIUM} is missing: install Debian's chromium (apt-get install chromium)")
     from playwright.sync_api import sync_playwright
 
     with sync_playwright() as pw:
-        browser = pw.chromium.launch(executable_path=str(CHROMIUM), args=[
-            "--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update"])
+        browser = launch_chromium(pw)
         page = browser.new_page(viewport={"width": 1600, "height": 2000})
         page.errors = []
         page.on("pageerror", lambda exc: page.errors.append(str(exc)))

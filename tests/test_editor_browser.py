@@ -19,7 +19,6 @@ from tests.dashboard_server import RunningServer, dashboard_server
 from tests.waiting import wait_for
 
 pytestmark = [pytest.mark.slow, pytest.mark.browser]
-CHROMIUM = Path("/usr/bin/chromium")
 TIMEOUT_MS = 30_000
 EDITOR = '[data-panel="animation"]'
 ROBOT = "e1"
@@ -28,19 +27,6 @@ WAVE = {"name": "wave", "author": "test", "keyframes": [  # within the minibot's
     {"name": "out", "duration": 0.6, "pause": 0.1, "goals": {"LShoulderRoll": -60.0, "LElbow": -30.0}},
     {"name": "down", "duration": 0.8, "goals": {"LShoulderPitch": 0.0, "LShoulderRoll": 0.0, "LElbow": 0.0,
                                                 "HeadPan": 0.0}}]}
-
-
-@pytest.fixture
-def browser() -> Iterator[Any]:
-    if not CHROMIUM.exists():
-        pytest.fail(f"{CHROMIUM} is missing: install Debian's chromium; the browser tests never download a browser")
-    from playwright.sync_api import sync_playwright
-
-    with sync_playwright() as pw:
-        launched = pw.chromium.launch(executable_path=str(CHROMIUM), args=[
-            "--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update"])
-        yield launched
-        launched.close()
 
 
 @pytest.fixture

@@ -15,10 +15,9 @@ import pytest
 
 import schemas
 from robot_nodes.runtime import BusConfig, Node, header
-from tests.conftest import REPO
+from tests.conftest import REPO, launch_chromium
 from tests.dashboard_server import RunningServer, dashboard_server
 
-CHROMIUM = Path("/usr/bin/chromium")
 OUTPUT = REPO / "test-output" / "field_view"
 SPEED = 0.5  # m/s along x
 HORIZON_S = 0.15  # MOTION.horizonS in web/panels/field_view.js
@@ -60,13 +59,10 @@ def server(router_endpoint: str, tmp_path: Path) -> Iterator[RunningServer]:
 
 @pytest.fixture
 def page(server: RunningServer) -> Iterator[Any]:
-    if not CHROMIUM.exists():
-        pytest.fail(f"{CHROMIUM} is missing: install Debian's chromium (apt-get install chromium)")
     from playwright.sync_api import sync_playwright
 
     with sync_playwright() as pw:
-        browser = pw.chromium.launch(executable_path=str(CHROMIUM), args=[
-            "--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update"])
+        browser = launch_chromium(pw)
         page: Any = browser.new_page(viewport={"width": 1400, "height": 1000})
         page.errors = []
         page.on("pageerror", lambda exc: page.errors.append(str(exc)))

@@ -15,42 +15,21 @@ from robot_nodes.animation import load_animation
 from robot_nodes.animation.node import AnimationNode
 from robot_nodes.cm730.node import Cm730Node
 from robot_nodes.hcm.node import HcmNode
-from robot_nodes.runtime import BusConfig, ParameterClient, open_session
+from robot_nodes.runtime import BusConfig, ParameterClient
 from tests.conftest import REPO
 from tests.dashboard_server import RunningServer, dashboard_server
 from tests.waiting import wait_for
 
 pytestmark = [pytest.mark.slow, pytest.mark.browser]
-CHROMIUM = Path("/usr/bin/chromium")
 OUTPUT = REPO / "test-output"
 TIMEOUT_MS = 30_000
 RECORD_STATE = 9  # RobotControlState of HCM RECORD
 
 
 @pytest.fixture
-def browser() -> Iterator[Any]:
-    if not CHROMIUM.exists():
-        pytest.fail(f"{CHROMIUM} is missing: install Debian's chromium; the browser tests never download a browser")
-    from playwright.sync_api import sync_playwright
-
-    with sync_playwright() as pw:
-        launched = pw.chromium.launch(executable_path=str(CHROMIUM), args=[
-            "--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update"])
-        yield launched
-        launched.close()
-
-
-@pytest.fixture
 def server(router_endpoint: str, tmp_path: Path) -> Iterator[RunningServer]:
     with dashboard_server(["--connect", router_endpoint, "--no-telemetry"], tmp_path) as running:
         yield running
-
-
-@pytest.fixture
-def client(bus: BusConfig) -> Iterator[zenoh.Session]:
-    session = open_session(bus)
-    yield session
-    session.close()
 
 
 def _page(browser: Any, server: RunningServer, robot: str) -> Any:

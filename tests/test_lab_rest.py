@@ -21,7 +21,7 @@ import schemas
 from robot_nodes.animation import load_animation
 from robot_nodes.animation.node import AnimationNode
 from robot_nodes.hcm.node import HcmNode
-from robot_nodes.runtime import BusConfig, ParameterClient, open_session
+from robot_nodes.runtime import BusConfig, ParameterClient
 from robot_nodes.runtime.keys import topic_key
 from server.app import create_app
 from server.config import ServerConfig
@@ -37,13 +37,6 @@ MINIBOT = REPO / "robots" / "minibot"
 def server(router_endpoint: str, tmp_path: Path) -> Iterator[RunningServer]:
     with dashboard_server(["--connect", router_endpoint, "--no-telemetry"], tmp_path) as running:
         yield running
-
-
-@pytest.fixture
-def client(bus: BusConfig) -> Iterator[zenoh.Session]:
-    session = open_session(bus)
-    yield session
-    session.close()
 
 
 class Collector:

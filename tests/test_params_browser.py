@@ -12,41 +12,20 @@ import pytest
 import zenoh
 
 from robot_nodes.hcm.node import HcmNode
-from robot_nodes.runtime import BusConfig, ParameterClient, open_session
+from robot_nodes.runtime import BusConfig, ParameterClient
 from tests.dashboard_server import RunningServer, dashboard_server
 from tests.waiting import wait_for
 
 pytestmark = [pytest.mark.slow, pytest.mark.browser]
-CHROMIUM = Path("/usr/bin/chromium")
 TIMEOUT_MS = 30_000
 PANEL = '[data-panel="parameters"]'
 FOLLOW_MS = 5_000  # "within a few seconds"
 
 
 @pytest.fixture
-def browser() -> Iterator[Any]:
-    if not CHROMIUM.exists():
-        pytest.fail(f"{CHROMIUM} is missing: install Debian's chromium; the browser tests never download a browser")
-    from playwright.sync_api import sync_playwright
-
-    with sync_playwright() as pw:
-        launched = pw.chromium.launch(executable_path=str(CHROMIUM), args=[
-            "--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update"])
-        yield launched
-        launched.close()
-
-
-@pytest.fixture
 def server(router_endpoint: str, tmp_path: Path) -> Iterator[RunningServer]:
     with dashboard_server(["--connect", router_endpoint, "--no-telemetry"], tmp_path) as running:
         yield running
-
-
-@pytest.fixture
-def client(bus: BusConfig) -> Iterator[zenoh.Session]:
-    session = open_session(bus)
-    yield session
-    session.close()
 
 
 @pytest.fixture
@@ -160,7 +139,9 @@ def test_threshold_line_over_any_numeric_field_of_any_topic(browser: Any, server
         page.locator(f'{PANEL} [data-role="both-signs"]').uncheck()
 
         # the plot draws the chosen field (the newest value equals the newest message's) and the parameter's line
-        page.wait_for_function("(window.pitchside.params.drawn?.points ?? 0) >= 10", timeout=TIMEOUT_MS)
+        page.wait_for_function("""(() => { const d = window.pitchside.params.drawn;  // redrawn after the choices
+            return (d?.points ?? 0) >= 10 && d.field === 'position/2' && d.lines?.length === 1; })()""",
+                               timeout=TIMEOUT_MS)
         drawn = page.evaluate("""(() => { const p = window.pitchside.params;
             return {...p.drawn, latest: window.pitchside.store.get('p1', 'joint_states').data.position[2]}; })()""")
         assert drawn["topic"] == "joint_states" and drawn["field"] == "position/2"

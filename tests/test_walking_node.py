@@ -10,7 +10,7 @@ import pytest
 import zenoh
 
 import schemas
-from robot_nodes.runtime import BusConfig, Node, ParameterClient, ParameterError, open_session
+from robot_nodes.runtime import BusConfig, Node, ParameterClient, ParameterError
 from robot_nodes.walking.node import WalkingNode
 from tests.waiting import wait_for
 
@@ -50,13 +50,6 @@ def walking(bus: BusConfig) -> Iterator[tuple[WalkingNode, Probe]]:
     yield node, probe
     probe.shutdown()
     node.shutdown()
-
-
-@pytest.fixture
-def client(bus: BusConfig) -> Iterator[zenoh.Session]:
-    session = open_session(bus)
-    yield session
-    session.close()
 
 
 def test_walks_only_when_the_hcm_allows_and_stops_when_it_says_so(walking: tuple[WalkingNode, Probe]) -> None:
