@@ -4,11 +4,16 @@ Playwright's own Firefox build is never downloaded, and its BiDi path asks Debia
 does not have (``emulation.setMediaFeaturesOverride``); the dashboard only needs the standard commands: open a
 page, evaluate script, take screenshots, hear console errors. So this speaks them itself over one WebSocket:
 
-    with FirefoxBidi.launch(tmp_path) as ff:
+    with FirefoxBidi.launch() as ff:
         ff.navigate(url)
         ff.wait_for_js("window.pitchside?.layout", 30)
         ff.screenshot(path)
         assert not ff.console_errors
+
+Headless by default; WebGL needs a real window, on a virtual X display (Xvfb):
+
+    with virtual_display() as display, FirefoxBidi.launch(display=display) as ff:
+        ...
 """
 
 from __future__ import annotations
@@ -19,6 +24,7 @@ import json
 import math
 import os
 import re
+import select
 import shutil
 import signal
 import subprocess
@@ -31,6 +37,7 @@ from pathlib import Path
 from typing import Any
 
 FIREFOX = Path("/usr/bin/firefox-esr")
+XVFB = Path("/usr/bin/Xvfb")
 LISTENING = re.compile(r"WebDriver BiDi listening on (ws://[^\s]+)")
 
 # user.js: no first-run pages, telemetry, updates, safe-browsing downloads or other background network noise
@@ -60,6 +67,16 @@ PREFS: dict[str, bool | int | str] = {
     "toolkit.telemetry.enabled": False,
     "toolkit.telemetry.reportingpolicy.firstRun": False,
     "toolkit.telemetry.server": "http://127.0.0.1:9/",
+    # offline: whatever a page (or an embedded viewer) asks of other hosts fails at once, on a closed local port
+    "network.proxy.type": 1,
+    "network.proxy.http": "127.0.0.1",
+    "network.proxy.http_port": 9,
+    "network.proxy.ssl": "127.0.0.1",
+    "network.proxy.ssl_port": 9,
+    "network.proxy.no_proxies_on": "localhost, 127.0.0.1",
+    "network.proxy.allow_hijacking_localhost": False,
+    # software WebGL (Mesa llvmpipe) is blocklisted by default; with a display (Xvfb) this turns it on
+    "webgl.force-enabled": True,
 }
 
 
@@ -86,14 +103,19 @@ class FirefoxBidi:
     ws: Any  # websockets.sync.client.ClientConnection
     context: str = ""
     log: list[LogEntry] = field(default_factory=list)
+    failed_requests: list[tuple[str, str]] = field(default_factory=list)  # (URL, error) of network.fetchError
     stderr: list[str] = field(default_factory=list)
     _next_id: int = 0
 
     # -- start and stop ---------------------------------------------------------------------------------
     @classmethod
     @contextlib.contextmanager
-    def launch(cls, width: int = 1600, height: int = 1200, timeout: float = 60.0) -> Iterator[FirefoxBidi]:
-        """Starts headless firefox-esr on a fresh profile, opens a session and sizes the tab's viewport."""
+    def launch(cls, width: int = 1600, height: int = 1200, timeout: float = 60.0,
+               display: str | None = None) -> Iterator[FirefoxBidi]:
+        """Starts firefox-esr on a fresh profile, opens a session and sizes the tab's viewport.
+
+        Headless unless ``display`` names an X display (see virtual_display): headless firefox-esr has no WebGL
+        at all, a real window on Xvfb gets WebGL 2 from Mesa's software renderer (llvmpipe)."""
         from websockets.sync.client import connect
 
         if not FIREFOX.exists():
@@ -101,9 +123,15 @@ class FirefoxBidi:
         profile = Path(tempfile.mkdtemp(prefix="pitchside-firefox-"))
         (profile / "user.js").write_text("".join(f"user_pref({json.dumps(k)}, {json.dumps(v)});\n"
                                                  for k, v in PREFS.items()))
-        env = dict(os.environ, MOZ_CRASHREPORTER_DISABLE="1", MOZ_HEADLESS="1")
-        process = subprocess.Popen([str(FIREFOX), "--headless", "--no-remote", "--remote-debugging-port=0",
-                                    "--profile", str(profile), "about:blank"],
+        env = dict(os.environ, MOZ_CRASHREPORTER_DISABLE="1")
+        if display is None:
+            env["MOZ_HEADLESS"] = "1"
+        else:
+            env.pop("MOZ_HEADLESS", None)
+            env.pop("WAYLAND_DISPLAY", None)
+            env.update(DISPLAY=display, GDK_BACKEND="x11")
+        process = subprocess.Popen([str(FIREFOX), *(["--headless"] if display is None else []), "--no-remote",
+                                    "--remote-debugging-port=0", "--profile", str(profile), "about:blank"],
                                    stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=env, start_new_session=True)
         stderr: list[str] = []
         found = threading.Event()
@@ -116,7 +144,7 @@ class FirefoxBidi:
             ws = connect(match.group(1).rstrip("/") + "/session", max_size=None, open_timeout=timeout)
             ff = cls(process, profile, ws, stderr=stderr)
             ff.command("session.new", {"capabilities": {"alwaysMatch": {"acceptInsecureCerts": True}}})
-            ff.command("session.subscribe", {"events": ["log.entryAdded"]})
+            ff.command("session.subscribe", {"events": ["log.entryAdded", "network.fetchError"]})
             ff.context = ff.command("browsingContext.getTree", {"maxDepth": 0})["contexts"][0]["context"]
             ff.command("browsingContext.setViewport", {"context": ff.context,
                                                        "viewport": {"width": width, "height": height}})
@@ -158,10 +186,12 @@ class FirefoxBidi:
                 return dict(message["result"])
 
     def _event(self, message: dict[str, Any]) -> None:
+        p = message["params"]
         if message.get("method") == "log.entryAdded":
-            p = message["params"]
-            self.log.append(LogEntry(p.get("type", ""), p.get("level", ""), p.get("text") or "",
+            self.log.append(LogEntry(p.get("type", ""), p.get("level", ""), (p.get("text") or "")[:4000],
                                      json.dumps(p.get("stackTrace", {}))[:2000]))
+        elif message.get("method") == "network.fetchError":
+            self.failed_requests.append((p.get("request", {}).get("url", ""), p.get("errorText", "")))
 
     # -- what tests use ---------------------------------------------------------------------------------
     def navigate(self, url: str, timeout: float = 60.0) -> None:
@@ -171,25 +201,40 @@ class FirefoxBidi:
     def reload(self, timeout: float = 60.0) -> None:
         self.command("browsingContext.reload", {"context": self.context, "wait": "complete"}, timeout)
 
-    def evaluate(self, expression: str, timeout: float = 60.0) -> Any:
-        """The value of a JavaScript expression in the page (a promise is awaited), as Python data."""
-        result = self.command("script.evaluate", {"expression": expression, "target": {"context": self.context},
-                                                  "awaitPromise": True, "resultOwnership": "none"}, timeout)
+    def evaluate(self, expression: str, timeout: float = 60.0, frame: str | None = None) -> Any:
+        """The value of a JavaScript expression in the page, or in one of its frames (a context id from frames();
+        cross-origin too), as Python data; a promise is awaited."""
+        target = {"context": frame or self.context}
+        result = self.command("script.evaluate", {"expression": expression, "target": target, "awaitPromise": True,
+                                                  "resultOwnership": "none"}, timeout)
         if result.get("type") == "exception":
             details = result.get("exceptionDetails", {})
             raise BidiError(f"{expression!r} threw: {details.get('text')}")
         return from_remote(result["result"])
 
-    def wait_for_js(self, expression: str, timeout: float = 30.0, interval: float = 0.1, what: str = "") -> Any:
-        """The first truthy value of ``expression``, polled; AssertionError after ``timeout``."""
+    def wait_for_js(self, expression: str, timeout: float = 30.0, interval: float = 0.1, what: str = "",
+                    frame: str | None = None) -> Any:
+        """The first truthy value of ``expression`` (in the page or a frame), polled; AssertionError after
+        ``timeout``."""
         deadline = time.monotonic() + timeout
         while True:
-            value = self.evaluate(expression)
+            value = self.evaluate(expression, frame=frame)
             if value:
                 return value
             if time.monotonic() > deadline:
                 raise AssertionError(f"timed out after {timeout} s waiting for {what or expression} in firefox")
             time.sleep(interval)
+
+    def frames(self) -> dict[str, str]:
+        """The page's frames (iframes, nested ones too), as {context id: URL}, for evaluate(frame=...)."""
+        found: dict[str, str] = {}
+        todo = self.command("browsingContext.getTree", {"root": self.context})["contexts"]
+        while todo:
+            node = todo.pop()
+            if node["context"] != self.context:
+                found[node["context"]] = node.get("url", "")
+            todo.extend(node.get("children") or [])
+        return found
 
     def screenshot(self, path: Path, clip: dict[str, float] | None = None, full_page: bool = False) -> bytes:
         """Writes a PNG of the viewport, the whole document, or a box (CSS px of the document) and returns it."""
@@ -211,6 +256,44 @@ class FirefoxBidi:
     def console_errors(self) -> list[LogEntry]:
         """Errors logged so far: console.error calls and uncaught exceptions (drain first with evaluate)."""
         return [e for e in self.log if e.level == "error" or e.kind == "javascript"]
+
+
+@contextlib.contextmanager
+def virtual_display(width: int = 1920, height: int = 2400, timeout: float = 30.0) -> Iterator[str]:
+    """An Xvfb X server on a free display number (Xvfb picks it: -displayfd), yielded as ":<n>", for a browser
+    that needs a real window (WebGL); local connections only; its process group is ended afterwards.
+    FileNotFoundError when Xvfb is not installed (apt-get install xvfb)."""
+    if not XVFB.exists():
+        raise FileNotFoundError(f"{XVFB} is missing: apt-get install xvfb")
+    read_end, write_end = os.pipe()
+    try:
+        process = subprocess.Popen([str(XVFB), "-displayfd", str(write_end), "-nolisten", "tcp", "-screen", "0",
+                                    f"{width}x{height}x24"], pass_fds=(write_end,), stdin=subprocess.DEVNULL,
+                                   stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, start_new_session=True)
+    finally:
+        os.close(write_end)
+    try:
+        # Xvfb writes the number once it accepts connections; end of file (no number) means it exited
+        ready, _, _ = select.select([read_end], [], [], timeout)
+        number = os.read(read_end, 64).decode().strip() if ready else ""
+        if not number.isdigit():
+            process.kill()
+            _, err = process.communicate(timeout=5)
+            raise RuntimeError(f"Xvfb did not start in {timeout} s (exit {process.returncode}):\n"
+                               f"{err.decode(errors='replace')}")
+        yield f":{number}"
+    finally:
+        os.close(read_end)
+        for sig in (signal.SIGTERM, signal.SIGKILL):
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(process.pid, sig)
+            try:
+                process.wait(5)
+                break
+            except subprocess.TimeoutExpired:
+                continue
+        if process.stderr is not None:
+            process.stderr.close()
 
 
 def from_remote(value: dict[str, Any]) -> Any:
