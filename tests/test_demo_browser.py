@@ -145,7 +145,7 @@ def test_every_panel_shows_the_live_demo(demo: RunningDemo, page: Any) -> None:
         wait_for(lambda: httpx.get(f"{demo.url}/api/plots", timeout=5).json()["logged"] > 50, timeout, 0.5,
                  "plots fed")
         for panel in WEBGL_VIEWS:
-            src = page.get_attribute(f'section[data-panel="{panel}"] iframe', "src")
+            src = page.eval_on_selector(f'section[data-panel="{panel}"] iframe', "frame => frame.src")  # absolute
             assert src and httpx.get(src, timeout=10).status_code == 200, (panel, src)
 
         # the simulation keeps real time while the browser shows every panel; bench/demo.py measures it longer

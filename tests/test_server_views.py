@@ -14,6 +14,7 @@ import schemas
 from server.config import RobotDescription, ServerConfig
 from server.hub import Hub, HubMessage
 from tests.conftest import free_port
+from tests.waiting import wait_for
 
 WOLFGANG_JOINTS = ["HeadPan", "HeadTilt", "LKnee", "RKnee", "LElbow", "RElbow"]
 
@@ -108,3 +109,30 @@ def test_plots_feed_rerun_and_serve_the_viewer() -> None:
     values = scalars_of(HubMessage("r1", "diagnostics", diag.__msgtype__, 0.0, diag, "test"))
     assert values == {"loop_rates/hcm/tick": 99.5}
     assert np.isclose(scalars_of(joint_states(["HeadPan"], [0.25]))["joints/HeadPan/position"], 0.25)
+
+
+@pytest.mark.slow
+def test_plots_viewer_is_served_through_the_dashboard_and_cannot_call_out(tmp_path: Path) -> None:
+    from tests.dashboard_server import dashboard_server
+
+    grpc_port = free_port()
+    args = ["--no-live", "--no-telemetry", "--plots", "--plots-port", str(free_port()),
+            "--plots-grpc-port", str(grpc_port)]
+    with dashboard_server(args, tmp_path) as server:
+        page = wait_for(lambda: _ok(f"{server.url}/plots/viewer/index.html"), 30.0, 0.2, what="the viewer's page")
+        policy = page.headers["content-security-policy"]
+        assert "default-src 'self'" in policy
+        assert f"connect-src 'self' http://127.0.0.1:{grpc_port} " in policy  # the gRPC stream, nothing else
+        assert "re_viewer.js" in page.text and "fonts.googleapis.com" not in page.text
+        wasm = httpx.get(f"{server.url}/plots/viewer/re_viewer_bg.wasm", timeout=30)
+        assert wasm.status_code == 200 and wasm.headers["content-type"] == "application/wasm"
+        assert wasm.content[:4] == b"\0asm"
+        assert httpx.get(f"{server.url}/plots/viewer/..%2Fapi%2Fconfig", timeout=10).status_code == 404
+
+
+def _ok(url: str) -> httpx.Response | None:
+    try:
+        response = httpx.get(url, timeout=10)
+    except httpx.HTTPError:
+        return None
+    return response if response.status_code == 200 else None
