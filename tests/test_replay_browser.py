@@ -9,7 +9,7 @@ from typing import Any
 import pytest
 
 from tests.dashboard_server import RunningServer, dashboard_server
-from tests.test_browser_panels import OUTPUT, browser  # noqa: F401 - the fixture
+from tests.test_browser_panels import OUTPUT
 from tests.test_replay import _pitchside_log
 
 pytestmark = [pytest.mark.slow, pytest.mark.browser]
@@ -25,7 +25,7 @@ def replaying(tmp_path: Path) -> Iterator[RunningServer]:
         yield server
 
 
-def test_replay_and_recordings_panels(browser: Any, replaying: RunningServer) -> None:  # noqa: F811
+def test_replay_and_recordings_panels(browser: Any, replaying: RunningServer) -> None:
     OUTPUT.mkdir(exist_ok=True)
     page = browser.new_page(viewport={"width": 1600, "height": 2400})
     errors: list[str] = []
