@@ -127,7 +127,8 @@ def test_every_panel_shows_the_live_demo(demo: RunningDemo, page: Any) -> None:
         # diagnostics: every node of the robot reports, the world its real-time factor
         wait_for(lambda: page.locator('section[data-panel="diagnostics"] tbody tr').count() >= 5, timeout, 0.2,
                  "diagnostics rows")
-        assert "real_time_factor" in (page.text_content('section[data-panel="diagnostics"]') or "")
+        wait_for(lambda: "real_time_factor" in (page.text_content('section[data-panel="diagnostics"]') or ""),
+                 timeout, 0.2, "the simulated world's real_time_factor in diagnostics")
 
         page.screenshot(path=str(OUTPUT / "data_panels.png"), full_page=True)
         for panel in DATA_PANELS:
