@@ -94,7 +94,9 @@ def serve(argv: list[str] | None = None) -> None:
     config.replay_file = Path(args.replay) if args.replay else None
     app = create_app(config)
     print(start_banner(config), flush=True)
-    uvicorn.run(app, host=config.host, port=config.port, log_level=args.log_level.lower(), access_log=False)
+    # an open browser holds endless streams (parameter events): on SIGTERM/Ctrl-C wait for them at most 2 s
+    uvicorn.run(app, host=config.host, port=config.port, log_level=args.log_level.lower(), access_log=False,
+                timeout_graceful_shutdown=2)
 
 
 if __name__ == "__main__":
