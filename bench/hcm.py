@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import socket
 import statistics
 import subprocess
 import sys
@@ -35,6 +34,7 @@ import psutil
 
 import schemas
 from robot_nodes.runtime import BusConfig, GoalStatus, Node, header, open_router
+from tests.conftest import free_port
 
 REPO = Path(__file__).resolve().parents[1]
 SWAY = {"name": "bench_sway", "author": "bench/hcm.py", "keyframes": [
@@ -171,11 +171,6 @@ def raw_hop(endpoint: str, n: int = 2000) -> list[float]:
     session.close()
     return got
 
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 def main() -> None:

@@ -12,20 +12,18 @@ import threading
 import time
 from pathlib import Path
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
 import numpy as np
 import psutil
 from PIL import Image
 
 import schemas
 from robot_nodes.runtime import BusConfig, Node, open_router
+from tests.conftest import free_port
 
 REPO = Path(__file__).resolve().parents[1]
 
-
-def free_port(kind: int = socket.SOCK_STREAM) -> int:
-    with socket.socket(socket.AF_INET, kind) as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 class Counter:

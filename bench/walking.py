@@ -13,7 +13,6 @@ reads its CPU % (psutil, 100 % = one core) while it walks.
 from __future__ import annotations
 
 import argparse
-import socket
 import statistics
 import subprocess
 import sys
@@ -29,6 +28,7 @@ import schemas
 from robot_nodes.runtime import BusConfig, Node, header, open_router
 from robot_nodes.walking import WalkEngine
 from robot_nodes.walking.engine import WalkOutput
+from tests.conftest import free_port
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -129,11 +129,6 @@ def process_cpu(endpoint: str, hz: float, seconds: float) -> tuple[float, float]
         proc.wait(10)
         feeder.shutdown()
 
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 def main() -> None:
