@@ -21,6 +21,7 @@ import pytest
 
 import schemas
 from tests.conftest import REPO, launch_chromium
+from tests.pictures import changed_pixels, coloured_pixels, picture
 from tests.running_demo import DashboardObserver, RunningDemo, cpu_by_process, running_demo
 from tests.waiting import wait_for
 
@@ -164,6 +165,15 @@ def test_every_panel_shows_the_live_demo(demo: RunningDemo, page: Any) -> None:
         assert statistics.median(factors) > floor, f"simulation slower than real time (load {load:.1f}): " \
                                                    f"{factors}\n{cpu}"
         assert not observer.error, observer.error
+
+        # the plots: rerun's viewer draws the lines of what the server logs (coloured pixels), following new data
+        plots = page.locator('section[data-panel="plots"]')
+        plots.scroll_into_view_if_needed()
+        shot = OUTPUT / "plots.png"
+        before = wait_for(lambda: (p := picture(plots.screenshot(path=str(shot))), coloured_pixels(p) > 2000)[1]
+                          and p, timeout, 1.0, "plot lines drawn in the rerun viewer")
+        wait_for(lambda: changed_pixels(before, picture(plots.screenshot(path=str(shot)))) > 200, 30.0, 1.0,
+                 "the plots following new data")
         with contextlib.suppress(Exception):  # for review; software WebGL can keep the page busy for long
             page.screenshot(path=str(OUTPUT / "dashboard.png"), full_page=True, timeout=20_000)
     assert not page.errors, page.errors
