@@ -111,6 +111,49 @@ def test_plots_feed_rerun_and_serve_the_viewer() -> None:
     assert np.isclose(scalars_of(joint_states(["HeadPan"], [0.25]))["joints/HeadPan/position"], 0.25)
 
 
+def _robot_state(state: int) -> HubMessage:
+    msg = schemas.make("humanoid_league_msgs/msg/RobotControlState", state=state)
+    return HubMessage("r1", "robot_state", msg.__msgtype__, time.time(), msg, "test")
+
+
+def test_state_lanes_name_the_hcm_and_game_states() -> None:
+    from server.plots import states_of
+
+    hcm = schemas.constants("humanoid_league_msgs/msg/RobotControlState")
+    assert states_of(_robot_state(hcm["GETTING_UP"])) == {"lanes/hcm": "GETTING_UP"}
+    game = schemas.constants("humanoid_league_msgs/msg/GameState")
+    msg = schemas.make("humanoid_league_msgs/msg/GameState", game_state=game["GAMESTATE_PLAYING"],
+                       secondary_state=game["STATE_PENALTYKICK"], penalized=True)
+    assert states_of(HubMessage("r1", "gamestate", msg.__msgtype__, 0.0, msg, "test")) == {
+        "lanes/game": "PLAYING / PENALTYKICK", "lanes/penalized": "penalized"}
+    assert states_of(_robot_state(99)) == {"lanes/hcm": "state 99"}  # a newer HCM's state still gets a lane
+    assert states_of(joint_states(["HeadPan"], [0.0])) == {}
+
+
+@pytest.mark.slow
+def test_plots_log_every_state_change_however_short_and_only_changes() -> None:
+    """Numbers are thinned to plots_max_hz; a state held for 5 ms (FALLING) must still reach its lane."""
+    from server.plots import PlotFeed
+
+    hcm = schemas.constants("humanoid_league_msgs/msg/RobotControlState")
+    config = ServerConfig(plots=True, plots_web_port=free_port(), plots_grpc_port=free_port(), plots_max_hz=1)
+
+    async def main() -> None:
+        hub = Hub()
+        feed = PlotFeed(hub, config)
+        await feed.start()
+        try:
+            for name in ("CONTROLLABLE", "CONTROLLABLE", "FALLING", "FALLEN", "FALLEN", "GETTING_UP", "CONTROLLABLE"):
+                hub.publish(_robot_state(hcm[name]))
+                await asyncio.sleep(0.005)
+            await _until(lambda: feed.logged >= 7)
+            assert feed.state_changes == 5, feed.status()
+        finally:
+            await feed.stop()
+
+    asyncio.run(main())
+
+
 @pytest.mark.slow
 def test_plots_viewer_is_served_through_the_dashboard_and_cannot_call_out(tmp_path: Path) -> None:
     from tests.dashboard_server import dashboard_server
