@@ -170,6 +170,13 @@ def test_plots_viewer_is_served_through_the_dashboard_and_cannot_call_out(tmp_pa
         wasm = httpx.get(f"{server.url}/plots/viewer/re_viewer_bg.wasm", timeout=30)
         assert wasm.status_code == 200 and wasm.headers["content-type"] == "application/wasm"
         assert wasm.content[:4] == b"\0asm"
+        # a browser that has the file already revalidates it for nothing (the proxy then reads no 43 MB)
+        again = httpx.get(f"{server.url}/plots/viewer/re_viewer_bg.wasm", timeout=30,
+                          headers={"If-None-Match": wasm.headers["etag"]})
+        assert again.status_code == 304 and not again.content and again.headers["etag"] == wasm.headers["etag"]
+        other = httpx.get(f"{server.url}/plots/viewer/re_viewer.js", timeout=30,
+                          headers={"If-None-Match": wasm.headers["etag"]})
+        assert other.status_code == 200 and other.headers["etag"] != wasm.headers["etag"]
         assert httpx.get(f"{server.url}/plots/viewer/..%2Fapi%2Fconfig", timeout=10).status_code == 404
 
 
