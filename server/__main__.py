@@ -36,6 +36,9 @@ def arguments() -> argparse.ArgumentParser:
     p.add_argument("--plots-grpc-port", type=int, default=9876, help="rerun's gRPC port (the viewer reads from it)")
     p.add_argument("--plots-max-hz", type=float, default=10.0,
                    help="numbers are plotted at most this often per stream (state lanes get every change)")
+    p.add_argument("--plots-all-topics", action="store_true",
+                   help="plot every numeric field of every topic (heavy on a small laptop; the panel adds topics "
+                        "one by one)")
     p.add_argument("--recordings", default=None, metavar="DIR", help="recordings folder (default: recordings/)")
     p.add_argument("--no-auto-record", action="store_true", help="do not record matches automatically")
     p.add_argument("--replay", default=None, metavar="FILE", help="open this MCAP log in the replay source")
@@ -67,7 +70,8 @@ def config_from(args: argparse.Namespace) -> ServerConfig:
                             telemetry_port=args.telemetry_port, telemetry_key=args.telemetry_key, robot3d=args.robot3d,
                             robot3d_port=args.robot3d_port, descriptions=descriptions, plots=args.plots,
                             plots_web_port=args.plots_port,
-                            plots_grpc_port=args.plots_grpc_port, plots_max_hz=args.plots_max_hz)
+                            plots_grpc_port=args.plots_grpc_port, plots_max_hz=args.plots_max_hz,
+                            plots_all_topics=args.plots_all_topics)
     except ValueError as exc:
         raise SystemExit(str(exc)) from None
 

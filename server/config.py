@@ -53,6 +53,7 @@ class ServerConfig:
     plots_web_port: int = 9090
     plots_grpc_port: int = 9876
     plots_max_hz: float = 10.0
+    plots_all_topics: bool = False  # also every numeric field of every topic, a tab per topic
     web_dir: Path = WEB_DIR
     # where recordings go and replay looks for bare file names; $PITCHSIDE_RECORDINGS overrides (e.g. for tests)
     recordings_dir: Path = field(default_factory=lambda: Path(os.environ.get("PITCHSIDE_RECORDINGS")

@@ -1,10 +1,11 @@
-"""Plots: the server feeds rerun with downsampled numbers (joints vs goals, IMU, loop rates) and the HCM and game
-states as named lanes, all on one time axis.
+"""Plots: the server feeds rerun with downsampled numbers and the HCM and game states as named lanes, all on one
+time axis, in a viewer the dashboard embeds.
 
 rerun serves its web viewer from the wheel (offline) on ``plots_web_port`` and the data over gRPC on
-``plots_grpc_port``; the page embeds the viewer in an iframe. Every numeric stream is thinned by the hub to
-``plots_max_hz``; the state streams are few messages a second and taken whole, so a short state (FALLING) is
-never thinned away, and only their changes are logged. rerun's own usage analytics: ``TELEMETRY_ENABLED`` is
+``plots_grpc_port``. What is plotted is decided in server.plot_series; here it is logged. Every numeric stream is
+thinned by the hub to ``plots_max_hz``; the state streams are few messages a second and taken whole, so a short
+state (FALLING) is never thinned away, and only their changes are logged. rerun's gRPC server keeps at most
+``SERVER_MEMORY`` of history for viewers that connect late. rerun's own usage analytics: ``TELEMETRY_ENABLED`` is
 forced off here; the SDK's analytics setting lives in rerun's config file (``rerun analytics disable``) and fails
 harmlessly offline.
 """
@@ -12,139 +13,162 @@ harmlessly offline.
 from __future__ import annotations
 
 import asyncio
+import colorsys
 import contextlib
 import logging
 import os
+import time
+import zlib
 from typing import Any
 
-import schemas
 from server.config import ServerConfig
-from server.hub import Hub, HubMessage, Subscriber
+from server.hub import Hub, Subscriber
+from server.plot_series import CURATED_TOPICS, STATE_TOPICS, RobotSeries, Series, states_of, topic_series
 
 log = logging.getLogger(__name__)
-NUMERIC_TOPICS = ("joint_states", "motor_goals", "imu/data", "diagnostics")
-STATE_TOPICS = ("robot_state", "gamestate")
-_HCM_NAMES = {v: k for k, v in schemas.constants("humanoid_league_msgs/msg/RobotControlState").items()}
-_GAME = schemas.constants("humanoid_league_msgs/msg/GameState")
-_GAME_NAMES = {v: k.removeprefix("GAMESTATE_") for k, v in _GAME.items() if k.startswith("GAMESTATE_")}
-_SECONDARY_NAMES = {v: k.removeprefix("STATE_") for k, v in _GAME.items()
-                    if k.startswith("STATE_") and k != "STATE_NORMAL"}
+SERVER_MEMORY = "256MiB"
+BLUEPRINT_EVERY_S = 2.0  # a new robot or topic re-sends the layout, at most this often
 
 
-def scalars_of(msg: HubMessage) -> dict[str, float]:
-    """Entity path (under the robot) -> value, for the fields worth plotting."""
-    m = msg.message
-    out: dict[str, float] = {}
-    if msg.topic == "joint_states":
-        for name, position in zip(m.name, m.position, strict=False):
-            out[f"joints/{name}/position"] = float(position)
-    elif msg.topic == "motor_goals":
-        if m.points:
-            for name, position in zip(m.joint_names, m.points[-1].positions, strict=False):
-                out[f"joints/{name}/goal"] = float(position)
-    elif msg.topic == "imu/data":
-        for axis in "xyz":
-            out[f"imu/angular_velocity/{axis}"] = float(getattr(m.angular_velocity, axis))
-            out[f"imu/linear_acceleration/{axis}"] = float(getattr(m.linear_acceleration, axis))
-    elif msg.topic == "diagnostics":
-        for status in m.status:
-            node = status.name.rsplit("/", 1)[-1]
-            for kv in status.values:
-                if kv.key.startswith("rate_hz/"):
-                    with contextlib.suppress(ValueError):
-                        out[f"loop_rates/{node}/{kv.key[len('rate_hz/'):]}"] = float(kv.value)
-    return out
+def palette(n: int, start: int = 0) -> list[tuple[int, int, int]]:
+    """n distinct colours (golden-ratio hues from ``start``): a joint's position and goal share the joint's colour,
+    and entities in one view (each node's loop rates) start at different hues."""
+    return [tuple(int(255 * c) for c in colorsys.hsv_to_rgb((0.61803 * (start + i)) % 1.0, 0.75, 0.95))  # type: ignore[misc]
+            for i in range(n)]
 
 
-def states_of(msg: HubMessage) -> dict[str, str]:
-    """Entity path (under the robot) -> state name, for the lanes: HCM state, game state, penalized."""
-    m = msg.message
-    if msg.topic == "robot_state":
-        return {"lanes/hcm": _HCM_NAMES.get(m.state, f"state {m.state}")}
-    if msg.topic == "gamestate":
-        game = _GAME_NAMES.get(m.game_state, f"state {m.game_state}")
-        if m.secondary_state in _SECONDARY_NAMES:
-            game += f" / {_SECONDARY_NAMES[m.secondary_state]}"
-        return {"lanes/game": game, "lanes/penalized": "penalized" if m.penalized else "in play"}
-    return {}
-
-
-def blueprint(robots: list[str]) -> Any:
-    """A tab per robot: joints (position vs goal), IMU, loop rates, and the HCM/game state lanes (one timeline)."""
+def blueprint(topics: dict[str, list[str]]) -> Any:
+    """Per robot: a grid of joints (position lines, goal dots), IMU, loop rates and the HCM/game state lanes, and
+    a tab of every topic's numeric fields."""
     import rerun.blueprint as rrb
 
-    return rrb.Blueprint(rrb.Tabs(*[
-        rrb.Grid(
-            rrb.TimeSeriesView(origin=f"/{robot}/joints", name="joints: position vs goal"),
+    tabs: list[Any] = []
+    for robot, robot_topics in topics.items():
+        tabs.append(rrb.Grid(
+            rrb.TimeSeriesView(origin=f"/{robot}/joints", name="joints: position (lines) vs goal (dots)"),
             rrb.TimeSeriesView(origin=f"/{robot}/imu", name="IMU"),
             rrb.TimeSeriesView(origin=f"/{robot}/loop_rates", name="loop rates (Hz)"),
             rrb.StateTimelineView(origin=f"/{robot}/lanes", name="HCM state, game state, penalized"),
-            name=robot,
-        ) for robot in robots]), collapse_panels=True)
+            name=robot))
+        if robot_topics:
+            tabs.append(rrb.Tabs(*[rrb.TimeSeriesView(origin=f"/{robot}/topics/{topic}", name=topic)
+                                   for topic in sorted(robot_topics)], name=f"{robot}: every topic"))
+    return rrb.Blueprint(rrb.Tabs(*tabs), collapse_panels=True)
 
 
 class PlotFeed:
-    """A hub subscriber that logs scalars into one rerun recording served to the browser."""
+    """A hub subscriber that logs the plot series into one rerun recording served to the browser."""
 
     def __init__(self, hub: Hub, config: ServerConfig) -> None:
         self.hub = hub
         self.config = config
         self.logged = 0
         self.state_changes = 0
-        self.robots: list[str] = []
-        self._states: dict[str, str] = {}  # entity path -> the state last logged there
+        self.topics: dict[str, list[str]] = {}  # robot -> topics whose every number is plotted, in order
+        self.chosen: set[tuple[str, str]] = set()  # (robot or "*", topic) asked for besides the curated series
         self.rec: Any = None
+        self._robots: dict[str, RobotSeries] = {}
+        self._states: dict[str, str] = {}  # entity path -> the state last logged there
+        self._names: dict[str, tuple[str, ...]] = {}  # entity path -> the series names logged for it
+        self._blueprint_due = False
+        self._blueprint_sent = 0.0
         self._sub: Subscriber | None = None
         self._task: asyncio.Task[None] | None = None
+
+    @property
+    def robots(self) -> list[str]:
+        return list(self.topics)
 
     def urls(self) -> dict[str, int]:
         return {"web_port": self.config.plots_web_port, "grpc_port": self.config.plots_grpc_port}
 
     def status(self) -> dict[str, Any]:
         """What the viewer is fed: messages plotted so far, state changes logged, and the robots with a tab."""
-        return {**self.urls(), "logged": self.logged, "state_changes": self.state_changes,
-                "robots": list(self.robots)}
+        return {**self.urls(), "logged": self.logged, "state_changes": self.state_changes, "robots": self.robots,
+                "series": len(self._names), "topics": {robot: list(t) for robot, t in self.topics.items()},
+                "chosen": [{"robot": robot, "topic": topic} for robot, topic in sorted(self.chosen)],
+                "all_topics": self.config.plots_all_topics}
+
+    def wants(self, robot: str, topic: str) -> bool:
+        """Is every number of this topic plotted (``--plots-all-topics``, or chosen in the panel)?"""
+        return self.config.plots_all_topics or (robot, topic) in self.chosen or ("*", topic) in self.chosen
+
+    def choose(self, robot: str, topic: str, plotted: bool) -> None:
+        """Plots every number of a topic from now on (a tab of its own), or stops; what was plotted stays."""
+        own_subscription = topic not in CURATED_TOPICS + STATE_TOPICS and not self.config.plots_all_topics
+        if plotted:
+            self.chosen.add((robot, topic))
+            if own_subscription and self._sub is not None:
+                self._sub.subscribe(robot, topic, max_hz=self.config.plots_max_hz)
+            return
+        self.chosen.discard((robot, topic))
+        if own_subscription and self._sub is not None:
+            self._sub.unsubscribe(robot, topic)
+        for other, topics in self.topics.items():
+            if topic in topics and not self.wants(other, topic) and robot in ("*", other):
+                topics.remove(topic)
+                self._blueprint_due = True
 
     async def start(self) -> None:
         os.environ["TELEMETRY_ENABLED"] = "false"
         import rerun as rr
 
         self.rec = rr.RecordingStream("pitchside")
-        uri = rr.serve_grpc(grpc_port=self.config.plots_grpc_port, recording=self.rec, server_memory_limit="256MiB")
+        uri = rr.serve_grpc(grpc_port=self.config.plots_grpc_port, recording=self.rec,
+                            server_memory_limit=SERVER_MEMORY)
         rr.serve_web_viewer(web_port=self.config.plots_web_port, open_browser=False, connect_to=uri)
         self._sub = self.hub.subscribe("plots", maxlen=4096)
-        for topic in NUMERIC_TOPICS:
-            self._sub.subscribe("*", topic, max_hz=self.config.plots_max_hz)
-        for topic in STATE_TOPICS:
+        for topic in STATE_TOPICS:  # first: a subscriber takes a message by its first matching subscription
             self._sub.subscribe("*", topic)
+        for topic in CURATED_TOPICS if not self.config.plots_all_topics else ("*",):
+            self._sub.subscribe("*", topic, max_hz=self.config.plots_max_hz)
         self._task = asyncio.create_task(self._run())
 
     async def _run(self) -> None:
-        import rerun as rr
-
         assert self._sub is not None
         while True:
             await self._sub.wait()
             for msg in self._sub.drain():
+                robot = self._robots.setdefault(msg.robot, RobotSeries())
                 try:
-                    values = scalars_of(msg)
+                    series = robot.series(msg)
+                    topics = topic_series(msg) if self.wants(msg.robot, msg.topic) else {}
                     states = states_of(msg)
                 except Exception as exc:  # undecodable input is counted by the hub, not plotted
                     log.debug("not plotted: %s", exc)
                     continue
-                if msg.robot not in self.robots:
-                    self.robots.append(msg.robot)
-                    self.rec.send_blueprint(blueprint(self.robots))
-                self.rec.set_time("time", timestamp=msg.stamp)
-                for path, value in values.items():
-                    self.rec.log(f"{msg.robot}/{path}", rr.Scalars(value))
-                for path, state in states.items():
-                    entity = f"{msg.robot}/{path}"
-                    if self._states.get(entity) != state:
-                        self._states[entity] = state
-                        self.rec.log(entity, rr.StateChange(state=state))
-                        self.state_changes += 1
-                self.logged += 1
+                if msg.robot not in self.topics:
+                    self.topics[msg.robot] = []
+                    self._blueprint_due = True
+                if topics and msg.topic not in self.topics[msg.robot]:
+                    self.topics[msg.robot].append(msg.topic)
+                    self._blueprint_due = True
+                self._log(msg.robot, msg.stamp, series | topics, states)
+            if self._blueprint_due and time.monotonic() - self._blueprint_sent > BLUEPRINT_EVERY_S:
+                self.rec.send_blueprint(blueprint(self.topics))
+                self._blueprint_due, self._blueprint_sent = False, time.monotonic()
+
+    def _log(self, robot: str, stamp: float, series: dict[str, Series], states: dict[str, str]) -> None:
+        import rerun as rr
+
+        self.rec.set_time("time", timestamp=stamp)
+        for path, s in series.items():
+            entity = f"{robot}/{path}"
+            if self._names.get(entity) != s.names:  # the lines' names and colours, once per entity
+                self._names[entity] = s.names
+                colours = palette(len(s.names), 0 if path.startswith("joints/") else zlib.crc32(path.encode()) % 97)
+                style = rr.SeriesPoints(names=[f"{n} goal" for n in s.names], colors=colours, marker_sizes=[3.0] *
+                                        len(s.names)) if path == "joints/goal" else \
+                    rr.SeriesLines(names=list(s.names), colors=colours)
+                self.rec.log(entity, style, static=True)
+            self.rec.log(entity, rr.Scalars(s.values))
+        for path, state in states.items():
+            entity = f"{robot}/{path}"
+            if self._states.get(entity) != state:
+                self._states[entity] = state
+                self.rec.log(entity, rr.StateChange(state=state))
+                self.state_changes += 1
+        self.logged += 1
 
     async def stop(self) -> None:
         if self._task is not None:

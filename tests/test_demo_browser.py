@@ -174,6 +174,12 @@ def test_every_panel_shows_the_live_demo(demo: RunningDemo, page: Any) -> None:
                           and p, timeout, 1.0, "plot lines drawn in the rerun viewer")
         wait_for(lambda: changed_pixels(before, picture(plots.screenshot(path=str(shot)))) > 200, 30.0, 1.0,
                  "the plots following new data")
+        # any topic plotted whole: chosen in the panel's bar, the server logs every number of it
+        plots.locator('[data-role="topic"]').select_option("gamestate")
+        plots.locator('[data-act="add"]').click()
+        plots.locator('.chip[data-topic="gamestate"]').wait_for()
+        wait_for(lambda: "gamestate" in httpx.get(f"{demo.url}/api/plots", timeout=5).json()["topics"].get(ROBOT, []),
+                 timeout, 0.5, "every number of gamestate plotted")
         with contextlib.suppress(Exception):  # for review; software WebGL can keep the page busy for long
             page.screenshot(path=str(OUTPUT / "dashboard.png"), full_page=True, timeout=20_000)
     assert not page.errors, page.errors

@@ -71,7 +71,7 @@ def test_export_rerun_of_a_foreign_bag(testdata: Path, tmp_path: Path) -> None:
 
 def test_export_rerun_names_joints(tmp_path: Path) -> None:
     import schemas
-    from pitchside.export_rerun import numeric_fields
+    from schemas.numeric import numeric_fields
 
     msg = schemas.make("sensor_msgs/msg/JointState", name=["head_pan", "head_tilt"], position=[0.1, 0.2],
                        velocity=[], effort=[])

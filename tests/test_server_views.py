@@ -83,7 +83,7 @@ def test_robot3d_missing_urdf_is_reported_not_raised(tmp_path: Path) -> None:
 
 @pytest.mark.slow
 def test_plots_feed_rerun_and_serve_the_viewer() -> None:
-    from server.plots import PlotFeed, scalars_of
+    from server.plots import PlotFeed
 
     config = ServerConfig(plots=True, plots_web_port=free_port(), plots_grpc_port=free_port(), plots_max_hz=50)
 
@@ -96,19 +96,64 @@ def test_plots_feed_rerun_and_serve_the_viewer() -> None:
                 hub.publish(joint_states(["HeadPan"], [0.01 * i]))
                 await asyncio.sleep(0.005)
             await _until(lambda: feed.logged >= 1)
+            assert feed.topics == {"r1": []}  # the curated series only, until a topic is chosen
+            series = feed.status()["series"]
+            # a topic chosen in the panel: every number of it, a tab of its own; unchosen, the tab goes
+            feed.choose("*", "joint_states", True)
+            hub.publish(joint_states(["HeadPan"], [0.5]))
+            await _until(lambda: feed.status()["series"] > series)
+            assert feed.topics == {"r1": ["joint_states"]}
+            feed.choose("*", "joint_states", False)
+            assert feed.topics == {"r1": []} and not feed.chosen
             viewer = await asyncio.to_thread(httpx.get, f"http://127.0.0.1:{config.plots_web_port}/", timeout=10)
             assert viewer.status_code == 200
         finally:
             await feed.stop()
 
     asyncio.run(main())
-    diag = schemas.make("diagnostic_msgs/msg/DiagnosticArray", status=[schemas.make(
+
+
+def _message(topic: str, typename: str, **fields: object) -> HubMessage:
+    msg = schemas.make(typename, **fields)
+    return HubMessage("r1", topic, msg.__msgtype__, 0.0, msg, "test")
+
+
+def test_plot_series_group_a_message_into_named_lines() -> None:
+    from server.plot_series import RobotSeries, Series, topic_series
+
+    robot = RobotSeries()
+    diag = _message("diagnostics", "diagnostic_msgs/msg/DiagnosticArray", status=[schemas.make(
         "diagnostic_msgs/msg/DiagnosticStatus", name="r1/hcm", values=[
             schemas.make("diagnostic_msgs/msg/KeyValue", key="rate_hz/tick", value="99.5"),
             schemas.make("diagnostic_msgs/msg/KeyValue", key="rate_hz/bad", value="n/a")])])
-    values = scalars_of(HubMessage("r1", "diagnostics", diag.__msgtype__, 0.0, diag, "test"))
-    assert values == {"loop_rates/hcm/tick": 99.5}
-    assert np.isclose(scalars_of(joint_states(["HeadPan"], [0.25]))["joints/HeadPan/position"], 0.25)
+    assert robot.series(diag) == {"loop_rates/hcm": Series(("hcm tick",), (99.5,))}
+
+    # goals: in the joint_states order, a joint's goal holds until its next one, NaN before the first
+    assert robot.series(joint_states(["HeadPan", "HeadTilt", "LKnee"], [0.1, 0.2, 0.3])) == {
+        "joints/position": Series(("HeadPan", "HeadTilt", "LKnee"), (0.1, 0.2, 0.3))}
+
+    def goals(names: list[str], positions: list[float]) -> HubMessage:
+        point = schemas.make("trajectory_msgs/msg/JointTrajectoryPoint", positions=positions)
+        return _message("motor_goals", "trajectory_msgs/msg/JointTrajectory", joint_names=names, points=[point])
+
+    first = robot.series(goals(["LKnee"], [1.0]))["joints/goal"]
+    assert first.names == ("HeadPan", "HeadTilt", "LKnee") and np.isnan(first.values[:2]).all()
+    assert first.values[2] == 1.0
+    assert robot.series(goals(["HeadTilt"], [0.5]))["joints/goal"].values[1:] == (0.5, 1.0)
+
+    imu = robot.series(_message("imu/data", "sensor_msgs/msg/Imu", angular_velocity=schemas.make(
+        "geometry_msgs/msg/Vector3", x=0.0, y=-2.5, z=0.0)))
+    assert imu["imu/angular_velocity"] == Series(("gyro x", "gyro y", "gyro z"), (0.0, -2.5, 0.0))
+
+    # any numeric field of any topic, grouped by parent; top-level numbers under the topic itself
+    game = topic_series(_message("gamestate", "humanoid_league_msgs/msg/GameState", own_score=2, rival_score=1))
+    top = game["topics/gamestate"]
+    assert dict(zip(top.names, top.values, strict=True))["own_score"] == 2.0
+    assert "seconds_remaining" in top.names
+    js = topic_series(joint_states(["HeadPan"], [0.25]))
+    assert js == {"topics/joint_states/position": Series(("HeadPan",), (0.25,))}
+    image = _message("camera/image", "sensor_msgs/msg/CompressedImage", format="jpeg")
+    assert topic_series(image) == {}  # pictures are not plotted
 
 
 def _robot_state(state: int) -> HubMessage:
@@ -117,15 +162,14 @@ def _robot_state(state: int) -> HubMessage:
 
 
 def test_state_lanes_name_the_hcm_and_game_states() -> None:
-    from server.plots import states_of
+    from server.plot_series import states_of
 
     hcm = schemas.constants("humanoid_league_msgs/msg/RobotControlState")
     assert states_of(_robot_state(hcm["GETTING_UP"])) == {"lanes/hcm": "GETTING_UP"}
     game = schemas.constants("humanoid_league_msgs/msg/GameState")
-    msg = schemas.make("humanoid_league_msgs/msg/GameState", game_state=game["GAMESTATE_PLAYING"],
-                       secondary_state=game["STATE_PENALTYKICK"], penalized=True)
-    assert states_of(HubMessage("r1", "gamestate", msg.__msgtype__, 0.0, msg, "test")) == {
-        "lanes/game": "PLAYING / PENALTYKICK", "lanes/penalized": "penalized"}
+    msg = _message("gamestate", "humanoid_league_msgs/msg/GameState", game_state=game["GAMESTATE_PLAYING"],
+                   secondary_state=game["STATE_PENALTYKICK"], penalized=True)
+    assert states_of(msg) == {"lanes/game": "PLAYING / PENALTYKICK", "lanes/penalized": "penalized"}
     assert states_of(_robot_state(99)) == {"lanes/hcm": "state 99"}  # a newer HCM's state still gets a lane
     assert states_of(joint_states(["HeadPan"], [0.0])) == {}
 
@@ -178,6 +222,10 @@ def test_plots_viewer_is_served_through_the_dashboard_and_cannot_call_out(tmp_pa
                           headers={"If-None-Match": wasm.headers["etag"]})
         assert other.status_code == 200 and other.headers["etag"] != wasm.headers["etag"]
         assert httpx.get(f"{server.url}/plots/viewer/..%2Fapi%2Fconfig", timeout=10).status_code == 404
+        # choosing a topic to plot whole
+        chosen = httpx.post(f"{server.url}/api/plots/topics", json={"topic": "gamestate"}, timeout=10)
+        assert chosen.status_code == 200 and chosen.json()["chosen"] == [{"robot": "*", "topic": "gamestate"}]
+        assert httpx.post(f"{server.url}/api/plots/topics", json={"topic": " "}, timeout=10).status_code == 422
 
 
 def _ok(url: str) -> httpx.Response | None:

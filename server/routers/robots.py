@@ -4,9 +4,10 @@ from __future__ import annotations
 
 from typing import Any
 
-from fastapi import APIRouter, Depends
+from fastapi import APIRouter, Depends, HTTPException
+from pydantic import BaseModel
 
-from server.deps import get_state
+from server.deps import get_state, require_token
 from server.link_health import robots_info
 from server.state import ServerState
 
@@ -45,6 +46,25 @@ def plots_status(state: ServerState = Depends(get_state)) -> dict[str, Any]:
     """Whether plots are served, and how many messages the rerun viewer has been fed."""
     plots = state.views.get("plots")
     return plots.status() if plots is not None else {"logged": 0, "robots": []}
+
+
+class PlotTopic(BaseModel):
+    robot: str = "*"
+    topic: str
+    plotted: bool = True
+
+
+@router.post("/plots/topics")
+def plot_topic(choice: PlotTopic, state: ServerState = Depends(require_token)) -> dict[str, Any]:
+    """Plots every numeric field of a topic (of one robot or all) from now on, or stops. Only the server's own
+    viewer changes: allowed in match mode, as nothing goes to a robot."""
+    plots = state.views.get("plots")
+    if plots is None:
+        raise HTTPException(404, "plots are off (start the server with --plots)")
+    if not choice.topic.strip():
+        raise HTTPException(422, "no topic given")
+    plots.choose(choice.robot, choice.topic, choice.plotted)
+    return dict(plots.status())
 
 
 @router.get("/config")
