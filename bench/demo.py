@@ -23,12 +23,12 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import psutil
 
+from tests.conftest import launch_chromium
 from tests.running_demo import DashboardObserver, cpu_by_process, running_demo
 
 
 def open_dashboard(pw: Any, url: str) -> Any:
-    browser = pw.chromium.launch(executable_path="/usr/bin/chromium", args=[
-        "--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update"])
+    browser = launch_chromium(pw)
     page = browser.new_page(viewport={"width": 1600, "height": 2000})
     page.set_default_timeout(120_000)
     page.goto(url)

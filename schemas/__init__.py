@@ -1,6 +1,6 @@
 """Message definitions, the topic table and the CDR codec every pitchside process shares."""
 
-from schemas.codec import SchemaError, constants, decode, encode, make, message_class, msgdef, to_dict
+from schemas.codec import SchemaError, constant_names, constants, decode, encode, make, message_class, msgdef, to_dict
 from schemas.topics import ACTIONS, SERVICES, TOPICS, Priority, Topic, topic
 
 __all__ = [
@@ -10,6 +10,7 @@ __all__ = [
     "Priority",
     "SchemaError",
     "Topic",
+    "constant_names",
     "constants",
     "decode",
     "encode",

@@ -197,3 +197,8 @@ def constants(typename: str) -> dict[str, Any]:
     """The constants a .msg declares (e.g. RobotControlState.FALLEN), by name."""
     consts = typestore().fielddefs[full_name(typename)][0]
     return {name: value for name, _, value in consts}
+
+
+def constant_names(typename: str, prefix: str = "") -> dict[Any, str]:
+    """Value -> name of the constants starting with ``prefix`` (prefix removed): what to show for a state number."""
+    return {value: name.removeprefix(prefix) for name, value in constants(typename).items() if name.startswith(prefix)}

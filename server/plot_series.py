@@ -23,11 +23,10 @@ import schemas
 from schemas.numeric import numeric_fields
 from server.hub import BULK_TYPES, HubMessage
 
-_HCM_NAMES = {v: k for k, v in schemas.constants("humanoid_league_msgs/msg/RobotControlState").items()}
-_GAME = schemas.constants("humanoid_league_msgs/msg/GameState")
-_GAME_NAMES = {v: k.removeprefix("GAMESTATE_") for k, v in _GAME.items() if k.startswith("GAMESTATE_")}
-_SECONDARY_NAMES = {v: k.removeprefix("STATE_") for k, v in _GAME.items()
-                    if k.startswith("STATE_") and k != "STATE_NORMAL"}
+_HCM_NAMES = schemas.constant_names("humanoid_league_msgs/msg/RobotControlState")
+_GAME_NAMES = schemas.constant_names("humanoid_league_msgs/msg/GameState", "GAMESTATE_")
+_SECONDARY_NAMES = {v: name for v, name in schemas.constant_names("humanoid_league_msgs/msg/GameState", "STATE_")
+                    .items() if name != "NORMAL"}
 STATE_TOPICS = ("robot_state", "gamestate")
 CURATED_TOPICS = ("joint_states", "motor_goals", "imu/data", "diagnostics")
 RATE_PREFIX = "rate_hz/"

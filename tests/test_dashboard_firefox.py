@@ -26,7 +26,7 @@ from tests.waiting import wait_for
 
 OUTPUT = REPO / "test-output" / "firefox"
 ROBOT = "robot1"
-HCM_NAMES = {v: k for k, v in schemas.constants("humanoid_league_msgs/msg/RobotControlState").items()}
+HCM_NAMES = schemas.constant_names("humanoid_league_msgs/msg/RobotControlState")
 DATA_PANELS = ("team", "field", "relative", "hcm", "camera", "diagnostics")
 LAB_PANELS = ("parameters", "animation", "teleop", "replay", "recordings")  # rendered, no console error
 WEBGL_VIEWS = ("robot3d", "plots")  # iframes of their own servers (viser, rerun), drawn with WebGL

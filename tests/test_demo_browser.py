@@ -27,7 +27,7 @@ from tests.waiting import wait_for
 
 OUTPUT = REPO / "test-output" / "demo"
 ROBOT = "robot1"
-HCM_NAMES = {v: k for k, v in schemas.constants("humanoid_league_msgs/msg/RobotControlState").items()}
+HCM_NAMES = schemas.constant_names("humanoid_league_msgs/msg/RobotControlState")
 OVERLOADED = 4.0  # 1-minute load average of this 2-core machine beyond which real time is not asked for
 DATA_PANELS = ("team", "field", "relative", "hcm", "camera", "diagnostics")
 WEBGL_VIEWS = ("robot3d", "plots")
