@@ -8,7 +8,8 @@ small. Paths are under the robot:
   until the next one for that joint (as the servo does), NaN (a gap) before the first;
 - ``imu/angular_velocity``, ``imu/linear_acceleration``;
 - ``loop_rates/<node>``: the ``rate_hz/*`` values of each node's diagnostics;
-- ``topics/<topic>/<field path>``: every numeric field of every topic (schemas.numeric), grouped by parent;
+- ``topics/<topic>/<field path>``: every numeric field of a topic chosen in the panel (or of all topics, with
+  ``--plots-all-topics``), from schemas.numeric, grouped by parent;
 - ``lanes/hcm``, ``lanes/game``, ``lanes/penalized``: state names (server.plots logs their changes).
 """
 

@@ -39,7 +39,7 @@ def palette(n: int, start: int = 0) -> list[tuple[int, int, int]]:
 
 def blueprint(topics: dict[str, list[str]]) -> Any:
     """Per robot: a grid of joints (position lines, goal dots), IMU, loop rates and the HCM/game state lanes, and
-    a tab of every topic's numeric fields."""
+    a tab with one view per topic plotted whole."""
     import rerun.blueprint as rrb
 
     tabs: list[Any] = []
