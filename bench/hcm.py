@@ -172,7 +172,6 @@ def raw_hop(endpoint: str, n: int = 2000) -> list[float]:
     return got
 
 
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--seconds", type=float, default=6.0, help="measuring window per rate")

@@ -25,7 +25,6 @@ from tests.conftest import free_port
 REPO = Path(__file__).resolve().parents[1]
 
 
-
 class Counter:
     """The team PC: a UDP socket that only counts (no decoding, so it costs the sender nothing)."""
 

@@ -130,7 +130,6 @@ def process_cpu(endpoint: str, hz: float, seconds: float) -> tuple[float, float]
         feeder.shutdown()
 
 
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--cycles", type=int, default=5000)

@@ -284,14 +284,7 @@ def virtual_display(width: int = 1920, height: int = 2400, timeout: float = 30.0
         yield f":{number}"
     finally:
         os.close(read_end)
-        for sig in (signal.SIGTERM, signal.SIGKILL):
-            with contextlib.suppress(ProcessLookupError):
-                os.killpg(process.pid, sig)
-            try:
-                process.wait(5)
-                break
-            except subprocess.TimeoutExpired:
-                continue
+        _end_group(process, 5)
         if process.stderr is not None:
             process.stderr.close()
 
@@ -327,18 +320,23 @@ def _read_stderr(process: subprocess.Popen[bytes], lines: list[str], found: thre
             found.set()
 
 
+def _end_group(process: subprocess.Popen[bytes], grace: float) -> None:
+    """SIGTERM to the process group, SIGKILL if the leader is still there after ``grace`` s."""
+    for sig in (signal.SIGTERM, signal.SIGKILL):
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(process.pid, sig)
+        try:
+            process.wait(grace)
+            return
+        except subprocess.TimeoutExpired:
+            continue
+
+
 def _stop(process: subprocess.Popen[bytes]) -> None:
     """Waits briefly for the browser to close after session.end, then ends its process group."""
     try:
         process.wait(10)
     except subprocess.TimeoutExpired:
-        with contextlib.suppress(ProcessLookupError):
-            os.killpg(process.pid, signal.SIGTERM)
-        try:
-            process.wait(10)
-        except subprocess.TimeoutExpired:
-            with contextlib.suppress(ProcessLookupError):
-                os.killpg(process.pid, signal.SIGKILL)
-            process.wait(5)
+        _end_group(process, 10)
     with contextlib.suppress(ProcessLookupError):  # content processes left behind by a crash
         os.killpg(process.pid, signal.SIGKILL)

@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from io import BytesIO
 from typing import Any
+
+from tests.waiting import wait_for
 
 
 def picture(png: bytes) -> Any:
@@ -31,3 +34,10 @@ def changed_pixels(before: Any, after: Any) -> int:
         return int(before.width * before.height)
     diff = ImageChops.difference(before, after).convert("L")
     return sum(diff.point(lambda v: 255 if v > 30 else 0).histogram()[255:])
+
+
+def wait_for_moving_plot(shoot: Callable[[], Any], timeout: float) -> None:
+    """Waits until rerun's viewer (pictured by ``shoot``) draws plot lines, then until they move with new data."""
+    before = wait_for(lambda: (p := shoot(), coloured_pixels(p) > 2000)[1] and p, timeout, 1.0,
+                      "plot lines drawn in the rerun viewer")
+    wait_for(lambda: changed_pixels(before, shoot()) > 200, 30.0, 1.0, "the plots following new data")

@@ -20,7 +20,7 @@ import schemas
 from tests import firefox_bidi
 from tests.conftest import REPO
 from tests.firefox_bidi import FIREFOX, FirefoxBidi, LogEntry
-from tests.pictures import changed_pixels, coloured_pixels, picture
+from tests.pictures import picture, wait_for_moving_plot
 from tests.running_demo import DashboardObserver, RunningDemo, running_demo
 from tests.waiting import wait_for
 
@@ -111,8 +111,8 @@ def _check_no_errors(ff: FirefoxBidi) -> None:
 
 
 def _scroll_to(ff: FirefoxBidi, panel: str) -> None:
-    """Brings a panel into the viewport: firefox does not animate an iframe out of sight (rerun then stays
-    blank); where the panels land depends on their content."""
+    """Brings a panel into the viewport: firefox does not draw an iframe out of sight, and where the panels land
+    depends on their content."""
     ff.evaluate(f"document.querySelector('section[data-panel=\"{panel}\"]').scrollIntoView({{block: 'center'}})")
 
 
@@ -248,11 +248,7 @@ def test_3d_robot_and_plots_in_firefox(demo: RunningDemo, display: str | None, f
     # viewer has drawn.
     _scroll_to(ff, "plots")
     wait_for(lambda: httpx.get(f"{demo.url}/api/plots", timeout=5).json()["logged"] > 50, timeout, 0.5, "plots fed")
-    shot = OUTPUT / "plots.png"
-    before = wait_for(lambda: (p := _picture(ff, "plots", shot), coloured_pixels(p) > 2000)[1] and p, timeout,
-                      1.0, "plot lines drawn in the rerun viewer")
-    wait_for(lambda: changed_pixels(before, _picture(ff, "plots", shot)) > 200, 30.0, 1.0,
-             "the plots following new data")
+    wait_for_moving_plot(lambda: _picture(ff, "plots", OUTPUT / "plots.png"), timeout)
     plots = ff.evaluate(WEBGL_CANVAS, frame=frames["plots"])
     assert plots["webgl"] == 2 and plots["width"] > 300, plots
 

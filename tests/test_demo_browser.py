@@ -21,7 +21,7 @@ import pytest
 
 import schemas
 from tests.conftest import REPO, launch_chromium
-from tests.pictures import changed_pixels, coloured_pixels, picture
+from tests.pictures import picture, wait_for_moving_plot
 from tests.running_demo import DashboardObserver, RunningDemo, cpu_by_process, running_demo
 from tests.waiting import wait_for
 
@@ -169,11 +169,7 @@ def test_every_panel_shows_the_live_demo(demo: RunningDemo, page: Any) -> None:
         # the plots: rerun's viewer draws the lines of what the server logs (coloured pixels), following new data
         plots = page.locator('section[data-panel="plots"]')
         plots.scroll_into_view_if_needed()
-        shot = OUTPUT / "plots.png"
-        before = wait_for(lambda: (p := picture(plots.screenshot(path=str(shot))), coloured_pixels(p) > 2000)[1]
-                          and p, timeout, 1.0, "plot lines drawn in the rerun viewer")
-        wait_for(lambda: changed_pixels(before, picture(plots.screenshot(path=str(shot)))) > 200, 30.0, 1.0,
-                 "the plots following new data")
+        wait_for_moving_plot(lambda: picture(plots.screenshot(path=str(OUTPUT / "plots.png"))), timeout)
         # any topic plotted whole: chosen in the panel's bar, the server logs every number of it
         plots.locator('[data-role="topic"]').select_option("gamestate")
         plots.locator('[data-act="add"]').click()

@@ -3,8 +3,11 @@
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import time
+from collections.abc import AsyncIterator
 from pathlib import Path
+from typing import Any
 
 import httpx
 import numpy as np
@@ -81,17 +84,30 @@ def test_robot3d_missing_urdf_is_reported_not_raised(tmp_path: Path) -> None:
     asyncio.run(main())
 
 
-@pytest.mark.slow
-def test_plots_feed_rerun_and_serve_the_viewer() -> None:
+def _plots_config(plots_max_hz: float) -> ServerConfig:
+    return ServerConfig(plots=True, plots_web_port=free_port(), plots_grpc_port=free_port(), plots_max_hz=plots_max_hz)
+
+
+@contextlib.asynccontextmanager
+async def _running_feed(config: ServerConfig) -> AsyncIterator[tuple[Hub, Any]]:
+    """A hub and a started PlotFeed on it (real rerun gRPC and viewer servers), stopped afterwards."""
     from server.plots import PlotFeed
 
-    config = ServerConfig(plots=True, plots_web_port=free_port(), plots_grpc_port=free_port(), plots_max_hz=50)
+    hub = Hub()
+    feed = PlotFeed(hub, config)
+    await feed.start()
+    try:
+        yield hub, feed
+    finally:
+        await feed.stop()
+
+
+@pytest.mark.slow
+def test_plots_feed_rerun_and_serve_the_viewer() -> None:
+    config = _plots_config(plots_max_hz=50)
 
     async def main() -> None:
-        hub = Hub()
-        feed = PlotFeed(hub, config)
-        await feed.start()
-        try:
+        async with _running_feed(config) as (hub, feed):
             for i in range(20):
                 hub.publish(joint_states(["HeadPan"], [0.01 * i]))
                 await asyncio.sleep(0.005)
@@ -107,8 +123,6 @@ def test_plots_feed_rerun_and_serve_the_viewer() -> None:
             assert feed.topics == {"r1": []} and not feed.chosen
             viewer = await asyncio.to_thread(httpx.get, f"http://127.0.0.1:{config.plots_web_port}/", timeout=10)
             assert viewer.status_code == 200
-        finally:
-            await feed.stop()
 
     asyncio.run(main())
 
@@ -177,23 +191,15 @@ def test_state_lanes_name_the_hcm_and_game_states() -> None:
 @pytest.mark.slow
 def test_plots_log_every_state_change_however_short_and_only_changes() -> None:
     """Numbers are thinned to plots_max_hz; a state held for 5 ms (FALLING) must still reach its lane."""
-    from server.plots import PlotFeed
-
     hcm = schemas.constants("humanoid_league_msgs/msg/RobotControlState")
-    config = ServerConfig(plots=True, plots_web_port=free_port(), plots_grpc_port=free_port(), plots_max_hz=1)
 
     async def main() -> None:
-        hub = Hub()
-        feed = PlotFeed(hub, config)
-        await feed.start()
-        try:
+        async with _running_feed(_plots_config(plots_max_hz=1)) as (hub, feed):
             for name in ("CONTROLLABLE", "CONTROLLABLE", "FALLING", "FALLEN", "FALLEN", "GETTING_UP", "CONTROLLABLE"):
                 hub.publish(_robot_state(hcm[name]))
                 await asyncio.sleep(0.005)
             await _until(lambda: feed.logged >= 7)
             assert feed.state_changes == 5, feed.status()
-        finally:
-            await feed.stop()
 
     asyncio.run(main())
 
