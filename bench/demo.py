@@ -29,7 +29,7 @@ from tests.running_demo import DashboardObserver, cpu_by_process, running_demo
 
 def open_dashboard(pw: Any, url: str) -> Any:
     browser = launch_chromium(pw)
-    page = browser.new_page(viewport={"width": 1600, "height": 2000})
+    page = browser.new_page(bypass_csp=True, viewport={"width": 1600, "height": 2000})
     page.set_default_timeout(120_000)
     page.goto(url)
     page.wait_for_function("window.pitchside?.layout")

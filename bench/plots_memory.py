@@ -39,7 +39,7 @@ WARM_UP_S = 60.0
 def open_page(pw: Any, url: str, panel: str) -> tuple[Any, Any]:
     """A chromium showing only one panel of the dashboard."""
     browser = launch_chromium(pw)
-    page = browser.new_page(viewport={"width": 1600, "height": 900})
+    page = browser.new_page(bypass_csp=True, viewport={"width": 1600, "height": 900})
     page.set_default_timeout(120_000)
     page.goto(url)
     page.wait_for_function("window.pitchside?.layout")

@@ -83,7 +83,7 @@ def run_sender(endpoint: str, seconds: float, image_max_width: int) -> tuple[flo
     cmd = [sys.executable, "-m", "robot_nodes.telemetry", "--robot-id", "bench1", "--connect", endpoint,
            "--log-level", "ERROR", "--set", f"destination=127.0.0.1:{counter.port}",
            "--set", "budget_bytes_per_s=20000000", "--set", f"topics={topics}",
-           "--set", f"image_max_width={image_max_width}"]
+           "--set", f"image_max_width={image_max_width}", "--set", "allow_dev_key=true"]
     proc = subprocess.Popen(cmd, cwd=REPO, env={**os.environ, "PYTHONWARNINGS": "ignore"})
     try:
         deadline = time.monotonic() + 30

@@ -19,6 +19,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "record": ("pitchside.record", "start/stop/list recordings of a running dashboard server"),
     "replay": ("pitchside.replay", "the dashboard with an MCAP log (pitchside or ROS 2 bag) in the replay source"),
     "export-rerun": ("pitchside.export_rerun", "a log's numeric fields as rerun scalars (.rrd)"),
+    "telemetry-key": ("robot_nodes.telemetry.keygen", "a new team key for telemetry (robots and the match dashboard)"),
 }
 
 

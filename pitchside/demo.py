@@ -7,13 +7,17 @@ from __future__ import annotations
 
 import argparse
 import logging
+import os
 import socket
 import sys
+import tempfile
 from pathlib import Path
 
 from pitchside.robot import MOTION_NODES, available, robot_nodes
 from robot_nodes.launch import Launcher, NodeProcess, run_until_signal
 from robot_nodes.runtime.bus import open_router
+from robot_nodes.telemetry.datagram import write_new_key
+from server.security.credentials import ENV_TOKEN, new_token
 
 REPO = Path(__file__).resolve().parents[1]
 log = logging.getLogger("pitchside.demo")
@@ -38,8 +42,12 @@ def free_port(preferred: int, kind: int = socket.SOCK_STREAM) -> int:
 
 def demo_processes(robots: int, endpoint: str, http_port: int, telemetry_port: int, model: str,
                    match: bool, gc_ports: list[int], gc_return_port: int,
-                   view_ports: tuple[int, int, int] = (8081, 9090, 9876)) -> list[NodeProcess]:
-    """Every process of the demo; view_ports: the 3D view's, the plots viewer's and rerun's gRPC port."""
+                   view_ports: tuple[int, int, int] = (8081, 9090, 9876), token: str = "",
+                   telemetry_key: Path | None = None) -> list[NodeProcess]:
+    """Every process of the demo; view_ports: the 3D view's, the plots viewer's and rerun's gRPC port.
+
+    token: the dashboard's control token (handed over in the environment, not on the command line where other
+    users of the machine see it); telemetry_key: a key file the robots and the dashboard share."""
     py = sys.executable
     connect = ["--connect", endpoint]
     processes = [NodeProcess("world", [py, "-m", "robot_nodes.cm730.sim", "--robots", str(robots),
@@ -50,7 +58,9 @@ def demo_processes(robots: int, endpoint: str, http_port: int, telemetry_port: i
         extra = {
             "game_controller": ["--set", f"player_number={i}", "--set", f"listen_port={gc_ports[i - 1]}",
                                 "--set", f"return_port={gc_return_port}"],
-            "telemetry": ["--set", f"destination=127.0.0.1:{telemetry_port}"],
+            "telemetry": ["--set", f"destination=127.0.0.1:{telemetry_port}",
+                          *(["--set", f"team_key={telemetry_key}"] if telemetry_key else
+                            ["--set", "allow_dev_key=true"])],
         }
         processes += robot_nodes(robot_id, [endpoint], model, per_robot, extra)
     gc = [py, "-m", "robot_nodes.game_controller.simulator", "--players-per-team", str(max(robots, 4)),
@@ -62,9 +72,10 @@ def demo_processes(robots: int, endpoint: str, http_port: int, telemetry_port: i
               "--urdf", str(REPO / "robots" / model / "urdf" / f"{model}.urdf"), "--robot3d", "--plots", *connect,
               "--robot3d-port", str(view_ports[0]), "--plots-port", str(view_ports[1]),
               "--plots-grpc-port", str(view_ports[2])]
+    server += ["--telemetry-key", str(telemetry_key)] if telemetry_key else ["--allow-dev-key"]
     if match:
         server.append("--match")
-    processes.append(NodeProcess("server", server))
+    processes.append(NodeProcess("server", server, env={ENV_TOKEN: token} if token else {}))
     return processes
 
 
@@ -82,15 +93,20 @@ def main(argv: list[str] | None = None) -> None:
     gc_ports = [free_port(3838 + i, socket.SOCK_DGRAM) for i in range(args.robots)]
     gc_return_port = free_port(3939, socket.SOCK_DGRAM)
     view_ports = (free_port(8081), free_port(9090), free_port(9876))
-    router = open_router([endpoint])
-    launcher = Launcher(demo_processes(args.robots, endpoint, http_port, telemetry_port, args.model, args.match,
-                                       gc_ports, gc_return_port, view_ports))
-    print(f"\n  pitchside demo: open http://127.0.0.1:{http_port}/  (Zenoh router {endpoint}; Ctrl-C stops)\n",
-          flush=True)
-    try:
-        run_until_signal(launcher)
-    finally:
-        router.close()
+    token = os.environ.get(ENV_TOKEN) or new_token()
+    with tempfile.TemporaryDirectory(prefix="pitchside-demo-") as keys:
+        # a fresh team key per demo: the robots' telemetry and the dashboard share it, nobody else has it
+        key_file = Path(keys) / "telemetry.key"
+        write_new_key(key_file)
+        router = open_router([endpoint])
+        launcher = Launcher(demo_processes(args.robots, endpoint, http_port, telemetry_port, args.model, args.match,
+                                           gc_ports, gc_return_port, view_ports, token, key_file))
+        print(f"\n  pitchside demo: open http://127.0.0.1:{http_port}/?token={token}  (the link signs the browser "
+              f"in; Zenoh router {endpoint}; Ctrl-C stops)\n", flush=True)
+        try:
+            run_until_signal(launcher)
+        finally:
+            router.close()
 
 
 if __name__ == "__main__":

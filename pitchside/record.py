@@ -10,17 +10,34 @@ serve`` or ``pitchside demo``); matches are recorded automatically per half with
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 from typing import Any
+from urllib.parse import urlsplit
 
 import httpx
+
+from server.security.credentials import ENV_TOKEN
+from server.security.token_file import read_token_file
 
 DEFAULT_SERVER = "http://127.0.0.1:8080"
 
 
+def server_token(server: str, given: str | None) -> str | None:
+    """--token, else $PITCHSIDE_TOKEN, else what a server of this user on this machine left for its port."""
+    if given or os.environ.get(ENV_TOKEN):
+        return given or os.environ[ENV_TOKEN]
+    parts = urlsplit(server)
+    if parts.hostname not in ("127.0.0.1", "localhost", "::1"):
+        return None
+    left = read_token_file(parts.port or 80)
+    return str(left["token"]) if left else None
+
+
 def _request(args: argparse.Namespace, method: str, path: str, body: dict[str, Any] | None = None) -> Any:
-    headers = {"Authorization": f"Bearer {args.token}"} if args.token else {}
+    token = server_token(args.server, args.token)
+    headers = {"Authorization": f"Bearer {token}"} if token else {}
     try:
         response = httpx.request(method, f"{args.server.rstrip('/')}/api/recordings{path}", json=body,
                                  headers=headers, timeout=30)
@@ -50,7 +67,9 @@ def main(argv: list[str] | None = None) -> None:
                    help="follow: start, print progress until Ctrl-C, then stop")
     p.add_argument("name", nargs="?", default="", help="recording name (start, follow) or bookmark name")
     p.add_argument("--server", default=DEFAULT_SERVER, help=f"dashboard URL (default {DEFAULT_SERVER})")
-    p.add_argument("--token", default=None, help="control token when the server listens beyond loopback")
+    p.add_argument("--token", default=None,
+                   help=f"the server's token (default: ${ENV_TOKEN}, else the one a server of yours on this machine "
+                        "left for the command line)")
     args = p.parse_args(sys.argv[1:] if argv is None else argv)
     if args.action == "start":
         print(_describe(_request(args, "POST", "/start", {"name": args.name})))

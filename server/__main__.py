@@ -9,12 +9,23 @@ from pathlib import Path
 
 from robot_nodes.runtime.bus import BusConfig
 from server.config import RobotDescription, ServerConfig
+from server.security.credentials import ENV_TOKEN
+from server.security.token_file import remove_token_file, write_token_file
 
 
 def arguments() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m server", description="pitchside dashboard server")
-    p.add_argument("--host", default="127.0.0.1", help="bind address (default 127.0.0.1; others need a token)")
+    p.add_argument("--host", default="127.0.0.1",
+                   help="bind address (default 127.0.0.1; beyond loopback, reading data needs the token too)")
     p.add_argument("--port", type=int, default=8080)
+    p.add_argument("--allow-host", action="append", default=[], metavar="NAME",
+                   help="another name the dashboard is reached by (Host header; loopback names and, beyond "
+                        "loopback, this machine's addresses and names are always allowed)")
+    p.add_argument("--allow-origin", action="append", default=[], metavar="URL",
+                   help="another web origin (e.g. http://laptop2:8080) whose pages may use this server")
+    p.add_argument("--allow-folder", action="append", default=[], metavar="DIR",
+                   help="a folder replay may open logs from and the animation editor may edit in (besides "
+                        "recordings/ and robots/)")
     p.add_argument("--match", action="store_true",
                    help="match mode: send nothing to robots (telemetry only, no Zenoh, control answers 403)")
     p.add_argument("--connect", action="append", default=None, help="Zenoh endpoint of the team (repeatable)")
@@ -23,8 +34,14 @@ def arguments() -> argparse.ArgumentParser:
     p.add_argument("--no-telemetry", action="store_true", help="do not listen for UDP telemetry")
     p.add_argument("--telemetry-host", default="0.0.0.0")
     p.add_argument("--telemetry-port", type=int, default=5800)
-    p.add_argument("--telemetry-key", default=None, help="team telemetry key (hex or a file; default: dev key)")
-    p.add_argument("--token", default=None, help="control token (default: random, printed, when not on loopback)")
+    p.add_argument("--telemetry-key", default=None,
+                   help="team telemetry key (a file made by `pitchside telemetry-key`, or hex; default: the "
+                        "published development key, which --match refuses)")
+    p.add_argument("--allow-dev-key", action="store_true",
+                   help="let --match run with the published development telemetry key (anyone can forge it)")
+    p.add_argument("--token", default=None,
+                   help=f"control token (default: ${ENV_TOKEN}, else a new random one); prefer the variable, "
+                        "arguments are visible to other users of the machine")
     p.add_argument("--robot3d", action="store_true", help="serve the 3D robot view (viser)")
     p.add_argument("--robot3d-port", type=int, default=8081)
     p.add_argument("--urdf", action="append", default=[], metavar="[ROBOT=]PATH",
@@ -65,6 +82,8 @@ def config_from(args: argparse.Namespace) -> ServerConfig:
         descriptions["*"] = RobotDescription(packages=packages)
     try:
         return ServerConfig(match_mode=args.match, host=args.host, port=args.port, token=args.token, bus=bus,
+                            allowed_hosts=args.allow_host, allowed_origins=args.allow_origin,
+                            allowed_folders=[Path(f) for f in args.allow_folder], allow_dev_key=args.allow_dev_key,
                             live_source=False if (args.no_live or args.match) else None,
                             telemetry_source=not args.no_telemetry, telemetry_host=args.telemetry_host,
                             telemetry_port=args.telemetry_port, telemetry_key=args.telemetry_key, robot3d=args.robot3d,
@@ -76,14 +95,30 @@ def config_from(args: argparse.Namespace) -> ServerConfig:
         raise SystemExit(str(exc)) from None
 
 
-def start_banner(config: ServerConfig) -> str:
+def dashboard_url(config: ServerConfig) -> str:
     shown = "127.0.0.1" if config.host in ("0.0.0.0", "::") else config.host
-    lines = [f"pitchside dashboard: http://{shown}:{config.port}/"]
+    shown = f"[{shown}]" if ":" in shown else shown
+    return f"http://{shown}:{config.port}/"
+
+
+def start_banner(config: ServerConfig) -> str:
+    """The link carries the token: opening it signs the browser in (an HttpOnly cookie) and drops it from the URL."""
+    lines = [f"pitchside dashboard: {dashboard_url(config)}?token={config.token}"]
     if config.match_mode:
         lines.append("MATCH MODE: telemetry only, nothing is sent to robots, control is off")
-    if config.needs_token:
-        lines.append(f"control token: {config.token}  (header 'Authorization: Bearer <token>' or ?token=)")
+        lines.append(f"telemetry key: {telemetry_key_name(config)}")
+    lines.append(f"control token: {config.token}  (scripts: header 'Authorization: Bearer <token>'; "
+                 "`pitchside record` on this machine finds it by itself)")
+    if config.beyond_loopback:
+        lines.append("listening beyond loopback: reading data needs the token too")
     return "\n".join(lines)
+
+
+def telemetry_key_name(config: ServerConfig) -> str:
+    from robot_nodes.telemetry.datagram import key_fingerprint, load_key
+
+    name = key_fingerprint(load_key(config.telemetry_key))
+    return "the published development key (anyone can forge it)" if name == "development" else f"team {name}"
 
 
 def serve(argv: list[str] | None = None) -> None:
@@ -100,9 +135,17 @@ def serve(argv: list[str] | None = None) -> None:
     config.replay_file = Path(args.replay) if args.replay else None
     app = create_app(config)
     print(start_banner(config), flush=True)
-    # an open browser holds endless streams (parameter events): on SIGTERM/Ctrl-C wait for them at most 2 s
-    uvicorn.run(app, host=config.host, port=config.port, log_level=args.log_level.lower(), access_log=False,
-                timeout_graceful_shutdown=2)
+    try:
+        write_token_file(config.port, dashboard_url(config), config.token or "")
+    except OSError as exc:
+        logging.warning("token not left for the command line (%s): pass --token to `pitchside record`", exc)
+    # an open browser holds endless streams (parameter events): on SIGTERM/Ctrl-C wait for them at most 2 s.
+    # ws_max_size: a client frame larger than this is closed with 1009; smaller ones get an error frame.
+    try:
+        uvicorn.run(app, host=config.host, port=config.port, log_level=args.log_level.lower(), access_log=False,
+                    timeout_graceful_shutdown=2, ws_max_size=1 << 20)
+    finally:
+        remove_token_file(config.port)
 
 
 if __name__ == "__main__":

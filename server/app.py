@@ -11,12 +11,15 @@ from contextlib import asynccontextmanager
 from fastapi import FastAPI
 from fastapi.staticfiles import StaticFiles
 
+from robot_nodes.telemetry.datagram import key_fingerprint, load_key
 from server.config import ServerConfig
 from server.hub import Hub
 from server.recording.wiring import attach_recording
-from server.routers import animations, control, params, plots_viewer, robots, sources, teleop, ws
+from server.routers import animations, control, params, plots_viewer, robots, session, sources, teleop, ws
 from server.routers.recordings import router as recordings_router
 from server.routers.replay import router as replay_router
+from server.security import AllowedHosts, Credentials, VenueGuard, VenuePolicy
+from server.security.guard import normalized_origin
 from server.sources import SourceError, SourceSet
 from server.sources.live import LiveZenohSource
 from server.sources.telemetry import TelemetrySource
@@ -34,7 +37,7 @@ def create_app(config: ServerConfig) -> FastAPI:
         LiveZenohSource(hub, link),
         TelemetrySource(hub, config.telemetry_host, config.telemetry_port, config.telemetry_key),
     ])
-    state = ServerState(config, hub, source_set, link)
+    state = ServerState(config, hub, source_set, link, telemetry_key=key_fingerprint(load_key(config.telemetry_key)))
 
     @asynccontextmanager
     async def lifespan(_app: FastAPI) -> AsyncIterator[None]:
@@ -57,15 +60,34 @@ def create_app(config: ServerConfig) -> FastAPI:
             await source_set.stop_all()
             await asyncio.to_thread(link.close)
 
-    app = FastAPI(title="pitchside dashboard", lifespan=lifespan)
+    # no /docs or /redoc: their pages load scripts from a CDN (offline, and against the page's CSP)
+    app = FastAPI(title="pitchside dashboard", lifespan=lifespan, docs_url=None, redoc_url=None)
     app.state.pitchside = state
+    app.add_middleware(VenueGuard, policy=venue_policy(config))
     recording = attach_recording(app, state)
     app.include_router(recordings_router)
     app.include_router(replay_router)
-    for module in (robots, sources, control, params, animations, teleop, ws, plots_viewer):
+    for module in (session, robots, sources, control, params, animations, teleop, ws, plots_viewer):
         app.include_router(module.router)
     app.mount("/", StaticFiles(directory=config.web_dir, html=True), name="web")
     return app
+
+
+def venue_policy(config: ServerConfig) -> VenuePolicy:
+    """What the VenueGuard lets through, from the server's configuration (DESIGN.md section 11)."""
+    assert config.token, "ServerConfig always has a token after __post_init__"
+    origins = set()
+    for origin in config.allowed_origins:
+        normal = normalized_origin(origin)
+        if normal is None:
+            raise ValueError(f"--allow-origin {origin!r} is not an origin like http://laptop:8080")
+        origins.add(normal)
+    # the 3D view (viser) still runs on its own port: the page may frame it
+    frames = ["http://{host}:*"] if config.robot3d else []
+    return VenuePolicy(hosts=AllowedHosts(config.host, config.allowed_hosts),
+                       credentials=Credentials(config.token, config.port), allowed_origins=frozenset(origins),
+                       reads_need_credential=config.beyond_loopback, max_body_bytes=config.max_body_bytes,
+                       frame_sources=frames)
 
 
 async def _start_views(state: ServerState) -> None:

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import ipaddress
 import os
-import secrets
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from robot_nodes.runtime.bus import BusConfig
+from server.security.credentials import ENV_TOKEN, new_token
 
 REPO = Path(__file__).resolve().parents[1]
 DEFAULT_URDF = REPO / "robots" / "minibot" / "urdf" / "minibot.urdf"
@@ -35,13 +35,19 @@ class ServerConfig:
     match_mode: bool = False
     host: str = "127.0.0.1"
     port: int = 8080
+    # the control credential; None: $PITCHSIDE_TOKEN, else a new random one per start. Needed on loopback too.
     token: str | None = None
+    allowed_hosts: list[str] = field(default_factory=list)  # Host names besides loopback and this machine's own
+    allowed_origins: list[str] = field(default_factory=list)  # web origins besides the dashboard's own page
+    allowed_folders: list[Path] = field(default_factory=list)  # where replay may open logs, besides recordings
+    max_body_bytes: int = 4 << 20
     bus: BusConfig = field(default_factory=BusConfig)
     live_source: bool | None = None  # None: on outside match mode, off in match mode
     telemetry_source: bool = True
     telemetry_host: str = "0.0.0.0"
     telemetry_port: int = 5800  # robot_nodes.telemetry.datagram.DEFAULT_PORT
     telemetry_key: str | None = None  # team key (hex or a file); None: the development key
+    allow_dev_key: bool = False  # match mode with the published development key (refused unless set)
     queue_size: int = 2000  # frames per WebSocket client before the oldest are dropped
     stale_after_s: float = 1.5  # no message for this long: the robot (or stream) is shown stale
     lost_after_s: float = 5.0  # ... and lost
@@ -67,13 +73,25 @@ class ServerConfig:
         if self.match_mode and self.live_source:
             raise ValueError("match mode and the live Zenoh source exclude each other: in match mode the server "
                              "opens no Zenoh session (even a subscriber sends declarations to the robots)")
-        if self.needs_token and not self.token:
-            self.token = secrets.token_urlsafe(16)
+        if self.match_mode and not self.telemetry_key and not self.allow_dev_key:
+            raise ValueError("match mode needs the team's telemetry key (--telemetry-key FILE, made by `pitchside "
+                             "telemetry-key FILE`): with the published development key anyone at the venue can "
+                             "forge your robots' data. Pass --allow-dev-key to run with it anyway")
+        if not self.token:
+            self.token = os.environ.get(ENV_TOKEN) or new_token()
 
     @property
-    def needs_token(self) -> bool:
-        """Control needs a token unless the server is reachable from this machine only."""
+    def beyond_loopback(self) -> bool:
+        """Reachable from other machines: then reading data needs the credential too, not only control."""
         return not is_loopback(self.host)
+
+    @property
+    def replay_folders(self) -> list[Path]:
+        """Where replay opens logs: the recordings folder, folders given on the command line, --replay's folder."""
+        folders = [self.recordings_dir, *self.allowed_folders]
+        if self.replay_file is not None:
+            folders.append(self.replay_file.expanduser().resolve().parent)
+        return folders
 
     def description_for(self, robot: str) -> RobotDescription:
         return self.descriptions.get(robot) or self.descriptions.get("*") or RobotDescription()

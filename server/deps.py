@@ -1,12 +1,20 @@
-"""FastAPI dependencies: the server state, and the gate every control endpoint passes (match mode, token)."""
+"""FastAPI dependencies: the server state, and the gates of control endpoints (match mode, the credential).
+
+The VenueGuard middleware already refuses foreign hosts and origins and state-changing requests without the
+credential; these dependencies say, per endpoint, what it does: ``require_control`` for anything that talks to
+robots (refused in match mode), ``require_token`` for server switches that send nothing to robots. Both demand
+the credential whatever the method, so a GET that queries robots (their parameters) needs it too.
+"""
 
 from __future__ import annotations
 
-import secrets
+import re
 
 from fastapi import Depends, HTTPException
 from starlette.requests import HTTPConnection
 
+from robot_nodes.runtime.keys import NAME_RULE, is_valid_name
+from server.security import Credentials
 from server.state import ServerState
 from server.zenoh_link import MATCH_MODE_REASON
 
@@ -16,33 +24,47 @@ def get_state(conn: HTTPConnection) -> ServerState:
     return state
 
 
-def presented_token(conn: HTTPConnection) -> str | None:
-    auth = conn.headers.get("authorization", "")
-    scheme, _, value = auth.partition(" ")
-    if scheme.lower() == "bearer" and value:
-        return value.strip()
-    return conn.query_params.get("token")
+def credentials_of(state: ServerState) -> Credentials:
+    assert state.config.token, "ServerConfig always has a token after __post_init__"
+    return Credentials(state.config.token, state.config.port)
 
 
-def check_token(conn: HTTPConnection, state: ServerState) -> None:
-    """401 unless the caller shows the token (only when the server listens beyond loopback)."""
-    if not state.config.needs_token:
-        return
-    token = presented_token(conn)
-    if token is None or not secrets.compare_digest(token.encode(), (state.config.token or "").encode()):
-        raise HTTPException(401, "this server listens beyond loopback: control needs the token printed at "
-                                 "start-up (header 'Authorization: Bearer <token>' or '?token=')")
+def has_credential(conn: HTTPConnection, state: ServerState) -> bool:
+    return credentials_of(state).presented_by({k.lower(): v for k, v in conn.headers.items()})
+
+
+def check_credential(conn: HTTPConnection, state: ServerState) -> None:
+    """401 unless the caller shows the token (bearer) or the browser session cookie; on loopback too."""
+    if not has_credential(conn, state):
+        raise HTTPException(401, "control needs the credential: open the dashboard through the link printed at "
+                                 "start-up (it carries the token), or send 'Authorization: Bearer <token>'")
 
 
 def require_control(conn: HTTPConnection, state: ServerState = Depends(get_state)) -> ServerState:
-    """403 in match mode (whoever asks), else the token check."""
+    """403 in match mode (whoever asks), else the credential check."""
     if state.config.match_mode:
         raise HTTPException(403, MATCH_MODE_REASON)
-    check_token(conn, state)
+    check_credential(conn, state)
     return state
 
 
 def require_token(conn: HTTPConnection, state: ServerState = Depends(get_state)) -> ServerState:
-    """For server-side switches that send nothing to robots (sources): the token only."""
-    check_token(conn, state)
+    """For server-side switches that send nothing to robots (sources, recordings, replay): the credential only."""
+    check_credential(conn, state)
     return state
+
+
+def valid_robot(robot: str) -> str:
+    """A robot id from the URL becomes part of a Zenoh key: a wildcard or '/' in it would reach other robots."""
+    if not is_valid_name(robot):
+        raise HTTPException(422, f"bad robot id {robot!r}: {NAME_RULE}")
+    return robot
+
+
+_NODE = re.compile(r"^[A-Za-z0-9_]{1,64}$")
+
+
+def valid_node(node: str) -> str:
+    if not _NODE.match(node):
+        raise HTTPException(422, f"bad node name {node!r}: 1-64 letters, digits or '_'")
+    return node

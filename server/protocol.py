@@ -1,6 +1,6 @@
 """The browser wire protocol of the dashboard WebSocket ``/ws``: the one place both sides follow.
 
-Client -> server: JSON text frames.
+Client -> server: JSON text frames of at most 64 KiB, nested at most 32 deep; anything else gets an error frame.
 
     {"op": "subscribe",   "robot": "*" | "<robot id>", "topic": "*" | "<topic>" | "<glob>", "max_hz": 10}
     {"op": "unsubscribe", "robot": ..., "topic": ...}
@@ -47,8 +47,11 @@ import numpy as np
 
 from schemas.codec import typestore
 from server.hub import HubMessage
+from server.security.json_limits import JsonLimitError, loads_limited
 
 IMAGE_TYPES = frozenset({"sensor_msgs/msg/CompressedImage"})
+MAX_CLIENT_FRAME_BYTES = 64 << 10  # a request is ~100 bytes; anything far larger is not one of ours
+MAX_NAME = 200  # robot and topic patterns in requests
 _LEN = struct.Struct(">I")
 
 
@@ -79,11 +82,11 @@ ClientOp = SubscribeOp | UnsubscribeOp | PingOp
 
 
 def parse_client_frame(text: str) -> ClientOp:
-    """A validated client request, or ProtocolError saying what is wrong."""
+    """A validated client request, or ProtocolError saying what is wrong (also for JSON too large or too deep)."""
     try:
-        request = json.loads(text)
-    except ValueError as exc:
-        raise ProtocolError(f"not JSON: {exc}") from None
+        request = loads_limited(text, MAX_CLIENT_FRAME_BYTES)
+    except JsonLimitError as exc:
+        raise ProtocolError(str(exc)) from None
     if not isinstance(request, dict):
         raise ProtocolError("a request is a JSON object with an 'op'")
     op = request.get("op")
@@ -95,6 +98,8 @@ def parse_client_frame(text: str) -> ClientOp:
     topic = request.get("topic", "*")
     if not isinstance(robot, str) or not robot or not isinstance(topic, str) or not topic:
         raise ProtocolError("'robot' and 'topic' must be non-empty strings ('*' for all)")
+    if len(robot) > MAX_NAME or len(topic) > MAX_NAME:
+        raise ProtocolError(f"'robot' and 'topic' are at most {MAX_NAME} characters")
     if op == "unsubscribe":
         return UnsubscribeOp(op="unsubscribe", robot=robot, topic=topic)
     max_hz = request.get("max_hz", 0) or 0

@@ -18,3 +18,4 @@ class ServerState:
     sources: SourceSet
     link: ZenohLink
     views: dict[str, Any] = field(default_factory=dict)  # optional feeders: "robot3d", "plots"
+    telemetry_key: str = ""  # what the page shows of the key: "development" or a team key's fingerprint

@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import contextlib
+import functools
 import os
+import secrets
 import subprocess
 import sys
 from collections.abc import Iterator
@@ -21,10 +23,25 @@ class RunningServer:
     process: subprocess.Popen[bytes]
     port: int
     log: Path
+    token: str = ""
 
     @property
     def url(self) -> str:
         return f"http://127.0.0.1:{self.port}"
+
+    @property
+    def login_url(self) -> str:
+        """The page as the printed link opens it: the browser gets the session cookie and may control."""
+        return f"{self.url}/?token={self.token}"
+
+    @property
+    def auth(self) -> dict[str, str]:
+        return {"Authorization": f"Bearer {self.token}"}
+
+    @functools.cached_property
+    def http(self) -> httpx.Client:
+        """An HTTP client that shows the token, as a script or the CLI does."""
+        return httpx.Client(headers=self.auth, timeout=30.0)
 
     @property
     def ws_url(self) -> str:
@@ -48,15 +65,18 @@ def dashboard_server(args: list[str], log_dir: Path, host: str = "127.0.0.1") ->
     """Starts the server with ``args`` (plus --host/--port) and stops it with SIGTERM afterwards."""
     port = free_port()
     log = log_dir / f"server-{port}.log"
-    env = dict(os.environ, PYTHONUNBUFFERED="1")
+    token = secrets.token_urlsafe(12)
+    env = dict(os.environ, PYTHONUNBUFFERED="1", PITCHSIDE_TOKEN=token)
     with log.open("wb") as out:
         process = subprocess.Popen([sys.executable, "-m", "server", "--host", host, "--port", str(port), *args],
                                    cwd=REPO, stdout=out, stderr=subprocess.STDOUT, env=env)
-    running = RunningServer(process, port, log)
+    running = RunningServer(process, port, log, token)
     try:
         wait_for(lambda: _up(running.url, process, log), timeout=60.0, interval=0.1, what="dashboard server up")
         yield running
     finally:
+        if "http" in running.__dict__:
+            running.http.close()
         process.terminate()
         try:
             process.wait(10)

@@ -23,7 +23,7 @@ from server.protocol import unbatch
 from tests.conftest import REPO, free_port
 from tests.waiting import wait_for
 
-BANNER = re.compile(r"open (http://127\.0\.0\.1:\d+)/")
+BANNER = re.compile(r"open (http://127\.0\.0\.1:\d+)/\?token=(\S+)")
 
 
 @dataclass
@@ -31,6 +31,16 @@ class RunningDemo:
     process: subprocess.Popen[bytes]
     url: str
     log: Path
+    token: str = ""
+
+    @property
+    def login_url(self) -> str:
+        """The link the demo prints: opening it signs the browser in (session cookie), so it may control."""
+        return f"{self.url}/?token={self.token}"
+
+    @property
+    def auth(self) -> dict[str, str]:
+        return {"Authorization": f"Bearer {self.token}"}
 
     @property
     def ws_url(self) -> str:
@@ -45,16 +55,18 @@ class RunningDemo:
         return [root, *root.children(recursive=True)]
 
 
-def _up(process: subprocess.Popen[bytes], log: Path) -> str | None:
+def _up(process: subprocess.Popen[bytes], log: Path) -> tuple[str, str] | None:
+    """(url, token) once the printed dashboard answers."""
     if process.poll() is not None:
         raise AssertionError(f"demo exited with {process.returncode}:\n{log.read_text(errors='replace')}")
     match = BANNER.search(log.read_text(errors="replace"))
     if match is None:
         return None
     try:
-        return match.group(1) if httpx.get(f"{match.group(1)}/api/config", timeout=1.0).status_code == 200 else None
+        up = httpx.get(f"{match.group(1)}/api/config", timeout=1.0).status_code == 200
     except httpx.HTTPError:
         return None
+    return (match.group(1), match.group(2)) if up else None
 
 
 @contextlib.contextmanager
@@ -66,9 +78,9 @@ def running_demo(log_dir: Path, *args: str) -> Iterator[RunningDemo]:
         process = subprocess.Popen([sys.executable, "-m", "pitchside.cli", "demo", "--port", str(free_port()), *args],
                                    cwd=REPO, stdout=out, stderr=subprocess.STDOUT, env=env, start_new_session=True)
     try:
-        url = wait_for(lambda: _up(process, log), timeout=90.0, interval=0.2, what="demo dashboard up")
-        assert url is not None  # wait_for returns only a truthy value
-        yield RunningDemo(process, url, log)
+        found = wait_for(lambda: _up(process, log), timeout=90.0, interval=0.2, what="demo dashboard up")
+        assert found is not None  # wait_for returns only a truthy value
+        yield RunningDemo(process, found[0], log, found[1])
     finally:
         process.send_signal(signal.SIGTERM)
         try:

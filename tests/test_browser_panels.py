@@ -54,10 +54,10 @@ def scene(router_endpoint: str, stands: dict[str, SceneStand], tmp_path: Path) -
 def test_panels_show_live_data(browser: Any, scene: RunningServer, stands: dict[str, SceneStand],
                                bus: BusConfig) -> None:
     OUTPUT.mkdir(exist_ok=True)
-    page = browser.new_page(viewport={"width": 1600, "height": 2100})
+    page = browser.new_page(bypass_csp=True, viewport={"width": 1600, "height": 2100})
     errors: list[str] = []
     page.on("pageerror", lambda exc: errors.append(str(exc)))
-    page.goto(scene.url)
+    page.goto(scene.login_url)
     page.evaluate("localStorage.clear(); localStorage.setItem('pitchside.focus', 'r1')")
     page.reload()
     timeout = 30_000
@@ -137,8 +137,8 @@ def test_panels_show_live_data(browser: Any, scene: RunningServer, stands: dict[
 
 
 def test_layout_is_changed_and_remembered(browser: Any, scene: RunningServer) -> None:
-    page = browser.new_page(viewport={"width": 1400, "height": 2400})  # no scrolling while dragging
-    page.goto(scene.url)
+    page = browser.new_page(bypass_csp=True, viewport={"width": 1400, "height": 2400})  # no scrolling while dragging
+    page.goto(scene.login_url)
     page.evaluate("localStorage.clear()")
     page.reload()
     page.wait_for_selector('[data-panel="team"]')
@@ -189,8 +189,8 @@ def test_robot3d_panel_shows_viser(browser: Any, router_endpoint: str, bus: BusC
             "--urdf", str(wolfgang / "urdf" / "robot.urdf"), "--package", f"wolfgang_description={wolfgang}"]
     try:
         with dashboard_server(args, tmp_path) as server:
-            page = browser.new_page(viewport={"width": 1600, "height": 1100})
-            page.goto(server.url)
+            page = browser.new_page(bypass_csp=True, viewport={"width": 1600, "height": 1100})
+            page.goto(server.login_url)
             page.evaluate("localStorage.clear()")
             page.reload()
             src = page.get_attribute('[data-panel="robot3d"] iframe', "src")

@@ -46,11 +46,11 @@ def page(demo: RunningDemo) -> Iterator[Any]:
 
     with sync_playwright() as pw:
         browser = launch_chromium(pw)
-        page = browser.new_page(viewport={"width": 1600, "height": 2000})
+        page = browser.new_page(bypass_csp=True, viewport={"width": 1600, "height": 2000})
         page.errors = []
         page.on("pageerror", lambda exc: page.errors.append(str(exc)))
         page.set_default_timeout(60_000)
-        page.goto(demo.url)
+        page.goto(demo.login_url)
         page.wait_for_function("window.pitchside?.layout")
         # the WebGL views (software-rendered here, in the page's own renderer) come in after the data panels
         page.evaluate(f"""(views) => {{ localStorage.clear(); localStorage.setItem('pitchside.focus', '{ROBOT}');

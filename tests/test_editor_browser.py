@@ -8,7 +8,6 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-import httpx
 import numpy as np
 import pytest
 
@@ -47,17 +46,18 @@ def animation_node(bus: BusConfig, folder: Path) -> Iterator[AnimationNode]:
 
 @pytest.fixture
 def server(router_endpoint: str, tmp_path: Path, animation_node: AnimationNode) -> Iterator[RunningServer]:
-    args = ["--connect", router_endpoint, "--no-telemetry", "--robot3d", "--robot3d-port", str(free_port())]
+    args = ["--connect", router_endpoint, "--no-telemetry", "--robot3d", "--robot3d-port", str(free_port()),
+            "--allow-folder", str(tmp_path)]
     with dashboard_server(args, tmp_path) as running:
         yield running
 
 
 def editor_page(browser: Any, server: RunningServer) -> Any:
     """The dashboard with the animation editor alone, focused on the test's robot, and the wave file opened."""
-    page = browser.new_page(viewport={"width": 1400, "height": 2000})
+    page = browser.new_page(bypass_csp=True, viewport={"width": 1400, "height": 2000})
     page.errors = []
     page.on("pageerror", lambda exc: page.errors.append(str(exc)))
-    page.goto(server.url)
+    page.goto(server.login_url)
     page.evaluate(f"localStorage.clear(); localStorage.setItem('pitchside.focus', '{ROBOT}'); "
                   "localStorage.setItem('pitchside.layout', JSON.stringify({columns: 1, panels: ["
                   "{id: 'animation', w: 1, h: 8}]}))")
@@ -75,7 +75,7 @@ def keyframes(page: Any) -> list[dict[str, Any]]:
 
 
 def ghosts(server: RunningServer) -> dict[str, Any]:
-    return dict(httpx.get(f"{server.url}/api/robots/{ROBOT}/animation-ghosts", timeout=20).json())
+    return dict(server.http.get(f"{server.url}/api/robots/{ROBOT}/animation-ghosts", timeout=20).json())
 
 
 def wait_ghosts(server: RunningServer, want: list[int], selected: int, goals: list[dict[str, float]],
@@ -307,6 +307,6 @@ def test_joint_limit_and_servo_speed_warnings_and_preview(browser: Any, server: 
     click(page, "preview")
     page.wait_for_selector(f'{EDITOR} .lab-status:has-text("preview on {ROBOT}_preview")', timeout=TIMEOUT_MS)
     url = f"{server.url}/api/robots/{ROBOT}/animation-preview"
-    wait_for(lambda: httpx.get(url, timeout=20).json()["updates"] >= 5, 30.0, 0.2, "the preview ghost moved")
-    assert httpx.get(f"{server.url}/api/robot3d", timeout=20).json()["robots"] == {}
+    wait_for(lambda: server.http.get(url, timeout=20).json()["updates"] >= 5, 30.0, 0.2, "the preview ghost moved")
+    assert server.http.get(f"{server.url}/api/robot3d", timeout=20).json()["robots"] == {}
     assert not page.errors, page.errors

@@ -63,11 +63,11 @@ def page(server: RunningServer) -> Iterator[Any]:
 
     with sync_playwright() as pw:
         browser = launch_chromium(pw)
-        page: Any = browser.new_page(viewport={"width": 1400, "height": 1000})
+        page: Any = browser.new_page(bypass_csp=True, viewport={"width": 1400, "height": 1000})
         page.errors = []
         page.on("pageerror", lambda exc: page.errors.append(str(exc)))
         page.set_default_timeout(30_000)
-        page.goto(server.url)
+        page.goto(server.login_url)
         page.evaluate("localStorage.clear(); localStorage.setItem('pitchside.focus', 'walker')")
         page.reload()
         page.wait_for_function("window.pitchside?.fieldView")

@@ -7,7 +7,6 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-import httpx
 import pytest
 import zenoh
 
@@ -28,15 +27,16 @@ RECORD_STATE = 9  # RobotControlState of HCM RECORD
 
 @pytest.fixture
 def server(router_endpoint: str, tmp_path: Path) -> Iterator[RunningServer]:
-    with dashboard_server(["--connect", router_endpoint, "--no-telemetry"], tmp_path) as running:
+    with dashboard_server(["--connect", router_endpoint, "--no-telemetry", "--allow-folder", str(tmp_path)],
+                          tmp_path) as running:
         yield running
 
 
 def _page(browser: Any, server: RunningServer, robot: str) -> Any:
-    page = browser.new_page(viewport={"width": 1600, "height": 2400})
+    page = browser.new_page(bypass_csp=True, viewport={"width": 1600, "height": 2400})
     page.errors = []
     page.on("pageerror", lambda exc: page.errors.append(str(exc)))
-    page.goto(server.url)
+    page.goto(server.login_url)
     page.evaluate(f"localStorage.clear(); localStorage.setItem('pitchside.focus', '{robot}'); "
                   "localStorage.setItem('pitchside.layout', JSON.stringify({columns: 2, panels: ["
                   "{id: 'parameters', w: 1, h: 5}, {id: 'animation', w: 1, h: 6}, {id: 'teleop', w: 1, h: 2}]}))")
@@ -111,7 +111,7 @@ def _wait_pose(server: RunningServer, robot: str, goals: dict[str, float], toler
     seen: dict[str, Any] = {}
 
     def near() -> bool:
-        pose = httpx.get(f"{server.url}/api/robots/{robot}/record/pose", timeout=20)
+        pose = server.http.get(f"{server.url}/api/robots/{robot}/record/pose", timeout=20)
         if pose.status_code != 200:
             return False
         seen.update({j: pose.json()["positions"].get(j, float("nan")) for j in goals}, age_s=pose.json()["age_s"])
@@ -183,7 +183,7 @@ def test_record_save_reload_and_play_on_the_simulated_robot(browser: Any, server
         page.wait_for_selector(f'{editor} .lab-status:has-text("playing lab_wave")', timeout=60_000)
 
         def played() -> bool:
-            return httpx.get(f"{server.url}/api/robots/r1/animation-play", timeout=20).json().get("status") == \
+            return server.http.get(f"{server.url}/api/robots/r1/animation-play", timeout=20).json().get("status") == \
                 "SUCCEEDED"
 
         wait_for(played, 60.0, 0.2, "the animation played to its end")

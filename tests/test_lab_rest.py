@@ -35,7 +35,8 @@ MINIBOT = REPO / "robots" / "minibot"
 
 @pytest.fixture
 def server(router_endpoint: str, tmp_path: Path) -> Iterator[RunningServer]:
-    with dashboard_server(["--connect", router_endpoint, "--no-telemetry"], tmp_path) as running:
+    with dashboard_server(["--connect", router_endpoint, "--no-telemetry", "--allow-folder", str(tmp_path)],
+                          tmp_path) as running:
         yield running
 
 
@@ -65,38 +66,38 @@ def test_parameters_set_refuse_conflict_diff_reset_save(server: RunningServer, b
     hcm = HcmNode("r1", bus, params_file=params_file).start()
     url = f"{server.url}/api/robots/r1"
     try:
-        nodes = httpx.get(f"{url}/params", timeout=20).json()
+        nodes = server.http.get(f"{url}/params", timeout=20).json()
         described = {p["name"]: p for p in nodes["hcm"]}
         gyro = described["falling_gyro_pitch"]
         assert gyro["range"] == [0.5, 30.0] and gyro["value"] == 7.0 and gyro["doc"]
 
         based_on = {"falling_gyro_pitch": gyro["revision"]}
-        reply = httpx.post(f"{url}/params/hcm", json={"values": {"falling_gyro_pitch": 9.5}, "revisions": based_on},
-                           timeout=20)
+        reply = server.http.post(f"{url}/params/hcm",
+                                 json={"values": {"falling_gyro_pitch": 9.5}, "revisions": based_on}, timeout=20)
         assert reply.status_code == 200, reply.text
         assert ParameterClient(client, "r1").get("hcm", "falling_gyro_pitch") == 9.5
 
         # out of range: the node's own error, nothing changes
-        reply = httpx.post(f"{url}/params/hcm", json={"values": {"falling_gyro_pitch": 99.0}}, timeout=20)
+        reply = server.http.post(f"{url}/params/hcm", json={"values": {"falling_gyro_pitch": 99.0}}, timeout=20)
         assert reply.status_code == 422 and "out of range" in reply.json()["detail"]
         assert ParameterClient(client, "r1").get("hcm", "falling_gyro_pitch") == 9.5
 
         # a write based on the old revision (someone else wrote meanwhile) is refused
-        reply = httpx.post(f"{url}/params/hcm", json={"values": {"falling_gyro_pitch": 8.0}, "revisions": based_on},
-                           timeout=20)
+        reply = server.http.post(f"{url}/params/hcm",
+                                 json={"values": {"falling_gyro_pitch": 8.0}, "revisions": based_on}, timeout=20)
         assert reply.status_code == 409 and "changed meanwhile" in reply.json()["detail"]
         assert ParameterClient(client, "r1").get("hcm", "falling_gyro_pitch") == 9.5
 
-        diff = httpx.get(f"{url}/params/hcm/diff", timeout=20).json()
+        diff = server.http.get(f"{url}/params/hcm/diff", timeout=20).json()
         assert {"name": "falling_gyro_pitch", "live": 9.5, "yaml": 7.0, "from": "default"} in diff["changes"]
         assert diff["file"] == "robots/minibot/params.yaml"
-        assert httpx.get(f"{url}/params/hcm/diff?model=../etc", timeout=20).status_code == 404
+        assert server.http.get(f"{url}/params/hcm/diff?model=../etc", timeout=20).status_code == 404
 
-        saved = httpx.post(f"{url}/params/hcm/save", timeout=20).json()
+        saved = server.http.post(f"{url}/params/hcm/save", timeout=20).json()
         assert Path(saved["path"]) == params_file
         assert yaml.safe_load(params_file.read_text())["hcm"]["falling_gyro_pitch"] == 9.5
 
-        reply = httpx.post(f"{url}/params/hcm/reset", json={"names": ["falling_gyro_pitch"]}, timeout=20)
+        reply = server.http.post(f"{url}/params/hcm/reset", json={"names": ["falling_gyro_pitch"]}, timeout=20)
         assert reply.status_code == 200 and reply.json()["changed"] == ["falling_gyro_pitch"]
         assert ParameterClient(client, "r1").get("hcm", "falling_gyro_pitch") == 7.0
     finally:
@@ -106,10 +107,10 @@ def test_parameters_set_refuse_conflict_diff_reset_save(server: RunningServer, b
 def test_teleop_sends_cmd_vel_while_held_and_zero_after(server: RunningServer, client: zenoh.Session) -> None:
     cmd_vel = Collector(client, "r2", "cmd_vel")
     url = f"{server.url}/api/robots/r2/teleop"
-    assert httpx.post(url, json={"x": 5.0}, timeout=20).status_code == 422  # beyond the limits
+    assert server.http.post(url, json={"x": 5.0}, timeout=20).status_code == 422  # beyond the limits
     started = time.monotonic()
     while time.monotonic() - started < 1.2:  # a held key: refreshed every 0.2 s
-        assert httpx.post(url, json={"x": 0.3, "yaw": -0.5, "hold_s": 0.5}, timeout=20).status_code == 200
+        assert server.http.post(url, json={"x": 0.3, "yaw": -0.5, "hold_s": 0.5}, timeout=20).status_code == 200
         time.sleep(0.2)
     wait_for(lambda: cmd_vel.snapshot() and cmd_vel.snapshot()[-1][1].linear.x == 0.0, 10.0,
              what="zero cmd_vel after the refreshes stopped")
@@ -119,9 +120,9 @@ def test_teleop_sends_cmd_vel_while_held_and_zero_after(server: RunningServer, c
     span = moving[-1][0] - moving[0][0]
     assert 3 <= len(moving) / max(span, 1e-3) <= 30  # about 10 Hz, loosely
     # released: an explicit stop sends zero at once
-    httpx.post(url, json={"x": 0.2, "hold_s": 2.0}, timeout=20)
+    server.http.post(url, json={"x": 0.2, "hold_s": 2.0}, timeout=20)
     wait_for(lambda: cmd_vel.snapshot()[-1][1].linear.x == 0.2, 10.0, what="moving again")
-    assert httpx.post(f"{url}/stop", timeout=20).status_code == 200
+    assert server.http.post(f"{url}/stop", timeout=20).status_code == 200
     wait_for(lambda: cmd_vel.snapshot()[-1][1].linear.x == 0.0, 10.0, what="zero after stop")
 
 
@@ -140,52 +141,53 @@ def test_animation_files_edits_record_and_play(server: RunningServer, bus: BusCo
     record_goals = Collector(client, "r3", "record_motor_goals")
     states = client.declare_publisher(topic_key("r3", "joint_states"))
     try:
-        listing = httpx.get(f"{url}/animations", timeout=30).json()
+        listing = server.http.get(f"{url}/animations", timeout=30).json()
         assert listing["folder"] == str(folder) and listing["animations"][0]["name"] == "walkready"
-        walkready = httpx.get(f"{url}/animations/walkready", timeout=20).json()
+        walkready = server.http.get(f"{url}/animations/walkready", timeout=20).json()
         assert walkready["animation"]["keyframes"][0]["goals"]["LKnee"] == 55.1
         assert walkready["check"]["ok"] and not walkready["check"]["warnings"]
-        assert httpx.get(f"{url}/animations/nothing", timeout=20).status_code == 404
-        assert httpx.get(f"{url}/animations/..%2Fsecret", timeout=20).status_code in (404, 422)
-        joints = httpx.get(f"{url}/animations/joints", timeout=20).json()["joints"]
+        assert server.http.get(f"{url}/animations/nothing", timeout=20).status_code == 404
+        assert server.http.get(f"{url}/animations/..%2Fsecret", timeout=20).status_code in (404, 422)
+        joints = server.http.get(f"{url}/animations/joints", timeout=20).json()["joints"]
         assert len(joints) == 20 and {"name": "HeadPan"}.items() <= joints[0].items()
 
         # upload a file (its text), with a bad one refused with the parser's reason
         text = (REPO.parent / "shared" / "testdata" / "animations" / "wolfgang_falling_front.json")
         upload = text.read_text() if text.exists() else json.dumps({"name": "up", "keyframes": []})
-        assert httpx.put(f"{url}/animations/uploaded", json={"text": upload}, timeout=20).status_code == 200
+        assert server.http.put(f"{url}/animations/uploaded", json={"text": upload}, timeout=20).status_code == 200
         assert (folder / "uploaded.json").exists()
-        bad = httpx.put(f"{url}/animations/broken", json={"text": '{"name": "x", "keyframes": [{"duration": -1}]}'},
-                        timeout=20)
+        bad = server.http.put(f"{url}/animations/broken",
+                              json={"text": '{"name": "x", "keyframes": [{"duration": -1}]}'}, timeout=20)
         assert bad.status_code == 422 and "keyframe 0" in bad.json()["detail"] and not (folder / "broken.json").exists()
 
         # edits run server-side through robot_nodes.animation.editing
         anim = {"name": "wave", "keyframes": [{"duration": 0.5, "goals": {"LShoulderRoll": 30.0}},
                                               {"duration": 0.5, "goals": {"LShoulderRoll": 0.0}}]}
-        mirrored = httpx.post(f"{url}/animation-edit", json={"animation": anim, "op": "mirror"}, timeout=20).json()
+        mirrored = server.http.post(f"{url}/animation-edit", json={"animation": anim, "op": "mirror"},
+                                    timeout=20).json()
         assert mirrored["animation"]["keyframes"][0]["goals"] == {"RShoulderRoll": -30.0}
-        dup = httpx.post(f"{url}/animation-edit", json={"animation": anim, "op": "duplicate", "index": 0},
+        dup = server.http.post(f"{url}/animation-edit", json={"animation": anim, "op": "duplicate", "index": 0},
                          timeout=20).json()["animation"]
         assert len(dup["keyframes"]) == 3
-        moved = httpx.post(f"{url}/animation-edit", json={"animation": anim, "op": "move", "index": 0,
+        moved = server.http.post(f"{url}/animation-edit", json={"animation": anim, "op": "move", "index": 0,
                                                           "new_index": 1}, timeout=20).json()["animation"]
         assert moved["keyframes"][0]["goals"] == {"LShoulderRoll": 0.0}
-        assert httpx.post(f"{url}/animation-edit", json={"animation": anim, "op": "delete", "index": 7},
+        assert server.http.post(f"{url}/animation-edit", json={"animation": anim, "op": "delete", "index": 7},
                           timeout=20).status_code == 422
         fast = {"name": "fast", "keyframes": [{"duration": 0.5, "goals": {"HeadPan": 0.0}},
                                               {"duration": 0.01, "goals": {"HeadPan": 170.0}}]}
-        warned = httpx.post(f"{url}/animation-check", json={"animation": fast}, timeout=20).json()
+        warned = server.http.post(f"{url}/animation-check", json={"animation": fast}, timeout=20).json()
         assert any("outside its limits" in w for w in warned["warnings"])
         assert any("deg/s" in w for w in warned["warnings"])
 
         # record: goals go out as record_motor_goals (held: torque 1, limp: torque 0 at the measured pose)
         measured = schemas.encode(_joint_states(["HeadPan", "LElbow", "LShoulderRoll"], [10.0, -20.0, 0.0]))
         wait_for(lambda: (states.put(measured) or
-                          httpx.get(f"{url}/record/pose", timeout=20).status_code == 200), 20.0, 0.2,
+                          server.http.get(f"{url}/record/pose", timeout=20).status_code == 200), 20.0, 0.2,
                  "joint_states in the hub")
-        pose = httpx.get(f"{url}/record/pose", timeout=20).json()["positions"]
+        pose = server.http.get(f"{url}/record/pose", timeout=20).json()["positions"]
         assert pose["HeadPan"] == pytest.approx(10.0) and pose["LElbow"] == pytest.approx(-20.0)
-        reply = httpx.post(f"{url}/record/goals", json={"positions": {"HeadPan": 25.0}, "limp": ["LElbow"]},
+        reply = server.http.post(f"{url}/record/goals", json={"positions": {"HeadPan": 25.0}, "limp": ["LElbow"]},
                            timeout=20)
         assert reply.status_code == 200, reply.text
         wait_for(lambda: record_goals.snapshot(), 10.0, what="record_motor_goals")
@@ -193,34 +195,36 @@ def test_animation_files_edits_record_and_play(server: RunningServer, bus: BusCo
         assert list(goal.joint_names) == ["HeadPan", "LElbow"]
         assert np.degrees(goal.points[0].positions) == pytest.approx([25.0, -20.0])
         assert list(goal.points[0].effort) == [1.0, 0.0]
-        assert httpx.post(f"{url}/record/goals", json={"limp": ["Tail"]}, timeout=20).status_code == 422
+        assert server.http.post(f"{url}/record/goals", json={"limp": ["Tail"]}, timeout=20).status_code == 422
 
         # save with author and last_edited, then play by name (the node loads the file)
-        saved = httpx.put(f"{url}/animations/wave", json={"animation": anim, "author": "lab test"}, timeout=20)
+        saved = server.http.put(f"{url}/animations/wave", json={"animation": anim, "author": "lab test"}, timeout=20)
         assert saved.status_code == 200, saved.text
         on_disk = load_animation(folder / "wave.json")
         assert on_disk.author == "lab test" and on_disk.last_edited.startswith(time.strftime("%Y-"))
-        played = httpx.post(f"{url}/animation-play", json={"file": "wave", "upto": 0, "retry_s": 0}, timeout=30)
+        played = server.http.post(f"{url}/animation-play", json={"file": "wave", "upto": 0, "retry_s": 0}, timeout=30)
         assert played.status_code == 200, played.text
         assert played.json()["animation"] == "_editor_preview" and played.json()["keyframes"] == 1
 
         def finished() -> bool:
-            return httpx.get(f"{url}/animation-play", timeout=20).json()["status"] == "SUCCEEDED"
+            return server.http.get(f"{url}/animation-play", timeout=20).json()["status"] == "SUCCEEDED"
 
         wait_for(finished, 20.0, 0.2, "the cut animation played to its end")
-        assert httpx.post(f"{url}/animation-play", json={"file": "nothing"}, timeout=30).status_code == 404
-        stopped = httpx.post(f"{url}/animation-stop", timeout=30).json()
+        assert server.http.post(f"{url}/animation-play", json={"file": "nothing"}, timeout=30).status_code == 404
+        stopped = server.http.post(f"{url}/animation-stop", timeout=30).json()
         assert stopped["canceled"] is False and "record_error" in stopped  # no HCM here: said, not failed
     finally:
         node.shutdown()
 
 
 def test_lab_endpoints_refused_in_match_mode(tmp_path: Path) -> None:
-    app = create_app(ServerConfig(match_mode=True, telemetry_source=False))
+    config = ServerConfig(match_mode=True, telemetry_source=False, allow_dev_key=True)
+    app = create_app(config)
     routes = [(method.upper(), path) for path, methods in app.openapi()["paths"].items()
               for method, op in methods.items() if LAB_TAGS & set(op.get("tags", []))]
     assert len(routes) >= 15, routes
-    with TestClient(app) as http:
+    # with the credential: match mode refuses whoever asks
+    with TestClient(app, base_url="http://127.0.0.1", headers={"Authorization": f"Bearer {config.token}"}) as http:
         for method, path in routes:
             concrete = path.replace("{robot}", "r1").replace("{node}", "hcm").replace("{file:path}", "wave")
             reply = http.request(method, concrete, json={})
@@ -235,16 +239,17 @@ def test_preview_drives_a_ghost_robot_in_the_3d_view(router_endpoint: str, tmp_p
     anim = {"name": "nod", "keyframes": [{"duration": 0.3, "goals": {"HeadTilt": -30.0}},
                                          {"duration": 0.3, "goals": {"HeadTilt": 0.0}}]}
     with dashboard_server(["--connect", router_endpoint, "--no-telemetry"], tmp_path) as plain:
-        reply = httpx.post(f"{plain.url}/api/robots/r4/animation-preview", json={"animation": anim}, timeout=20)
+        reply = plain.http.post(f"{plain.url}/api/robots/r4/animation-preview", json={"animation": anim}, timeout=20)
         assert reply.status_code == 409 and "3D view is off" in reply.json()["detail"]
     args = ["--connect", router_endpoint, "--no-telemetry", "--robot3d", "--robot3d-port", str(free_port())]
     with dashboard_server(args, tmp_path) as server:
         url = f"{server.url}/api/robots/r4/animation-preview"
-        reply = httpx.post(url, json={"animation": anim}, timeout=60)
+        reply = server.http.post(url, json={"animation": anim}, timeout=60)
         assert reply.status_code == 200, reply.text
         assert reply.json()["duration"] == pytest.approx(0.6)
-        wait_for(lambda: httpx.get(url, timeout=20).json()["updates"] >= 5, 30.0, 0.2, "the ghost robot moved")
-        assert httpx.get(f"{server.url}/api/robot3d", timeout=20).json()["robots"] == {}  # the real robot: untouched
+        wait_for(lambda: server.http.get(url, timeout=20).json()["updates"] >= 5, 30.0, 0.2, "the ghost robot moved")
+        # the real robot: untouched
+        assert server.http.get(f"{server.url}/api/robot3d", timeout=20).json()["robots"] == {}
 
 
 @pytest.mark.slow
@@ -259,10 +264,10 @@ def test_keyframe_ghosts_in_the_3d_view_hold_each_keyframes_pose(router_endpoint
     args = ["--connect", router_endpoint, "--no-telemetry", "--robot3d", "--robot3d-port", str(free_port())]
     with dashboard_server(args, tmp_path) as server:
         url = f"{server.url}/api/robots/r5/animation-ghosts"
-        reply = httpx.post(url, json={"animation": anim, "selected": 1}, timeout=60)
+        reply = server.http.post(url, json={"animation": anim, "selected": 1}, timeout=60)
         assert reply.status_code == 200, reply.text
         assert reply.json()["keyframes"] == [0, 1, 2]
-        status = httpx.get(url, timeout=20).json()
+        status = server.http.get(url, timeout=20).json()
         assert status["scene_nodes"] == [f"/r5_keyframes/ghost{i}" for i in range(3)]
         ghosts = status["ghosts"]
         assert [g["keyframe"] for g in ghosts] == [0, 1, 2] and all(g["exists"] for g in ghosts)
@@ -276,19 +281,19 @@ def test_keyframe_ghosts_in_the_3d_view_hold_each_keyframes_pose(router_endpoint
         assert ghosts[1]["opacity"] > ghosts[0]["opacity"] and ghosts[0]["opacity"] < 0.5  # faint, selected stronger
 
         # the animation changed (mirrored, only keyframe 2 and its neighbour wanted): the ghosts follow
-        mirrored = httpx.post(f"{server.url}/api/robots/r5/animation-edit", json={"animation": anim, "op": "mirror"},
-                              timeout=20).json()["animation"]
-        reply = httpx.post(url, json={"animation": mirrored, "keyframes": [1, 2, 7], "selected": 2}, timeout=60)
+        mirrored = server.http.post(f"{server.url}/api/robots/r5/animation-edit",
+                                    json={"animation": anim, "op": "mirror"}, timeout=20).json()["animation"]
+        reply = server.http.post(url, json={"animation": mirrored, "keyframes": [1, 2, 7], "selected": 2}, timeout=60)
         assert reply.json()["keyframes"] == [1, 2]
-        status = httpx.get(url, timeout=20).json()
+        status = server.http.get(url, timeout=20).json()
         assert status["scene_nodes"] == ["/r5_keyframes/ghost0", "/r5_keyframes/ghost1"]
         assert status["ghosts"][1]["joints"]["RShoulderPitch"] == pytest.approx(
             mirrored["keyframes"][2]["goals"]["RShoulderPitch"], abs=0.01)
         assert status["ghosts"][1]["joints"]["RShoulderPitch"] == pytest.approx(30.0, abs=0.01)
 
         # switched off: nothing of them stays in the scene
-        assert httpx.delete(url, timeout=20).json()["removed"] == 2
-        status = httpx.get(url, timeout=20).json()
+        assert server.http.delete(url, timeout=20).json()["removed"] == 2
+        status = server.http.get(url, timeout=20).json()
         assert status["ghosts"] == [] and status["scene_nodes"] == []
 
 
@@ -301,7 +306,8 @@ def test_parameter_events_follow_changes_made_anywhere(server: RunningServer, bu
     opened = threading.Event()
 
     def listen() -> None:
-        with httpx.stream("GET", f"{server.url}/api/robots/r6/params/*/events", timeout=60) as reply:
+        with httpx.stream("GET", f"{server.url}/api/robots/r6/params/*/events", headers=server.auth,
+                          timeout=60) as reply:
             assert reply.status_code == 200 and reply.headers["content-type"].startswith("text/event-stream")
             for line in reply.iter_lines():
                 opened.set()
@@ -327,7 +333,7 @@ def test_parameter_events_follow_changes_made_anywhere(server: RunningServer, bu
         hcm.parameters.set({"upright_deg": 35.0})  # the node changes its own parameter
         wait_for(lambda: len(events) >= 3, 20.0, 0.05, "the event of the node's own change")
         assert events[2] == {"node": "hcm", "changed": {"upright_deg": 35.0}, "revisions": {"upright_deg": 1}}
-        assert httpx.get(f"{server.url}/api/robots/r6/params/a*b/events", timeout=20).status_code == 422
+        assert server.http.get(f"{server.url}/api/robots/r6/params/a*b/events", timeout=20).status_code == 422
     finally:
         hcm.shutdown()
     reader.join(10)

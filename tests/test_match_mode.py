@@ -51,7 +51,7 @@ def test_match_mode_refuses_control_and_sends_nothing(router_endpoint: str, tmp_
     robot.bind(("127.0.0.1", 0))
     robot.settimeout(1.0)
     router_port = int(router_endpoint.rsplit(":", 1)[1])
-    args = ["--match", "--connect", router_endpoint, "--telemetry-host", "127.0.0.1",
+    args = ["--match", "--allow-dev-key", "--connect", router_endpoint, "--telemetry-host", "127.0.0.1",
             "--telemetry-port", str(telemetry_port)]
     try:
         with dashboard_server(args, tmp_path) as server:
@@ -62,11 +62,11 @@ def test_match_mode_refuses_control_and_sends_nothing(router_endpoint: str, tmp_
             listed = wait_for(lambda: httpx.get(f"{server.url}/api/robots").json(), 20.0, 0.1, "robot r7 listed")
             assert listed[0]["robot"] == "r7" and listed[0]["streams"]["overview"]["source"] == "telemetry"
 
-            for method, path, body in control_calls(server):
-                reply = httpx.request(method, server.url + path, json=body, timeout=10)
+            for method, path, body in control_calls(server):  # even with the credential
+                reply = server.http.request(method, server.url + path, json=body, timeout=10)
                 assert reply.status_code == 403, (method, path, reply.text)
                 assert "match mode" in reply.json()["detail"]
-            reply = httpx.post(f"{server.url}/api/sources/live", json={"enabled": True})
+            reply = server.http.post(f"{server.url}/api/sources/live", json={"enabled": True})
             assert reply.status_code == 403 and "match mode" in reply.json()["detail"]
             live = next(s for s in httpx.get(f"{server.url}/api/sources").json() if s["name"] == "live")
             assert live["running"] is False and live["zenoh_open"] is False
@@ -93,7 +93,8 @@ def _assert_only_listening(server: RunningServer, telemetry_port: int, router_po
 
 def test_websocket_hello_tells_match_mode(tmp_path: Path) -> None:
     websockets = pytest.importorskip("websockets.sync.client")
-    args = ["--match", "--telemetry-host", "127.0.0.1", "--telemetry-port", str(free_port(socket.SOCK_DGRAM))]
+    args = ["--match", "--allow-dev-key", "--telemetry-host", "127.0.0.1",
+            "--telemetry-port", str(free_port(socket.SOCK_DGRAM))]
     with dashboard_server(args, tmp_path) as server, websockets.connect(server.ws_url) as ws:
         hello = json.loads(ws.recv(timeout=10))
         assert hello["type"] == "hello" and hello["match_mode"] is True
@@ -116,12 +117,15 @@ def test_token_needed_off_loopback(router_endpoint: str, bus: BusConfig, tmp_pat
             reply = httpx.get(url, headers={"Authorization": f"Bearer {token}"}, timeout=15)
             assert reply.status_code == 200, reply.text
             assert {p["name"] for p in reply.json()} >= {"rate_hz", "image_hz"}
-            reply = httpx.post(url, params={"token": token}, json={"values": {"rate_hz": 5000}}, timeout=15)
+            bearer = {"Authorization": f"Bearer {token}"}
+            reply = httpx.post(url, headers=bearer, json={"values": {"rate_hz": 5000}}, timeout=15)
             assert reply.status_code == 422 and "rate_hz" in reply.json()["detail"]  # the node's own reason
-            reply = httpx.post(url, params={"token": token}, json={"values": {"rate_hz": 20.0}}, timeout=15)
+            reply = httpx.post(url, headers=bearer, json={"values": {"rate_hz": 20.0}}, timeout=15)
             assert reply.status_code == 200 and reply.json()["changed"] == ["rate_hz"]
             wait_for(lambda: node.params.rate_hz == 20.0, 10.0, what="parameter applied on the node")
-            # the data view stays open without a token
-            assert httpx.get(f"{server.url}/api/robots", timeout=10).status_code == 200
+            # beyond loopback, reading data needs the token too; the page's config stays open (it shows the lock)
+            assert httpx.get(f"{server.url}/api/robots", timeout=10).status_code == 401
+            assert httpx.get(f"{server.url}/api/robots", headers=bearer, timeout=10).status_code == 200
+            assert httpx.get(f"{server.url}/api/config", timeout=10).json()["control"] is False
     finally:
         node.shutdown()

@@ -133,15 +133,15 @@ def test_rest_recording_of_live_messages(router_endpoint: str, stand: TestStand,
     folder = tmp_path / "rec"
     with dashboard_server(["--connect", router_endpoint, "--no-telemetry", "--recordings", str(folder)],
                           tmp_path) as server:
-        started = httpx.post(f"{server.url}/api/recordings/start", json={"name": "lab test"}, timeout=10)
+        started = server.http.post(f"{server.url}/api/recordings/start", json={"name": "lab test"}, timeout=10)
         assert started.status_code == 200, started.text
-        assert httpx.post(f"{server.url}/api/recordings/start", json={}, timeout=10).status_code == 409
+        assert server.http.post(f"{server.url}/api/recordings/start", json={}, timeout=10).status_code == 409
         wait_for(lambda: (_status(server.url)["manual"] or {}).get("messages", 0) >= 100, timeout=30,
                  interval=0.2, what="100 messages recorded")
-        assert httpx.post(f"{server.url}/api/recordings/bookmark", json={"name": "fell"}).status_code == 200
-        stopped = httpx.post(f"{server.url}/api/recordings/stop", timeout=20).json()
+        assert server.http.post(f"{server.url}/api/recordings/bookmark", json={"name": "fell"}).status_code == 200
+        stopped = server.http.post(f"{server.url}/api/recordings/stop", timeout=20).json()
         assert stopped["running"] is False and stopped["messages"] >= 100
-        listing = httpx.get(f"{server.url}/api/recordings", timeout=10).json()
+        listing = server.http.get(f"{server.url}/api/recordings", timeout=10).json()
     (entry,) = listing["files"]
     assert entry["name"].endswith("_lab_test.mcap") and entry["size_bytes"] > 1000
     assert entry["duration_s"] > 0.5 and entry["messages"] == stopped["messages"]
@@ -163,7 +163,7 @@ def test_kill_9_while_recording_keeps_the_file(router_endpoint: str, bus: BusCon
     try:
         with dashboard_server(["--connect", router_endpoint, "--no-telemetry", "--recordings", str(folder)],
                               tmp_path) as server:
-            assert httpx.post(f"{server.url}/api/recordings/start", json={"name": "crash"}, timeout=10).is_success
+            assert server.http.post(f"{server.url}/api/recordings/start", json={"name": "crash"}, timeout=10).is_success
             wait_for(lambda: (_status(server.url)["manual"] or {}).get("messages", 0) >= 300, timeout=30,
                      interval=0.2, what="300 messages recorded")
             node.shutdown()

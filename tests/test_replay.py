@@ -8,13 +8,13 @@ import time
 from pathlib import Path
 from typing import Any
 
-import httpx
 import pytest
 import websockets
 
 import schemas
 from schemas.mcap_log import LogWriter
 from server.protocol import unbatch
+from tests.conftest import TESTDATA
 from tests.dashboard_server import RunningServer, dashboard_server
 from tests.waiting import wait_for
 
@@ -23,12 +23,13 @@ T0 = 1_700_000_000_000_000_000  # ns
 
 @pytest.fixture
 def server(tmp_path: Path) -> Any:
-    with dashboard_server(["--no-live", "--no-telemetry", "--recordings", str(tmp_path / "rec")], tmp_path) as s:
+    args = ["--no-live", "--no-telemetry", "--recordings", str(tmp_path / "rec"), "--allow-folder", str(TESTDATA)]
+    with dashboard_server(args, tmp_path) as s:
         yield s
 
 
 def _post(server: RunningServer, path: str, body: dict[str, Any] | None = None) -> dict[str, Any]:
-    response = httpx.post(f"{server.url}/api/replay/{path}", json=body or {}, timeout=30)
+    response = server.http.post(f"{server.url}/api/replay/{path}", json=body or {}, timeout=30)
     assert response.status_code == 200, response.text
     return response.json()  # type: ignore[no-any-return]
 
@@ -73,7 +74,7 @@ def test_ros2_bags_from_others(server: RunningServer, testdata: Path) -> None:
     rosout = next(f for f in frames if f["topic"] == "rosout")
     assert rosout["robot"] == "replay" and rosout["source"] == "replay" and rosout["data"]["level"] == 20
     assert "DEBUG" not in rosout["data"]  # constants are not fields
-    wait_for(lambda: httpx.get(f"{server.url}/api/replay").json()["state"] == "ended", timeout=20,
+    wait_for(lambda: server.http.get(f"{server.url}/api/replay").json()["state"] == "ended", timeout=20,
              what="replay ended")
 
     info = _post(server, "open", {"path": str(testdata / "mcap" / "cdr_test_0.mcap")})
@@ -83,8 +84,8 @@ def test_ros2_bags_from_others(server: RunningServer, testdata: Path) -> None:
     values = [f["data"]["int32_value"] for f in frames]
     assert values[0] == 123 and all(isinstance(v, int) for v in values)  # a numeric field, ready to plot
 
-    assert httpx.post(f"{server.url}/api/replay/open", json={"path": "nope.mcap"}).status_code == 404
-    assert httpx.post(f"{server.url}/api/replay/speed", json={"speed": 50}).status_code == 422
+    assert server.http.post(f"{server.url}/api/replay/open", json={"path": "nope.mcap"}).status_code == 404
+    assert server.http.post(f"{server.url}/api/replay/speed", json={"speed": 50}).status_code == 422
 
 
 def _pitchside_log(path: Path, seconds: float = 20.0) -> None:
@@ -110,7 +111,7 @@ def test_pitchside_log_seek_speed_step(server: RunningServer, tmp_path: Path) ->
     assert info["robots"] == ["r1", "r2"]
     assert [(b["name"], round(b["t_s"], 3)) for b in info["bookmarks"]] == [("goal own 1:0", 10.0)]
     assert {(t["robot"], t["topic"]): t["count"] for t in info["topics"]}[("r2", "joint_states")] == 1000
-    listing = httpx.get(f"{server.url}/api/recordings").json()["files"]
+    listing = server.http.get(f"{server.url}/api/recordings").json()["files"]
     assert listing[0]["name"] == "game.mcap" and abs(listing[0]["duration_s"] - 19.98) < 0.01
 
     # seek: every panel gets each stream's state just before the point, from both robots
@@ -118,7 +119,7 @@ def test_pitchside_log_seek_speed_step(server: RunningServer, tmp_path: Path) ->
                                   lambda fs: {f["robot"] for f in fs} == {"r1", "r2"},
                                   action=lambda: _post(server, "seek", {"t_s": 12.0})))
     assert all(abs(f["data"]["position"][0] - 11.98 * 50 * 0.02) < 0.05 for f in frames)
-    status = httpx.get(f"{server.url}/api/replay").json()
+    status = server.http.get(f"{server.url}/api/replay").json()
     assert status["state"] == "paused" and abs(status["position_s"] - 12.0) < 1e-6
 
     # step: the next messages, in log order
@@ -129,12 +130,12 @@ def test_pitchside_log_seek_speed_step(server: RunningServer, tmp_path: Path) ->
     _post(server, "speed", {"speed": 10.0})
     started = time.monotonic()
     _post(server, "play")
-    wait_for(lambda: httpx.get(f"{server.url}/api/replay").json()["state"] == "ended", timeout=30,
+    wait_for(lambda: server.http.get(f"{server.url}/api/replay").json()["state"] == "ended", timeout=30,
              interval=0.05, what="replay ended")
     assert time.monotonic() - started < 6.0
-    status = httpx.get(f"{server.url}/api/replay").json()
+    status = server.http.get(f"{server.url}/api/replay").json()
     assert abs(status["position_s"] - 19.98) < 1e-6 and status["delivered"] >= 2 * 8 * 50
-    robots = httpx.get(f"{server.url}/api/robots").json()
+    robots = server.http.get(f"{server.url}/api/robots").json()
     assert {r["robot"] for r in robots} >= {"r1", "r2"}
     assert robots[0]["streams"]["joint_states"]["source"] == "replay"
 
@@ -171,12 +172,12 @@ def test_crash_cut_log_is_scanned_with_progress(tmp_path: Path) -> None:
 
 
 def test_replay_and_recording_allowed_in_match_mode(testdata: Path, tmp_path: Path) -> None:
-    args = ["--match", "--no-telemetry", "--recordings", str(tmp_path / "rec"), "--replay",
+    args = ["--match", "--allow-dev-key", "--no-telemetry", "--recordings", str(tmp_path / "rec"), "--replay",
             str(testdata / "mcap" / "talker.mcap")]
     with dashboard_server(args, tmp_path) as server:
-        wait_for(lambda: httpx.get(f"{server.url}/api/replay").json()["state"] == "paused", timeout=20,
+        wait_for(lambda: server.http.get(f"{server.url}/api/replay").json()["state"] == "paused", timeout=20,
                  what="log opened")
         assert _post(server, "play")["state"] == "playing"
-        assert httpx.post(f"{server.url}/api/recordings/start", json={}).status_code == 200
-        assert httpx.post(f"{server.url}/api/recordings/stop").status_code == 200
-        assert httpx.post(f"{server.url}/api/robots/r1/penalize", json={"penalize": True}).status_code == 403
+        assert server.http.post(f"{server.url}/api/recordings/start", json={}).status_code == 200
+        assert server.http.post(f"{server.url}/api/recordings/stop").status_code == 200
+        assert server.http.post(f"{server.url}/api/robots/r1/penalize", json={"penalize": True}).status_code == 403

@@ -27,10 +27,10 @@ def replaying(tmp_path: Path) -> Iterator[RunningServer]:
 
 def test_replay_and_recordings_panels(browser: Any, replaying: RunningServer) -> None:
     OUTPUT.mkdir(exist_ok=True)
-    page = browser.new_page(viewport={"width": 1600, "height": 2400})
+    page = browser.new_page(bypass_csp=True, viewport={"width": 1600, "height": 2400})
     errors: list[str] = []
     page.on("pageerror", lambda exc: errors.append(str(exc)))
-    page.goto(replaying.url)
+    page.goto(replaying.login_url)
     page.evaluate("localStorage.clear()")
     page.reload()
     panel = page.locator(".replay")

@@ -5,7 +5,6 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-import httpx
 import pytest
 
 import schemas
@@ -51,19 +50,19 @@ def test_penalize_and_animation(server: RunningServer, bus: BusConfig) -> None:
     node = PenaltyAndAnimationStand("r5", bus).start()
     try:
         url = f"{server.url}/api/robots/r5"
-        reply = httpx.post(f"{url}/penalize", json={"penalize": "on"}, timeout=15)
+        reply = server.http.post(f"{url}/penalize", json={"penalize": "on"}, timeout=15)
         assert reply.status_code == 200 and reply.json() == {"robot": "r5", "penalized": True}
-        reply = httpx.post(f"{url}/penalize", json={"penalize": "switch"}, timeout=15)
+        reply = server.http.post(f"{url}/penalize", json={"penalize": "switch"}, timeout=15)
         assert reply.json()["penalized"] is False and node.penalized is False
-        assert httpx.post(f"{url}/penalize", json={"penalize": "maybe"}, timeout=15).status_code == 422
+        assert server.http.post(f"{url}/penalize", json={"penalize": "maybe"}, timeout=15).status_code == 422
 
-        reply = httpx.post(f"{url}/animation", json={"animation": "wave", "wait": True}, timeout=30)
+        reply = server.http.post(f"{url}/animation", json={"animation": "wave", "wait": True}, timeout=30)
         assert reply.status_code == 200, reply.text
         assert reply.json()["status"] == "SUCCEEDED" and reply.json()["result"]["successful"] is True
-        reply = httpx.post(f"{url}/animation", json={"animation": "moonwalk"}, timeout=30)
+        reply = server.http.post(f"{url}/animation", json={"animation": "moonwalk"}, timeout=30)
         assert reply.status_code == 409 and "moonwalk" in reply.json()["detail"]
         assert node.goals == ["wave"]
     finally:
         node.shutdown()
-    reply = httpx.post(f"{server.url}/api/robots/nobody/penalize", json={"penalize": "on"}, timeout=30)
+    reply = server.http.post(f"{server.url}/api/robots/nobody/penalize", json={"penalize": "on"}, timeout=30)
     assert reply.status_code == 504 and "no answer" in reply.json()["detail"]

@@ -23,10 +23,11 @@ def test_match_mode_server_shows_telemetry(bus: BusConfig, tmp_path: Path) -> No
     sender = pytest.importorskip("robot_nodes.telemetry.sender")
     ws_client = pytest.importorskip("websockets.sync.client")
     port = free_port(socket.SOCK_DGRAM)
-    args = ["--match", "--telemetry-host", "127.0.0.1", "--telemetry-port", str(port)]
+    args = ["--match", "--allow-dev-key", "--telemetry-host", "127.0.0.1", "--telemetry-port", str(port)]
     with dashboard_server(args, tmp_path) as server:
         stand = SceneStand("r3", bus).start()
-        telemetry = sender.TelemetryNode("r3", bus, overrides={"destination": f"127.0.0.1:{port}"}).start()
+        telemetry = sender.TelemetryNode("r3", bus, overrides={"destination": f"127.0.0.1:{port}",
+                                                                          "allow_dev_key": True}).start()
         try:
             with ws_client.connect(server.ws_url) as ws:
                 ws.send(json.dumps({"op": "subscribe", "robot": "r3", "topic": "robot_state"}))

@@ -1,6 +1,8 @@
 // The dashboard page: one connection, one store, panels in a layout the user arranges.
 
 import { Connection } from "./connection.js";
+import { setOptions } from "./dom.js";
+import { SessionBar } from "./session.js";
 import { Layout } from "./layout.js";
 import { Store } from "./store.js";
 import teamOverview from "./panels/team_overview.js";
@@ -30,6 +32,7 @@ async function main() {
     status.className = `badge ${up ? "ok" : "bad"}`;
   });
   document.getElementById("match-badge").hidden = !config.match_mode;
+  new SessionBar(document.getElementById("session"), config);
 
   const ctx = {
     store, conn, config,
@@ -48,11 +51,8 @@ async function main() {
 
   const addMenu = document.getElementById("add-panel");
   function refreshAddMenu(state) {
-    addMenu.innerHTML = '<option value="">+ panel</option>';
-    for (const p of state.panels.filter((x) => x.hidden)) {
-      const title = PANELS.find((m) => m.id === p.id)?.title ?? p.id;
-      addMenu.insertAdjacentHTML("beforeend", `<option value="${p.id}">${title}</option>`);
-    }
+    setOptions(addMenu, [["", "+ panel"], ...state.panels.filter((x) => x.hidden)
+      .map((p) => [p.id, PANELS.find((m) => m.id === p.id)?.title ?? p.id])]);
   }
   addMenu.addEventListener("change", () => { if (addMenu.value) layout.show(addMenu.value); });
   document.getElementById("columns-select").addEventListener("change", (e) => layout.setColumns(+e.target.value));
@@ -67,11 +67,7 @@ async function main() {
 
   const focusSelect = document.getElementById("focus-select");
   function refreshFocus() {
-    const ids = store.robotIds();
-    const have = [...focusSelect.options].map((o) => o.value);
-    if (ids.join() !== have.join()) {
-      focusSelect.innerHTML = ids.map((id) => `<option value="${id}">${id}</option>`).join("");
-    }
+    setOptions(focusSelect, store.robotIds().map((id) => [id, id]));
     focusSelect.value = store.focus;
   }
   store.on("robots", refreshFocus);

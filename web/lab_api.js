@@ -1,11 +1,8 @@
 // The control API from the browser (lab tools): JSON in and out, the server's reason as the error message.
+// The credential is the server's HttpOnly session cookie (set when the page was opened through the link the
+// server printed, or by signing in with the token): the browser sends it by itself, and no script can read it.
 
-/** The control token: ?token= in the page URL (remembered), needed only when the server listens beyond loopback. */
-function token() {
-  const fromUrl = new URLSearchParams(location.search).get("token");
-  if (fromUrl) localStorage.setItem("pitchside.token", fromUrl);
-  return fromUrl || localStorage.getItem("pitchside.token") || "";
-}
+import { setOptions } from "./dom.js";
 
 export class ApiError extends Error {
   constructor(status, detail) {
@@ -18,9 +15,7 @@ export class ApiError extends Error {
  * keepalive: the request outlives the page (a clean-up sent while the page goes away). */
 export async function api(method, path, body, { keepalive = false } = {}) {
   const headers = { "content-type": "application/json" };
-  const t = token();
-  if (t) headers.authorization = `Bearer ${t}`;
-  const reply = await fetch(path, { method, headers, keepalive,
+  const reply = await fetch(path, { method, headers, keepalive, credentials: "same-origin",
     body: body === undefined ? undefined : JSON.stringify(body) });
   let data = null;
   try { data = await reply.json(); } catch { data = null; }
@@ -28,16 +23,6 @@ export async function api(method, path, body, { keepalive = false } = {}) {
   return data;
 }
 
-/** A path with the control token as ?token= (for EventSource, which cannot send headers). */
-export function withToken(path) {
-  const t = token();
-  return t ? `${path}${path.includes("?") ? "&" : "?"}token=${encodeURIComponent(t)}` : path;
-}
-
-export function esc(text) {
-  return String(text).replace(/[&<>"']/g, (c) => ({ "&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;",
-    "'": "&#39;" })[c]);
-}
 
 /** A <select> of the robots the page knows, following the focused robot until the user picks one. */
 export function robotPicker(select, ctx, onChange) {
@@ -52,8 +37,7 @@ export function robotPicker(select, ctx, onChange) {
     const ids = ctx.store.robotIds();
     const want = chosen || ctx.store.focus || ids[0] || "";
     if (want && !ids.includes(want)) ids.push(want);
-    const html = ids.map((id) => `<option value="${esc(id)}">${esc(id)}</option>`).join("");
-    if (select.innerHTML !== html) select.innerHTML = html;
+    setOptions(select, ids.map((id) => [id, id]));
     select.value = want;
     if (want) report(want);
   }

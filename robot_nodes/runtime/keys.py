@@ -9,12 +9,47 @@
     pitchside/<robot>/_action/<action>/events      16-byte goal id + b"F" + CDR feedback, or
                                                    16-byte goal id + b"R" + 1 status byte + CDR result
                                                    (one key, so a result never overtakes its last feedback)
+
+Robot ids and topic names come from the network (a Zenoh key, a telemetry header, a log file) and end up in
+keys, file names and the dashboard's page: the rules below are checked where they enter, the same everywhere.
 """
 
 from __future__ import annotations
 
+import re
+
 PREFIX = "pitchside"
 ANY_ROBOT = "*"
+
+# a robot id fits the telemetry header's 12 bytes and needs no escaping anywhere (key, file name, HTML)
+_ROBOT_ID = re.compile(r"^[A-Za-z0-9_-]{1,12}$")
+NAME_RULE = "1-12 characters of A-Z a-z 0-9 _ -"
+# a topic: ROS 2 name tokens (letters, digits, '_') joined by '/', a leading '/' allowed (ROS 2 bags)
+_TOPIC = re.compile(r"^/?[A-Za-z0-9_]+(?:/[A-Za-z0-9_]+)*$")
+TOPIC_RULE = "letters, digits and '_' in parts joined by '/', at most 200 characters"
+MAX_TOPIC = 200
+
+
+def is_valid_name(robot: str) -> bool:
+    """True for a robot id as every part of pitchside takes it."""
+    return bool(_ROBOT_ID.match(robot))
+
+
+def check_robot_id(robot: str) -> str:
+    """The robot id, or ValueError saying the rule."""
+    if not isinstance(robot, str) or not is_valid_name(robot):
+        raise ValueError(f"robot id {robot!r} must be {NAME_RULE}")
+    return robot
+
+
+def is_valid_topic(topic: str) -> bool:
+    return len(topic) <= MAX_TOPIC and bool(_TOPIC.match(topic))
+
+
+def check_topic(topic: str) -> str:
+    if not isinstance(topic, str) or not is_valid_topic(topic):
+        raise ValueError(f"topic {topic!r} must be {TOPIC_RULE}")
+    return topic
 
 
 def topic_key(robot: str, topic: str) -> str:
@@ -22,11 +57,11 @@ def topic_key(robot: str, topic: str) -> str:
 
 
 def split_topic_key(key: str) -> tuple[str, str]:
-    """(robot, topic) of a topic key; ValueError for other keys."""
+    """(robot, topic) of a topic key; ValueError for other keys and for a robot id or topic that breaks the rules."""
     parts = key.split("/", 2)
     if len(parts) != 3 or parts[0] != PREFIX:
         raise ValueError(f"not a pitchside topic key: {key!r}")
-    return parts[1], parts[2]
+    return check_robot_id(parts[1]), check_topic(parts[2])
 
 
 def is_topic_key(key: str) -> bool:

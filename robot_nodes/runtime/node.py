@@ -97,10 +97,17 @@ class Subscription:
             self.decode_errors += 1
             self._node.record_error(f"{self.topic.name}: {exc}")
             return
-        self.count += 1
         if self.any_robot:
-            self.handler(keys.split_topic_key(key)[0], msg)
+            try:
+                robot = keys.split_topic_key(key)[0]
+            except ValueError as exc:  # a robot id that breaks the rules: someone else's process on the bus
+                self.decode_errors += 1
+                self._node.record_error(str(exc))
+                return
+            self.count += 1
+            self.handler(robot, msg)
         else:
+            self.count += 1
             self.handler(msg)
 
     def close(self) -> None:

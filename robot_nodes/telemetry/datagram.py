@@ -90,6 +90,8 @@ from typing import Any
 from cryptography.exceptions import InvalidTag
 from cryptography.hazmat.primitives.ciphers.aead import AESGCM
 
+from robot_nodes.runtime import keys
+
 log = logging.getLogger(__name__)
 
 MAGIC = b"PS"
@@ -108,7 +110,6 @@ OVERVIEW_STREAM = 0xFFFE
 TABLE_STREAM = 0xFFFF
 MAX_TOPIC_STREAM = 0xFFFD
 DEFAULT_PORT = 5800  # UDP port of the team PC's telemetry listener
-_ROBOT_ID = re.compile(r"^[A-Za-z0-9_-]{1,12}$")
 
 # A fixed, published development key: authenticates nothing against an informed attacker. Matches use their own.
 DEV_KEY = hashlib.sha256(b"pitchside development telemetry key - do not use in a match").digest()
@@ -152,10 +153,8 @@ class Header:
 
 
 def check_robot_id(robot_id: str) -> str:
-    """A robot id that fits the header; ValueError says why not."""
-    if not _ROBOT_ID.match(robot_id):
-        raise ValueError(f"telemetry robot id {robot_id!r} must be 1-12 characters of A-Z a-z 0-9 _ -")
-    return robot_id
+    """A robot id that fits the header (pitchside's one rule, robot_nodes.runtime.keys); ValueError says why not."""
+    return keys.check_robot_id(robot_id)
 
 
 def fragment_length(frame_size: int, index: int, count: int) -> int:
@@ -191,7 +190,7 @@ def parse_header(data: bytes) -> Header:
     if kind not in (0, 1, 2):
         raise TelemetryError("malformed", f"unknown datagram kind {kind}")
     robot_id = robot.rstrip(b"\0").decode("ascii", "replace")
-    if not _ROBOT_ID.match(robot_id) or b"\0" in robot.rstrip(b"\0"):
+    if not keys.is_valid_name(robot_id) or b"\0" in robot.rstrip(b"\0"):
         raise TelemetryError("malformed", f"robot id {robot!r} is not valid")
     if not 1 <= count <= MAX_FRAGMENTS or index >= count or size > MAX_FRAME_SIZE:
         raise TelemetryError("bad_fragment", f"fragment {index}/{count} of a {size}-byte frame")
@@ -230,6 +229,23 @@ def load_key(spec: str | bytes | None) -> bytes:
     except (UnicodeDecodeError, ValueError):
         _aead(raw)
         return raw
+
+
+def key_fingerprint(key: bytes) -> str:
+    """What the dashboard shows of a key: "development", or 8 hex characters that tell team keys apart without
+    revealing them (SHA-256 of the key with a label, so the fingerprint is no hash of the key alone)."""
+    if key == DEV_KEY:
+        return "development"
+    return hashlib.sha256(b"pitchside telemetry key fingerprint:" + key).hexdigest()[:8]
+
+
+def write_new_key(path: Path) -> bytes:
+    """A new random 256-bit team key as 64 hex characters in a file only its owner can read; never overwrites."""
+    key = os.urandom(32)
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+    with os.fdopen(fd, "w") as out:
+        out.write(key.hex() + "\n")
+    return key
 
 
 class Sealer:
@@ -330,6 +346,7 @@ def decode_stream_table(body: bytes) -> tuple[int, list[StreamInfo]]:
                 pos += 1 + length
             if not 1 <= stream <= MAX_TOPIC_STREAM or not math.isfinite(max_hz):
                 raise ValueError(f"stream id {stream} or rate {max_hz} out of range")
+            keys.check_topic(texts[0])  # the name is shown in the dashboard: the one rule, checked here
             out.append(StreamInfo(stream, texts[0], texts[1], schema, priority, max_hz))
         if pos != len(body):
             raise ValueError(f"{len(body) - pos} bytes left over")

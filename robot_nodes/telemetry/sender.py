@@ -27,6 +27,7 @@ from robot_nodes.telemetry.datagram import (
     Sealer,
     StreamInfo,
     encode_stream_tables,
+    key_fingerprint,
     load_key,
 )
 from robot_nodes.telemetry.images import ImageError, shrink_jpeg
@@ -81,6 +82,8 @@ class TelemetryParams:
     destination: str = param(f"127.0.0.1:{DEFAULT_PORT}", doc="host:port of the team PC's telemetry listener")
     team_key: str = param("", doc="team key file (or 64 hex characters, visible in the parameter list); "
                                   "empty = published dev key")
+    allow_dev_key: bool = param(False, doc="with team_key empty, send under the published development key (lab "
+                                          "only: anyone can forge or read it); off, nothing is sent without a key")
     encrypt: bool = param(True, doc="encrypt payloads (off: authenticated only, readable in Wireshark)")
     topics: str = param(DEFAULT_TOPICS, doc="comma-separated <topic>:<max Hz> of the topic table")
     budget_bytes_per_s: int = param(200_000, range=(2_000, 100_000_000), doc="UDP payload bytes/s, all streams")
@@ -143,7 +146,10 @@ class TelemetryNode(Node):
     Params = TelemetryParams
 
     def setup(self) -> None:
-        self._writer = DatagramWriter(load_key(self.params.team_key), self.robot_id, self.params.encrypt)
+        self._key = load_key(self.params.team_key)
+        self._writer = DatagramWriter(self._key, self.robot_id, self.params.encrypt)
+        self.refused_datagrams = 0
+        self._key_refusal = self._check_key()
         self._socket = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self._socket.setblocking(False)
         parse_destination(self.params.destination)  # a malformed destination is a configuration error: fail early
@@ -171,6 +177,15 @@ class TelemetryNode(Node):
         self.timer(1.0, self._report, "report")
 
     # -- configuration --------------------------------------------------------------------------------
+    def _check_key(self) -> str:
+        """Why nothing may be sent ("" if it may): the development key only when asked for explicitly."""
+        if self.params.team_key or self.params.allow_dev_key:
+            return ""
+        refusal = ("no team key: telemetry sends nothing (set team_key to the team's key file, made by `pitchside "
+                   "telemetry-key FILE`; allow_dev_key=true sends under the published development key, lab only)")
+        self.record_error(refusal)
+        return refusal
+
     def _resolve_destination(self) -> None:
         """Looks the team PC up; if its name does not resolve yet, retried every second, datagrams dropped."""
         try:
@@ -217,7 +232,10 @@ class TelemetryNode(Node):
                 self._address = None
                 self._resolve_destination()
             if "team_key" in changed:
-                self._writer.sealer = Sealer(load_key(changed["team_key"]))
+                self._key = load_key(changed["team_key"])
+                self._writer.sealer = Sealer(self._key)
+            if {"team_key", "allow_dev_key"} & set(changed):
+                self._key_refusal = self._check_key()
         except (ValueError, OSError) as exc:
             self.record_error(f"telemetry parameters not applied: {exc}")
         if "budget_bytes_per_s" in changed:
@@ -288,6 +306,9 @@ class TelemetryNode(Node):
         self._writer.encrypt = self.params.encrypt
         datagram = self._writer.fragment(kind, sid, schema, frame.frame_id, frame.payload_size, frame.fragments,
                                          index)
+        if self._key_refusal:
+            self.refused_datagrams += 1
+            return len(datagram)
         try:
             if self._address is None:
                 raise OSError("destination not resolved")
@@ -303,6 +324,9 @@ class TelemetryNode(Node):
     def _report(self) -> None:
         if self._address is None:
             self._resolve_destination()
+        self.set_diagnostic("key", key_fingerprint(self._key) if not self._key_refusal else "none (refused)")
+        if self._key_refusal:
+            self.set_diagnostic("refused_datagrams", self.refused_datagrams)
         self.set_diagnostic("datagrams_sent", self.datagrams_sent)
         self.set_diagnostic("bytes_sent", self.bytes_sent)
         self.set_diagnostic("send_errors", self.send_errors)

@@ -6,6 +6,7 @@ import logging
 from typing import Any
 
 from server.recorder import Recorder
+from server.security import AllowedFolders
 from server.sources import SourceError
 from server.sources.replay import ReplaySource
 from server.state import ServerState
@@ -21,7 +22,7 @@ class RecordingAndReplay:
         folder = config.recordings_dir
         self.state = state
         self.recorder = Recorder(state.hub, folder, auto_match=config.auto_record_matches)
-        self.replay = ReplaySource(state.hub, folder)
+        self.replay = ReplaySource(state.hub, folder, AllowedFolders(config.replay_folders, "logs"))
 
     async def start(self) -> None:
         await self.recorder.start()

@@ -43,11 +43,12 @@ from robot_nodes.animation.animation_file import animation_to_dict
 from robot_nodes.runtime import ActionError, header
 from robot_nodes.runtime.param_client import ParameterClient
 from robot_nodes.runtime.parameters import ParameterError
-from server.deps import require_control
+from server.deps import require_control, valid_robot
 from server.lab import JointLimits, lab_tools, urdf_joint_limits, urdf_mirror_signs
+from server.security import AllowedFolders
 from server.state import ServerState
 
-router = APIRouter(prefix="/api/robots/{robot}", tags=["animations"])
+router = APIRouter(prefix="/api/robots/{robot}", tags=["animations"], dependencies=[Depends(valid_robot)])
 REPO = Path(__file__).resolve().parents[2]
 TIMEOUT_S = 3.0
 PREVIEW_FILE = "_editor_preview"  # "play up to keyframe k" plays a cut copy saved under this name
@@ -111,6 +112,11 @@ async def animation_folder(state: ServerState, robot: str) -> tuple[Path, str]:
     if cached is not None and time.monotonic() - cached[0] < FOLDER_CACHE_S and "default" not in cached[2]:
         return cached[1], cached[2]
     folder, how = await asyncio.to_thread(_ask_folder, state, robot)
+    allowed = AllowedFolders([REPO / "robots", *state.config.allowed_folders], "animation folders")
+    if not allowed.contains(folder):
+        # the folder comes from the network (the robot's parameter): the editor writes files there
+        raise HTTPException(403, f"the robot's animation folder {str(folder)!r} is outside the folders this "
+                                 f"server edits ({allowed.describe()}); start the server with --allow-folder")
     folders[robot] = (time.monotonic(), folder, how)
     return folder, how
 

@@ -17,10 +17,10 @@ from robot_nodes.runtime import ActionError, ServiceError, call_service
 from robot_nodes.runtime.actions import ActionClient
 from robot_nodes.runtime.param_client import ParameterClient
 from robot_nodes.runtime.parameters import ParameterError
-from server.deps import require_control
+from server.deps import require_control, valid_node, valid_robot
 from server.state import ServerState
 
-router = APIRouter(prefix="/api/robots/{robot}", tags=["control"])
+router = APIRouter(prefix="/api/robots/{robot}", tags=["control"], dependencies=[Depends(valid_robot)])
 TIMEOUT_S = 3.0
 
 
@@ -48,7 +48,7 @@ async def list_parameters(robot: str, state: ServerState = Depends(require_contr
     return await asyncio.to_thread(lambda: _parameter_client(state, robot).nodes())
 
 
-@router.get("/params/{node}")
+@router.get("/params/{node}", dependencies=[Depends(valid_node)])
 async def get_parameters(robot: str, node: str, state: ServerState = Depends(require_control)
                          ) -> list[dict[str, Any]]:
     try:
@@ -57,7 +57,7 @@ async def get_parameters(robot: str, node: str, state: ServerState = Depends(req
         raise HTTPException(504, str(exc)) from exc
 
 
-@router.post("/params/{node}")
+@router.post("/params/{node}", dependencies=[Depends(valid_node)])
 async def set_parameters(robot: str, node: str, write: ParameterWrite, state: ServerState = Depends(require_control)
                          ) -> dict[str, Any]:
     """The node validates: out of range -> 422 with its reason, value unchanged; a write based on an old revision

@@ -13,13 +13,13 @@ from starlette.requests import HTTPConnection
 
 from server.deps import require_token
 from server.sources import SourceError
-from server.sources.replay import ReplaySource
+from server.sources.replay import ReplayRefused, ReplaySource
 
 router = APIRouter(prefix="/api/replay", tags=["replay"])
 
 
 class OpenRequest(BaseModel):
-    path: str  # a file name in the recordings folder, or a path on the server
+    path: str  # a file name in the recordings folder, or a path inside the folders given with --allow-folder
 
 
 class SeekRequest(BaseModel):
@@ -64,6 +64,8 @@ def replay_info(replay: ReplaySource = Depends(get_replay)) -> dict[str, Any]:
 async def open_log(request: OpenRequest, replay: ReplaySource = Depends(get_replay)) -> dict[str, Any]:
     try:
         return await replay.open(request.path)
+    except ReplayRefused as exc:
+        raise HTTPException(403, str(exc)) from exc
     except SourceError as exc:
         raise HTTPException(404 if "no log file" in str(exc) else 422, str(exc)) from exc
 

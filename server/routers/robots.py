@@ -6,8 +6,9 @@ from typing import Any
 
 from fastapi import APIRouter, Depends, HTTPException
 from pydantic import BaseModel
+from starlette.requests import HTTPConnection
 
-from server.deps import get_state, require_token
+from server.deps import get_state, has_credential, require_token
 from server.link_health import robots_info
 from server.state import ServerState
 
@@ -68,14 +69,16 @@ def plot_topic(choice: PlotTopic, state: ServerState = Depends(require_token)) -
 
 
 @router.get("/config")
-def dashboard_config(state: ServerState = Depends(get_state)) -> dict[str, Any]:
-    """What the page needs to know: match mode, whether control needs a token, where the 3D view and plots are."""
+def dashboard_config(conn: HTTPConnection, state: ServerState = Depends(get_state)) -> dict[str, Any]:
+    """What the page needs to know: match mode, whether this browser may control, the telemetry key in use,
+    where the 3D view and plots are."""
     config = state.config
     robot3d = state.views.get("robot3d")
     plots = state.views.get("plots")
     return {
         "match_mode": config.match_mode,
-        "needs_token": config.needs_token,
+        "control": has_credential(conn, state),
+        "telemetry_key": state.telemetry_key,
         "stale_after_s": config.stale_after_s,
         "lost_after_s": config.lost_after_s,
         "robot3d_port": robot3d.port if robot3d is not None else None,

@@ -11,11 +11,11 @@ from typing import Any
 from fastapi import APIRouter, Depends
 from pydantic import BaseModel, Field
 
-from server.deps import require_control
+from server.deps import require_control, valid_robot
 from server.lab import TELEOP_HOLD_S, TELEOP_HZ, lab_tools
 from server.state import ServerState
 
-router = APIRouter(prefix="/api/robots/{robot}/teleop", tags=["teleop"])
+router = APIRouter(prefix="/api/robots/{robot}/teleop", tags=["teleop"], dependencies=[Depends(valid_robot)])
 
 
 class DriveCommand(BaseModel):

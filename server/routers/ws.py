@@ -36,15 +36,17 @@ async def _read_requests(ws: WebSocket, sub: Subscriber) -> None:
             request = protocol.parse_client_frame(message["text"])
             if request["op"] == "subscribe" and len(sub.subscriptions) >= MAX_SUBSCRIPTIONS:
                 raise protocol.ProtocolError(f"at most {MAX_SUBSCRIPTIONS} subscriptions per connection")
+            if request["op"] == "subscribe":
+                sub.subscribe(request["robot"], request["topic"], request.get("max_hz") or None)
+            elif request["op"] == "unsubscribe":
+                sub.unsubscribe(request["robot"], request["topic"])
+            else:
+                await ws.send_text(protocol.pong_frame(request.get("id")))
         except protocol.ProtocolError as exc:
             await ws.send_text(protocol.error_frame(str(exc)))
-            continue
-        if request["op"] == "subscribe":
-            sub.subscribe(request["robot"], request["topic"], request.get("max_hz") or None)
-        elif request["op"] == "unsubscribe":
-            sub.unsubscribe(request["robot"], request["topic"])
-        else:
-            await ws.send_text(protocol.pong_frame(request.get("id")))
+        except (ValueError, TypeError, RecursionError) as exc:  # a request we did not foresee: answer, stay up
+            log.warning("websocket %s: request not handled: %r", sub.name, exc)
+            await ws.send_text(protocol.error_frame(f"request not handled: {type(exc).__name__}"))
 
 
 async def _send_frames(ws: WebSocket, sub: Subscriber, state: ServerState) -> None:
@@ -78,15 +80,19 @@ async def websocket_endpoint(ws: WebSocket, state: ServerState = Depends(get_sta
     sub = state.hub.subscribe(name=f"ws{next(_ids)}", maxlen=state.config.queue_size)
     await ws.send_text(protocol.hello_frame(state.config.match_mode))
     tasks = [asyncio.create_task(_read_requests(ws, sub)), asyncio.create_task(_send_frames(ws, sub, state))]
+    code = 1000
     try:
         done, _ = await asyncio.wait(tasks, return_when=asyncio.FIRST_COMPLETED)
         for task in done:
             exc = task.exception()
             if exc is not None and not isinstance(exc, WebSocketDisconnect | RuntimeError | OSError):
                 log.warning("websocket %s closed: %r", sub.name, exc)
+                code = 1011
     finally:
         sub.close()
         for task in tasks:
             task.cancel()
             with contextlib.suppress(BaseException):
                 await task
+        with contextlib.suppress(Exception):  # never leave a browser without a close frame
+            await ws.close(code)

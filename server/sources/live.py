@@ -54,6 +54,7 @@ class LiveZenohSource(Source):
         self.received = 0
         self.unknown = 0
         self.overflow = 0
+        self.bad_names = 0  # messages whose robot id or topic breaks the naming rules
         self._pending: deque[tuple[str, bytes, str]] = deque()
         self._lock = threading.Lock()
         self._scheduled = False
@@ -106,7 +107,13 @@ class LiveZenohSource(Source):
         if not self.running:
             return
         for key, payload, encoding in batch:
-            robot, topic = keys.split_topic_key(key)
+            try:
+                robot, topic = keys.split_topic_key(key)
+            except ValueError as exc:  # a name that breaks the rules never reaches the hub (or a page)
+                self.bad_names += 1
+                if self.bad_names in (1, 10, 100, 1000) or self.bad_names % 10000 == 0:
+                    log.warning("live: dropped %d messages with bad names, latest: %s", self.bad_names, exc)
+                continue
             typename = typename_of(topic, encoding)
             if typename is None:
                 self.unknown += 1
@@ -116,6 +123,7 @@ class LiveZenohSource(Source):
 
     def status(self) -> dict[str, Any]:
         status = super().status()
-        status.update(received=self.received, unknown_topics=self.unknown, overflow=self.overflow,
+        status.update(received=self.received, unknown_topics=self.unknown, bad_names=self.bad_names,
+                      overflow=self.overflow,
                       zenoh_open=self.link.is_open)
         return status

@@ -28,11 +28,13 @@ from typing import Any
 import numpy as np
 from rosbags.typesys import get_types_from_msg
 
+from robot_nodes.runtime import keys
 from schemas import codec
 from schemas.mcap_log import ChannelInfo, LogError, LogMessage, LogReader, LogSeriesReader
 from schemas.topics import TOPICS
 from server.hub import Hub, HubMessage
 from server.protocol import _dumps
+from server.security import AllowedFolders, FolderError
 from server.sources import Source, SourceError
 
 log = logging.getLogger(__name__)
@@ -62,6 +64,14 @@ def foreign_data(msg: Any) -> Any:
     return msg
 
 
+BAD_NAME = f"robot id or topic breaks the naming rules (robot id: {keys.NAME_RULE}; topic: {keys.TOPIC_RULE})"
+
+
+def _well_named(robot_id: str, topic: str) -> bool:
+    """A channel's names as pitchside takes them from the network (robot "" is a ROS 2 bag's, shown as replay)."""
+    return (not robot_id or keys.is_valid_name(robot_id)) and keys.is_valid_topic(topic)
+
+
 class ReplayFile:
     """An opened log: what is in it (for the timeline) and its messages as hub messages."""
 
@@ -81,8 +91,10 @@ class ReplayFile:
 
     def info(self) -> dict[str, Any]:
         topics = [{"robot": c.robot_id or REPLAY_ROBOT, "topic": c.topic, "msgtype": c.typename,
-                   "count": c.message_count, "known": c.topic in TOPICS, "decodable": c.decodable,
-                   "problem": c.problem} for c in self.channels]
+                   "count": c.message_count, "known": c.topic in TOPICS,
+                   "decodable": c.decodable and _well_named(c.robot_id, c.topic),
+                   "problem": c.problem or ("" if _well_named(c.robot_id, c.topic) else BAD_NAME)}
+                  for c in self.channels]
         return {"path": str(self.path), "files": [str(p) for p in self.reader.paths], "start_ns": self.start_ns,
                 "end_ns": self.end_ns, "duration_s": (self.end_ns - self.start_ns) / 1e9,
                 "messages": self.reader.message_count, "topics": topics,
@@ -94,6 +106,8 @@ class ReplayFile:
     def hub_message(self, item: LogMessage) -> HubMessage | None:
         """None for a message that did not decode (its channel is still listed, with the problem)."""
         robot = item.robot_id or REPLAY_ROBOT
+        if not _well_named(item.robot_id, item.topic):
+            return None  # a name from a foreign file that breaks the rules never reaches the hub (or a page)
         typename, data = item.typename, item.msg
         foreign = False
         if item.raw:
@@ -155,15 +169,22 @@ def _overview(text: str) -> tuple[str, Any] | None:
         return None
 
 
+class ReplayRefused(SourceError):
+    """A log outside the folders replay may open from."""
+
+
 class ReplaySource(Source):
     """Plays one log into the hub; the state the timeline shows is ``status()``."""
 
     name = "replay"
 
-    def __init__(self, hub: Hub, folder: Path | None = None) -> None:
+    def __init__(self, hub: Hub, folder: Path | None = None, allowed: AllowedFolders | None = None) -> None:
+        """folder: where bare names are looked up; allowed: the only folders logs open from (None: anywhere,
+        for tools and benchmarks; the server always passes its recordings and command-line folders)."""
         super().__init__()
         self.hub = hub
         self.folder = folder
+        self.allowed = allowed
         self.file: ReplayFile | None = None
         self.state = "closed"  # closed, loading, paused, playing, ended
         self.progress = 0.0  # of reading a file without an index
@@ -182,7 +203,16 @@ class ReplaySource(Source):
 
     # -- files ------------------------------------------------------------------------------------------
     def resolve(self, name: str) -> Path:
-        """A bare name is looked up in the recordings folder; a path is taken as it is."""
+        """A bare name is looked up in the recordings folder; a path is taken as it is, if inside the allowed
+        folders (ReplayRefused otherwise, before anything tells whether the file exists)."""
+        if self.allowed is not None:
+            try:
+                path = self.allowed.resolve(name)
+            except FolderError as exc:
+                raise ReplayRefused(str(exc)) from None
+            if not path.is_file():
+                raise SourceError(f"no log file {name!r}")
+            return path
         path = Path(name).expanduser()
         if not path.is_absolute() and self.folder is not None and not path.exists():
             path = self.folder / path

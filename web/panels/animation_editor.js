@@ -1,7 +1,8 @@
 // Animation editor and recorder: open/upload a Bit-Bots animation, edit keyframes (structure edits run server-side
 // through robot_nodes.animation.editing), record poses from the robot in RECORD, preview in 3D, play, stop, save.
 
-import { api, esc, MATCH_MODE_TEXT, robotPicker } from "../lab_api.js";
+import { api, MATCH_MODE_TEXT, robotPicker } from "../lab_api.js";
+import { esc } from "../dom.js";
 
 const SEND_EVERY_MS = 100; // record goals while a slider is dragged
 const RESEND_MS = 300; // in RECORD the held pose is sent again and again: a lost message costs nothing
@@ -229,8 +230,8 @@ export default {
       $('[data-act="redo"]').disabled = !state.redo.length;
       const rows = anim ? anim.keyframes.map((kf, i) => `<tr data-kf="${i}" class="${i === state.selected ? "selected" : ""}">
         <td>${i}</td><td><input data-field="name" value="${esc(kf.name ?? "")}" size="8"></td>
-        <td><input type="number" step="0.05" min="0" data-field="duration" value="${kf.duration}"></td>
-        <td><input type="number" step="0.05" min="0" data-field="pause" value="${kf.pause}"></td>
+        <td><input type="number" step="0.05" min="0" data-field="duration" value="${esc(kf.duration)}"></td>
+        <td><input type="number" step="0.05" min="0" data-field="pause" value="${esc(kf.pause)}"></td>
         <td>${Object.keys(kf.goals).length}</td>
         <td><button data-kact="up" title="move up">↑</button><button data-kact="down" title="move down">↓</button>
           <button data-kact="duplicate" title="duplicate">dup</button><button data-kact="delete" title="delete">✕</button></td>
@@ -254,7 +255,7 @@ export default {
       const missing = state.joints.filter((j) => !(j.name in kf.goals));
       el.innerHTML = `<b>keyframe ${state.selected}</b> goals (deg) and torque
         <table class="grid-table"><tbody>${Object.entries(kf.goals).map(([j, v]) => `<tr data-joint="${esc(j)}">
-          <td>${esc(j)}</td><td><input type="number" step="0.5" data-goal value="${v}"></td>
+          <td>${esc(j)}</td><td><input type="number" step="0.5" data-goal value="${esc(v)}"></td>
           <td><select data-torque><option value="">torque unchanged</option>
             <option value="1" ${torqueLabel(kf.torque?.[j]) === "on" ? "selected" : ""}>torque on</option>
             <option value="0" ${torqueLabel(kf.torque?.[j]) === "off" ? "selected" : ""}>torque off</option></select></td>
@@ -268,7 +269,8 @@ export default {
         <td>${esc(j.name)}</td>
         <td><input type="checkbox" data-rec ${state.recordJoints.has(j.name) ? "checked" : ""}></td>
         <td><input type="checkbox" data-limp ${state.limp.has(j.name) ? "checked" : ""}></td>
-        <td><input type="range" data-slider min="${j.lower}" max="${j.upper}" step="0.5" value="${state.held[j.name] ?? 0}">
+        <td><input type="range" data-slider min="${esc(j.lower)}" max="${esc(j.upper)}" step="0.5"
+          value="${esc(state.held[j.name] ?? 0)}">
           <input type="number" data-held step="0.5" value="${(state.held[j.name] ?? 0).toFixed(1)}"></td></tr>`).join("");
     }
 

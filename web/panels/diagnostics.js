@@ -1,11 +1,9 @@
 // Diagnostics and log: every node's latest DiagnosticStatus (level, message, values), errors on top and in red.
 
+import { esc } from "../dom.js";
+
 const LEVELS = ["OK", "WARN", "ERROR", "STALE"];
 const STALE_MS = 5000; // diagnostics come at 1 Hz: five missed reports and the node counts as silent
-
-function esc(text) {
-  return String(text).replace(/[&<>"]/g, (c) => ({ "&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;" })[c]);
-}
 
 export default {
   id: "diagnostics",

@@ -1,10 +1,8 @@
 // HCM state graph, as the HCM exports it (hcm_graph): states on a circle, current highlighted, history with times.
 
-const SVG = "http://www.w3.org/2000/svg";
+import { esc } from "../dom.js";
 
-function esc(text) {
-  return String(text).replace(/[&<>"]/g, (c) => ({ "&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;" })[c]);
-}
+const SVG = "http://www.w3.org/2000/svg";
 
 function stampSeconds(t) { return t.sec + t.nanosec * 1e-9; }
 

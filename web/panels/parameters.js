@@ -3,7 +3,8 @@
 // changes made elsewhere (another dashboard, the command line, the node itself) through the server's stream of the
 // nodes' parameter events; an input being typed into is never overwritten.
 
-import { api, esc, MATCH_MODE_TEXT, robotPicker, withToken } from "../lab_api.js";
+import { api, MATCH_MODE_TEXT, robotPicker } from "../lab_api.js";
+import { esc } from "../dom.js";
 
 const PLOT_SECONDS = 20;
 const PLOT_HZ = 30;
@@ -42,9 +43,9 @@ function controlFor(p) {
   }
   if (p.type === "int" || p.type === "float") {
     const step = p.type === "int" ? 1 : "any";
-    const slider = p.range ? `<input type="range" data-role="slider" min="${p.range[0]}" max="${p.range[1]}"
-      step="${p.type === "int" ? 1 : (p.range[1] - p.range[0]) / 200}" value="${p.value}">` : "";
-    return `${slider}<input type="number" data-role="value" step="${step}" value="${p.value}">`;
+    const slider = p.range ? `<input type="range" data-role="slider" min="${esc(p.range[0])}" max="${esc(p.range[1])}"
+      step="${p.type === "int" ? 1 : esc((p.range[1] - p.range[0]) / 200)}" value="${esc(p.value)}">` : "";
+    return `${slider}<input type="number" data-role="value" step="${step}" value="${esc(p.value)}">`;
   }
   if (p.type === "list") return `<input type="text" data-role="value" value="${esc(JSON.stringify(p.value))}">`;
   return `<input type="text" data-role="value" value="${esc(p.value)}">`;
@@ -122,7 +123,7 @@ export default {
           <tr data-param="${esc(node)}/${esc(p.name)}" title="${esc(p.doc)}">
             <td><b>${esc(p.name)}</b> <span class="muted">${esc(p.type)}</span><div class="muted doc">${esc(p.doc)}</div></td>
             <td class="param-control">${controlFor(p)} <span class="muted" data-role="revision"
-              title="revision: how often the value changed since the node started">rev ${p.revision}</span>
+              title="revision: how often the value changed since the node started">rev ${esc(p.revision)}</span>
               <div class="param-elsewhere" data-role="elsewhere"></div><div class="param-error" data-role="error"></div></td>
             <td>${esc(JSON.stringify(p.default))}</td>
             <td>${p.range ? `[${p.range[0]}, ${p.range[1]}]` : p.choices ? esc(p.choices.join(", ")) : ""}</td>
@@ -161,7 +162,7 @@ export default {
       source = null;
       if (!state.robot) return;
       let opened = false;
-      source = new EventSource(withToken(`api/robots/${encodeURIComponent(state.robot)}/params/*/events`));
+      source = new EventSource(`api/robots/${encodeURIComponent(state.robot)}/params/*/events`);
       source.onopen = () => { if (opened) refreshValues(); opened = true; }; // reconnected: catch up
       source.onmessage = (e) => { try { applyEvent(JSON.parse(e.data)); } catch (err) { console.warn(err); } };
       source.addEventListener("resync", refreshValues);

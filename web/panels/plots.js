@@ -1,7 +1,8 @@
 // Plots: the rerun web viewer, fed by the server with downsampled numbers, in an iframe. Above it, any topic can be
 // added: the server then plots every numeric field of it too (a tab of its own in the viewer).
 
-import { api, esc } from "../lab_api.js";
+import { api } from "../lab_api.js";
+import { esc } from "../dom.js";
 
 export default {
   id: "plots",

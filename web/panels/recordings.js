@@ -1,7 +1,8 @@
 // Recordings: the recordings folder (size, duration), start/stop a manual recording, bookmark, open in replay.
 // Recording lives in the server (it goes on with the browser closed) and sends nothing to robots: fine in match mode.
 
-import { api, esc } from "../lab_api.js";
+import { api } from "../lab_api.js";
+import { esc } from "../dom.js";
 
 function size(bytes) {
   return bytes > 1e9 ? `${(bytes / 1e9).toFixed(2)} GB` : bytes > 1e6 ? `${(bytes / 1e6).toFixed(1)} MB`
@@ -18,7 +19,7 @@ function running(status, label) {
   if (!status) return "";
   return `<div class="rec-running" data-kind="${label}"><span class="badge bad">● REC</span> ${label}:
     ${esc(status.name)} — ${status.messages} messages, ${clock(status.duration_s)}, ${status.bookmarks} bookmarks
-    ${status.dropped ? `<span class="badge warn">${status.dropped} dropped</span>` : ""}</div>`;
+    ${status.dropped ? `<span class="badge warn">${esc(status.dropped)} dropped</span>` : ""}</div>`;
 }
 
 export default {

@@ -2,7 +2,8 @@
 // a progress bar while an unindexed log is scanned, and a small plot of any numeric field of any replayed topic
 // (topics panels do not know, e.g. from another team's ROS 2 bag). Replay feeds the same hub as live data.
 
-import { api, esc } from "../lab_api.js";
+import { api } from "../lab_api.js";
+import { esc } from "../dom.js";
 
 const SPEEDS = [0.1, 0.25, 0.5, 1, 2, 5, 10];
 const PLOT_POINTS = 400;
@@ -111,7 +112,7 @@ export default {
       const tbody = $(".replay-topics tbody");
       tbody.innerHTML = info ? info.topics.map((t) => `<tr title="${esc(t.problem)}"><td>${esc(t.robot)}</td>
         <td>${esc(t.topic)}</td><td>${esc(t.msgtype)}${t.decodable ? "" : ' <span class="badge warn">raw</span>'}</td>
-        <td>${t.count}</td></tr>`).join("") : "";
+        <td>${esc(t.count)}</td></tr>`).join("") : "";
       $(".replay-plot-topic").innerHTML = '<option value="">topic…</option>' + (info ? info.topics
         .filter((t) => t.decodable && t.count).map((t) => `<option value="${esc(t.robot)}|${esc(t.topic)}">${esc(t.robot)} ${esc(t.topic)}</option>`).join("") : "");
       const line = $(".replay-timeline");

@@ -1,14 +1,11 @@
 // Team overview: a card per robot with HCM state, penalty, game state, battery, hottest servo and link health.
 
 import { BAD_HCM_STATES, gameName, hcmName } from "../msgtypes.js";
+import { esc } from "../dom.js";
 
 const TOPICS = [["robot_state", 5], ["gamestate", 2], ["servo_data", 1], ["overview", 5]];
 const ROW_CLASS = { ok: "", event: "event-row", stale: "stale-row", lost: "lost-row" };
 const EVENT_TITLE = "sent only when something happens: silence is normal";
-
-function esc(text) {
-  return String(text).replace(/[&<>"]/g, (c) => ({ "&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;" })[c]);
-}
 
 /** The card's facts from whatever arrived: full topics (live) or the compact overview (telemetry). */
 export function robotFacts(store, robot) {

@@ -2,7 +2,8 @@
 // cmd_vel; the command is refreshed while held and the server sends zero when refreshes stop. Plus animation and
 // penalize buttons.
 
-import { api, esc, MATCH_MODE_TEXT, robotPicker } from "../lab_api.js";
+import { api, MATCH_MODE_TEXT, robotPicker } from "../lab_api.js";
+import { esc } from "../dom.js";
 
 const REFRESH_MS = 150;
 const HOLD_S = 0.5;

@@ -1,0 +1,303 @@
+"""Attacks on the dashboard at the venue, each against a real server (uvicorn subprocess) as a foreign page, a
+rebinding DNS name, a stranger on the network or a careless script would make them. Each would succeed on a
+server without the VenueGuard (DESIGN.md section 11)."""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import stat
+import subprocess
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import httpx
+import pytest
+import websockets.sync.client as ws_client
+from websockets.exceptions import InvalidStatus
+
+from server.security.hosts import machine_addresses
+from server.security.token_file import read_token_file, token_path
+from tests.conftest import REPO, free_port
+from tests.dashboard_server import RunningServer, dashboard_server
+from tests.waiting import wait_for
+
+EVIL = "http://evil.example"
+BODIES: dict[str, Any] = {"/params/{node}": {"values": {"rate_hz": 10}}, "/penalize": {"penalize": "on"},
+                          "/animation": {"animation": "stand"}, "/teleop": {"x": 0.1}, "/open": {"path": "x.mcap"}}
+
+
+@pytest.fixture(scope="module")
+def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[RunningServer]:
+    folder = tmp_path_factory.mktemp("venue")
+    (folder / "rec").mkdir()
+    with dashboard_server(["--no-live", "--no-telemetry", "--recordings", str(folder / "rec")], folder) as running:
+        yield running
+
+
+def unsafe_calls(server: RunningServer) -> list[tuple[str, str, Any]]:
+    """Every state-changing endpoint of the running server, from its own OpenAPI description (later ones too)."""
+    spec = server.http.get(f"{server.url}/openapi.json").json()
+    calls = []
+    for path, methods in spec["paths"].items():
+        for method in methods:
+            if method.upper() in ("POST", "PUT", "DELETE", "PATCH") and path != "/api/session":
+                concrete = (path.replace("{robot}", "r1").replace("{node}", "hcm").replace("{file:path}", "wave")
+                            .replace("{name}", "live"))
+                body = next((b for suffix, b in BODIES.items() if path.endswith(suffix)), None)
+                calls.append((method.upper(), concrete, body))
+    assert len(calls) >= 25, calls  # control, animations, teleop, recordings, replay, sources, plots
+    return calls
+
+
+# -- Host: DNS rebinding ------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("host", ["evil.example", "evil.example:8080", "127.0.0.1.evil.example", "", "a b"])
+def test_rebinding_host_names_are_refused(server: RunningServer, host: str) -> None:
+    headers = {"Host": host, **server.auth}
+    for method, path, body in [("GET", "/api/robots", None), ("GET", "/api/robots/robot1/params", None),
+                               ("POST", "/api/robots/robot1/teleop", {"x": 0.3}), ("GET", "/", None)]:
+        reply = httpx.request(method, server.url + path, headers=headers, json=body, timeout=10)
+        assert reply.status_code in (400, 421), (host, path, reply.status_code, reply.text)
+    with pytest.raises(InvalidStatus) as refused:
+        ws_client.connect(server.ws_url, additional_headers={"Host": host}, open_timeout=10)
+    assert refused.value.response.status_code in (400, 403, 421)
+
+
+def test_loopback_names_are_served(server: RunningServer) -> None:
+    for host in ("127.0.0.1", f"127.0.0.1:{server.port}", f"localhost:{server.port}", f"[::1]:{server.port}"):
+        assert httpx.get(f"{server.url}/api/robots", headers={"Host": host}, timeout=10).status_code == 200, host
+
+
+def test_this_machines_address_only_when_listening_beyond_loopback(tmp_path: Path) -> None:
+    outside = sorted(a for a in machine_addresses() if not a.startswith(("127.", "::1", "fe80")) and ":" not in a)
+    if not outside:
+        pytest.skip("this machine has no non-loopback IPv4 address")
+    with dashboard_server(["--no-live", "--no-telemetry"], tmp_path) as local:
+        assert httpx.get(f"{local.url}/api/robots", headers={"Host": outside[0]}, timeout=10).status_code == 421
+    with dashboard_server(["--no-live", "--no-telemetry", "--allow-host", "laptop.team"], tmp_path,
+                          host="0.0.0.0") as wide:
+        for host in (outside[0], f"{outside[0]}:{wide.port}", "laptop.team"):
+            reply = httpx.get(f"{wide.url}/api/robots", headers={"Host": host, **wide.auth}, timeout=10)
+            assert reply.status_code == 200, (host, reply.text)
+        assert httpx.get(f"{wide.url}/api/robots", headers={"Host": "evil.example"}, timeout=10).status_code == 421
+
+
+# -- Origin: foreign pages ------------------------------------------------------------------------------------------
+def test_websocket_from_a_foreign_page_is_refused(server: RunningServer) -> None:
+    for origin in (EVIL, "null", f"http://127.0.0.1:{server.port + 1}", f"https://127.0.0.1:{server.port}"):
+        with pytest.raises(InvalidStatus) as refused:
+            ws_client.connect(server.ws_url, origin=origin, open_timeout=10)  # type: ignore[arg-type]
+        assert refused.value.response.status_code == 403, origin
+    # the dashboard's own page, and a client that is no browser (no Origin), are served
+    for origin in (f"http://127.0.0.1:{server.port}", None):
+        with ws_client.connect(server.ws_url, origin=origin, open_timeout=10) as ws:  # type: ignore[arg-type]
+            assert json.loads(ws.recv(timeout=10))["type"] == "hello"
+
+
+def test_every_control_endpoint_refuses_a_foreign_origin_even_with_the_credential(server: RunningServer) -> None:
+    for method, path, body in unsafe_calls(server):
+        for headers in ({"Origin": EVIL}, {"Origin": "null"}, {"Sec-Fetch-Site": "cross-site"}):
+            reply = server.http.request(method, server.url + path, json=body, headers=headers, timeout=10)
+            assert reply.status_code == 403, (method, path, headers, reply.text)
+            assert "refused" in reply.json()["detail"]
+
+
+@pytest.mark.parametrize("path", ["/api/robots/robot1/animation-stop", "/api/recordings/stop", "/api/replay/close",
+                                  "/api/robots/robot1/teleop/stop", "/api/replay/play"])
+def test_body_less_cross_site_posts_are_refused(server: RunningServer, path: str) -> None:
+    """The form a foreign page can send without CORS: a POST with no body (or text/plain) from another site."""
+    for headers in ({"Origin": EVIL}, {"Origin": EVIL, "Content-Type": "text/plain"}):
+        assert httpx.post(server.url + path, headers=headers, timeout=10).status_code == 403, headers
+    assert httpx.post(server.url + path, timeout=10).status_code == 401  # no Origin (a script): the credential
+
+
+def test_reading_data_from_a_foreign_page_is_refused(server: RunningServer) -> None:
+    for path in ("/api/robots", "/api/config", "/api/recordings", "/openapi.json"):
+        assert httpx.get(server.url + path, headers={"Origin": EVIL}, timeout=10).status_code == 403, path
+        no_cors = {"Sec-Fetch-Site": "cross-site", "Sec-Fetch-Mode": "no-cors"}  # <script src=...>, <img src=...>
+        assert httpx.get(server.url + path, headers=no_cors, timeout=10).status_code == 403, path
+    # the page itself may be linked from anywhere (it holds no data)
+    page = httpx.get(server.url + "/", headers={"Sec-Fetch-Site": "cross-site", "Sec-Fetch-Mode": "navigate"})
+    assert page.status_code == 200 and "pitchside" in page.text
+
+
+def test_allowed_origin_by_flag(tmp_path: Path) -> None:
+    args = ["--no-live", "--no-telemetry", "--allow-origin", "http://laptop2.team:8080"]
+    with dashboard_server(args, tmp_path) as server:
+        ok = server.http.post(f"{server.url}/api/replay/close", headers={"Origin": "http://laptop2.team:8080"})
+        assert ok.status_code == 200, ok.text
+        other = server.http.post(f"{server.url}/api/replay/close", headers={"Origin": "http://laptop3.team:8080"})
+        assert other.status_code == 403
+
+
+# -- the credential, also on loopback ------------------------------------------------------------------------------
+def test_control_needs_the_credential_on_loopback(server: RunningServer) -> None:
+    for method, path, body in unsafe_calls(server):
+        for headers in ({}, {"Authorization": "Bearer wrong"}, {"Cookie": f"pitchside_session_{server.port}=x"}):
+            reply = httpx.request(method, server.url + path, json=body, headers=headers, timeout=10)
+            assert reply.status_code == 401, (method, path, headers, reply.text)
+        # the old query parameter is no credential for the API (it would end up in logs and histories)
+        reply = httpx.request(method, server.url + path, params={"token": server.token}, json=body, timeout=10)
+        assert reply.status_code == 401, (method, path)
+    # GETs that query robots are control too
+    assert httpx.get(f"{server.url}/api/robots/robot1/params", timeout=10).status_code == 401
+
+
+def test_the_printed_link_signs_the_browser_in_with_a_strict_http_only_cookie(server: RunningServer) -> None:
+    with httpx.Client(base_url=server.url, timeout=10) as browser:
+        assert browser.get("/api/config").json()["control"] is False
+        refused = browser.get("/?token=wrong", follow_redirects=False)
+        assert refused.status_code == 401 and not browser.cookies
+        signed = browser.get(f"/?token={server.token}&panel=hcm", follow_redirects=False)
+        assert signed.status_code == 303 and signed.headers["location"] == "/?panel=hcm"  # token dropped
+        cookie = signed.headers["set-cookie"]
+        assert "HttpOnly" in cookie and "SameSite=Strict" in cookie and server.token not in cookie
+        assert browser.get("/api/config").json()["control"] is True
+        assert browser.post("/api/replay/close").status_code == 200
+        browser.delete("/api/session")
+        assert browser.post("/api/replay/close").status_code == 401
+        assert browser.post("/api/session", json={"token": "nope"}).status_code == 401
+        assert browser.post("/api/session", json={"token": server.token}).status_code == 200
+        assert browser.post("/api/replay/close").status_code == 200
+
+
+def test_reading_needs_the_credential_beyond_loopback(tmp_path: Path) -> None:
+    with dashboard_server(["--no-live", "--no-telemetry"], tmp_path, host="0.0.0.0") as server:
+        for path in ("/api/robots", "/api/hub", "/api/recordings", "/openapi.json"):
+            assert httpx.get(server.url + path, timeout=10).status_code == 401, path
+            assert server.http.get(server.url + path).status_code == 200, path
+        with pytest.raises(InvalidStatus) as refused:
+            ws_client.connect(server.ws_url, open_timeout=10)
+        assert refused.value.response.status_code == 401
+        with ws_client.connect(server.ws_url, additional_headers=server.auth, open_timeout=10) as ws:
+            assert json.loads(ws.recv(timeout=10))["type"] == "hello"
+        assert httpx.get(server.url + "/api/config", timeout=10).json()["control"] is False  # the page's lock
+
+
+def test_the_command_line_finds_the_token_of_a_server_of_this_user(server: RunningServer) -> None:
+    left = read_token_file(server.port)
+    assert left is not None and left["token"] == server.token
+    file = token_path(server.port)
+    assert stat.S_IMODE(file.stat().st_mode) == 0o600 and stat.S_IMODE(file.parent.stat().st_mode) == 0o700
+    env = {k: v for k, v in os.environ.items() if k != "PITCHSIDE_TOKEN"}
+    for action in ("start", "stop"):  # POSTs: they need the credential, and the command finds it by itself
+        done = subprocess.run([sys.executable, "-m", "pitchside.cli", "record", action, "cli-test", "--server",
+                               server.url], cwd=REPO, env=env, capture_output=True, text=True, timeout=60)
+        assert done.returncode == 0 and "cli-test" in done.stdout, done.stdout + done.stderr
+
+
+# -- input limits ------------------------------------------------------------------------------------------------
+def test_nested_and_huge_json_on_the_websocket_get_an_error_frame_and_the_connection_stays(
+        server: RunningServer) -> None:
+    with ws_client.connect(server.ws_url, open_timeout=10, max_size=None) as ws:
+        assert json.loads(ws.recv(timeout=10))["type"] == "hello"
+        bad_frames: list[str | bytes] = ["[" * 100_000, "{\"a\":" * 50_000, "[" * 33 + "]" * 33,
+                                         json.dumps({"op": "ping", "id": "x" * 100_000}), b"\x00\xff" * 10,
+                                         "\"" + "\\" * 5000, json.dumps({"op": "subscribe", "robot": "r" * 500})]
+        for frame in bad_frames:
+            ws.send(frame)
+            reply = _next_of(ws, {"error"})
+            assert reply["error"], frame[:40]
+        ws.send(json.dumps({"op": "ping", "id": 7}))
+        assert _next_of(ws, {"pong"})["id"] == 7
+
+
+def _next_of(ws: Any, types: set[str]) -> dict[str, Any]:
+    while True:
+        raw = ws.recv(timeout=10)
+        if isinstance(raw, str):
+            frame = json.loads(raw)
+            if frame["type"] in types:
+                return dict(frame)
+
+
+def test_nested_huge_and_binary_bodies_are_answered_not_crashed(server: RunningServer) -> None:
+    url = f"{server.url}/api/replay/open"
+    deep = server.http.post(url, content=b"[" * 100_000, headers={"Content-Type": "application/json"})
+    assert deep.status_code == 400 and "deeper" in deep.json()["detail"]
+    huge = server.http.post(url, content=b" " * (5 << 20), headers={"Content-Type": "application/json"})
+    assert huge.status_code == 413
+    binary = server.http.post(url, content=os.urandom(2000), headers={"Content-Type": "application/json"})
+    assert binary.status_code in (400, 422), binary.text
+    assert server.http.get(f"{server.url}/api/replay").status_code == 200  # still serving
+
+
+# -- paths and names from clients ----------------------------------------------------------------------------------
+def test_replay_opens_only_inside_the_allowed_folders_and_does_not_tell_what_exists(
+        server: RunningServer, tmp_path: Path) -> None:
+    secret = tmp_path / "secret.mcap"
+    secret.write_bytes(b"not for you")
+    rec = Path(re.search(r"--recordings (\S+)", " ".join(server.process.args))[1])  # type: ignore[arg-type,index]
+    (rec / "link.mcap").symlink_to(secret)
+    answers = []
+    for path in ("/etc/passwd", "/etc/nothing-here", str(secret), "../../etc/passwd", "link.mcap", "\0x"):
+        reply = server.http.post(f"{server.url}/api/replay/open", json={"path": path})
+        assert reply.status_code == 403, (path, reply.text)
+        answers.append(reply.json()["detail"])
+    assert len(set(answers[:3])) == 1, answers  # the same answer whether the file exists or not
+
+
+@pytest.mark.parametrize("robot", ["*", "**", "a*b", "x<y", "a%2Fb", "r" * 13])
+def test_robot_ids_in_urls_that_would_widen_a_zenoh_key_are_refused(server: RunningServer, robot: str) -> None:
+    reply = server.http.get(f"{server.url}/api/robots/{robot}/params")
+    assert reply.status_code in (404, 422), (robot, reply.text)
+
+
+# -- headers ---------------------------------------------------------------------------------------------------------
+def test_security_headers_on_every_page(server: RunningServer) -> None:
+    for path in ("/", "/app.js", "/api/config", "/nothing-here"):
+        reply = httpx.get(server.url + path, timeout=10)
+        csp = reply.headers.get("content-security-policy", "")
+        assert reply.headers.get("x-content-type-options") == "nosniff", path
+        assert "frame-ancestors 'self'" in csp and "script-src 'self'" in csp and "unsafe-inline" not in \
+            csp.split("script-src", 1)[1].split(";", 1)[0], (path, csp)
+    assert httpx.get(server.url + "/docs", timeout=10).status_code == 404  # FastAPI's docs load from a CDN
+
+
+# -- match mode and the telemetry key -------------------------------------------------------------------------------
+def test_match_mode_refuses_the_development_key_unless_told(tmp_path: Path) -> None:
+    port = free_port()
+    done = subprocess.run([sys.executable, "-m", "server", "--match", "--port", str(port), "--no-telemetry"],
+                          cwd=REPO, capture_output=True, text=True, timeout=60)
+    assert done.returncode != 0 and "telemetry key" in done.stderr + done.stdout
+    key = tmp_path / "team.key"
+    made = subprocess.run([sys.executable, "-m", "pitchside.cli", "telemetry-key", str(key)], cwd=REPO,
+                          capture_output=True, text=True, timeout=60)
+    assert made.returncode == 0 and stat.S_IMODE(key.stat().st_mode) == 0o600
+    fingerprint = re.search(r"fingerprint ([0-9a-f]{8})", made.stdout)
+    assert fingerprint, made.stdout
+    again = subprocess.run([sys.executable, "-m", "pitchside.cli", "telemetry-key", str(key)], cwd=REPO,
+                           capture_output=True, text=True, timeout=60)
+    assert again.returncode != 0 and "exists" in again.stderr  # a team keeps its key
+    with dashboard_server(["--match", "--telemetry-key", str(key), "--telemetry-port", str(free_port())],
+                          tmp_path) as match:
+        assert httpx.get(f"{match.url}/api/config").json()["telemetry_key"] == fingerprint[1]
+        assert f"team {fingerprint[1]}" in match.output()
+    with dashboard_server(["--match", "--allow-dev-key", "--telemetry-port", str(free_port())], tmp_path) as dev:
+        assert httpx.get(f"{dev.url}/api/config").json()["telemetry_key"] == "development"
+        assert "development key" in dev.output()
+
+
+def test_names_from_the_bus_that_break_the_rules_never_reach_the_hub(router_endpoint: str, client: Any,
+                                                                      tmp_path: Path) -> None:
+    import schemas
+    from robot_nodes.runtime.keys import topic_key
+
+    state = schemas.encode(schemas.make("humanoid_league_msgs/msg/RobotControlState", state=2))
+    with dashboard_server(["--connect", router_endpoint, "--no-telemetry"], tmp_path) as server:
+        def live() -> dict[str, Any]:
+            return next(s for s in server.http.get(f"{server.url}/api/sources").json() if s["name"] == "live")
+
+        def heard() -> bool:
+            for robot in ("<script>x</script>", "robot_with_a_long_id", "r1\"x"):
+                client.put(topic_key(robot, "robot_state"), state)
+            client.put("pitchside/r1/robot_state", state)
+            return live()["bad_names"] >= 3 and any(r["robot"] == "r1" for r in
+                                                    server.http.get(f"{server.url}/api/robots").json())
+
+        wait_for(heard, 20.0, 0.2, "the live source heard good and bad names")
+        robots = {r["robot"] for r in server.http.get(f"{server.url}/api/robots").json()}
+        assert robots == {"r1"}, robots
