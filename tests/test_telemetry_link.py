@@ -325,3 +325,23 @@ def test_parameters_apply_live(bus: BusConfig, collector: Collector) -> None:
         pub.shutdown()
         node.shutdown()
         nowhere.close()
+
+
+def test_without_a_team_key_nothing_is_sent_unless_the_dev_key_is_asked_for(bus: BusConfig) -> None:
+    """A robot set up without the team's key must not send under the published development key by accident."""
+    listener = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    listener.bind(("127.0.0.1", 0))
+    listener.settimeout(0.2)
+    node = telemetry(bus, listener.getsockname()[1], team_key="", topics="robot_state:20", overview_hz=20.0)
+    try:
+        assert "no team key" in node.last_error
+        wait_for(lambda: node.refused_datagrams >= 20, timeout=10, what="datagrams refused for want of a key")
+        with pytest.raises(TimeoutError):
+            listener.recv(2048)
+        node.parameters.set({"allow_dev_key": True})  # the lab, told explicitly
+        listener.settimeout(10)
+        header = parse_header(listener.recv(2048))
+        assert header.robot_id == "robot3"
+    finally:
+        node.shutdown()
+        listener.close()
