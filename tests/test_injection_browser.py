@@ -89,3 +89,27 @@ def test_markup_from_the_bus_and_from_a_log_is_shown_as_text_and_never_runs(
     finally:
         stop.set()
         publisher.join(5)
+
+
+def test_a_page_opened_without_the_token_is_view_only_until_signed_in(browser: Any, tmp_path: Path) -> None:
+    with dashboard_server(["--no-live", "--no-telemetry"], tmp_path) as server:
+        page = browser.new_page(viewport={"width": 1600, "height": 2400})
+        errors: list[str] = []
+        page.on("pageerror", lambda exc: errors.append(str(exc)))
+        page.goto(server.url + "/")
+        page.wait_for_selector('[data-role="access"]', timeout=30_000)
+        assert page.text_content('[data-role="access"]') == "view only"
+        assert "telemetry: DEV KEY" in (page.text_content('[data-role="telemetry-key"]') or "")
+        assert "view only" in (page.text_content('[data-panel="parameters"]') or "")
+        assert page.context.cookies() == []
+        page.fill(".sign-in input", "wrong")
+        page.click(".sign-in button")
+        wait_for(lambda: "token" in (page.text_content(".sign-in .lab-status") or ""), 10.0, 0.1, "the refusal")
+        page.fill(".sign-in input", server.token)
+        page.click(".sign-in button")
+        wait_for(lambda: page.locator('[data-role="access"]').count() and
+                 page.text_content('[data-role="access"]') == "control", 30.0, 0.2, "signed in after reload")
+        cookie = page.context.cookies()[0]
+        assert cookie["httpOnly"] and cookie["sameSite"] == "Strict" and cookie["value"] != server.token
+        assert page.evaluate("document.cookie") == ""  # no script of the page can read it
+        assert not errors, errors

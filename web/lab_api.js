@@ -49,3 +49,17 @@ export function robotPicker(select, ctx, onChange) {
 
 /** Text shown instead of a lab panel in match mode. */
 export const MATCH_MODE_TEXT = "match mode: the server sends nothing to robots, so this lab tool is off";
+/** ... and in a browser that has not shown the token. */
+export const VIEW_ONLY_TEXT = "view only: open the link the server printed at start-up, or sign in with its token "
+  + "in the top bar, to use this lab tool";
+
+/** Draws the reason a lab tool is off (match mode, or no credential) and returns true; false if it may run. */
+export function labToolOff(body, config) {
+  const reason = config.match_mode ? MATCH_MODE_TEXT : config.control ? "" : VIEW_ONLY_TEXT;
+  if (!reason) return false;
+  const note = document.createElement("div");
+  note.className = "empty";
+  note.textContent = reason;
+  body.replaceChildren(note);
+  return true;
+}

@@ -1,7 +1,7 @@
 // Animation editor and recorder: open/upload a Bit-Bots animation, edit keyframes (structure edits run server-side
 // through robot_nodes.animation.editing), record poses from the robot in RECORD, preview in 3D, play, stop, save.
 
-import { api, MATCH_MODE_TEXT, robotPicker } from "../lab_api.js";
+import { api, labToolOff, robotPicker } from "../lab_api.js";
 import { esc } from "../dom.js";
 
 const SEND_EVERY_MS = 100; // record goals while a slider is dragged
@@ -15,10 +15,7 @@ export default {
   title: "Animation editor",
   size: [2, 4],
   create(body, ctx) {
-    if (ctx.config.match_mode) {
-      body.innerHTML = `<div class="empty">${MATCH_MODE_TEXT}</div>`;
-      return {};
-    }
+    if (labToolOff(body, ctx.config)) return {};
     body.innerHTML = `<div class="lab-bar">
         <label>robot <select data-role="robot"></select></label>
         <select data-role="files" title="animation files in the robot's animation folder"></select>

@@ -3,7 +3,7 @@
 // changes made elsewhere (another dashboard, the command line, the node itself) through the server's stream of the
 // nodes' parameter events; an input being typed into is never overwritten.
 
-import { api, MATCH_MODE_TEXT, robotPicker } from "../lab_api.js";
+import { api, labToolOff, robotPicker } from "../lab_api.js";
 import { esc } from "../dom.js";
 
 const PLOT_SECONDS = 20;
@@ -66,10 +66,7 @@ export default {
   size: [2, 3],
   hidden: false,
   create(body, ctx) {
-    if (ctx.config.match_mode) {
-      body.innerHTML = `<div class="empty">${MATCH_MODE_TEXT}</div>`;
-      return {};
-    }
+    if (labToolOff(body, ctx.config)) return {};
     body.innerHTML = `<div class="lab-bar">
         <label>robot <select data-role="robot"></select></label>
         <button data-act="reload" title="read every node's parameters again">reload</button>

@@ -2,7 +2,7 @@
 // cmd_vel; the command is refreshed while held and the server sends zero when refreshes stop. Plus animation and
 // penalize buttons.
 
-import { api, MATCH_MODE_TEXT, robotPicker } from "../lab_api.js";
+import { api, labToolOff, robotPicker } from "../lab_api.js";
 import { esc } from "../dom.js";
 
 const REFRESH_MS = 150;
@@ -19,10 +19,7 @@ export default {
   size: [1, 2],
   hidden: true,
   create(body, ctx) {
-    if (ctx.config.match_mode) {
-      body.innerHTML = `<div class="empty">${MATCH_MODE_TEXT}</div>`;
-      return {};
-    }
+    if (labToolOff(body, ctx.config)) return {};
     body.innerHTML = `<div class="lab-bar"><label>robot <select data-role="robot"></select></label>
         <label>speed <input type="range" data-role="speed" min="0.05" max="0.5" step="0.05" value="0.2"></label></div>
       <div class="teleop">
