@@ -4,6 +4,12 @@ The real dynamixel-sdk opens `emulator.port` (the pty's slave side) with PortHan
 answers on the master side like the devices on a half-duplex bus would. With `timing=True` the bus is
 occupied for 10 bit times per byte (8N1) of every instruction and status packet, so throughput at
 1 Mbaud is what the wire would allow. Faults on demand: `silence(id)`, `corrupt(id, kind, count)`.
+
+Servos keep their angle-limit registers (P1 CW/CCW 6/8, P2 min/max position 52/48) and honour them as the
+manuals describe: a goal position outside them is refused (the servo keeps its old goal; P1 sets the angle-limit
+error bit, P2 answers a WRITE with "data limit"); P2 refuses EEPROM writes while torque is on. Every goal
+position that reaches a servo is logged in `goal_log`, refused or not, so a test can prove what was on the wire.
+A refused write is not applied at all (nor the speed written with it).
 """
 
 from __future__ import annotations
@@ -100,6 +106,14 @@ class Device:
         self.table[address:address + len(data)] = data
         return True
 
+    def refuses(self, address: int, data: bytes) -> int:
+        """The status error a WRITE of these bytes gets instead of being applied (0: accepted)."""
+        return 0
+
+    def alarm(self) -> int:
+        """Error bits the device keeps setting in its status packets (P1), until the cause goes away."""
+        return 0
+
     def u16(self, address: int) -> int:
         return self.table[address] | self.table[address + 1] << 8
 
@@ -147,6 +161,9 @@ class MXServo(Device):
     def __init__(self, dxl_id: int, model_number: int = 310, tau: float = 0.03, start_ticks: int = 2048) -> None:
         super().__init__(dxl_id, 256 if self.protocol == 2 else 74)
         self.model_number = model_number
+        self.goal_log: list[int] = []  # every goal position written to this servo, in order, refused ones too
+        self.refused_goals = 0  # goals outside the angle limits, not applied
+        self.angle_limit_error = False  # the last goal was outside the limits (P1 status bit 1)
         self.tau = tau
         self.position = float(start_ticks)
         self.velocity = 0.0  # ticks/s
@@ -176,11 +193,48 @@ class MXServo(Device):
         units = self.u16(self.SPEED_LIMIT) & 0x3FF
         return units * self.speed_unit_rpm / 60.0 * 4096 if units else math.inf
 
+    def angle_limits(self) -> tuple[int, int]:
+        """(lowest, highest) goal position the servo accepts: P1 CW/CCW Angle Limit, P2 Min/Max Position Limit."""
+        if self.protocol == 1:
+            return self.u16(6), self.u16(8)
+        return int.from_bytes(self.table[52:56], "little"), int.from_bytes(self.table[48:52], "little")
+
+    def joint_mode(self) -> bool:
+        """P1 CW = CCW = 0 is wheel mode and both 4095 multi-turn: no position limits then."""
+        return self.protocol == 2 or self.angle_limits() not in ((0, 0), (4095, 4095))
+
+    def _goal_in(self, address: int, data: bytes) -> int | None:
+        k = self.GOAL - address
+        if k >= 0 and k + self.GOAL_SIZE <= len(data):
+            return int.from_bytes(data[k:k + self.GOAL_SIZE], "little", signed=self.protocol == 2)
+        return None
+
     def write(self, address: int, data: bytes) -> bool:
+        goal = self._goal_in(address, data)
+        if goal is not None:
+            self.goal_log.append(goal)
+            self.angle_limit_error = False
         ok = super().write(address, data)
-        if ok and self.protocol == 1 and address <= self.GOAL < address + len(data):
+        if ok and self.protocol == 1 and goal is not None:
             self.table[self.TORQUE] = 1  # an MX (P1) switches torque on when it gets a goal position
         return ok
+
+    def refuses(self, address: int, data: bytes) -> int:
+        if self.protocol == 2 and address < 64 and self.torque:
+            return 7  # access error: EEPROM is written only with torque off
+        goal = self._goal_in(address, data)
+        if goal is None:
+            return 0
+        lo, hi = self.angle_limits()
+        if self.joint_mode() and not lo <= goal <= hi:
+            self.goal_log.append(goal)  # it was on the wire all the same
+            self.refused_goals += 1
+            self.angle_limit_error = True
+            return 0x02 if self.protocol == 1 else 6  # P1 angle limit error bit, P2 data limit error
+        return 0
+
+    def alarm(self) -> int:
+        return 0x02 if self.protocol == 1 and self.angle_limit_error else 0
 
     def tick(self, now: float) -> None:
         dt = max(now - self._last, 0.0)
@@ -428,7 +482,7 @@ class ServoBusEmulator:
     # ---------------------------------------------------------------- Protocol 1.0
 
     def _status1(self, dev: Device, params: bytes = b"", error: int = 0) -> bytes:
-        return p1_packet(dev.id, error | dev.error, params)
+        return p1_packet(dev.id, error | dev.error | dev.alarm(), params)
 
     def _handle_p1(self, dxl_id: int, inst: int, params: bytes, n: int) -> None:
         self.stats["instructions"] += 1
@@ -447,9 +501,10 @@ class ServoBusEmulator:
             for target in targets:
                 if self._answers(target):
                     target.tick(time.monotonic())
-                    ok = target.write(params[0], params[1:])
+                    refused = target.refuses(params[0], params[1:])
+                    ok = not refused and target.write(params[0], params[1:])
                     if dxl_id != BROADCAST:
-                        replies.append((target, self._status1(target, error=0 if ok else 0x08)))
+                        replies.append((target, self._status1(target, error=refused or (0 if ok else 0x08))))
         elif inst == 0x83 and dxl_id == BROADCAST and len(params) >= 2:  # SYNC_WRITE
             self.stats["sync_writes"] += 1
             address, size = params[0], params[1]
@@ -458,7 +513,9 @@ class ServoBusEmulator:
                 peer = self.devices.get(params[k])
                 if peer is not None and self._answers(peer):
                     peer.tick(now)
-                    peer.write(address, params[k + 1:k + 1 + size])
+                    data = params[k + 1:k + 1 + size]
+                    if not peer.refuses(address, data):
+                        peer.write(address, data)
         elif inst == 0x92 and dxl_id == BROADCAST and len(params) >= 1:  # BULK_READ
             self.stats["bulk_reads"] += 1
             now = time.monotonic()
@@ -502,9 +559,11 @@ class ServoBusEmulator:
             for target in targets:
                 if self._answers(target):
                     target.tick(now)
-                    ok = target.write(params[0] | params[1] << 8, params[2:])
+                    address = params[0] | params[1] << 8
+                    refused = target.refuses(address, params[2:])
+                    ok = not refused and target.write(address, params[2:])
                     if dxl_id != BROADCAST:
-                        replies.append((target, self._status2(target, error=0 if ok else 7)))
+                        replies.append((target, self._status2(target, error=refused or (0 if ok else 7))))
         elif inst == 0x82 and len(params) >= 4:  # SYNC_READ
             self.stats["sync_reads"] += 1
             address, length = params[0] | params[1] << 8, params[2] | params[3] << 8
@@ -535,7 +594,9 @@ class ServoBusEmulator:
                 peer = self.devices.get(params[k])
                 if peer is not None and self._answers(peer):
                     peer.tick(now)
-                    peer.write(address, params[k + 1:k + 1 + size])
+                    data = params[k + 1:k + 1 + size]
+                    if not peer.refuses(address, data):
+                        peer.write(address, data)
         elif dev is not None and self._answers(dev):
             replies.append((dev, self._status2(dev, error=2)))
         self._send(replies, n)

@@ -205,7 +205,9 @@ def test_pushed_over_falls_protected_and_gets_up(make_stack: Callable[..., Stack
     assert falling is not None and falling < hit, "FALLING only after the torso hit the ground"
     assert protect < hit, "the falling animation started only after the torso hit the ground"
     print(f"\n{direction}: FALLING {hit - falling:.3f} s and falling animation {hit - protect:.3f} s before "
-          f"the torso was below {GROUND_HEIGHT} m; standing {up - pushed:.1f} s after the push; states {seq}")
+          f"the torso was below {GROUND_HEIGHT} m; standing {up - pushed:.1f} s after the push; states {seq}; "
+          f"goals clamped into the joint-limit margin: {stack.cm730.clamps.by_joint() or 'none'}, worst "
+          f"{stack.cm730.clamps.worst() or '-'}")
 
 
 def _penalty_round(stack: Stack, penalize: Callable[[bool], None], torque_off: bool) -> None:

@@ -178,7 +178,7 @@ class Probe(Node):
 
 
 @pytest.fixture
-def chain(bus: BusConfig) -> Iterator[tuple[MujocoBackend, Probe, Listener]]:
+def chain(bus: BusConfig) -> Iterator[tuple[MujocoBackend, Probe, Listener, Cm730Node]]:
     backend = MujocoBackend.standalone(real_time_factor=1.0)
     nodes: list[Node] = []
     try:
@@ -191,15 +191,16 @@ def chain(bus: BusConfig) -> Iterator[tuple[MujocoBackend, Probe, Listener]]:
         listener = Listener(probe, ["robot_state", "walking_active", "walk_odometry", "walk_motor_goals"])
         probe.start()
         nodes.append(probe)
-        yield backend, probe, listener
+        yield backend, probe, listener, nodes[0]  # type: ignore[misc]
     finally:
         for node in reversed(nodes):
             node.shutdown()
         backend.close()
 
 
-def test_walking_node_walks_the_simulated_robot_through_the_hcm(chain: tuple[MujocoBackend, Probe, Listener]) -> None:
-    backend, probe, listener = chain
+def test_walking_node_walks_the_simulated_robot_through_the_hcm(
+        chain: tuple[MujocoBackend, Probe, Listener, Cm730Node]) -> None:
+    backend, probe, listener, cm730 = chain
     state = lambda: listener.last.get("robot_state") and listener.last["robot_state"].state  # noqa: E731
     wait_for(lambda: state() == 0 and backend.robot.uprightness() > 0.95, 40.0, what="HCM CONTROLLABLE after walkready")
     with backend.world.lock:
@@ -224,6 +225,9 @@ def test_walking_node_walks_the_simulated_robot_through_the_hcm(chain: tuple[Muj
     wait_for(lambda: not listener.last["walking_active"].data, 10.0, what="walking_active false after stop")
     wait_for(lambda: state() == 0, 10.0, what="HCM back to CONTROLLABLE")
     assert backend.robot.uprightness() > 0.9
+    # walkready and walking stay inside the joint limits less their margin: the cm730 clamp never acted
+    assert cm730.goals_applied > 100
+    assert cm730.clamps.total_positions == 0 and cm730.clamps.total_speeds == 0, cm730.clamps.by_joint()
     # nothing steps while the robot is paused, even with a command
     probe.publisher("paused").publish(schemas.make("std_msgs/msg/Bool", data=True))
     cmd.publish(twist)

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Protocol
+from typing import Protocol, runtime_checkable
 
 import numpy as np
 
@@ -40,3 +40,13 @@ class ServoBackend(Protocol):
     def set_torque(self, names: list[str], enabled: bool) -> None: ...
 
     def close(self) -> None: ...
+
+
+@runtime_checkable
+class AngleLimitRegisters(Protocol):
+    """A bus whose servos can refuse goals outside a range themselves (Dynamixel angle-limit registers)."""
+
+    def write_angle_limits(self, ranges: dict[str, tuple[float, float]]) -> dict[str, str]:
+        """ranges: joint name -> (lower, upper) rad on the joint side; returns per joint 'ok' (already set),
+        'written', or what went wrong."""
+        ...

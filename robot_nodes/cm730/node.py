@@ -1,5 +1,9 @@
 """The cm730 node: the servo bus on Zenoh (joint states, IMU, servo data out; motor goals and torque in).
 
+Every motor goal passes one clamp first (joint_limits.GoalLimits): positions into the URDF joint limits less
+`limit_margin_deg`, speeds capped at the URDF velocity, whichever backend drives the joints; on Dynamixel the
+same limits also go into the servos' angle-limit registers at start-up, so the servo itself refuses the rest.
+
 With the MuJoCo backend it also publishes what the simulated robot's head camera sees (JPEG image,
 camera info, ground-truth detections), its relative perceptions, its field position and the world's
 ground truth, standing in for camera, vision and localization nodes.
@@ -10,19 +14,25 @@ from __future__ import annotations
 import importlib
 import io
 import math
+import re
 import time
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 import schemas
-from robot_nodes.cm730.backend import BusReading, ServoBackend
+from robot_nodes.cm730.backend import AngleLimitRegisters, BusReading, ServoBackend
+from robot_nodes.cm730.joint_limits import ClampedGoals, ClampTally, GoalLimits, JointLimitsError
 from robot_nodes.runtime import Node, param
 
 OPTICAL_FRAME = "camera_optical_frame"
 FOOTPRINT_FRAME = "base_footprint"
 MAP_FRAME = "map"
+ROBOTS = Path(__file__).resolve().parents[2] / "robots"
+LIMIT_PARAMS = ("model", "urdf", "limit_margin_deg")  # read once at start-up (section "Safety" of the README)
+CLAMP_REPORT_EVERY_S = 5.0  # at most one error line per this many seconds while goals are being clamped
 
 
 @dataclass
@@ -32,6 +42,12 @@ class Cm730Params:
     servo_data_rate: float = param(5.0, range=(0.1, 50.0), doc="Hz of servo_data (temperatures, voltage)")
     device: str = param("/dev/ttyUSB0", doc="dynamixel: serial port of the servo bus")
     baudrate: int = param(1000000, range=(9600, 4500000), doc="dynamixel: bus baud rate")
+    model: str = param("minibot", doc="robot model; its URDF is robots/<model>/urdf/<model>.urdf (start-up only)")
+    urdf: str = param("", doc="URDF whose joint limits every goal is clamped to; empty = the model's (start-up only)")
+    limit_margin_deg: float = param(
+        1.0, range=(0.0, 10.0),
+        doc="goals stay this far inside each URDF joint limit: a servo overshoots its goal by a few ticks and the "
+            "URDF limit is where parts touch (start-up only)")
     real_time_factor: float = param(1.0, range=(0.0, 100.0), doc="mujoco: sim speed, 0 = as fast as possible")
     imu_gyro_noise: float = param(0.005, range=(0.0, 1.0), doc="mujoco: gyro noise std dev, rad/s")
     imu_accel_noise: float = param(0.05, range=(0.0, 5.0), doc="mujoco: accelerometer noise std dev, m/s^2")
@@ -61,10 +77,16 @@ class Cm730Node(Node):
 
     def setup(self) -> None:
         p = self.params
+        self.goal_limits = self._load_limits()
         self.backend: ServoBackend = self._given_backend or self._open_backend()
         self.joint_names = list(self.backend.joint_names)
         self._known = set(self.joint_names)
         self.goals_applied = 0
+        self.clamps = ClampTally(CLAMP_REPORT_EVERY_S)
+        self.refused_goals = 0  # goals for joints the URDF has no limits for
+        self.angle_limit_report: dict[str, str] = {}
+        self._missing_text = ""
+        self._start_limits()
         self._sim = _sim_parts(self.backend)
         self._apply_sim_params()
         self.subscribe("motor_goals", self._on_motor_goals)
@@ -78,6 +100,67 @@ class Cm730Node(Node):
         self._camera = None
         if self._sim is not None:
             self._setup_sim()
+
+    # -- joint limits ------------------------------------------------------------------------------------
+    def urdf_path(self) -> Path:
+        p = self.params
+        if p.urdf:
+            return Path(p.urdf)
+        if not re.fullmatch(r"[A-Za-z0-9_][A-Za-z0-9_.-]*", p.model):
+            raise JointLimitsError(f"model {p.model!r} is not a folder name under {ROBOTS}")
+        return ROBOTS / p.model / "urdf" / f"{p.model}.urdf"
+
+    def _load_limits(self) -> GoalLimits | None:
+        """The clamp from the URDF. Without it a real robot does not start (a bus without limits is the dangerous
+        case); the simulation starts with a loud error, as its world clips goals to its model's ranges anyway."""
+        try:
+            return GoalLimits.from_urdf(self.urdf_path(), self.params.limit_margin_deg)
+        except JointLimitsError as exc:
+            simulated = (_sim_parts(self._given_backend) is not None if self._given_backend is not None
+                         else self.params.backend == "mujoco")
+            if not simulated:
+                self.shutdown()
+                raise JointLimitsError(f"cm730: no joint limits, so the servo bus stays off: {exc}") from None
+            self.record_error(f"no joint limits, goals are not clamped (simulation only): {exc}")
+            self.set_diagnostic("joint_limits", f"NONE: {exc}")
+            return None
+
+    def _start_limits(self) -> None:
+        """Diagnostics of the limits in force, and on Dynamixel the servos' own angle-limit registers."""
+        limits = self.goal_limits
+        if limits is None:
+            return
+        self.set_diagnostic("joint_limits", limits.describe())
+        self.set_diagnostic("clamped_goals", 0)
+        self.set_diagnostic("clamped_goals_by_joint", "")
+        self.set_diagnostic("capped_speeds", 0)
+        self.set_diagnostic("worst_clamp", "")
+        unlimited = [n for n in self.joint_names if not limits.knows(n)]
+        if unlimited:
+            self.set_diagnostic("refused_goals", 0)
+            self.record_error(f"no URDF limits for joint(s) {unlimited} in {limits.source}: their goals are refused")
+        if not isinstance(self.backend, AngleLimitRegisters):
+            return
+        ranges = {n: limits.safe_range(n) for n in self.joint_names
+                  if limits.knows(n) and limits.limits[n].bounded}
+        self.angle_limit_report = report = self.backend.write_angle_limits(ranges)
+        problems = {n: text for n, text in report.items() if text not in ("ok", "written")}
+        written = sum(1 for text in report.values() if text == "written")
+        summary = f"{written} written, {len(report) - written - len(problems)} already set"
+        if problems:
+            summary += f", {len(problems)} not set: " + "; ".join(f"{n}: {t}" for n, t in problems.items())
+            self.record_error(f"servo angle limits: {summary}")
+        self.set_diagnostic("servo_angle_limits", summary)
+
+    def _count_clamps(self, names: list[str], result: ClampedGoals) -> None:
+        clamps = self.clamps
+        report = clamps.add(names, result, time.monotonic())
+        self.set_diagnostic("clamped_goals", clamps.total_positions)
+        self.set_diagnostic("clamped_goals_by_joint", clamps.by_joint())
+        self.set_diagnostic("capped_speeds", clamps.total_speeds)
+        self.set_diagnostic("worst_clamp", clamps.worst())
+        if report is not None:
+            self.record_error(report)
 
     # -- backends ----------------------------------------------------------------------------------------
     def _open_backend(self) -> ServoBackend:
@@ -113,11 +196,22 @@ class Cm730Node(Node):
         if len(keep) < len(names):
             bad = [n for i, n in enumerate(names) if i not in set(keep)]
             self.record_error(f"motor_goals: skipped unknown joint(s) or non-finite goal(s) {bad}")
+        limits = self.goal_limits
+        if limits is not None and not all(limits.knows(names[i]) for i in keep):
+            self.refused_goals += sum(1 for i in keep if not limits.knows(names[i]))
+            self.set_diagnostic("refused_goals", self.refused_goals)  # named once at start-up, counted here
+            keep = [i for i in keep if limits.knows(names[i])]
         if not keep:
             return
-        self.backend.write_goals([names[i] for i in keep], positions[keep],
-                                 velocities[keep] if velocities is not None else None,
-                                 efforts[keep] if efforts is not None else None)
+        kept = [names[i] for i in keep]
+        goal_positions = positions[keep]
+        goal_velocities = velocities[keep] if velocities is not None else None
+        if limits is not None:
+            result = limits.clamp(kept, goal_positions, goal_velocities)
+            goal_positions, goal_velocities = result.positions, result.velocities
+            if result.changed:
+                self._count_clamps(kept, result)
+        self.backend.write_goals(kept, goal_positions, goal_velocities, efforts[keep] if efforts is not None else None)
         self.goals_applied += 1
 
     def _on_motor_torque(self, msg: Any) -> None:
@@ -157,8 +251,9 @@ class Cm730Node(Node):
                 angular_velocity=_vector3(imu.angular_velocity),
                 linear_acceleration=_vector3(imu.linear_acceleration)))
         missing = ",".join(reading.missing)
-        if missing != self._diag_values.get("missing_servos", ""):
+        if missing != self._missing_text:
             # a servo that falls silent (or comes back) is news now, not at the next diagnostics tick
+            self._missing_text = missing
             self.set_diagnostic("missing_servos", missing)
             if missing:
                 self.record_error(f"servos not answering: {missing}")
@@ -213,6 +308,11 @@ class Cm730Node(Node):
         self._sim.runner.set_real_time_factor(p.real_time_factor)
 
     def on_parameters_changed(self, changed: dict[str, Any]) -> None:
+        late = [name for name in LIMIT_PARAMS if name in changed]
+        if late:
+            # the limits cannot be widened over the network while the robot runs; the servos' registers hold too
+            in_force = self.goal_limits.describe() if self.goal_limits is not None else "none"
+            self.record_error(f"{', '.join(late)} take effect at the next start of cm730; in force: {in_force}")
         if "publish_rate" in changed:
             self._state_timer.set_rate(self.params.publish_rate)
         if "servo_data_rate" in changed:

@@ -19,7 +19,7 @@ from ..backend import BusReading, ImuReading
 from . import models as units
 from .config import BusConfig, JointConfig
 from .control_table import CM730, CM730_ID, P1, P2
-from .health import BusHealth
+from .health import BusHealth, describe_status_error
 from .imu import CM730Imu
 from .models import ServoModel
 from .sdk_adapter import BusPort, P1BulkRead, P2SyncRead, StatusBatch, read_one
@@ -424,6 +424,98 @@ class DynamixelBackend:
             if result != COMM_SUCCESS:
                 self.health_counters.tx_failures += 1
                 self.health_counters.note(f"sync write at {address} failed: {self.ph.getTxRxResult(result)}")
+
+    # ------------------------------------------------------------------ angle-limit registers
+
+    def angle_limit_ticks(self, name: str, lower: float, upper: float) -> tuple[int, int]:
+        """Register values (lowest, highest tick) for a joint-side range in rad. The conversion is the one
+        write_goals uses (direction, offset, nearest tick), so every goal inside the range lands inside the
+        registers; a mirrored joint's upper limit becomes the servo's lowest tick."""
+        s = self._by_name[name]
+        a = units.servo_rad_to_ticks(s.model, s.cfg.joint_to_servo(lower))
+        b = units.servo_rad_to_ticks(s.model, s.cfg.joint_to_servo(upper))
+        return min(a, b), max(a, b)
+
+    def write_angle_limits(self, ranges: dict[str, tuple[float, float]]) -> dict[str, str]:
+        """Writes the servos' own limits from joint-side ranges (rad), so a servo refuses a goal outside them
+        whatever sends it: P1 CW/CCW Angle Limit (6/8), P2 Min/Max Position Limit (52/48).
+
+        Registers already right are left alone, so a restarted node does not touch a standing robot. The
+        others are EEPROM: the servo's torque goes off for the write (Protocol 2.0 refuses EEPROM writes with
+        torque on; the spec asks the same of MX Protocol 1.0) and back on if it was on. Equal limits are never
+        written (P1: CW = CCW = 0 is wheel mode, both 4095 multi-turn). Returns per joint 'ok' (already set),
+        'written', or why not."""
+        report: dict[str, str] = {}
+        with self._lock:
+            if self._closed:
+                raise DynamixelError("write_angle_limits on a closed DynamixelBackend")
+            for s in self._servos:
+                if s.name not in ranges:
+                    continue
+                if self._port_lost is not None:
+                    report[s.name] = "not written: servo bus port lost"
+                    continue
+                try:
+                    report[s.name] = self._write_angle_limit(s, *ranges[s.name])
+                except PORT_ERRORS as exc:
+                    self._lose_port(exc)
+                    report[s.name] = "not written: servo bus port lost"
+        for name, text in report.items():
+            if text not in ("ok", "written"):
+                self.health_counters.note(f"{name}: angle limits {text}")
+        return report
+
+    def _write_angle_limit(self, s: _Servo, lower: float, upper: float) -> str:
+        lo, hi = self.angle_limit_ticks(s.name, lower, upper)
+        if lo >= hi:
+            return f"not written: the range is {lo}..{hi} ticks (equal limits switch the servo out of joint mode)"
+        if self.protocol == 1:
+            address, torque_at = P1.CW_ANGLE_LIMIT, P1.TORQUE_ENABLE
+            wanted = lo.to_bytes(2, "little") + hi.to_bytes(2, "little")
+        else:
+            address, torque_at = P2.MAX_POSITION_LIMIT, P2.TORQUE_ENABLE
+            wanted = hi.to_bytes(4, "little") + lo.to_bytes(4, "little")
+        dxl_id = s.cfg.id
+        present = self._read_register(dxl_id, address, len(wanted))
+        if present is None:
+            return "not written: servo silent"
+        if present != wanted:
+            torque = self._read_register(dxl_id, torque_at, 1)
+            if torque is None:
+                return "not written: servo silent"
+            if torque[0]:
+                self._write_register(dxl_id, torque_at, b"\x00")
+            refused = self._write_register(dxl_id, address, wanted)
+            if torque[0]:
+                self._write_register(dxl_id, torque_at, b"\x01")
+            if self._read_register(dxl_id, address, len(wanted)) != wanted:
+                return f"not written: {refused or 'the registers read back different'} ({lo}..{hi} ticks wanted)"
+        if self.protocol == 2:
+            mode = self._read_register(dxl_id, P2.OPERATING_MODE, 1)
+            if mode is not None and mode[0] != 3:
+                return f"set, but operating mode {mode[0]} ignores position limits (only mode 3 uses them)"
+        return "ok" if present == wanted else "written"
+
+    def _read_register(self, dxl_id: int, address: int, length: int) -> bytes | None:
+        """One READ (a garbled answer is asked again once); None when the servo does not answer."""
+        for _ in range(2):
+            batch = read_one(self.ph, self.port, dxl_id, address, length, self.config.probe_timeout_ms)
+            self.health_counters.corrupt_packets += batch.corrupt
+            if dxl_id in batch.data:
+                return batch.data[dxl_id]
+            if not batch.corrupt:
+                return None
+        return None
+
+    def _write_register(self, dxl_id: int, address: int, data: bytes) -> str:
+        """One WRITE with its status packet; '' when accepted, else what the servo (or the wire) said."""
+        result, error = self.ph.writeTxRx(self.port, dxl_id, address, len(data), list(data))
+        self.port.is_using = False
+        if result != COMM_SUCCESS:
+            return f"write at {address}: {self.ph.getTxRxResult(result)}"
+        if error:
+            return f"write at {address}: servo reports {describe_status_error(self.protocol, error)}"
+        return ""
 
     # ------------------------------------------------------------------ status
 

@@ -12,6 +12,8 @@ class P1:
     MODEL_NUMBER = 0
     ID = 3
     RETURN_DELAY = 5
+    CW_ANGLE_LIMIT = 6  # EEPROM, 2 bytes: lowest goal position the servo accepts
+    CCW_ANGLE_LIMIT = 8  # EEPROM, 2 bytes: highest; CW = CCW = 0 is wheel mode, both 4095 multi-turn
     TORQUE_ENABLE = 24
     GOAL_POSITION = 30
     MOVING_SPEED = 32
@@ -31,6 +33,10 @@ class P2:
 
     MODEL_NUMBER = 0
     ID = 7
+    OPERATING_MODE = 11
+    MAX_POSITION_LIMIT = 48  # EEPROM, 4 bytes, used in position control mode (3) only
+    MIN_POSITION_LIMIT = 52  # EEPROM, 4 bytes
+    EEPROM_END = 64  # addresses below are EEPROM: written only with torque off
     TORQUE_ENABLE = 64
     HARDWARE_ERROR = 70
     GOAL_CURRENT = 102
