@@ -160,8 +160,8 @@ def test_tally_counts_everything_and_reports_at_most_every_period(minibot: GoalL
 
 
 def test_the_minibots_own_animations_stay_inside_the_urdf_limits(minibot: GoalLimits) -> None:
-    """Normal poses are never clamped; the stand-ups and the front fall reach into the margin (elbows and knees
-    at or near their limits), where the clamp moves them by at most the margin. Figures go to the report."""
+    """No keyframe leans on the clamp (a clamped stand-up would log errors after every fall): the stand-ups and
+    the front fall keep their elbows and knees just inside the margin."""
     urdf = read_urdf_limits(MINIBOT_URDF)
     clamped: dict[str, dict[str, float]] = {}
     for path in sorted((ROBOTS / "minibot" / "animations").glob("*.json")):
@@ -174,11 +174,7 @@ def test_the_minibots_own_animations_stay_inside_the_urdf_limits(minibot: GoalLi
             for i in np.flatnonzero(out.clamped).tolist():
                 worst = clamped.setdefault(path.stem, {})
                 worst[names[i]] = max(worst.get(names[i], 0.0), math.degrees(float(out.excess[i])))
-    for normal in ("walkready", "init", "kick_left", "kick_right", "penalty_in", "penalty_out", "sit_down"):
-        assert normal not in clamped, clamped[normal]
-    assert all(deg <= 1.0 + 1e-6 for joints in clamped.values() for deg in joints.values())
-    figures = {a: {j: round(d, 2) for j, d in js.items()} for a, js in clamped.items()}
-    print("\nclamped by the 1 deg margin (deg):", figures)
+    assert not clamped, {a: {j: round(d, 2) for j, d in js.items()} for a, js in clamped.items()}
 
 
 # ---------------------------------------------------------------- the Dynamixel bus (emulated)
@@ -388,3 +384,4 @@ def test_simulation_starts_without_limits_but_says_so(sim_node: Cm730Node, clien
     publisher = client.declare_publisher(topic_key("robot1", "motor_goals"))
     wait_for(lambda: publisher.put(_goals(["HeadPan"], np.array([0.3]))) or sim_node.goals_applied > 0, timeout=20,
              interval=0.1, what="goals applied by the simulated robot")
+
