@@ -14,6 +14,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "sim": ("robot_nodes.cm730.sim.__main__", "the MuJoCo world and one cm730 node per robot (robot1..N)"),
     "serve": ("server.__main__", "the dashboard server (live Zenoh and UDP telemetry sources)"),
     "router": ("robot_nodes.runtime.router", "a Zenoh router for robots and dashboards on several machines"),
+    "team-keys": ("pitchside.team_keys", "a team's CA, certificates, access control and Zenoh configs (secured bus)"),
     "launch": ("robot_nodes.launch", "start named nodes as supervised processes"),
     "gamecontroller": ("robot_nodes.game_controller.simulator", "a simulated RoboCup GameController"),
     "record": ("pitchside.record", "start/stop/list recordings of a running dashboard server"),

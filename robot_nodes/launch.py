@@ -123,10 +123,14 @@ class Launcher:
 
 
 def node_command(module: str, robot_id: str, connect: list[str], params: Path | None = None,
-                 extra: list[str] | None = None) -> list[str]:
+                 extra: list[str] | None = None, zenoh_config: str | Path | None = None) -> list[str]:
+    """The node's command line; a Zenoh config file (the robot's team file: TLS, access control) wins over
+    connect."""
     argv = [sys.executable, "-m", module, "--robot-id", robot_id]
     for endpoint in connect:
         argv += ["--connect", endpoint]
+    if zenoh_config is not None:
+        argv += ["--zenoh-config", str(Path(zenoh_config).resolve())]  # the node may run in another folder
     if params is not None:
         argv += ["--params", str(params)]
     return argv + (extra or [])
@@ -138,11 +142,14 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--robot-id", default="robot1")
     parser.add_argument("--connect", action="append", default=None)
     parser.add_argument("--params", type=Path, default=None)
+    parser.add_argument("--zenoh-config", default=None, metavar="FILE",
+                        help="Zenoh JSON5 config for every node, e.g. the robot's file from `pitchside team-keys`")
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s [launch] %(message)s")
     connect = args.connect or ["tcp/127.0.0.1:7447"]
     launcher = Launcher([
-        NodeProcess(name, node_command(NODE_MODULES.get(name, name), args.robot_id, connect, args.params))
+        NodeProcess(name, node_command(NODE_MODULES.get(name, name), args.robot_id, connect, args.params,
+                                       zenoh_config=args.zenoh_config))
         for name in args.nodes
     ])
     run_until_signal(launcher)

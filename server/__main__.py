@@ -7,7 +7,7 @@ import logging
 import sys
 from pathlib import Path
 
-from robot_nodes.runtime.bus import BusConfig
+from robot_nodes.runtime.bus import BusConfig, load_config_file
 from server.config import RobotDescription, ServerConfig
 from server.security.credentials import ENV_TOKEN
 from server.security.token_file import remove_token_file, write_token_file
@@ -29,7 +29,9 @@ def arguments() -> argparse.ArgumentParser:
     p.add_argument("--match", action="store_true",
                    help="match mode: send nothing to robots (telemetry only, no Zenoh, control answers 403)")
     p.add_argument("--connect", action="append", default=None, help="Zenoh endpoint of the team (repeatable)")
-    p.add_argument("--zenoh-config", default=None, help="a Zenoh JSON5 config file (overrides --connect)")
+    p.add_argument("--zenoh-config", default=None, metavar="FILE",
+                   help="a Zenoh JSON5 config file, e.g. the laptop's file from `pitchside team-keys` (overrides "
+                        "--connect)")
     p.add_argument("--no-live", action="store_true", help="do not join the Zenoh network at start")
     p.add_argument("--no-telemetry", action="store_true", help="do not listen for UDP telemetry")
     p.add_argument("--telemetry-host", default="0.0.0.0")
@@ -67,6 +69,11 @@ def config_from(args: argparse.Namespace) -> ServerConfig:
     bus = BusConfig(config_file=args.zenoh_config)
     if args.connect:
         bus.connect = args.connect
+    if args.zenoh_config:
+        try:
+            load_config_file(args.zenoh_config)  # said at start, not when the first panel opens the session
+        except ValueError as exc:
+            raise SystemExit(str(exc)) from None
     packages = {}
     for item in args.package:
         name, sep, folder = item.partition("=")

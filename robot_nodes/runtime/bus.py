@@ -7,10 +7,13 @@ import logging
 import os
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
 
 import zenoh
 
 DEFAULT_ROUTER = "tcp/127.0.0.1:7447"
+DEFAULT_LISTEN = DEFAULT_ROUTER  # where a router listens without a config: loopback only
 ENV_CONNECT = "PITCHSIDE_CONNECT"
 log = logging.getLogger(__name__)
 
@@ -29,17 +32,30 @@ class BusConfig:
     mode: str = "peer"
     config_file: str | None = None
 
-    def to_zenoh(self) -> zenoh.Config:
-        conf = zenoh.Config.from_file(self.config_file) if self.config_file else zenoh.Config()
-        if not self.config_file:
-            conf.insert_json5("mode", json.dumps(self.mode))
-            conf.insert_json5("connect/endpoints", json.dumps(self.connect))
-            conf.insert_json5("listen/endpoints", json.dumps(self.listen if self.mode != "client" else []))
-            conf.insert_json5("scouting/multicast/enabled", "false")
+    def settings(self) -> dict[str, Any]:
+        """This bus as Zenoh config data (the keys of Zenoh's JSON5 config); a team config file builds on it."""
+        return {
+            "mode": self.mode,
             # keep trying in the background: robots often boot before the router or the team PC
-            conf.insert_json5("connect/exit_on_failure", "false")
-            conf.insert_json5("connect/timeout_ms", "2000")
-        return conf
+            "connect": {"endpoints": list(self.connect), "exit_on_failure": False, "timeout_ms": 2000},
+            "listen": {"endpoints": list(self.listen) if self.mode != "client" else []},
+            "scouting": {"multicast": {"enabled": False}},
+        }
+
+    def to_zenoh(self) -> zenoh.Config:
+        if self.config_file:
+            return load_config_file(self.config_file)
+        return zenoh.Config.from_json5(json.dumps(self.settings()))
+
+
+def load_config_file(path: str | Path) -> zenoh.Config:
+    """A Zenoh JSON5 config file; ValueError names the file and what is wrong with it."""
+    if not Path(path).is_file():
+        raise ValueError(f"Zenoh config file {path} does not exist")
+    try:
+        return zenoh.Config.from_file(str(path))
+    except zenoh.ZError as exc:
+        raise ValueError(f"Zenoh config file {path} is not valid: {exc}") from None
 
 
 def _env_endpoints() -> list[str]:
@@ -50,21 +66,40 @@ def _env_endpoints() -> list[str]:
 def open_session(bus: BusConfig | None = None, wait: bool = True) -> zenoh.Session:
     """A peer opens at once; a client needs its router and, with wait, keeps trying until it is there."""
     bus = bus or BusConfig()
+    conf = bus.to_zenoh()  # a bad config file is an error now, not a router to wait for
     while True:
         try:
-            return zenoh.open(bus.to_zenoh())
+            return zenoh.open(conf)
         except zenoh.ZError as exc:
             if not wait:
                 raise
-            log.warning("Zenoh router %s not reachable yet (%s); retrying", ", ".join(bus.connect), exc)
+            where = bus.config_file or ", ".join(bus.connect)
+            log.warning("Zenoh router (%s) not reachable yet (%s); retrying", where, exc)
             time.sleep(0.5)
 
 
-def open_router(listen: list[str], connect: list[str] | None = None) -> zenoh.Session:
-    """A Zenoh router inside this process: robots and dashboards connect to it by endpoint."""
-    conf = zenoh.Config()
+def router_settings(listen: list[str], connect: list[str] | None = None) -> dict[str, Any]:
+    """A router's Zenoh config data: robots and dashboards connect to it by endpoint, nobody finds it by multicast."""
+    return {"mode": "router", "listen": {"endpoints": list(listen)}, "connect": {"endpoints": list(connect or [])},
+            "scouting": {"multicast": {"enabled": False}}}
+
+
+def router_config(listen: list[str] | None = None, connect: list[str] | None = None,
+                  config_file: str | Path | None = None) -> zenoh.Config:
+    """A router's Zenoh config; from a file (a team's router.json5: TLS, access control, endpoints), listen and
+    connect, when given, replace the file's endpoints."""
+    if config_file is None:
+        return zenoh.Config.from_json5(json.dumps(router_settings(listen or [DEFAULT_LISTEN], connect)))
+    conf = load_config_file(config_file)
     conf.insert_json5("mode", '"router"')
-    conf.insert_json5("listen/endpoints", json.dumps(listen))
-    conf.insert_json5("connect/endpoints", json.dumps(connect or []))
-    conf.insert_json5("scouting/multicast/enabled", "false")
-    return zenoh.open(conf)
+    if listen:
+        conf.insert_json5("listen/endpoints", json.dumps(listen))
+    if connect:
+        conf.insert_json5("connect/endpoints", json.dumps(connect))
+    return conf
+
+
+def open_router(listen: list[str] | None = None, connect: list[str] | None = None,
+                config_file: str | Path | None = None) -> zenoh.Session:
+    """A Zenoh router inside this process: robots and dashboards connect to it by endpoint."""
+    return zenoh.open(router_config(listen, connect, config_file))

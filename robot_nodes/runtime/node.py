@@ -20,7 +20,7 @@ import zenoh
 import schemas
 from robot_nodes.runtime import keys
 from robot_nodes.runtime.actions import ActionClient, ActionServer, ServerGoal
-from robot_nodes.runtime.bus import BusConfig, open_session
+from robot_nodes.runtime.bus import BusConfig, load_config_file, open_session
 from robot_nodes.runtime.loop import EventLoop, Timer
 from robot_nodes.runtime.parameters import ParameterError, ParameterStore
 from robot_nodes.runtime.services import ServiceServer
@@ -345,7 +345,9 @@ def node_arguments(description: str) -> argparse.ArgumentParser:
                         help="Zenoh endpoint to connect to (repeatable; default tcp/127.0.0.1:7447)")
     parser.add_argument("--mode", choices=["peer", "client"], default="peer",
                         help="Zenoh mode: peer (direct links to other peers) or client (everything via the router)")
-    parser.add_argument("--zenoh-config", default=None, help="a Zenoh JSON5 config file (overrides --connect)")
+    parser.add_argument("--zenoh-config", default=None, metavar="FILE",
+                        help="a Zenoh JSON5 config file, e.g. the robot's file from `pitchside team-keys` "
+                             "(overrides --connect and --mode)")
     parser.add_argument("--params", type=Path, default=None, help="params.yaml of the robot")
     parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                         help="override a parameter (YAML value syntax)")
@@ -372,6 +374,11 @@ def run(node_cls: type[Node], argv: list[str] | None = None, **kwargs: Any) -> N
     bus = BusConfig(config_file=args.zenoh_config, mode=args.mode)
     if args.connect:
         bus.connect = args.connect
+    if args.zenoh_config:
+        try:
+            load_config_file(args.zenoh_config)  # a wrong path is said once, not retried as a missing router
+        except ValueError as exc:
+            raise SystemExit(f"{node_cls.name}: {exc}") from None
     stop_requested: list[int] = []
     holder: list[Node] = []
 

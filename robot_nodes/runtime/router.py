@@ -3,11 +3,14 @@
 from __future__ import annotations
 
 import argparse
+import json
 import logging
 import signal
 import threading
 
-from robot_nodes.runtime.bus import open_router
+import zenoh
+
+from robot_nodes.runtime.bus import DEFAULT_LISTEN, router_config
 
 log = logging.getLogger("pitchside.router")
 
@@ -15,17 +18,25 @@ log = logging.getLogger("pitchside.router")
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--listen", action="append", default=None,
-                        help="endpoint to listen on (repeatable; default tcp/127.0.0.1:7447, "
+                        help=f"endpoint to listen on (repeatable; default {DEFAULT_LISTEN} or the config file's, "
                              "use tcp/0.0.0.0:7447 to serve other machines)")
     parser.add_argument("--connect", action="append", default=[], help="another router to join (repeatable)")
+    parser.add_argument("--zenoh-config", default=None, metavar="FILE",
+                        help="a Zenoh JSON5 config, e.g. a team's router.json5 from `pitchside team-keys` (TLS and "
+                             "access control)")
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s [router] %(message)s")
-    listen = args.listen or ["tcp/127.0.0.1:7447"]
     done = threading.Event()
     signal.signal(signal.SIGINT, lambda *_: done.set())
     signal.signal(signal.SIGTERM, lambda *_: done.set())
-    session = open_router(listen, args.connect)
-    log.info("Zenoh router listening on %s", ", ".join(listen))
+    try:
+        conf = router_config(args.listen, args.connect, args.zenoh_config)
+        session = zenoh.open(conf)
+    except (ValueError, zenoh.ZError) as exc:
+        raise SystemExit(f"pitchside router: {exc}") from None
+    secured = json.loads(conf.get_json("access_control/enabled")) is True
+    log.info("Zenoh router listening on %s%s", ", ".join(json.loads(conf.get_json("listen/endpoints"))),
+             " (access control on)" if secured else "")
     while not done.wait(0.5):  # a timed wait, so the signal flag is seen whichever thread the signal hit
         pass
     session.close()

@@ -1,0 +1,329 @@
+"""A team's secured bus (`pitchside team-keys`): only the team's processes steer its robots.
+
+A real router with the team's router.json5 (mutual TLS + access control), real member sessions with their own
+files. Refused messages are shown missing after an allowed message sent later has arrived, and where it
+matters the allowed one follows the refused one on the same session, so it cannot overtake it.
+"""
+
+from __future__ import annotations
+
+import json
+import stat
+import subprocess
+import sys
+import threading
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+import zenoh
+
+import schemas
+from pitchside.team_access import Role
+from pitchside.team_certificates import TeamAuthority
+from pitchside.team_keys import (
+    CA_CERTIFICATE,
+    CA_KEY,
+    TEAM_FILE,
+    Team,
+    TeamKeysError,
+    add_members,
+    create_team,
+    member_of,
+    read_credentials,
+)
+from robot_nodes.runtime import BusConfig, ParameterClient, ParameterError, keys, open_router
+from robot_nodes.runtime.bus import load_config_file
+from tests.conftest import REPO, free_port
+from tests.waiting import wait_for
+
+MOTOR_GOALS = keys.topic_key("robot1", "motor_goals")
+CMD_VEL = keys.topic_key("robot1", "cmd_vel")
+
+
+@pytest.fixture
+def team(tmp_path: Path) -> Path:
+    folder = tmp_path / "team"
+    create_team(folder, "Test Team", ["robot1", "robot2"], ["laptop"], ["viewer"], router_port=free_port())
+    return folder
+
+
+@pytest.fixture
+def router(team: Path) -> Iterator[zenoh.Session]:
+    session = open_router(config_file=team / "router.json5")
+    yield session
+    session.close()
+
+
+def member_session(team: Path, member: str, mode: str = "peer", access_control: bool = True) -> zenoh.Session:
+    """A session with a member's own file; without its access control, as a member who edited their file."""
+    conf = load_config_file(team / f"{member}.json5")
+    conf.insert_json5("mode", json.dumps(mode))
+    if not access_control:
+        conf.insert_json5("access_control/enabled", "false")
+    session = zenoh.open(conf)
+    wait_for(lambda: session.info.routers_zid(), timeout=10, what=f"{member} connected to the router")
+    return session
+
+
+def goals(sender: str) -> bytes:
+    """A real motor_goals message whose joint name says who sent it."""
+    point = schemas.make("trajectory_msgs/msg/JointTrajectoryPoint", positions=[0.5])
+    return schemas.encode(schemas.make("trajectory_msgs/msg/JointTrajectory", joint_names=[sender], points=[point]))
+
+
+DRIVERS = ["viewer", "laptop"]  # a cmd_vel says who sent it by its speed: 0.1 * (index + 1)
+
+
+def drive(sender: str) -> bytes:
+    vector = "geometry_msgs/msg/Vector3"
+    return schemas.encode(schemas.make("geometry_msgs/msg/Twist",
+                                       linear=schemas.make(vector, x=0.1 * (DRIVERS.index(sender) + 1), y=0.0, z=0.0),
+                                       angular=schemas.make(vector, x=0.0, y=0.0, z=0.0)))
+
+
+def sender_of(topic: str, raw: bytes) -> str:
+    if topic == "cmd_vel":
+        return DRIVERS[round(schemas.decode(raw, "geometry_msgs/msg/Twist").linear.x * 10) - 1]
+    return str(schemas.decode(raw, "trajectory_msgs/msg/JointTrajectory").joint_names[0])
+
+
+class ControlInbox:
+    """What robot1's processes receive on its control topics: (topic, sender) in arrival order."""
+
+    def __init__(self, session: zenoh.Session) -> None:
+        self.got: list[tuple[str, str]] = []
+        self._lock = threading.Lock()
+        self._subs = [session.declare_subscriber(keys.topic_key("robot1", topic), self._on(topic))
+                      for topic in ("motor_goals", "cmd_vel", "record_motor_goals")]
+        self._subs.append(session.declare_subscriber(keys.topic_key("robot2", "motor_goals"), self._on("robot2")))
+
+    def _on(self, topic: str) -> Any:
+        def on_sample(sample: zenoh.Sample) -> None:
+            sender = sender_of(topic, sample.payload.to_bytes())
+            with self._lock:
+                self.got.append((topic, sender))
+        return on_sample
+
+    def senders(self, topic: str) -> list[str]:
+        with self._lock:
+            return [sender for t, sender in self.got if t == topic]
+
+
+def wait_matched(publisher: zenoh.Publisher, what: str) -> None:
+    """Until the publisher's session knows a subscriber: a put before that would reach nobody, refused or not."""
+    # zenoh's stub says bool, the object is a MatchingStatus with .matching (as in robot_nodes.runtime.node)
+    wait_for(lambda: publisher.matching_status.matching, timeout=10, what=what)  # type: ignore[attr-defined]
+
+
+def test_team_keys_writes_one_private_file_per_member_and_keeps_keys(team: Path) -> None:
+    described = Team.from_json((team / TEAM_FILE).read_text())
+    assert described.members == {"router": Role.ROUTER, "robot1": Role.ROBOT, "robot2": Role.ROBOT,
+                                 "laptop": Role.LAPTOP, "viewer": Role.VIEWER}
+    assert stat.S_IMODE(team.stat().st_mode) == 0o700
+    for path in team.iterdir():
+        assert stat.S_IMODE(path.stat().st_mode) == 0o600, path
+    for member in described.members:
+        load_config_file(team / f"{member}.json5")  # Zenoh itself accepts every file
+        assert member_of(team / f"{member}.json5") == (member, described.members[member])
+    robot1 = json.loads((team / "robot1.json5").read_text().split("\n", 2)[2])
+    assert robot1["access_control"]["enabled"] is True and robot1["transport"]["link"]["tls"]["enable_mtls"] is True
+    assert robot1["connect"]["endpoints"] == [described.router_endpoint]
+    authority = TeamAuthority.load((team / CA_KEY).read_bytes(), (team / CA_CERTIFICATE).read_bytes())
+    assert authority.certificate_pem == (team / CA_CERTIFICATE).read_bytes()
+
+    # running it again does not replace the team's keys: refused, unless --add (keys kept) or --force
+    ca = (team / CA_CERTIFICATE).read_bytes()
+    refused = subprocess.run([sys.executable, "-m", "pitchside.cli", "team-keys", str(team), "--team", "Other",
+                              "--robots", "robot1"], cwd=REPO, capture_output=True, text=True, timeout=60)
+    assert refused.returncode == 2 and "already holds the team 'Test Team'" in refused.stderr
+    assert (team / CA_CERTIFICATE).read_bytes() == ca
+    robot1_key = read_credentials(team / "robot1.json5").key_pem
+    add_members(team, robots=["robot3"])
+    assert read_credentials(team / "robot1.json5").key_pem == robot1_key
+    assert member_of(team / "robot3.json5") == ("robot3", Role.ROBOT)
+    assert "robot-robot3" in (team / "laptop.json5").read_text()  # every file names the new robot
+    with pytest.raises(TeamKeysError, match="already a member"):
+        add_members(team, robots=["robot2"])
+    with pytest.raises(TeamKeysError, match="must be 1-32 characters"):
+        add_members(team, viewers=["a/b"])  # a name goes into key expressions: no '/', no '*'
+    with pytest.raises(TeamKeysError, match="1-12 characters"):
+        add_members(team, robots=["robot-of-13ch"])  # a robot's id must also fit a telemetry header
+    create_team(team, "Other", ["robotA"], force=True)
+    assert (team / CA_CERTIFICATE).read_bytes() != ca
+    assert not (team / "robot1.json5").exists()  # the old team's files are gone with its CA
+
+
+def test_unauthenticated_sessions_cannot_publish_motor_goals(team: Path, router: zenoh.Session) -> None:
+    cm730 = member_session(team, "robot1")  # robot1's servo node
+    hcm = member_session(team, "robot1")  # robot1's HCM, the one writer of motor_goals
+    inbox = ControlInbox(cm730)
+    endpoint = Team.from_json((team / TEAM_FILE).read_text()).router_endpoint
+    ca = json.loads(load_config_file(team / "robot1.json5").get_json("transport/link/tls/root_ca_certificate_base64"))
+    stranger = TeamAuthority.create("Strangers").issue("robot1", "robot")  # right name, wrong CA
+    refused_at_connect: dict[str, dict[str, Any]] = {
+        "plain TCP": {"connect": {"endpoints": [endpoint.replace("tls/", "tcp/")]}},
+        "TLS without a certificate": {"connect": {"endpoints": [endpoint]},
+                                      "transport": {"link": {"tls": {"root_ca_certificate_base64": ca}}}},
+        "another CA's robot1": {"connect": {"endpoints": [endpoint]}, "transport": {"link": {"tls": {
+            "root_ca_certificate_base64": ca, "connect_private_key_base64": _b64(stranger.key_pem),
+            "connect_certificate_base64": _b64(stranger.certificate_pem)}}}},
+    }
+    for how, settings in refused_at_connect.items():
+        conf = zenoh.Config.from_json5(json.dumps({"mode": "client", "scouting": {"multicast": {"enabled": False}},
+                                                   **settings}))
+        with pytest.raises(zenoh.ZError):
+            zenoh.open(conf)
+        # as a peer it opens anyway (peers keep trying), alone: what it publishes reaches nobody
+        conf.insert_json5("mode", '"peer"')
+        conf.insert_json5("connect/timeout_ms", "500")
+        conf.insert_json5("connect/exit_on_failure", "false")
+        with zenoh.open(conf) as outsider:
+            assert not outsider.info.routers_zid() and not outsider.info.peers_zid(), how
+            outsider.put(MOTOR_GOALS, goals(how))
+    publisher = hcm.declare_publisher(MOTOR_GOALS)
+    wait_matched(publisher, "the HCM sees the servo node's subscription")
+    publisher.put(goals("hcm"))
+    wait_for(lambda: "hcm" in inbox.senders("motor_goals"), timeout=10, what="the HCM's motor goals")
+    assert inbox.senders("motor_goals") == ["hcm"]
+    cm730.close()
+    hcm.close()
+
+
+@pytest.mark.parametrize("mode", ["peer", "client"])
+def test_members_may_steer_only_what_the_access_control_allows(team: Path, router: zenoh.Session, mode: str) -> None:
+    """Peers meet directly (the receiving peer checks), clients only through the router (the router checks)."""
+    cm730 = member_session(team, "robot1")
+    inbox = ControlInbox(cm730)
+    sessions = []
+    try:
+        # robot2 (even with the access control deleted from its own file) may not write robot1's keys, its own yes
+        robot2 = member_session(team, "robot2", mode, access_control=False)
+        laptop = member_session(team, "laptop", mode)
+        viewer = member_session(team, "viewer", mode, access_control=False)
+        sessions += [robot2, laptop, viewer]
+        robot2_goals, robot2_own = robot2.declare_publisher(MOTOR_GOALS), robot2.declare_publisher(
+            keys.topic_key("robot2", "motor_goals"))
+        laptop_goals, laptop_cmd = laptop.declare_publisher(MOTOR_GOALS), laptop.declare_publisher(CMD_VEL)
+        viewer_goals, viewer_cmd = viewer.declare_publisher(MOTOR_GOALS), viewer.declare_publisher(CMD_VEL)
+        for publisher in (robot2_goals, robot2_own, laptop_goals, laptop_cmd, viewer_goals, viewer_cmd):
+            wait_matched(publisher, "robot1's subscriptions seen by every member")
+
+        viewer_goals.put(goals("viewer"))
+        viewer_cmd.put(drive("viewer"))
+        robot2_goals.put(goals("robot2"))
+        robot2_own.put(goals("robot2-own"))  # same session, after the refused one: cannot overtake it
+        laptop_goals.put(goals("laptop"))
+        laptop_cmd.put(drive("laptop"))  # the lab laptop may drive, not set servo goals
+        wait_for(lambda: inbox.senders("robot2") and inbox.senders("cmd_vel"), timeout=10,
+                 what="the allowed messages")
+        hcm = member_session(team, "robot1", mode)
+        sessions.append(hcm)
+        hcm_goals = hcm.declare_publisher(MOTOR_GOALS)
+        wait_matched(hcm_goals, "robot1's own processes see each other")
+        hcm_goals.put(goals("hcm"))
+        wait_for(lambda: inbox.senders("motor_goals"), timeout=10, what="robot1's own motor goals")
+        assert inbox.senders("robot2") == ["robot2-own"]
+        assert inbox.senders("cmd_vel") == ["laptop"]
+        assert inbox.senders("motor_goals") == ["hcm"]
+    finally:
+        for session in sessions:
+            session.close()
+        cm730.close()
+
+
+def test_a_node_works_through_the_secured_router_and_only_the_laptop_sets_its_parameters(team: Path) -> None:
+    team_port = Team.from_json((team / TEAM_FILE).read_text()).router_port
+    router = subprocess.Popen([sys.executable, "-m", "pitchside.cli", "router", "--zenoh-config",
+                               str(team / "router.json5")], cwd=REPO, stderr=subprocess.PIPE, text=True)
+    talker = subprocess.Popen([sys.executable, "-m", "tests.proc_nodes", "talker", "--robot-id", "robot1",
+                               "--zenoh-config", str(team / "robot1.json5"), "--set", "rate_hz=50"], cwd=REPO)
+    sessions: list[zenoh.Session] = []
+    try:
+        assert router.stderr is not None
+        line = router.stderr.readline()
+        assert f"listening on tls/127.0.0.1:{team_port} (access control on)" in line, line
+        laptop, viewer, robot2 = (member_session(team, m) for m in ("laptop", "viewer", "robot2"))
+        sessions += [laptop, viewer, robot2]
+        labels: list[str] = []
+        laptop.declare_subscriber(keys.topic_key("robot1", "joint_states"), lambda s: labels.append(
+            schemas.decode(s.payload.to_bytes(), "sensor_msgs/msg/JointState").header.frame_id))
+        wait_for(lambda: labels, timeout=20, what="the node's joint_states at the laptop")
+        lab = ParameterClient(laptop, "robot1", timeout=10)
+        lab.set("talker", {"label": "tuned"})
+        wait_for(lambda: labels[-1] == "tuned", timeout=10, what="the laptop's parameter applied")
+        for refused in (viewer, robot2):  # the node answers a query at once: no answer is a refusal
+            with pytest.raises(ParameterError, match="did not answer"):
+                ParameterClient(refused, "robot1", timeout=1.0).set("talker", {"label": "hijacked"})
+        assert lab.get("talker", "label") == "tuned"
+        assert "hijacked" not in labels
+    finally:
+        for session in sessions:
+            session.close()
+        for proc in (talker, router):
+            proc.terminate()
+        talker.wait(15)
+        assert router.wait(15) == 0
+
+
+@pytest.mark.slow
+def test_the_simulated_servo_node_moves_only_for_its_own_robot(team: Path, router: zenoh.Session) -> None:
+    from robot_nodes.cm730.node import Cm730Node
+
+    node = Cm730Node(robot_id="robot1", bus=BusConfig(config_file=str(team / "robot1.json5")),
+                     overrides={"publish_rate": 100.0})
+    node.start()
+    sessions: list[zenoh.Session] = []
+    try:
+        laptop, robot2, hcm = (member_session(team, m, access_control=m != "robot2")
+                               for m in ("laptop", "robot2", "robot1"))
+        sessions += [laptop, robot2, hcm]
+        head_pan: list[float] = []
+
+        def on_joint_states(sample: zenoh.Sample) -> None:
+            state = schemas.decode(sample.payload.to_bytes(), "sensor_msgs/msg/JointState")
+            head_pan.append(float(state.position[list(state.name).index("HeadPan")]))
+
+        laptop.declare_subscriber(keys.topic_key("robot1", "joint_states"), on_joint_states)
+        wait_for(lambda: len(head_pan) > 10, timeout=20, what="joint_states at the laptop")
+        forged, own = robot2.declare_publisher(MOTOR_GOALS), hcm.declare_publisher(MOTOR_GOALS)
+        for publisher in (forged, own):
+            wait_matched(publisher, "the servo node's subscription")
+
+        def head_pan_goal(position: float) -> bytes:
+            point = schemas.make("trajectory_msgs/msg/JointTrajectoryPoint", positions=[position])
+            return schemas.encode(schemas.make("trajectory_msgs/msg/JointTrajectory", joint_names=["HeadPan"],
+                                               points=[point]))
+
+        forged.put(head_pan_goal(0.6))
+        own.put(head_pan_goal(-0.4))
+        wait_for(lambda: abs(head_pan[-1] + 0.4) < 0.05, timeout=20, what="HeadPan at the HCM's goal")
+        assert node.goals_applied == 1
+        assert max(head_pan) < 0.1, "the head turned towards robot2's goal"
+    finally:
+        for session in sessions:
+            session.close()
+        node.shutdown()
+
+
+def test_pitchside_robot_gives_its_team_file_to_every_node(team: Path) -> None:
+    from pitchside.robot import robot_id_for, robot_nodes
+
+    processes = robot_nodes("robot1", ["tcp/127.0.0.1:7447"], "minibot", ["cm730", "hcm"],
+                            zenoh_config=team / "robot1.json5")
+    for process in processes:
+        assert process.argv[process.argv.index("--zenoh-config") + 1] == str((team / "robot1.json5").resolve())
+    assert robot_id_for(None, str(team / "robot2.json5")) == "robot2"
+    with pytest.raises(SystemExit, match="robot2's team config, not robot1's"):
+        robot_id_for("robot1", str(team / "robot2.json5"))
+    with pytest.raises(SystemExit, match=r"laptop \(laptop\), not of a robot"):
+        robot_id_for(None, str(team / "laptop.json5"))
+    assert robot_id_for(None, None) == "robot1"
+    assert "transport" not in BusConfig().settings() and "access_control" not in BusConfig().settings()
+
+
+def _b64(data: bytes) -> str:
+    import base64
+
+    return base64.b64encode(data).decode("ascii")
