@@ -14,11 +14,13 @@ the robot is CONTROLLABLE again, lets the stack settle, and kills the next. Per 
   joint_states), at the dashboard for telemetry (overview datagrams, source telemetry, over the WebSocket) and for
   the server (a new WebSocket delivers fresh joint_states);
 - controllable_s: kill -> every robot's robot_state says CONTROLLABLE again;
-- lost_s: seconds of recording lost. Nodes: around the kill, the largest gap in the recorded joint_states and
-  robot_state (and the victim's own topic) minus the largest gap the bus itself showed for the same stream in the
-  same window, so what the node did not publish is not counted as lost. Server: kill time minus the last message in
-  the file it was writing (what reached the server but not the disk); gap_s: kill -> first message of the
-  recording resumed by the restarted server (manual and match recording each), the time nobody could record;
+- lost_s: seconds of recording lost, on the bus's clock. Every joint_states and diagnostics message (each carries a
+  stamp, so its bytes are unique) seen on the bus is looked up in the manual recording; the longest run of missing
+  messages, from the last one recorded before it to the first one after, minus the stream's usual interval, is
+  lost. What a dead node did not publish is not missing, and a server that received late but wrote everything lost
+  nothing. Server: the kill time minus the last message before it that made it into the file (what reached the
+  server but not the disk); gap_s: kill -> first message of the recording the restarted server resumed (manual and
+  match recording each), the time nobody could record;
 - crashes: processes other than the victim that died or restarted meanwhile, and victims never brought back.
 
 The baseline, measured in the same run on the same loaded machine: a minimal node (tests.proc_nodes talker) from
@@ -35,6 +37,7 @@ import os
 import re
 import secrets
 import signal
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -68,7 +71,7 @@ NODE_OF_MODULE = {module: name for name, module in NODE_MODULES.items()}
 NODE_TOPIC: dict[str, str | None] = {"hcm": "robot_state", "animation": None, "pause": "paused", "speaker": None,
                                      "walking": "walking_active", "game_controller": "gamestate", "telemetry": None}
 BUS_TOPICS = ("joint_states", "robot_state", "paused", "walking_active", "gamestate", "diagnostics")
-RECORDED = ("joint_states", "robot_state")  # streams whose gaps in the recording are compared with the bus
+COMPARED = ("joint_states", "diagnostics")  # stamped streams (unique bytes) looked up in the recording
 BACK_TIMEOUT_S = 30.0
 
 
@@ -84,6 +87,7 @@ class BusWatch:
         self.arrivals: dict[tuple[str, str], list[float]] = defaultdict(list)
         self.states: dict[str, list[tuple[float, int]]] = defaultdict(list)  # robot -> (arrival, HCM state)
         self.diagnostics: dict[tuple[str, str], list[tuple[float, float]]] = defaultdict(list)  # (arrival, start)
+        self.payloads: dict[tuple[str, str], list[tuple[float, bytes]]] = defaultdict(list)  # COMPARED streams
         self.session = open_session(BusConfig(connect=[endpoint]))
         self._subs = [self.session.declare_subscriber(keys.topic_key("*", topic), self._on_sample)
                       for topic in BUS_TOPICS]
@@ -92,6 +96,8 @@ class BusWatch:
         t = now()
         robot, topic = keys.split_topic_key(str(sample.key_expr))
         self.arrivals[(robot, topic)].append(t)
+        if topic in COMPARED:
+            self.payloads[(robot, topic)].append((t, sample.payload.to_bytes()))
         if topic == "robot_state":
             msg = schemas.decode(sample.payload.to_bytes(), "humanoid_league_msgs/msg/RobotControlState")
             self.states[robot].append((t, int(msg.state)))
@@ -353,45 +359,51 @@ def kill_and_wait(stack: Stack, victim: str, settle_s: float) -> Outcome:
 
 
 # -- the recording afterwards ---------------------------------------------------------------------------------
-def recorded_times(files: list[Path]) -> dict[tuple[str, str], list[float]]:
-    times: dict[tuple[str, str], list[float]] = defaultdict(list)
+def recorded_payloads(files: list[Path]) -> set[bytes]:
+    """The CDR bytes of every compared message in the files (a crash-cut file gives its complete chunks)."""
+    found: set[bytes] = set()
     for path in files:
         try:
             with LogReader(path) as log:
-                for msg in log.messages(topics=[*RECORDED, *filter(None, NODE_TOPIC.values())], decode=False):
-                    times[(msg.robot_id, msg.topic)].append(msg.log_time_ns / 1e9)
+                found.update(bytes(m.msg) for m in log.messages(topics=list(COMPARED), decode=False))
         except LogError as exc:
             print(f"  {path.name}: {exc}")
-    for series in times.values():
-        series.sort()
-    return times
+    return found
 
 
-def largest_gap(times: list[float], start: float, end: float) -> float:
-    inside = [t for t in times if start <= t <= end]
-    points = [start, *inside, end]
-    return max(b - a for a, b in itertools.pairwise(points))
+def longest_missing(seen: list[tuple[float, bytes]], recorded: set[bytes], start: float, end: float) -> float:
+    """The longest stretch of the bus's messages in [start, end] missing from the recording, minus the usual interval
+    (from the last recorded message before the stretch to the first after it; the window's edges stand in)."""
+    inside = [(t, data in recorded) for t, data in seen if start <= t <= end]
+    times = [t for t, _ in inside]
+    usual = statistics.median(b - a for a, b in itertools.pairwise(times)) if len(times) > 2 else 0.0
+    longest, last_present, missing = 0.0, start, False
+    for t, present in [*inside, (end, True)]:
+        if not present:
+            missing = True
+        elif missing:
+            longest, missing = max(longest, t - last_present - usual), False
+            last_present = t
+        else:
+            last_present = t
+    return max(0.0, longest)
 
 
-def node_lost(out: Outcome, recorded: dict[tuple[str, str], list[float]], bus: BusWatch, robots: list[str]) -> float:
-    """Largest (recorded gap - bus gap) around the kill over the compared streams."""
+def node_lost(out: Outcome, recorded: set[bytes], bus: BusWatch) -> float:
+    """Seconds of the compared streams, around the kill, that were on the bus but are not in the recording."""
     assert out.flows_s is not None
     start, end = out.killed_at - 1.0, out.killed_at + out.flows_s + 2.0
-    streams = [(r, topic) for r in robots for topic in RECORDED]
-    if "/" in out.victim and NODE_TOPIC[out.victim.split("/")[1]] is not None:
-        streams.append((out.victim.split("/")[0], NODE_TOPIC[out.victim.split("/")[1]] or ""))
-    return max(max(0.0, largest_gap(recorded.get(s, []), start, end) - largest_gap(bus.arrivals[s], start, end))
-               for s in streams)
+    return max((longest_missing(seen, recorded, start, end) for seen in bus.payloads.values()), default=0.0)
 
 
-def server_lost(out: Outcome, recorded: dict[tuple[str, str], list[float]],
-                robots: list[str]) -> tuple[float | None, float | None]:
-    """(seconds before the kill missing from the file, kill -> first message after it) for one recording."""
-    times = sorted(t for r in robots for t in recorded.get((r, "joint_states"), []))
-    before = [t for t in times if t <= out.killed_at]
-    after = [t for t in times if t > out.killed_at]
-    lost = out.killed_at - before[-1] if before else None
-    return lost, (after[0] - out.killed_at if after else None)
+def server_lost(out: Outcome, recorded: set[bytes], bus: BusWatch) -> tuple[float | None, float | None]:
+    """(kill -> back to the last joint_states before it that is in the recording, kill -> first one after it)."""
+    seen = sorted((t, data) for (_, topic), series in bus.payloads.items() if topic == "joint_states"
+                  for t, data in series)
+    kept = [t for t, data in seen if data in recorded]
+    before = [t for t in kept if t <= out.killed_at]
+    after = [t for t in kept if t > out.killed_at]
+    return (out.killed_at - before[-1] if before else None), (after[0] - out.killed_at if after else None)
 
 
 # -- the baseline -----------------------------------------------------------------------------------------------
@@ -476,14 +488,14 @@ def main() -> None:
         files = sorted((tmp / "recordings").glob("*.mcap"))
         manual_files = [f for f in files if "_faults" in f.name]
         match_files = [f for f in files if f.name.startswith("match-")]
-        recorded, match_recorded = recorded_times(manual_files), recorded_times(match_files)
+        recorded, match_recorded = recorded_payloads(manual_files), recorded_payloads(match_files)
         match_lost = match_gap = None
         for out in outcomes:
             if out.victim == "server":
-                out.lost_s, out.gap_s = server_lost(out, recorded, stack.robots)
-                match_lost, match_gap = server_lost(out, match_recorded, stack.robots)
+                out.lost_s, out.gap_s = server_lost(out, recorded, stack.bus)
+                match_lost, match_gap = server_lost(out, match_recorded, stack.bus)
             elif out.flows_s is not None:
-                out.lost_s = node_lost(out, recorded, stack.bus, stack.robots)
+                out.lost_s = node_lost(out, recorded, stack.bus)
         demo_log = stack.demo.output()
     print(f"\n{'victim':24s} {'restarted_s':>11s} {'flows_s':>8s} {'ctrl_s':>7s} {'lost_s':>7s} {'gap_s':>6s}  "
           f"flows again means / crashes")
