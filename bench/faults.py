@@ -30,6 +30,7 @@ spawn to its first message on the bus, the floor any restarted Python node can r
 from __future__ import annotations
 
 import argparse
+import bisect
 import contextlib
 import itertools
 import json
@@ -110,7 +111,9 @@ class BusWatch:
                     self.diagnostics[(robot, node)].append((t, t - float(values["uptime_s"])))
 
     def first_after(self, robot: str, topic: str, t0: float) -> float | None:
-        return next((t for t in self.arrivals[(robot, topic)] if t > t0), None)
+        times = self.arrivals[(robot, topic)]  # appended as they come: in order
+        i = bisect.bisect_right(times, t0)
+        return times[i] if i < len(times) else None
 
     def first_started_after(self, robot: str, node: str, t0: float) -> float | None:
         """First diagnostics of a node instance started after t0 (a restarted node, not the killed one)."""
@@ -170,7 +173,9 @@ class DashboardWatch:
                 time.sleep(0.02)
 
     def first_after(self, robot: str, topic: str, source: str, t0: float) -> float | None:
-        return next((t for t, stamp in self.arrivals[(robot, topic, source)] if t > t0 and stamp > t0), None)
+        frames = self.arrivals[(robot, topic, source)]
+        start = bisect.bisect_right(frames, t0, key=lambda frame: frame[0])
+        return next((t for t, stamp in frames[start:] if stamp > t0), None)
 
     def close(self) -> None:
         self._stop.set()
@@ -287,6 +292,7 @@ class Stack:
     procs: ProcessWatch
     robots: list[str]
     token: str
+    endpoint: str  # the demo's Zenoh router
 
     def api(self, method: str, path: str, body: dict[str, Any] | None = None) -> Any:
         response = httpx.request(method, f"{self.demo.url}/api{path}", json=body, timeout=30,
@@ -439,7 +445,7 @@ def running_stack(tmp: Path, robots: int, token: str) -> Iterator[Stack]:
         dash = DashboardWatch(demo.ws_url, token)
         procs = ProcessWatch(demo.process.pid)
         try:
-            yield Stack(demo, bus, dash, procs, [f"robot{i}" for i in range(1, robots + 1)], token)
+            yield Stack(demo, bus, dash, procs, [f"robot{i}" for i in range(1, robots + 1)], token, match.group(1))
         finally:
             procs.close()
             dash.close()
@@ -469,7 +475,7 @@ def main() -> None:
         wait_for(stack.all_flowing, timeout=120, interval=0.1, what="every robot CONTROLLABLE, data flowing")
         wait_for(lambda: all(stack.dash.first_after(r, "joint_states", "live", 0) for r in stack.robots),
                  timeout=60, interval=0.1, what="data at the dashboard")
-        baseline = bare_node_start(stack.bus, ROUTER.search(stack.demo.output()).group(1))  # type: ignore[union-attr]
+        baseline = bare_node_start(stack.bus, stack.endpoint)
         stack.api("POST", "/recordings/start", {"name": "faults"})
         wait_for(lambda: stack.api("GET", "/recordings/status")["match"], timeout=60, interval=0.2,
                  what="the match recording (the simulated game leaves INITIAL)")
@@ -510,12 +516,12 @@ def main() -> None:
           f"{', '.join(f.name for f in manual_files)}")
     nodes = [o for o in outcomes if o.victim != "server"]
     node_max = max((o.flows_s if o.flows_s is not None else BACK_TIMEOUT_S) for o in nodes)
-    lost_max = max((o.lost_s if o.lost_s is not None else BACK_TIMEOUT_S) for o in outcomes)
+    lost_max = max(x for x in [*(o.lost_s for o in outcomes), match_lost] if x is not None)
     crashes = sum(len(o.crashed) for o in outcomes)
     restarts = demo_log.count("restarting in")
     print(f"baseline: a minimal node from spawn to its first message {baseline:.2f} s; slowest node recovery "
           f"{node_max:.2f} s = {node_max / baseline:.1f}x that; launcher restarts logged {restarts} "
-          f"(kills {len(outcomes)})")
+          f"(kills {len(outcomes)}); machine load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
     print(f"RESULT faults node_recovery_max_s={node_max:.2f} server_recovery_s={fmt(server.flows_s)} "
           f"recording_lost_max_s={lost_max:.2f} crashes={crashes} server_recording_gap_s={fmt(server.gap_s)} "
           f"match_recording_gap_s={fmt(match_gap)} baseline_node_start_s={baseline:.2f}")

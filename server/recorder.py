@@ -82,19 +82,19 @@ class Recorder:
         if match is not None:
             log.warning("the server stopped while recording match %s (%s): recording goes on if the game does",
                         match.match_id, match.part)
-            self.match_id = match.match_id
+            self.match_id = safe_name(match.match_id)
             self.events.resume(match.part)
         manual = interrupted.manual
         self.journal.set_manual(None)
         if manual is not None:
-            path = Path(manual.path)
+            path = self.folder / Path(manual.path).name  # the journal names a file, always one in this folder
             async with self._lock:
                 try:
                     self.manual = self._open(path, manual.reason, resume=True)
                 except RecorderError as exc:
                     log.error("interrupted recording %s not resumed: %s", path.name, exc)
                     return
-                self.journal.set_manual(manual)
+                self.journal.set_manual(ManualEntry(str(path), manual.reason))
             log.warning("the server stopped while recording %s: recording goes on in %s", path.name,
                         Path(self.manual.status.files[0]).name)
 
