@@ -79,22 +79,24 @@ class Recorder:
         interrupted = self.journal.interrupted()
         match = interrupted.match if self.auto_match else None
         self.journal.set_match(match)  # pending until the first gamestate says whether the game is still on
+        self.journal.set_manual(None)
         if match is not None:
             log.warning("the server stopped while recording match %s (%s): recording goes on if the game does",
                         match.match_id, match.part)
             self.match_id = safe_name(match.match_id)
             self.events.resume(match.part)
-        manual = interrupted.manual
-        self.journal.set_manual(None)
-        if manual is not None:
-            path = self.folder / Path(manual.path).name  # the journal names a file, always one in this folder
-            async with self._lock:
-                try:
-                    self.manual = self._open(path, manual.reason, resume=True)
-                except RecorderError as exc:
-                    log.error("interrupted recording %s not resumed: %s", path.name, exc)
-                    return
-                self.journal.set_manual(ManualEntry(str(path), manual.reason))
+        if interrupted.manual is not None:
+            await self._resume_manual(interrupted.manual)
+
+    async def _resume_manual(self, entry: ManualEntry) -> None:
+        path = self.folder / Path(entry.path).name  # the journal names a file, always one in this folder
+        async with self._lock:
+            try:
+                self.manual = self._open(path, entry.reason, resume=True)
+            except RecorderError as exc:
+                log.error("interrupted recording %s not resumed: %s", path.name, exc)
+                return
+            self.journal.set_manual(ManualEntry(str(path), entry.reason))
             log.warning("the server stopped while recording %s: recording goes on in %s", path.name,
                         Path(self.manual.status.files[0]).name)
 
