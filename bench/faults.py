@@ -33,7 +33,6 @@ import argparse
 import bisect
 import contextlib
 import itertools
-import json
 import os
 import re
 import secrets
@@ -59,9 +58,8 @@ import schemas
 from robot_nodes.launch import NODE_MODULES
 from robot_nodes.runtime import BusConfig, keys, open_session
 from schemas.mcap_log import LogError, LogReader
-from server.protocol import unbatch
 from tests.conftest import REPO
-from tests.running_demo import RunningDemo, running_demo
+from tests.running_demo import DashboardObserver, RunningDemo, running_demo
 from tests.waiting import wait_for
 
 ROUTER = re.compile(r"Zenoh router (tcp/[0-9.]+:\d+)")
@@ -138,48 +136,25 @@ class BusWatch:
         self.session.close()
 
 
-class DashboardWatch:
+@dataclass
+class DashboardWatch(DashboardObserver):
     """A WebSocket client of the dashboard that reconnects at once after the server dies; arrivals per stream."""
 
-    def __init__(self, ws_url: str, token: str) -> None:
-        self.url = f"{ws_url}?token={token}"
-        self.arrivals: dict[tuple[str, str, str], list[tuple[float, float]]] = defaultdict(list)  # (arrival, stamp)
-        self.connected_at: list[float] = []
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._run, name="dashboard-watch", daemon=True)
-        self._thread.start()
+    arrivals: dict[tuple[str, str, str], list[tuple[float, float]]] = field(
+        default_factory=lambda: defaultdict(list))  # (robot, topic, source) -> (arrival, stamp)
 
     def _run(self) -> None:
-        from websockets.sync.client import connect
-
         while not self._stop.is_set():
-            try:
-                with connect(self.url, max_size=None, open_timeout=2.0) as ws:
-                    self.connected_at.append(now())
-                    for topic in ("joint_states", "overview"):
-                        ws.send(json.dumps({"op": "subscribe", "robot": "*", "topic": topic, "max_hz": 20}))
-                    while not self._stop.is_set():
-                        try:
-                            raw = ws.recv(timeout=0.5)
-                        except TimeoutError:
-                            continue
-                        if isinstance(raw, str):
-                            t = now()
-                            for frame in unbatch(json.loads(raw)):
-                                if frame.get("type") == "msg":
-                                    self.arrivals[(frame["robot"], frame["topic"], frame["source"])].append(
-                                        (t, float(frame["stamp"])))
-            except Exception:  # the server is down: try again at once, that is what is measured
-                time.sleep(0.02)
+            super()._run()  # returns when the server is gone: try again at once, that is what is measured
+            time.sleep(0.02)
+
+    def _seen(self, frame: dict[str, Any]) -> None:
+        self.arrivals[(frame["robot"], frame["topic"], frame["source"])].append((now(), float(frame["stamp"])))
 
     def first_after(self, robot: str, topic: str, source: str, t0: float) -> float | None:
         frames = self.arrivals[(robot, topic, source)]
         start = bisect.bisect_right(frames, t0, key=lambda frame: frame[0])
         return next((t for t, stamp in frames[start:] if stamp > t0), None)
-
-    def close(self) -> None:
-        self._stop.set()
-        self._thread.join(5)
 
 
 # -- the processes ----------------------------------------------------------------------------------------------
@@ -441,15 +416,16 @@ def running_stack(tmp: Path, robots: int, token: str) -> Iterator[Stack]:
         match = ROUTER.search(demo.output())
         if match is None:
             raise SystemExit("the demo did not say where its Zenoh router is")
+        dash = DashboardWatch(f"{demo.ws_url}?token={token}", ("joint_states", "overview"), max_hz=20)
         bus = BusWatch(match.group(1))
-        dash = DashboardWatch(demo.ws_url, token)
         procs = ProcessWatch(demo.process.pid)
-        try:
-            yield Stack(demo, bus, dash, procs, [f"robot{i}" for i in range(1, robots + 1)], token, match.group(1))
-        finally:
-            procs.close()
-            dash.close()
-            bus.close()
+        with dash:
+            try:
+                yield Stack(demo, bus, dash, procs, [f"robot{i}" for i in range(1, robots + 1)], token,
+                            match.group(1))
+            finally:
+                procs.close()
+                bus.close()
 
 
 def victims(robots: list[str], quick: bool) -> list[str]:
