@@ -24,7 +24,7 @@ the robot is CONTROLLABLE again, lets the stack settle, and kills the next. Per 
 - crashes: processes other than the victim that died or restarted meanwhile, and victims never brought back.
 
 The baseline, measured in the same run on the same loaded machine: a minimal node (tests.proc_nodes talker) from
-spawn to its first message on the bus, the floor any restarted Python node can reach.
+spawn to its first message on the bus (median of 3), the floor any restarted Python node can reach.
 """
 
 from __future__ import annotations
@@ -451,7 +451,7 @@ def main() -> None:
         wait_for(stack.all_flowing, timeout=120, interval=0.1, what="every robot CONTROLLABLE, data flowing")
         wait_for(lambda: all(stack.dash.first_after(r, "joint_states", "live", 0) for r in stack.robots),
                  timeout=60, interval=0.1, what="data at the dashboard")
-        baseline = bare_node_start(stack.bus, stack.endpoint)
+        baseline = statistics.median(bare_node_start(stack.bus, stack.endpoint) for _ in range(3))
         stack.api("POST", "/recordings/start", {"name": "faults"})
         wait_for(lambda: stack.api("GET", "/recordings/status")["match"], timeout=60, interval=0.2,
                  what="the match recording (the simulated game leaves INITIAL)")
