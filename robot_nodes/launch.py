@@ -46,6 +46,8 @@ class NodeProcess:
     last_exit: str = ""
     started_at: float = 0.0
     env: dict[str, str] = field(default_factory=dict)
+    restart_at: float | None = None  # dead, to be started again at this time (monotonic)
+    given_up: bool = False  # dead and not to be restarted
 
     def start(self) -> None:
         env = {**os.environ, **self.env}
@@ -68,7 +70,12 @@ def describe_exit(code: int) -> str:
 
 
 class Launcher:
-    """Keeps a set of node processes alive until stopped."""
+    """Keeps a set of node processes alive until stopped.
+
+    A node that dies is started again after ``restart_delay``, or after a back-off doubling up to ``max_delay``
+    while it keeps dying within 5 s of its start. Each node waits on its own: a node in back-off never holds up
+    the restart of another (an HCM that dies is back at once even while a broken speaker waits its 5 s).
+    """
 
     def __init__(self, nodes: list[NodeProcess], restart_delay: float = 0.2, max_delay: float = 5.0) -> None:
         self.nodes = nodes
@@ -91,11 +98,19 @@ class Launcher:
 
     def _check(self, node: NodeProcess) -> None:
         assert node.process is not None
+        if node.given_up:
+            return
+        if node.restart_at is not None:
+            if time.monotonic() >= node.restart_at:
+                node.restart_at = None
+                node.start()
+            return
         code = node.process.poll()
         if code is None:
             return
         node.last_exit = describe_exit(code)
         if not node.restart:
+            node.given_up = True
             log.warning("%s %s; not restarting", node.name, node.last_exit)
             return
         # back off when a node dies right after starting, so a broken node does not spin the CPU
@@ -103,10 +118,8 @@ class Launcher:
         delay = self.restart_delay if lived > 5.0 else min(self.max_delay, self.restart_delay * 2 ** node.restarts)
         log.error("%s (pid %d) %s after %.1f s; restarting in %.1f s", node.name, node.process.pid,
                   node.last_exit, lived, delay)
-        if self._stop.wait(delay):
-            return
         node.restarts = 0 if lived > 5.0 else node.restarts + 1
-        node.start()
+        node.restart_at = time.monotonic() + delay
 
     def _terminate_all(self) -> None:
         running = [n.process for n in self.nodes if n.process is not None and n.process.poll() is None]

@@ -5,6 +5,10 @@ the hub sees (every source but replay) into ``recordings/*.mcap`` (server.record
 recording follows the robots' ``gamestate``: it starts when the game leaves INITIAL, opens a new file per
 half (overtime and penalty shoot-out get their own), stops at FINISHED, and bookmarks GameController
 events (state changes, goals, penalties). Recording sends nothing to robots, so it is allowed in match mode.
+
+A crash of the server does not end a recording: the journal (server.recording.journal) names what runs, and a
+restarted server goes on with it in the next file of the same series (the match recording as soon as the robots'
+gamestate says the game is still on).
 """
 
 from __future__ import annotations
@@ -20,6 +24,7 @@ from schemas.mcap_log import LogError
 from server.hub import Hub, HubMessage, Subscriber
 from server.recording.files import RecordingsFolder, safe_name, timestamped
 from server.recording.game_events import GameEvent, GameEvents
+from server.recording.journal import TOUCH_EVERY_S, ManualEntry, MatchEntry, RecordingJournal
 from server.recording.session import HubRecording, RecordingStatus
 
 log = logging.getLogger(__name__)
@@ -49,28 +54,69 @@ class Recorder:
         self.match_id = ""
         self.finished: list[RecordingStatus] = []
         self.events = GameEvents()
+        self.journal = RecordingJournal(self.folder)
         self._game_sub: Subscriber | None = None
         self._game_task: asyncio.Task[None] | None = None
+        self._journal_task: asyncio.Task[None] | None = None
         self._lock = asyncio.Lock()
 
     # -- lifetime ---------------------------------------------------------------------------------------
     async def start(self) -> None:
-        """Starts watching the game (when auto_match); call on the server's loop."""
-        if self.auto_match and self._game_task is None:
+        """Resumes what a crash cut off, starts watching the game (when auto_match); call on the server's loop."""
+        if self._journal_task is not None:
+            return
+        await self._resume_interrupted()
+        loop = asyncio.get_running_loop()
+        self._journal_task = loop.create_task(self._keep_journal())
+        if self.auto_match:
             self._game_sub = self.hub.subscribe("recorder:gamestate", maxlen=1000)
             self._game_sub.subscribe("*", "gamestate", replay_latest=False)
-            self._game_task = asyncio.get_running_loop().create_task(self._watch_game())
+            self._game_task = loop.create_task(self._watch_game())
+
+    async def _resume_interrupted(self) -> None:
+        if not self.journal.acquire():
+            return
+        interrupted = self.journal.interrupted()
+        match = interrupted.match if self.auto_match else None
+        self.journal.set_match(match)  # pending until the first gamestate says whether the game is still on
+        self.journal.set_manual(None)
+        if match is not None:
+            log.warning("the server stopped while recording match %s (%s): recording goes on if the game does",
+                        match.match_id, match.part)
+            self.match_id = safe_name(match.match_id)
+            self.events.resume(match.part)
+        if interrupted.manual is not None:
+            await self._resume_manual(interrupted.manual)
+
+    async def _resume_manual(self, entry: ManualEntry) -> None:
+        path = self.folder / Path(entry.path).name  # the journal names a file, always one in this folder
+        async with self._lock:
+            try:
+                self.manual = self._open(path, entry.reason, resume=True)
+            except RecorderError as exc:
+                log.error("interrupted recording %s not resumed: %s", path.name, exc)
+                return
+            self.journal.set_manual(ManualEntry(str(path), entry.reason))
+            log.warning("the server stopped while recording %s: recording goes on in %s", path.name,
+                        Path(self.manual.status.files[0]).name)
+
+    async def _keep_journal(self) -> None:
+        while True:
+            await asyncio.sleep(TOUCH_EVERY_S)
+            await asyncio.to_thread(self.journal.touch)
 
     async def close(self) -> None:
-        task, self._game_task = self._game_task, None
-        if task is not None:
-            task.cancel()
-            with contextlib.suppress(asyncio.CancelledError):
-                await task
+        for task in (self._game_task, self._journal_task):
+            if task is not None:
+                task.cancel()
+                with contextlib.suppress(asyncio.CancelledError):
+                    await task
+        self._game_task = self._journal_task = None
         if self._game_sub is not None:
             self._game_sub.close()
         await self.stop_manual()
         await self._stop_match()
+        self.journal.release()
 
     # -- manual -----------------------------------------------------------------------------------------
     async def start_manual(self, name: str = "", reason: str = "manual") -> RecordingStatus:
@@ -79,6 +125,7 @@ class Recorder:
                 raise RecorderError(f"already recording to {self.manual.path.name}")
             path = timestamped(self.folder, safe_name(name) if name else reason)
             self.manual = self._open(path, reason)
+            self.journal.set_manual(ManualEntry(str(path), reason))
             log.info("recording to %s", path)
             return self.manual.status
 
@@ -87,6 +134,7 @@ class Recorder:
             recording, self.manual = self.manual, None
         if recording is None:
             return None
+        self.journal.set_manual(None)
         status = await recording.stop()
         self.finished.append(status)
         log.info("recording %s stopped: %d messages", status.name, status.messages)
@@ -129,6 +177,8 @@ class Recorder:
             if not self.match_id or event.part == "half1":  # the second half keeps the first half's match id
                 self.match_id = time.strftime("%Y%m%d-%H%M%S")
             await self._open_match_part(event.part)
+        elif event.kind == "resume":
+            await self._open_match_part(event.part, resume=True)
         elif event.kind == "split":
             await self._stop_match()
             await self._open_match_part(event.part)
@@ -140,24 +190,28 @@ class Recorder:
             except LogError as exc:
                 log.warning("bookmark %s not written: %s", event.name, exc)
 
-    async def _open_match_part(self, part: str) -> None:
+    async def _open_match_part(self, part: str, resume: bool = False) -> None:
+        """``resume``: after a crash, go on in the next file of the part's series (a new part starts its own)."""
         if self.match is not None:
             await self._stop_match()
         path = self.folder / f"match-{self.match_id}_{safe_name(part)}.mcap"
-        if path.exists():
+        if path.exists() and not resume:
             path = timestamped(self.folder, f"match-{self.match_id}_{part}")
-        self.match = self._open(path, "match")
-        log.info("match recording: %s", path.name)
+        self.match = self._open(path, "match", resume=resume)
+        self.journal.set_match(MatchEntry(self.match_id, part))
+        log.info("match recording: %s", Path(self.match.status.files[0]).name)
 
     async def _stop_match(self) -> None:
         recording, self.match = self.match, None
+        self.journal.set_match(None)
         if recording is not None:
             self.finished.append(await recording.stop())
 
     # -- shared -----------------------------------------------------------------------------------------
-    def _open(self, path: Path, reason: str) -> HubRecording:
+    def _open(self, path: Path, reason: str, resume: bool = False) -> HubRecording:
         try:
-            return HubRecording(self.hub, path, reason, rotate_bytes=self.rotate_bytes, chunk_size=self.chunk_size)
+            return HubRecording(self.hub, path, reason, rotate_bytes=self.rotate_bytes, chunk_size=self.chunk_size,
+                                resume=resume)
         except (LogError, OSError) as exc:
             raise RecorderError(f"cannot record to {path}: {exc}") from exc
 

@@ -97,6 +97,7 @@ class DashboardObserver:
 
     ws_url: str
     topics: tuple[str, ...]
+    max_hz: float = 0.0  # per stream; 0: every message
     latest: dict[tuple[str, str], dict[str, Any]] = field(default_factory=dict)
     real_time_factors: list[tuple[float, float]] = field(default_factory=list)  # (wall time, factor)
     error: str = ""
@@ -122,7 +123,7 @@ class DashboardObserver:
         try:
             with connect(self.ws_url, max_size=None) as ws:
                 for topic in self.topics:
-                    ws.send(json.dumps({"op": "subscribe", "robot": "*", "topic": topic}))
+                    ws.send(json.dumps({"op": "subscribe", "robot": "*", "topic": topic, "max_hz": self.max_hz}))
                 while not self._stop.is_set():
                     try:
                         raw = ws.recv(timeout=0.5)

@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import logging
 import os
 import signal
 import subprocess
 import sys
 import threading
 import time
+
+import pytest
 
 from robot_nodes.launch import Launcher, NodeProcess, node_command
 from robot_nodes.runtime import BusConfig, ParameterClient, keys, open_session
@@ -41,6 +44,37 @@ def test_killed_node_is_back_within_two_seconds_and_publishing(router_endpoint: 
             launcher.stop()
             thread.join(15)
     assert talker.process is not None and talker.process.poll() is not None, "launcher must stop its nodes"
+
+
+def test_a_node_in_back_off_does_not_hold_up_the_restart_of_another(router_endpoint: str,
+                                                                    caplog: pytest.LogCaptureFixture) -> None:
+    broken = NodeProcess("broken", [sys.executable, "-m", "tests.proc_nodes"])  # no node name: exits at once
+    broken.restarts = 8  # it has been dying for a while: its next start is max_delay away
+    once = NodeProcess("once", [sys.executable, "-c", "pass"], restart=False)
+    talker = NodeProcess("talker", [sys.executable, "-m", "tests.proc_nodes", "talker", "--robot-id", "robot1",
+                                    "--connect", router_endpoint])
+    launcher = Launcher([broken, once, talker], max_delay=60.0)
+    thread = threading.Thread(target=launcher.run, daemon=True)
+    received: list[float] = []
+    with caplog.at_level(logging.WARNING, logger="pitchside.launch"), \
+            open_session(BusConfig(connect=[router_endpoint])) as session:
+        session.declare_subscriber(keys.topic_key("robot1", "joint_states"),
+                                   lambda sample: received.append(time.monotonic()))
+        thread.start()
+        try:
+            wait_for(lambda: received and broken.restart_at is not None, timeout=20, what="talker up, broken waiting")
+            broken_pid, first_pid = broken.pid, talker.pid
+            assert first_pid is not None
+            os.kill(first_pid, signal.SIGKILL)
+            killed_at = time.monotonic()
+            wait_for(lambda: talker.pid != first_pid and received[-1] > killed_at + 0.05, timeout=20,
+                     what="the talker back while the broken node still waits")
+            assert broken.pid == broken_pid and broken.restart_at is not None
+        finally:
+            launcher.stop()
+            thread.join(15)
+    assert [r.getMessage() for r in caplog.records if r.getMessage().startswith("once")] == [
+        "once exited with code 0; not restarting"]  # said once, not on every look
 
 
 def test_launch_process_stops_all_nodes_on_sigint(router_endpoint: str) -> None:

@@ -266,6 +266,21 @@ def test_crashed_writer_process_loses_at_most_the_open_chunk(tmp_path: Path) -> 
     assert 500 - per_chunk <= len(texts) < 500
 
 
+def test_a_log_continued_after_a_crash_reads_back_as_one_series(tmp_path: Path) -> None:
+    path = tmp_path / "game.mcap"
+    cut = LogWriter(path, chunk_size=500, rotate_bytes=4000, flush_interval_s=None)
+    for i in range(60):
+        cut.write("robot1", "joint_states", joint_state(i), log_time_ns=T0 + i)
+    cut.flush()  # then the process dies: no close, no summary
+    assert [p.name for p in cut.paths][:2] == ["game.mcap", "game_001.mcap"]
+    with LogWriter(path, continue_series=True) as resumed:
+        for i in range(60, 70):
+            resumed.write("robot1", "joint_states", joint_state(i), log_time_ns=T0 + i)
+    assert resumed.paths == [path.with_name(f"game_{len(cut.paths):03d}.mcap")]  # after the last file, none overwritten
+    with LogSeriesReader(path) as series:
+        assert [m.msg.header.frame_id for m in series.messages()] == [f"base_{i}" for i in range(70)]
+
+
 def test_not_an_mcap_file_is_a_clear_error(tmp_path: Path) -> None:
     junk = tmp_path / "junk.mcap"
     junk.write_bytes(b"this is not a log")

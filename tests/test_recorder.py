@@ -14,11 +14,13 @@ import numpy as np
 import pytest
 
 import schemas
-from robot_nodes.runtime import BusConfig
-from schemas.mcap_log import LogReader
+from robot_nodes.runtime import BusConfig, Node
+from schemas.mcap_log import LogReader, LogSeriesReader
 from server.hub import Hub, HubMessage
 from server.recorder import Recorder
 from server.recording.game_events import FINISHED, INITIAL, PLAYING, READY, SET, GameEvents
+from server.recording.journal import JOURNAL_NAME, RESUME_WITHIN_S, RecordingJournal
+from server.recording.session import CRASH_LOSS_BOUND_S
 from tests.dashboard_server import dashboard_server
 from tests.teststand import TestStand
 from tests.waiting import wait_for
@@ -63,6 +65,22 @@ def test_game_events_first_half_to_second_without_initial_splits() -> None:
     assert events.recording_part == "half1"
     out = events.feed("r1", gamestate(READY, first_half=False))
     assert (out[0].kind, out[0].part) == ("split", "half2")
+
+
+def test_game_events_resume_after_a_restart_while_the_game_is_on() -> None:
+    kinds = lambda evs: [(e.kind, e.part or e.name) for e in evs]  # noqa: E731
+    on = GameEvents()
+    on.resume("half1")
+    assert kinds(on.feed("r1", gamestate(PLAYING))) == [("resume", "half1")]  # joined a running game, yet records
+    assert on.recording_part == "half1"
+    assert kinds(on.feed("r1", gamestate(INITIAL, first_half=False))) == [("bookmark", "INITIAL"), ("stop", "half1")]
+    over = GameEvents()
+    over.resume("half1")
+    assert kinds(over.feed("r1", gamestate(INITIAL, first_half=False))) == [("stop", "half1")]  # half time came
+    assert over.recording_part is None
+    later = GameEvents()
+    later.resume("half1")
+    assert kinds(later.feed("r1", gamestate(READY, first_half=False))) == [("resume", "half2")]
 
 
 # -- automatic match recording through a real hub -----------------------------------------------------------
@@ -183,6 +201,90 @@ def test_kill_9_while_recording_keeps_the_file(router_endpoint: str, bus: BusCon
         assert log.message_count == status["flushed_messages"] >= 300
         seqs = [m.msg.position[0] for m in log.messages(topics=["joint_states"])]
         assert seqs == sorted(seqs) and len(seqs) >= 150
+
+
+class GameStand(Node):
+    """Relays a GameController's state, as a robot's game_controller node does (the test sets ``state``)."""
+
+    __test__ = False
+    name = "game_controller"
+
+    def setup(self) -> None:
+        self.state = INITIAL
+        self.pub = self.publisher("gamestate")
+        self.timer(20.0, lambda: self.pub.publish(gamestate(self.state)))
+
+
+def test_a_killed_server_goes_on_recording_after_its_restart(router_endpoint: str, bus: BusConfig,
+                                                              tmp_path: Path) -> None:
+    """SIGKILL while a manual and a match recording run: each file keeps what the server received until
+    CRASH_LOSS_BOUND_S before the kill, and the restarted server goes on in the next file of each series."""
+    folder = tmp_path / "rec"
+    args = ["--connect", router_endpoint, "--no-telemetry", "--recordings", str(folder)]
+    node = TestStand("r1", bus, overrides={"rate_hz": 100.0}).start()
+    game = GameStand("r1", bus).start()
+    try:
+        with dashboard_server(args, tmp_path) as server:
+            assert httpx.post(f"{server.url}/api/recordings/start", json={"name": "crash"}, timeout=10).is_success
+            wait_for(lambda: (_status(server.url)["manual"] or {}).get("messages", 0) >= 100, timeout=30,
+                     interval=0.1, what="recording, the game seen in INITIAL")
+            game.state = READY
+            wait_for(lambda: _status(server.url)["match"], timeout=30, interval=0.1, what="the match recorded")
+            file = Path(_status(server.url)["manual"]["files"][0])
+            size = file.stat().st_size
+            wait_for(lambda: file.stat().st_size > size, timeout=30, what="a chunk written")
+            time.sleep(1.5 * CRASH_LOSS_BOUND_S)  # the kill comes well after that chunk: only later ones keep the bound
+            killed_at = time.time()
+            os.kill(server.process.pid, signal.SIGKILL)
+            server.process.wait(10)
+        with dashboard_server(args, tmp_path) as server:
+            status = wait_for(lambda: (s := _status(server.url))["match"] and s["manual"]
+                              and min(s["match"]["messages"], s["manual"]["messages"]) >= 100 and s,
+                              timeout=30, interval=0.1, what="both recordings going on")
+            assert status["manual"]["resumed"] and status["match"]["resumed"]
+            assert httpx.post(f"{server.url}/api/recordings/stop", timeout=20).is_success
+        # the second server stopped cleanly: nothing is left to resume
+        assert not (folder / JOURNAL_NAME).exists()
+    finally:
+        node.shutdown()
+        game.shutdown()
+    (manual,) = folder.glob("*_crash.mcap")
+    (match,) = folder.glob("match-*_half1.mcap")
+    for first in (manual, match):
+        with LogSeriesReader(first) as log:
+            assert [p.name for p in log.paths] == [first.name, f"{first.stem}_001.mcap"]
+            recorded = [(m.log_time_ns / 1e9, m.msg.position[0]) for m in log.messages(topics=["joint_states"])]
+        before = [t for t, _ in recorded if t < killed_at]
+        after = [t for t, _ in recorded if t > killed_at]
+        assert before[-1] >= killed_at - CRASH_LOSS_BOUND_S, (first.name, killed_at - before[-1])
+        assert len(after) >= 50
+        seqs = [seq for _, seq in recorded]
+        assert seqs == sorted(seqs)
+
+
+def test_only_one_server_owns_a_folders_journal_and_old_journals_are_not_resumed(tmp_path: Path) -> None:
+    async def main() -> None:
+        hub = Hub()
+        hub.bind(asyncio.get_running_loop())
+        first, second = Recorder(hub, tmp_path), Recorder(hub, tmp_path)
+        await first.start()
+        await first.start_manual("lab")
+        await second.start()  # e.g. `pitchside replay` beside a running dashboard: it takes nothing over
+        assert second.manual is None and not second.journal.owned
+        await second.close()
+        assert (tmp_path / JOURNAL_NAME).exists()  # the first server's journal is untouched
+        assert first.manual is not None
+        first.journal.release()  # what the kernel does when the first server dies
+        old = time.time() - RESUME_WITHIN_S - 60
+        os.utime(tmp_path / JOURNAL_NAME, (old, old))  # ... and it died long ago
+        late = Recorder(hub, tmp_path)
+        await late.start()
+        assert late.manual is None and not (tmp_path / JOURNAL_NAME).exists()
+        await late.close()
+        await first.manual.stop()
+
+    asyncio.run(main())
+    assert RecordingJournal(tmp_path).interrupted().manual is None
 
 
 def test_recording_rotates_by_size_and_reads_back_as_one(tmp_path: Path) -> None:

@@ -240,12 +240,34 @@ def test_service_call_and_refusal(bus: BusConfig) -> None:
         node.shutdown()
 
 
+class QuietReporter(Node):
+    """Reports its diagnostics once a minute."""
+
+    name = "quiet"
+    diagnostics_period = 60.0
+
+
+def test_a_started_node_reports_at_once_not_a_diagnostics_period_later(bus: BusConfig) -> None:
+    listener = Listener(bus=bus).start()
+    quiet = QuietReporter(bus=bus)
+    try:
+        quiet.start()
+        wait_for(lambda: any(s.name == "robot1/quiet" for d in listener.diagnostics for s in d.status),  # type: ignore[attr-defined]
+                 timeout=10, what="the first diagnostics of a node that reports once a minute")
+    finally:
+        quiet.shutdown()
+        listener.shutdown()
+
+
 def test_invalid_cdr_is_counted_in_diagnostics_and_node_survives(bus: BusConfig) -> None:
     listener = Listener(bus=bus).start()
     try:
         with open_session(bus) as session:
             key = keys.topic_key("robot1", "joint_states")
             wait_for(lambda: listener.diagnostics, timeout=5, what="first diagnostics")
+            probe = schemas.encode(schemas.make("sensor_msgs/msg/JointState", name=["seq"], position=[7.0]))
+            wait_for(lambda: session.put(key, probe) or 7 in listener.seqs, timeout=5, interval=0.05,
+                     what="this session's messages reach the listener")  # so neither garbage put is lost
             session.put(key, b"\x00\x01\x00\x00garbage that is not a JointState")
             session.put(key, b"")
 

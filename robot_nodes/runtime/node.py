@@ -220,6 +220,9 @@ class Node:
     # -- running --------------------------------------------------------------------------------------
     def spin(self) -> None:
         """Runs the loop on this thread until shutdown()."""
+        # the first report goes out as soon as the node runs, not a period later: a restarted node that only
+        # reports (speaker, an idle animation player) shows it is back at once
+        self.loop.call_soon(self._publish_diagnostics)
         try:
             self.loop.run()
         finally:

@@ -37,10 +37,21 @@ def rotated_path(path: Path, index: int) -> Path:
     return path if index == 0 else path.with_name(f"{path.stem}_{index:03d}{path.suffix or '.mcap'}")
 
 
+def _numbered(path: Path) -> list[tuple[int, Path]]:
+    pattern = re.compile(re.escape(path.stem) + r"_(\d{3,})" + re.escape(path.suffix or ".mcap") + "$")
+    return sorted((int(m.group(1)), p) for p in path.parent.glob(f"{path.stem}_*") if (m := pattern.match(p.name)))
+
+
 def log_series(path: str | Path) -> list[Path]:
     """The files of a rotated log in order, starting with ``path`` itself (if it exists)."""
     path = Path(path)
-    pattern = re.compile(re.escape(path.stem) + r"_(\d{3,})" + re.escape(path.suffix or ".mcap") + "$")
-    numbered = sorted((int(m.group(1)), p) for p in path.parent.glob(f"{path.stem}_*")
-                      if (m := pattern.match(p.name)))
-    return ([path] if path.exists() else []) + [p for _, p in numbered]
+    return ([path] if path.exists() else []) + [p for _, p in _numbered(path)]
+
+
+def next_series_index(path: str | Path) -> int:
+    """The index (for ``rotated_path``) after the last file of the series on disk; 0 when there is none."""
+    path = Path(path)
+    numbered = _numbered(path)
+    if numbered:
+        return numbered[-1][0] + 1
+    return 1 if path.exists() else 0

@@ -19,6 +19,7 @@ from schemas.logs.naming import (
     BOOKMARK_TYPE,
     LogError,
     channel_topic,
+    next_series_index,
     rotated_path,
 )
 from schemas.topics import TOPICS
@@ -71,7 +72,10 @@ class LogWriter:
 
     Crash safety: a chunk goes to the operating system as soon as it is full, or at the next
     write once ``flush_interval_s`` has passed since the last one (or on ``flush()``), so a
-    crashed process loses at most the chunk being filled. Thread-safe.
+    crashed process loses at most the chunk being filled. With ``continue_series`` the log
+    goes on after the files of its series already on disk (``<stem>_00n.mcap``), so a
+    recording a crash cut off and its continuation read back as one (LogSeriesReader).
+    Thread-safe.
     """
 
     def __init__(
@@ -83,6 +87,7 @@ class LogWriter:
         rotate_bytes: int | None = None,
         profile: str = "ros2",
         flush_interval_s: float | None = 2.0,
+        continue_series: bool = False,
     ) -> None:
         if compression not in _COMPRESSION:
             raise LogError(f"compression must be one of {sorted(_COMPRESSION)}, not {compression!r}")
@@ -103,6 +108,7 @@ class LogWriter:
         self._schemas: dict[str, int] = {}
         self._sequence: dict[int, int] = {}
         self._pending = 0
+        self._first_index = next_series_index(self.path) if continue_series else 0
         self._file: _ChunkFlushingFile | None = None
         self._writer: Writer | None = None
         self._open_next()
@@ -110,7 +116,7 @@ class LogWriter:
     # -- files --------------------------------------------------------------------------------
 
     def _open_next(self) -> None:
-        path = rotated_path(self.path, len(self.paths))
+        path = rotated_path(self.path, self._first_index + len(self.paths))
         path.parent.mkdir(parents=True, exist_ok=True)
         self._file = _ChunkFlushingFile(path)
         self._writer = Writer(self._file, chunk_size=self._chunk_size, compression=self._compression)  # type: ignore[arg-type]

@@ -44,7 +44,8 @@ class GameView:
 
 @dataclass(frozen=True, slots=True)
 class GameEvent:
-    """``kind``: "start" (recording of ``part`` begins), "split" (new file for ``part``), "stop", "bookmark"."""
+    """``kind``: "start" (recording of ``part`` begins), "split" (new file for ``part``), "stop", "bookmark",
+    "resume" (the recording of ``part`` goes on after a restart of the server)."""
 
     kind: str
     part: str = ""
@@ -58,8 +59,14 @@ class GameEvents:
     def __init__(self) -> None:
         self.game: GameView | None = None
         self.recording_part: str | None = None
+        self._resuming: str | None = None
         self._per_robot: dict[str, GameView] = {}
         self._penalized: dict[str, bool] = {}
+
+    def resume(self, part: str) -> None:
+        """A restarted server was recording ``part``: the first message decides whether the game is still on
+        (event "resume", of the part it is in now) or over ("stop", e.g. half time came while the server was down)."""
+        self._resuming = part
 
     def feed(self, robot: str, msg: Any) -> list[GameEvent]:
         view = GameView.of(msg)
@@ -76,8 +83,10 @@ class GameEvents:
         if game is None:
             # The first message only tells where the game is: recording starts with the first change seen out of
             # INITIAL (the game leaving INITIAL, or the next state change of a game joined later), so a test
-            # stand that always says PLAYING never records.
+            # stand that always says PLAYING never records. A recording a crash cut off goes on, though.
             self.game = view
+            if self._resuming is not None:
+                events += self._resume(view)
         elif view != game:
             events += self._change(robot, before, game, view)
         events += self._penalty(robot, was_penalized, penalized, msg)
@@ -116,6 +125,13 @@ class GameEvents:
             control = [GameEvent("split", part=view.part)]
             self.recording_part = view.part
         return control + events  # bookmarks go into the file that holds their moment
+
+    def _resume(self, view: GameView) -> list[GameEvent]:
+        part, self._resuming = self._resuming, None
+        if view.game_state in (INITIAL, FINISHED):
+            return [GameEvent("stop", part=part or "")]
+        self.recording_part = view.part
+        return [GameEvent("resume", part=view.part)]
 
     def _begin(self, view: GameView) -> list[GameEvent]:
         self.recording_part = view.part
