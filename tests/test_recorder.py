@@ -225,7 +225,7 @@ def test_a_killed_server_goes_on_recording_after_its_restart(router_endpoint: st
     game = GameStand("r1", bus).start()
     try:
         with dashboard_server(args, tmp_path) as server:
-            assert httpx.post(f"{server.url}/api/recordings/start", json={"name": "crash"}, timeout=10).is_success
+            assert server.http.post(f"{server.url}/api/recordings/start", json={"name": "crash"}, timeout=10).is_success
             wait_for(lambda: (_status(server.url)["manual"] or {}).get("messages", 0) >= 100, timeout=30,
                      interval=0.1, what="recording, the game seen in INITIAL")
             game.state = READY
@@ -242,7 +242,7 @@ def test_a_killed_server_goes_on_recording_after_its_restart(router_endpoint: st
                               and min(s["match"]["messages"], s["manual"]["messages"]) >= 100 and s,
                               timeout=30, interval=0.1, what="both recordings going on")
             assert status["manual"]["resumed"] and status["match"]["resumed"]
-            assert httpx.post(f"{server.url}/api/recordings/stop", timeout=20).is_success
+            assert server.http.post(f"{server.url}/api/recordings/stop", timeout=20).is_success
         # the second server stopped cleanly: nothing is left to resume
         assert not (folder / JOURNAL_NAME).exists()
     finally:

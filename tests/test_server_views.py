@@ -229,9 +229,9 @@ def test_plots_viewer_is_served_through_the_dashboard_and_cannot_call_out(tmp_pa
         assert other.status_code == 200 and other.headers["etag"] != wasm.headers["etag"]
         assert httpx.get(f"{server.url}/plots/viewer/..%2Fapi%2Fconfig", timeout=10).status_code == 404
         # choosing a topic to plot whole
-        chosen = httpx.post(f"{server.url}/api/plots/topics", json={"topic": "gamestate"}, timeout=10)
+        chosen = server.http.post(f"{server.url}/api/plots/topics", json={"topic": "gamestate"}, timeout=10)
         assert chosen.status_code == 200 and chosen.json()["chosen"] == [{"robot": "*", "topic": "gamestate"}]
-        assert httpx.post(f"{server.url}/api/plots/topics", json={"topic": " "}, timeout=10).status_code == 422
+        assert server.http.post(f"{server.url}/api/plots/topics", json={"topic": " "}, timeout=10).status_code == 422
 
 
 def _ok(url: str) -> httpx.Response | None:

@@ -27,6 +27,7 @@ from robot_nodes.runtime.services import ServiceServer
 from schemas.codec import SchemaError
 
 log = logging.getLogger(__name__)
+FIRST_REPORT_AGAIN_S = 0.5  # the second report of a starting node (see spin)
 
 
 @dataclass
@@ -221,8 +222,12 @@ class Node:
     def spin(self) -> None:
         """Runs the loop on this thread until shutdown()."""
         # the first report goes out as soon as the node runs, not a period later: a restarted node that only
-        # reports (speaker, an idle animation player) shows it is back at once
+        # reports (speaker, an idle animation player) shows it is back at once. A second follows shortly: a new
+        # session's first puts can leave before its routes to the subscribers are known, and are then lost.
         self.loop.call_soon(self._publish_diagnostics)
+        again = Timer(self.loop, FIRST_REPORT_AGAIN_S, lambda: (again.cancel(), self._publish_diagnostics()),
+                      "first_diagnostics")
+        self.loop.add_timer(again)
         try:
             self.loop.run()
         finally:
