@@ -14,7 +14,7 @@ from fastapi.staticfiles import StaticFiles
 from server.config import ServerConfig
 from server.hub import Hub
 from server.recording.wiring import attach_recording
-from server.routers import animations, control, params, plots_viewer, robots, sources, teleop, ws
+from server.routers import animations, control, params, plots_viewer, robot3d_view, robots, sources, teleop, ws
 from server.routers.recordings import router as recordings_router
 from server.routers.replay import router as replay_router
 from server.sources import SourceError, SourceSet
@@ -62,7 +62,7 @@ def create_app(config: ServerConfig) -> FastAPI:
     recording = attach_recording(app, state)
     app.include_router(recordings_router)
     app.include_router(replay_router)
-    for module in (robots, sources, control, params, animations, teleop, ws, plots_viewer):
+    for module in (robots, sources, control, params, animations, teleop, ws, plots_viewer, robot3d_view):
         app.include_router(module.router)
     app.mount("/", StaticFiles(directory=config.web_dir, html=True), name="web")
     return app
