@@ -203,6 +203,23 @@ def test_plots_stream_through_the_dashboard_only(router_endpoint: str, bus: BusC
             too_big = httpx.post(f"{server.url}{GRPC_READ}", content=bytes(100_000), headers=GRPC_WEB, timeout=10)
             assert too_big.status_code == 413
 
+            # a browser that leaves while rerun has nothing new to send: the relay to rerun ends all the same
+            node.shutdown()
+            node = None
+            dashboard = psutil.Process(server.process.pid)
+
+            def relays() -> int:  # the dashboard's connections to rerun's gRPC port: the SDK's, and one per read
+                return sum(1 for c in dashboard.net_connections(kind="tcp")
+                           if c.raddr and c.raddr.port == status["grpc_port"] and c.status == psutil.CONN_ESTABLISHED)
+
+            idle = relays()
+            with httpx.stream("POST", f"{server.url}{GRPC_READ}", content=EMPTY_GRPC_REQUEST, headers=GRPC_WEB,
+                              timeout=httpx.Timeout(30.0)) as stream:
+                chunks = stream.iter_raw()  # (held: a dropped iterator closes the response)
+                next(chunks)
+                wait_for(lambda: relays() == idle + 1, 10.0, 0.05, "the read relayed to rerun")
+            wait_for(lambda: relays() == idle, 10.0, 0.05, "the relay to rerun closed with the browser's read")
+
             # rerun's own servers: on loopback only, the data on a port browsers refuse
             assert status["grpc_port"] in BROWSER_BLOCKED_PORTS
             rerun = [p for p in psutil.Process(server.process.pid).children() if p.name() == "rerun"]
@@ -215,7 +232,8 @@ def test_plots_stream_through_the_dashboard_only(router_endpoint: str, bus: BusC
                 assert not refused(lan, server.port)
                 assert refused(lan, status["grpc_port"]) and refused(lan, status["web_port"])
         finally:
-            node.shutdown()
+            if node is not None:
+                node.shutdown()
     # the dashboard ended: so did rerun's server
     wait_for(lambda: not rerun[0].is_running() or rerun[0].status() == psutil.STATUS_ZOMBIE, 10.0, 0.1,
              "rerun's server stopped with the dashboard")

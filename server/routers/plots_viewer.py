@@ -9,7 +9,8 @@ viewer accepts no path before ``/proxy`` in that URL, so the relay sits at rerun
 panel hands the viewer ``rerun+http://<this server>/proxy``. Only the reading methods pass, so no page can write
 into the plots. The body is relayed chunk by chunk, each read from rerun only after the browser took the last:
 a slow browser holds back rerun's stream instead of filling the dashboard's memory; and the relay ends when the
-browser goes away, even while rerun has nothing to send.
+browser goes away, even while rerun has nothing to send (Starlette listens for the disconnect under uvicorn's ASGI
+2.3; tests/test_views_through_dashboard.py checks it).
 
 rerun's viewer page links Google Fonts, and its wasm asks tel.rerun.io (usage analytics), api.github.com (newest
 release) and app.rerun.io (examples). Offline these fail with console noise; at a venue with internet they would
@@ -23,18 +24,15 @@ that has the file already gets 304 at once instead of another 43 MB of wasm read
 
 from __future__ import annotations
 
-import contextlib
 import re
 from functools import cache
 from importlib.metadata import version
 from typing import Any
 
-import anyio
 import httpx
 from fastapi import APIRouter, Depends, HTTPException, Request
 from fastapi.responses import Response, StreamingResponse
 from starlette.background import BackgroundTask
-from starlette.types import Receive, Scope, Send
 
 from server.deps import get_state
 from server.loopback_ports import LOOPBACK
@@ -103,24 +101,6 @@ async def viewer_file(path: str, request: Request, state: ServerState = Depends(
     return Response(body, status_code=upstream.status_code, headers=headers)
 
 
-class RelayedStream(StreamingResponse):
-    """A streamed body that also ends when the browser goes away while the source is silent (Starlette, under
-    ASGI 2.4, notices a gone browser only when it next writes to it)."""
-
-    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
-        async with anyio.create_task_group() as group:
-            async def stream() -> None:
-                with contextlib.suppress(OSError):  # the browser left while a chunk was on its way
-                    await self.stream_response(send)
-                group.cancel_scope.cancel()
-
-            group.start_soon(stream)
-            await self.listen_for_disconnect(receive)
-            group.cancel_scope.cancel()
-        if self.background is not None:
-            await self.background()
-
-
 @router.post(GRPC_SERVICE + "/{method}")
 async def plots_data(method: str, request: Request, state: ServerState = Depends(get_state)) -> Response:
     """The viewer's gRPC-web read of the plots, relayed to rerun's server on loopback."""
@@ -149,6 +129,6 @@ async def plots_data(method: str, request: Request, state: ServerState = Depends
         await client.aclose()
 
     passed = {name: upstream.headers[name] for name in _GRPC_RESPONSE_HEADERS if name in upstream.headers}
-    return RelayedStream(chunks, status_code=upstream.status_code, headers={**passed, **NOSNIFF,
-                                                                           "Cache-Control": "no-store"},
-                         background=BackgroundTask(close))
+    # Starlette ends the response when the browser disconnects, also while rerun sends nothing (tested)
+    return StreamingResponse(chunks, status_code=upstream.status_code, background=BackgroundTask(close),
+                             headers={**passed, **NOSNIFF, "Cache-Control": "no-store"})
