@@ -42,9 +42,9 @@ def free_port(preferred: int, kind: int = socket.SOCK_STREAM) -> int:
 
 def demo_processes(robots: int, endpoint: str, http_port: int, telemetry_port: int, model: str,
                    match: bool, gc_ports: list[int], gc_return_port: int,
-                   view_ports: tuple[int, int, int] = (8081, 9090, 9876), token: str = "",
+                   token: str = "",
                    telemetry_key: Path | None = None) -> list[NodeProcess]:
-    """Every process of the demo; view_ports: the 3D view's, the plots viewer's and rerun's gRPC port.
+    """Every process of the demo.
 
     token: the dashboard's control token (handed over in the environment, not on the command line where other
     users of the machine see it); telemetry_key: a key file the robots and the dashboard share."""
@@ -69,9 +69,7 @@ def demo_processes(robots: int, endpoint: str, http_port: int, telemetry_port: i
         gc += ["--to", f"127.0.0.1:{port}"]
     processes.append(NodeProcess("gamecontroller", gc))
     server = [py, "-m", "server", "--port", str(http_port), "--telemetry-port", str(telemetry_port),
-              "--urdf", str(REPO / "robots" / model / "urdf" / f"{model}.urdf"), "--robot3d", "--plots", *connect,
-              "--robot3d-port", str(view_ports[0]), "--plots-port", str(view_ports[1]),
-              "--plots-grpc-port", str(view_ports[2])]
+              "--urdf", str(REPO / "robots" / model / "urdf" / f"{model}.urdf"), "--robot3d", "--plots", *connect]
     server += ["--telemetry-key", str(telemetry_key)] if telemetry_key else ["--allow-dev-key"]
     if match:
         server.append("--match")
@@ -92,7 +90,6 @@ def main(argv: list[str] | None = None) -> None:
     telemetry_port = free_port(5800, socket.SOCK_DGRAM)
     gc_ports = [free_port(3838 + i, socket.SOCK_DGRAM) for i in range(args.robots)]
     gc_return_port = free_port(3939, socket.SOCK_DGRAM)
-    view_ports = (free_port(8081), free_port(9090), free_port(9876))
     token = os.environ.get(ENV_TOKEN) or new_token()
     with tempfile.TemporaryDirectory(prefix="pitchside-demo-") as keys:
         # a fresh team key per demo: the robots' telemetry and the dashboard share it, nobody else has it
@@ -100,7 +97,7 @@ def main(argv: list[str] | None = None) -> None:
         write_new_key(key_file)
         router = open_router([endpoint])
         launcher = Launcher(demo_processes(args.robots, endpoint, http_port, telemetry_port, args.model, args.match,
-                                           gc_ports, gc_return_port, view_ports, token, key_file))
+                                           gc_ports, gc_return_port, token, key_file))
         print(f"\n  pitchside demo: open http://127.0.0.1:{http_port}/?token={token}  (the link signs the browser "
               f"in; Zenoh router {endpoint}; Ctrl-C stops)\n", flush=True)
         try:

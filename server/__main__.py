@@ -45,14 +45,16 @@ def arguments() -> argparse.ArgumentParser:
                    help=f"control token (default: ${ENV_TOKEN}, else a new random one); prefer the variable, "
                         "arguments are visible to other users of the machine")
     p.add_argument("--robot3d", action="store_true", help="serve the 3D robot view (viser)")
-    p.add_argument("--robot3d-port", type=int, default=8081)
+    p.add_argument("--robot3d-port", type=int, default=0,
+                   help="viser's internal port on loopback (default 0: a free port browsers refuse to open)")
     p.add_argument("--urdf", action="append", default=[], metavar="[ROBOT=]PATH",
                    help="URDF of a robot (or of all robots without ROBOT=)")
     p.add_argument("--package", action="append", default=[], metavar="NAME=DIR",
                    help="folder that package://NAME/ points to (for the URDF's meshes)")
     p.add_argument("--plots", action="store_true", help="serve plots (rerun viewer)")
-    p.add_argument("--plots-port", type=int, default=9090)
-    p.add_argument("--plots-grpc-port", type=int, default=9876, help="rerun's gRPC port (the viewer reads from it)")
+    p.add_argument("--plots-port", type=int, default=0, help="rerun's internal viewer port on loopback (0: as above)")
+    p.add_argument("--plots-grpc-port", type=int, default=0,
+                   help="rerun's internal gRPC port on loopback (0: as above), read through the dashboard")
     p.add_argument("--plots-max-hz", type=float, default=10.0,
                    help="numbers are plotted at most this often per stream (state lanes get every change)")
     p.add_argument("--plots-all-topics", action="store_true",

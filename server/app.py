@@ -15,7 +15,7 @@ from robot_nodes.telemetry.datagram import key_fingerprint, load_key
 from server.config import ServerConfig
 from server.hub import Hub
 from server.recording.wiring import attach_recording
-from server.routers import animations, control, params, plots_viewer, robots, session, sources, teleop, ws
+from server.routers import animations, control, params, plots_viewer, robot3d_view, robots, session, sources, teleop, ws
 from server.routers.recordings import router as recordings_router
 from server.routers.replay import router as replay_router
 from server.security import AllowedHosts, Credentials, VenueGuard, VenuePolicy
@@ -67,7 +67,7 @@ def create_app(config: ServerConfig) -> FastAPI:
     recording = attach_recording(app, state)
     app.include_router(recordings_router)
     app.include_router(replay_router)
-    for module in (session, robots, sources, control, params, animations, teleop, ws, plots_viewer):
+    for module in (session, robots, sources, control, params, animations, teleop, ws, plots_viewer, robot3d_view):
         app.include_router(module.router)
     app.mount("/", StaticFiles(directory=config.web_dir, html=True), name="web")
     return app
@@ -82,12 +82,9 @@ def venue_policy(config: ServerConfig) -> VenuePolicy:
         if normal is None:
             raise ValueError(f"--allow-origin {origin!r} is not an origin like http://laptop:8080")
         origins.add(normal)
-    # the 3D view (viser) still runs on its own port: the page may frame it
-    frames = ["http://{host}:*"] if config.robot3d else []
     return VenuePolicy(hosts=AllowedHosts(config.host, config.allowed_hosts),
                        credentials=Credentials(config.token, config.port), allowed_origins=frozenset(origins),
-                       reads_need_credential=config.beyond_loopback, max_body_bytes=config.max_body_bytes,
-                       frame_sources=frames)
+                       reads_need_credential=config.beyond_loopback, max_body_bytes=config.max_body_bytes)
 
 
 async def _start_views(state: ServerState) -> None:

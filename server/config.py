@@ -52,12 +52,12 @@ class ServerConfig:
     stale_after_s: float = 1.5  # no message for this long: the robot (or stream) is shown stale
     lost_after_s: float = 5.0  # ... and lost
     robot3d: bool = False
-    robot3d_port: int = 8081
+    robot3d_port: int = 0  # viser's own port, loopback only (0: a port browsers refuse to open)
     robot3d_max_hz: float = 20.0
     descriptions: dict[str, RobotDescription] = field(default_factory=dict)  # robot id or "*" -> description
     plots: bool = False
-    plots_web_port: int = 9090
-    plots_grpc_port: int = 9876
+    plots_web_port: int = 0  # rerun's viewer server, loopback only (0: as above)
+    plots_grpc_port: int = 0  # rerun's gRPC server, loopback only (0: as above)
     plots_max_hz: float = 10.0
     plots_all_topics: bool = False  # also every numeric field of every topic, a tab per topic
     web_dir: Path = WEB_DIR

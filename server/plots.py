@@ -1,13 +1,14 @@
 """Plots: the server feeds rerun with downsampled numbers and the HCM and game states as named lanes, all on one
 time axis, in a viewer the dashboard embeds.
 
-rerun serves its web viewer from the wheel (offline) on ``plots_web_port`` and the data over gRPC on
-``plots_grpc_port``. What is plotted is decided in server.plot_series; here it is logged. Every numeric stream is
+rerun's server (server.rerun_server, a child process on loopback) serves its web viewer from the wheel (offline)
+and the data over gRPC; the browser reaches both only through the dashboard (server.routers.plots_viewer). What
+is plotted is decided in server.plot_series; here it is logged, into that server over gRPC. Every numeric stream is
 thinned by the hub to ``plots_max_hz``; the state streams are few messages a second and taken whole, so a short
 state (FALLING) is never thinned away, and only their changes are logged. rerun's gRPC server keeps at most
 ``SERVER_MEMORY`` of history for viewers that connect late. rerun's own usage analytics: ``TELEMETRY_ENABLED`` is
 forced off here; the SDK's analytics setting lives in rerun's config file (``rerun analytics disable``) and fails
-harmlessly offline.
+harmlessly offline; the server's are off.
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from typing import Any
 from server.config import ServerConfig
 from server.hub import Hub, Subscriber
 from server.plot_series import CURATED_TOPICS, STATE_TOPICS, RobotSeries, Series, states_of, topic_series
+from server.rerun_server import RerunServer
 
 log = logging.getLogger(__name__)
 SERVER_MEMORY = "256MiB"
@@ -67,6 +69,7 @@ class PlotFeed:
         self.topics: dict[str, list[str]] = {}  # robot -> topics whose every number is plotted, in order
         self.chosen: set[tuple[str, str]] = set()  # (robot or "*", topic) asked for besides the curated series
         self.rec: Any = None
+        self.server = RerunServer(config.plots_grpc_port, config.plots_web_port, SERVER_MEMORY)
         self._robots: dict[str, RobotSeries] = {}
         self._states: dict[str, str] = {}  # entity path -> the state last logged there
         self._names: dict[str, tuple[str, ...]] = {}  # entity path -> the series names logged for it
@@ -80,11 +83,14 @@ class PlotFeed:
         return list(self.topics)
 
     def urls(self) -> dict[str, int]:
-        return {"web_port": self.config.plots_web_port, "grpc_port": self.config.plots_grpc_port}
+        """rerun's loopback ports: its web viewer's files and its gRPC server (a native viewer on this laptop can
+        read the plots there: ``rerun rerun+http://127.0.0.1:<grpc_port>/proxy``)."""
+        return {"web_port": self.server.web_port, "grpc_port": self.server.grpc_port}
 
     def status(self) -> dict[str, Any]:
         """What the viewer is fed: messages plotted so far, state changes logged, and the robots with a tab."""
-        return {**self.urls(), "logged": self.logged, "state_changes": self.state_changes, "robots": self.robots,
+        return {**self.urls(), "server_running": self.server.running, "logged": self.logged,
+                "state_changes": self.state_changes, "robots": self.robots,
                 "series": len(self._names), "topics": {robot: list(t) for robot, t in self.topics.items()},
                 "chosen": [{"robot": robot, "topic": topic} for robot, topic in sorted(self.chosen)],
                 "all_topics": self.config.plots_all_topics}
@@ -113,10 +119,13 @@ class PlotFeed:
         os.environ["TELEMETRY_ENABLED"] = "false"
         import rerun as rr
 
-        self.rec = rr.RecordingStream("pitchside")
-        uri = rr.serve_grpc(grpc_port=self.config.plots_grpc_port, recording=self.rec,
-                            server_memory_limit=SERVER_MEMORY)
-        rr.serve_web_viewer(web_port=self.config.plots_web_port, open_browser=False, connect_to=uri)
+        await self.server.start()
+        try:
+            self.rec = rr.RecordingStream("pitchside")
+            self.rec.connect_grpc(self.server.url)
+        except Exception:
+            await self.server.stop()
+            raise
         self._sub = self.hub.subscribe("plots", maxlen=4096)
         for topic in STATE_TOPICS:  # first: a subscriber takes a message by its first matching subscription
             self._sub.subscribe("*", topic)
@@ -179,4 +188,5 @@ class PlotFeed:
             self._sub.close()
         if self.rec is not None:
             with contextlib.suppress(Exception):
-                self.rec.disconnect()
+                await asyncio.to_thread(self.rec.disconnect)  # flushes what is still queued for the server
+        await self.server.stop()

@@ -1,8 +1,10 @@
-"""The 3D robot view: a viser server on its own port showing each robot's URDF, driven by its joint_states.
+"""The 3D robot view: a viser server showing each robot's URDF, driven by its joint_states.
 
-The page embeds viser's own client (bundled in the wheel, works offline) in an iframe. Updating the
-scene costs a few ms per robot, so joint angles are applied at most ``robot3d_max_hz`` times a second,
-always with the newest joint_states.
+viser listens on loopback only, on a port browsers refuse (server.loopback_ports), and closes any WebSocket a
+browser opens to it directly: the page reaches it only through the dashboard (server.routers.robot3d_view), whose
+checks and Content-Security-Policy then cover it. The panel embeds viser's own client (bundled in the wheel,
+works offline) in an iframe. Updating the scene costs a few ms per robot, so joint angles are applied at most
+``robot3d_max_hz`` times a second, always with the newest joint_states.
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ import numpy as np
 
 from server.config import RobotDescription, ServerConfig
 from server.hub import Hub, HubMessage, Subscriber
+from server.loopback_ports import LOOPBACK, internal_port
 
 log = logging.getLogger(__name__)
 ROBOT_SPACING_M = 0.6
@@ -54,6 +57,31 @@ def load_urdf(description: RobotDescription) -> Any:
     if not description.urdf.exists():
         raise FileNotFoundError(f"URDF not found: {description.urdf}")
     return yourdfpy.URDF.load(str(description.urdf), filename_handler=package_resolver(description))
+
+
+def refuse_browsers(server: Any) -> None:
+    """Closes every WebSocket to viser that a browser opened: only the dashboard's proxy may connect.
+
+    viser accepts a WebSocket from any page. A browser always sends Origin with the handshake and no page can leave
+    it out; the proxy sends none. So a handshake with an Origin is some page talking to viser directly, and it is
+    closed before viser sends it a single message (viser starts sending only after its connect callbacks).
+    """
+    infra = server._websock_server  # viser's WebsockServer: ViserServer has no public accessor for it
+    live = infra._live_connections  # client id -> websockets ServerConnection, whose .request is the handshake
+    if not isinstance(live, dict):
+        raise RuntimeError("this viser keeps its connections elsewhere: cannot refuse browsers, 3D view not started")
+
+    async def check(client: Any) -> None:
+        connection = live.get(client.client_id)
+        if connection is None:
+            log.error("3D view: a viser client without its connection; cannot check where it comes from")
+            return
+        request = getattr(connection, "request", None)
+        if request is None or "Origin" in request.headers:
+            await connection.close(1008, "the 3D view is served through the pitchside dashboard only")
+
+    infra.on_client_connect(check)
+    infra.disconnect_all_clients()  # any that connected before the check was in place
 
 
 class RobotModel:
@@ -206,9 +234,14 @@ class Robot3DView:
     async def start(self) -> None:
         import viser
 
-        host = "127.0.0.1" if self.config.host in ("localhost", "127.0.0.1") else self.config.host
-        self.server = await asyncio.to_thread(viser.ViserServer, host=host, port=self.port, verbose=False)
-        self.port = self.server.get_port()
+        port = internal_port(self.config.robot3d_port, "3D view (viser)")
+        self.server = await asyncio.to_thread(viser.ViserServer, host=LOOPBACK, port=port, verbose=False)
+        try:
+            refuse_browsers(self.server)
+        except Exception:
+            await asyncio.to_thread(self.server.stop)
+            raise
+        self.port = self.server.get_port()  # viser takes the next port when this one was taken meanwhile
         self.server.initial_camera.position = CAMERA_POSITION
         self.server.initial_camera.look_at = CAMERA_LOOK_AT
         self.server.scene.world_axes.visible = False
@@ -248,7 +281,8 @@ class Robot3DView:
         model.apply(list(joints.name), joints.position)
 
     def status(self) -> dict[str, Any]:
-        return {"port": self.port, "failed": dict(self.failed),
+        viewers = len(self.server.get_clients()) if self.server is not None else 0  # browsers showing the scene
+        return {"port": self.port, "viewers": viewers, "failed": dict(self.failed),
                 "robots": {r: {"updates": m.updates, "joints": m.joint_names} for r, m in self.robots.items()}}
 
     async def stop(self) -> None:

@@ -194,10 +194,10 @@ def test_robot3d_panel_shows_viser(browser: Any, router_endpoint: str, bus: BusC
             page.evaluate("localStorage.clear()")
             page.reload()
             src = page.get_attribute('[data-panel="robot3d"] iframe', "src")
-            assert src == f"http://127.0.0.1:{port3d}/"
+            assert src == "robot3d/view/"  # through the dashboard's own origin, not viser's port
             frame = page.frame_locator('[data-panel="robot3d"] iframe')
             frame.locator("canvas").first.wait_for(timeout=60_000)
-            # chromium throttles an off-screen cross-origin iframe: viser applies scene updates only when shown
+            # chromium throttles an off-screen iframe: viser applies scene updates only when shown
             panel = page.locator('[data-panel="robot3d"]')
             panel.scroll_into_view_if_needed()
             view = page.locator('[data-panel="robot3d"] .robot3d-clip')
@@ -214,7 +214,7 @@ def test_robot3d_panel_shows_viser(browser: Any, router_endpoint: str, bus: BusC
             # the robot is in sight: not under viser's control panel or its software-rendering notice
             wait_for(lambda: _changed_pixels(empty, _picture(view)) > 1500, 60.0, 1.0,
                      "the robot drawn in the embedded 3D view")
-            viser = next(f for f in page.frames if f.url.startswith(f"http://127.0.0.1:{port3d}/"))
+            viser = next(f for f in page.frames if f.url.startswith(f"{server.url}/robot3d/view/"))
             viser.evaluate("window.pitchsideMark = 1")
             page.click('[data-panel="robot3d"] button[data-act="wider"]')
             page.click('[data-panel="robot3d"] button[data-act="taller"]')

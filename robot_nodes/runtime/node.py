@@ -225,8 +225,12 @@ class Node:
         # reports (speaker, an idle animation player) shows it is back at once. A second follows shortly: a new
         # session's first puts can leave before its routes to the subscribers are known, and are then lost.
         self.loop.call_soon(self._publish_diagnostics)
-        again = Timer(self.loop, FIRST_REPORT_AGAIN_S, lambda: (again.cancel(), self._publish_diagnostics()),
-                      "first_diagnostics")
+
+        def report_again() -> None:
+            again.cancel()
+            self._publish_diagnostics()
+
+        again = Timer(self.loop, FIRST_REPORT_AGAIN_S, report_again, "first_diagnostics")
         self.loop.add_timer(again)
         try:
             self.loop.run()

@@ -37,9 +37,10 @@ def hub_status(state: ServerState = Depends(get_state)) -> dict[str, Any]:
 
 @router.get("/robot3d")
 def robot3d_status(state: ServerState = Depends(get_state)) -> dict[str, Any]:
-    """Which robots the 3D view shows (joint updates applied) and which failed to load, with the reason."""
+    """Which robots the 3D view shows (joint updates applied) and which failed to load, with the reason; how many
+    browsers show it; viser's loopback port."""
     view = state.views.get("robot3d")
-    return view.status() if view is not None else {"port": None, "failed": {}, "robots": {}}
+    return view.status() if view is not None else {"port": None, "viewers": 0, "failed": {}, "robots": {}}
 
 
 @router.get("/plots")
@@ -70,17 +71,15 @@ def plot_topic(choice: PlotTopic, state: ServerState = Depends(require_token)) -
 
 @router.get("/config")
 def dashboard_config(conn: HTTPConnection, state: ServerState = Depends(get_state)) -> dict[str, Any]:
-    """What the page needs to know: match mode, whether this browser may control, the telemetry key in use,
-    where the 3D view and plots are."""
+    """What the page needs to know: match mode, whether this browser may control, the telemetry key in use, where
+    the 3D view and plots are (paths on this server: their own servers listen on loopback only)."""
     config = state.config
-    robot3d = state.views.get("robot3d")
-    plots = state.views.get("plots")
     return {
         "match_mode": config.match_mode,
         "control": has_credential(conn, state),
         "telemetry_key": state.telemetry_key,
         "stale_after_s": config.stale_after_s,
         "lost_after_s": config.lost_after_s,
-        "robot3d_port": robot3d.port if robot3d is not None else None,
-        "plots": plots.urls() if plots is not None else None,
+        "robot3d": {"view": "robot3d/view/"} if "robot3d" in state.views else None,
+        "plots": {"viewer": "plots/viewer/index.html"} if "plots" in state.views else None,
     }

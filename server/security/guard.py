@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Awaitable, Callable, MutableMapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 from urllib.parse import parse_qsl, urlencode, urlsplit
 
@@ -28,8 +28,9 @@ Send = Callable[[Message], Awaitable[None]]
 ASGIApp = Callable[[Scope, Receive, Send], Awaitable[None]]
 
 SAFE_METHODS = frozenset({"GET", "HEAD", "OPTIONS"})
-# paths that carry robot data or act; everything else is the page's own static files
-DATA_PREFIXES = ("/api/", "/ws", "/plots/", "/robot3d/", "/openapi.json")
+# paths that carry robot data or act; everything else is the page's own static files. The 3D view (viser) and
+# the plots (rerun's viewer and its gRPC-web stream, at the path rerun's viewer insists on) come through here.
+DATA_PREFIXES = ("/api/", "/ws", "/plots/", "/robot3d", "/rerun.", "/openapi.json")
 # readable without the credential even beyond loopback: the page needs them to show that it is locked
 OPEN_READS = frozenset({"/api/config", "/api/session"})
 OPEN_WRITES = frozenset({"/api/session"})  # showing the token is how a browser gets the credential
@@ -64,14 +65,6 @@ class VenuePolicy:
     max_body_bytes: int = 4 << 20  # an animation file is ~50 kB; a parameter write a few hundred bytes
     max_json_depth: int = MAX_DEPTH
     content_security_policy: str = APP_CSP
-    # extra frame-src sources for the page (a viewer on its own port); empty when every view is same-origin
-    frame_sources: list[str] = field(default_factory=list)
-
-    def csp_for(self, host_name: str) -> str:
-        if not self.frame_sources:
-            return self.content_security_policy
-        sources = " ".join(s.replace("{host}", host_name) for s in self.frame_sources)
-        return f"{self.content_security_policy}; frame-src 'self' {sources}"
 
 
 def normalized_origin(origin: str) -> str | None:
@@ -111,25 +104,24 @@ class VenueGuard:
             await self.app(scope, receive, send)
             return
         headers = _headers(scope)
-        host_name = host_name_of(headers.get("host", "")) or ""
         try:
-            self._check(scope, headers, host_name)
+            self._check(scope, headers)
             if scope["type"] == "http" and scope["method"] not in SAFE_METHODS:
                 receive = await self._limited_body(headers, receive)
         except Refusal as refusal:
-            await self._refuse(scope, send, refusal, host_name)
+            await self._refuse(scope, send, refusal)
             return
         if scope["type"] == "http" and scope["method"] == "GET" and not is_data_path(scope["path"]):
             login = self._login(scope, headers)
             if login is not None:
-                await self._refuse(scope, send, login, host_name)
+                await self._refuse(scope, send, login)
                 return
-        await self.app(scope, receive, self._with_headers(scope, send, host_name))
+        await self.app(scope, receive, self._with_headers(scope, send))
 
     # -- the checks ---------------------------------------------------------------------------------------
-    def _check(self, scope: Scope, headers: dict[str, str], host_name: str) -> None:
+    def _check(self, scope: Scope, headers: dict[str, str]) -> None:
         policy = self.policy
-        if not policy.hosts.allows(host_name or None):
+        if not policy.hosts.allows(host_name_of(headers.get("host", ""))):
             self._count("host")
             raise Refusal(421, f"this server does not answer to the host name {headers.get('host', '')!r} "
                                f"(a defence against DNS rebinding); it answers to {policy.hosts.describe()}; "
@@ -228,7 +220,7 @@ class VenueGuard:
         self.refused[what] = self.refused.get(what, 0) + 1
 
     # -- answers ------------------------------------------------------------------------------------------
-    async def _refuse(self, scope: Scope, send: Send, refusal: Refusal, host_name: str) -> None:
+    async def _refuse(self, scope: Scope, send: Send, refusal: Refusal) -> None:
         if scope["type"] == "websocket":
             if "websocket.http.response" in scope.get("extensions", {}):
                 await send({"type": "websocket.http.response.start", "status": refusal.status,
@@ -240,28 +232,27 @@ class VenueGuard:
             return
         body = json.dumps({"detail": refusal.reason}).encode()
         head = [(b"content-type", b"application/json"), (b"content-length", str(len(body)).encode()),
-                *refusal.headers, *self._security_headers(scope["path"], host_name, has_csp=False)]
+                *refusal.headers, *self._security_headers(scope["path"], has_csp=False)]
         await send({"type": "http.response.start", "status": refusal.status, "headers": head})
         await send({"type": "http.response.body", "body": body})
 
-    def _security_headers(self, path: str, host_name: str, has_csp: bool) -> list[tuple[bytes, bytes]]:
+    def _security_headers(self, path: str, has_csp: bool) -> list[tuple[bytes, bytes]]:
         out = [(b"x-content-type-options", b"nosniff"), (b"referrer-policy", b"no-referrer"),
                (b"x-frame-options", b"SAMEORIGIN"), (b"cross-origin-resource-policy", b"same-origin")]
         if not has_csp:
-            out.append((b"content-security-policy", self.policy.csp_for(host_name).encode()))
+            out.append((b"content-security-policy", self.policy.content_security_policy.encode()))
         if is_data_path(path):
             out.append((b"cache-control", b"no-store"))
         return out
 
-    def _with_headers(self, scope: Scope, send: Send, host_name: str) -> Send:
+    def _with_headers(self, scope: Scope, send: Send) -> Send:
         if scope["type"] != "http":
             return send
 
         async def send_with_headers(message: Message) -> None:
             if message["type"] == "http.response.start":
                 present = {name.lower() for name, _ in message.get("headers", [])}
-                extra = [h for h in self._security_headers(scope["path"], host_name,
-                                                           has_csp=b"content-security-policy" in present)
+                extra = [h for h in self._security_headers(scope["path"], b"content-security-policy" in present)
                          if h[0] not in present]
                 message = {**message, "headers": [*message.get("headers", []), *extra]}
             await send(message)

@@ -68,12 +68,16 @@ export default {
     refreshTopics();
     api("GET", "api/plots").then(show).catch(() => {});
 
-    const host = location.hostname;
-    const grpc = `rerun+http://${host}:${plots.grpc_port}/proxy`;
+    // The viewer and its data both come through this server (rerun itself listens on loopback only): the data
+    // at rerun's own gRPC path on this origin, as rerun's viewer takes no path before "/proxy". (rerun 0.41 reads a
+    // URL with the scheme's default port as its own default, 51234: on port 80 or 443 the plots stay empty.)
+    const scheme = location.protocol === "https:" ? "rerun+https" : "rerun+http";
+    const port = location.port || (location.protocol === "https:" ? "443" : "80");
+    const grpc = `${scheme}://${location.hostname}:${port}/proxy`;
     const frame = document.createElement("iframe");
     frame.title = "plots (rerun)";
-    // through the server: same origin, and a Content-Security-Policy keeps the viewer from calling out
-    frame.src = `/plots/viewer/index.html?url=${encodeURIComponent(grpc)}`;
+    // same origin, and a Content-Security-Policy keeps the viewer from calling out
+    frame.src = `${plots.viewer}?url=${encodeURIComponent(grpc)}`;
     body.append(frame);
     return { destroy: off };
   },

@@ -1,4 +1,5 @@
-// 3D robot: viser's own client (served by the server's viser instance) in an iframe, framed for a small panel.
+// 3D robot: viser's own client in an iframe, framed for a small panel. The server passes viser's page and
+// WebSocket through its own origin (robot3d/view/): viser itself listens on loopback only.
 
 // Below this width viser switches to its phone layout, whose control sheet covers the scene: render at least
 // this wide and scale down to fit the panel.
@@ -19,12 +20,12 @@ export default {
   title: "3D robot",
   size: [1, 2],
   create(body, ctx) {
-    const port = ctx.config.robot3d_port;
-    if (!port) {
+    const view = ctx.config.robot3d;
+    if (!view) {
       body.innerHTML = '<div class="empty">3D view is off (start the server with --robot3d)</div>';
       return {};
     }
-    const url = `${location.protocol}//${location.hostname}:${port}/`;
+    const url = view.view;
     const clip = document.createElement("div");
     clip.className = "robot3d-clip";
     clip.style.cssText = "position: relative; width: 100%; height: 100%; overflow: hidden;";
