@@ -106,12 +106,12 @@ def test_3d_view_loads_and_streams_through_the_dashboard_only(wolfgang_dashboard
     from websockets.sync.client import connect
 
     server, _ = wolfgang_dashboard
-    status = httpx.get(f"{server.url}/api/robot3d", timeout=10).json()
+    status = server.http.get(f"{server.url}/api/robot3d", timeout=10).json()
     viser_port = status["port"]
-    assert httpx.get(f"{server.url}/api/config", timeout=10).json()["robot3d"] == {"view": "robot3d/view/"}
+    assert server.http.get(f"{server.url}/api/config", timeout=10).json()["robot3d"] == {"view": "robot3d/view/"}
 
     # the page, through the dashboard: viser's client, with a policy that lets exactly its own scripts run
-    page = httpx.get(f"{server.url}/robot3d/view/", timeout=30)
+    page = server.http.get(f"{server.url}/robot3d/view/", timeout=30)
     assert page.status_code == 200 and page.headers["content-type"].startswith("text/html")
     assert page.headers["x-content-type-options"] == "nosniff"
     policy = dict(d.strip().split(" ", 1) for d in page.headers["content-security-policy"].split(";"))
@@ -120,15 +120,25 @@ def test_3d_view_loads_and_streams_through_the_dashboard_only(wolfgang_dashboard
     loader = re.search(r"<script\b[^>]*>(.*?)</script>", page.text, re.S)
     assert loader is not None and _sha256_source(loader.group(1)) in policy["script-src"]  # the inline loader
     assert len(re.findall(r"'sha256-", policy["script-src"])) == 2  # and the script it unpacks
-    assert httpx.get(f"{server.url}/robot3d/view", timeout=10, follow_redirects=True).status_code == 200
-    missing = httpx.get(f"{server.url}/robot3d/view/nothing.js", timeout=10)
+    assert server.http.get(f"{server.url}/robot3d/view", timeout=10, follow_redirects=True).status_code == 200
+    missing = server.http.get(f"{server.url}/robot3d/view/nothing.js", timeout=10)
     assert missing.status_code == 404 and missing.headers["x-content-type-options"] == "nosniff"
-    assert httpx.get(f"{server.url}/robot3d/view/..%2F..%2Fetc", timeout=10).status_code == 404
+    assert server.http.get(f"{server.url}/robot3d/view/..%2F..%2Fetc", timeout=10).status_code == 404
 
     # the WebSocket, through the dashboard: viser's scene arrives (the ground, robot r1 and its meshes), and what
     # the browser sends reaches viser (its camera makes it a client viser counts)
     ws_url = f"ws://127.0.0.1:{server.port}/robot3d/view"
-    with connect(ws_url, subprotocols=[viser_subprotocol()], max_size=None, open_timeout=10) as ws:
+    # the dashboard's guard covers the view: beyond loopback no credential, no view; no foreign page, no other name
+    from websockets.exceptions import InvalidStatus
+
+    assert httpx.get(f"{server.url}/robot3d/view/", timeout=10).status_code == 401
+    for refused_by, kwargs in ((401, {}), (403, {"origin": "http://evil.example", "additional_headers": server.auth}),
+                               (421, {"additional_headers": {"Host": "evil.example", **server.auth}})):
+        with pytest.raises(InvalidStatus) as refusal:
+            connect(ws_url, subprotocols=[viser_subprotocol()], open_timeout=10, **kwargs)
+        assert refusal.value.response.status_code == refused_by
+    with connect(ws_url, subprotocols=[viser_subprotocol()], max_size=None, open_timeout=10,
+                 additional_headers=server.auth) as ws:
         assert ws.subprotocol == viser_subprotocol()
         ws.send(camera_message())
         names: set[str] = set()
@@ -142,10 +152,10 @@ def test_3d_view_loads_and_streams_through_the_dashboard_only(wolfgang_dashboard
             frame = ws.recv(timeout=30)
             assert isinstance(frame, bytes)
             names.update(m["name"] for m in viser_messages(frame) if isinstance(m.get("name"), str))
-        wait_for(lambda: httpx.get(f"{server.url}/api/robot3d", timeout=10).json()["viewers"] == 1, 20.0, 0.1,
+        wait_for(lambda: server.http.get(f"{server.url}/api/robot3d", timeout=10).json()["viewers"] == 1, 20.0, 0.1,
                  "viser counts the proxied browser")
     # closed on the browser's side: viser's side closes too
-    wait_for(lambda: httpx.get(f"{server.url}/api/robot3d", timeout=10).json()["viewers"] == 0, 20.0, 0.1,
+    wait_for(lambda: server.http.get(f"{server.url}/api/robot3d", timeout=10).json()["viewers"] == 0, 20.0, 0.1,
              "viser lets the browser go")
 
     # viser itself: on loopback only, on a port browsers refuse, and a browser's own WebSocket to it is closed
@@ -172,21 +182,21 @@ def test_plots_stream_through_the_dashboard_only(router_endpoint: str, bus: BusC
     with dashboard_server(args, tmp_path, host="0.0.0.0") as server:
         node = TestStand("r1", bus, overrides={"rate_hz": 20.0}).start()
         try:
-            status = wait_for(lambda: (s := httpx.get(f"{server.url}/api/plots", timeout=10).json())["logged"] > 5
+            status = wait_for(lambda: (s := server.http.get(f"{server.url}/api/plots", timeout=10).json())["logged"] > 5
                               and s, 60.0, 0.2, "plots fed")
             assert status["server_running"]
-            assert httpx.get(f"{server.url}/api/config", timeout=10).json()["plots"] == {
+            assert server.http.get(f"{server.url}/api/config", timeout=10).json()["plots"] == {
                 "viewer": "plots/viewer/index.html"}
 
             # the viewer's page: its data only from this origin
-            page = httpx.get(f"{server.url}/plots/viewer/index.html", timeout=30)
+            page = server.http.get(f"{server.url}/plots/viewer/index.html", timeout=30)
             assert page.status_code == 200 and page.headers["x-content-type-options"] == "nosniff"
             policy = page.headers["content-security-policy"]
             assert "connect-src 'self' data: blob:;" in policy and "frame-ancestors 'self'" in policy
 
             # the data, through the dashboard: rerun's gRPC-web stream, growing while the robot publishes
             received = bytearray()
-            with httpx.stream("POST", f"{server.url}{GRPC_READ}", content=EMPTY_GRPC_REQUEST, headers=GRPC_WEB,
+            with server.http.stream("POST", f"{server.url}{GRPC_READ}", content=EMPTY_GRPC_REQUEST, headers=GRPC_WEB,
                               timeout=httpx.Timeout(30.0)) as stream:
                 assert stream.status_code == 200 and stream.headers["content-type"] == "application/grpc-web+proto"
                 assert stream.headers["x-content-type-options"] == "nosniff"
@@ -197,10 +207,17 @@ def test_plots_stream_through_the_dashboard_only(router_endpoint: str, bus: BusC
                 while len(received) < grown + 2_000:  # new rows as they are logged
                     received += next(chunks)
             assert received[0] == 0  # a gRPC-web data frame
-            writing = httpx.post(f"{server.url}/rerun.sdk_comms.v1alpha1.MessageProxyService/WriteMessages",
+            # the guard covers the stream: a foreign page, or no credential, reads nothing
+            foreign = server.http.post(f"{server.url}{GRPC_READ}", content=EMPTY_GRPC_REQUEST,
+                                       headers={**GRPC_WEB, "Origin": "http://evil.example"}, timeout=10)
+            assert foreign.status_code == 403
+            anonymous = httpx.post(f"{server.url}{GRPC_READ}", content=EMPTY_GRPC_REQUEST, headers=GRPC_WEB,
+                                   timeout=10)
+            assert anonymous.status_code == 401
+            writing = server.http.post(f"{server.url}/rerun.sdk_comms.v1alpha1.MessageProxyService/WriteMessages",
                                  content=EMPTY_GRPC_REQUEST, headers=GRPC_WEB, timeout=10)
             assert writing.status_code == 404  # no page may write into the plots
-            too_big = httpx.post(f"{server.url}{GRPC_READ}", content=bytes(100_000), headers=GRPC_WEB, timeout=10)
+            too_big = server.http.post(f"{server.url}{GRPC_READ}", content=bytes(100_000), headers=GRPC_WEB, timeout=10)
             assert too_big.status_code == 413
 
             # a browser that leaves while rerun has nothing new to send: the relay to rerun ends all the same
@@ -213,7 +230,7 @@ def test_plots_stream_through_the_dashboard_only(router_endpoint: str, bus: BusC
                            if c.raddr and c.raddr.port == status["grpc_port"] and c.status == psutil.CONN_ESTABLISHED)
 
             idle = relays()
-            with httpx.stream("POST", f"{server.url}{GRPC_READ}", content=EMPTY_GRPC_REQUEST, headers=GRPC_WEB,
+            with server.http.stream("POST", f"{server.url}{GRPC_READ}", content=EMPTY_GRPC_REQUEST, headers=GRPC_WEB,
                               timeout=httpx.Timeout(30.0)) as stream:
                 chunks = stream.iter_raw()  # (held: a dropped iterator closes the response)
                 next(chunks)
