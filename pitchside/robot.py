@@ -1,4 +1,9 @@
-"""`pitchside robot`: one robot's nodes as supervised processes (the simulated robot by default)."""
+"""`pitchside robot`: everything one robot runs, as supervised processes, with the robot's own Zenoh router.
+
+The robot is one machine: its router (inside this process) lets its nodes meet on the robot and, in the lab,
+links the robot to the team laptop's router (``--connect``). In a match (``--match``) it connects nowhere, and the
+robot's only traffic to the team PC is its one-way telemetry (``--telemetry-to``).
+"""
 
 from __future__ import annotations
 
@@ -9,10 +14,14 @@ from pathlib import Path
 from pitchside.team_access import Role
 from pitchside.team_keys import member_of
 from robot_nodes.launch import NODE_MODULES, Launcher, NodeProcess, node_command, run_until_signal
-from robot_nodes.runtime.bus import DEFAULT_ROUTER, load_config_file
+from robot_nodes.runtime.bus import add_bus_arguments, env_endpoints, load_config_file
+from robot_nodes.runtime.machine_router import start_machine_router
+from robot_nodes.telemetry.datagram import DEFAULT_PORT
 
 REPO = Path(__file__).resolve().parents[1]
 MOTION_NODES = ["hcm", "animation", "pause", "speaker"]
+# everything a robot runs in a match (telemetry only when it has somewhere to send to)
+ROBOT_NODES = ["cm730", *MOTION_NODES, "walking", "game_controller", "mitecom", "telemetry"]
 
 
 def params_file(model: str) -> Path:
@@ -20,15 +29,16 @@ def params_file(model: str) -> Path:
 
 
 def robot_nodes(robot_id: str, connect: list[str], model: str, names: list[str],
-                extra: dict[str, list[str]] | None = None, zenoh_config: str | Path | None = None) -> list[NodeProcess]:
+                extra: dict[str, list[str]] | None = None, zenoh_config: str | Path | None = None,
+                params: Path | None = None, mode: str = "auto") -> list[NodeProcess]:
     """The supervised processes of one robot; extra[name] adds arguments to that node."""
-    params = params_file(model)
+    params = params or params_file(model)
     processes = []
     for name in names:
         module = NODE_MODULES[name]
         args = list((extra or {}).get(name, []))
         processes.append(NodeProcess(f"{robot_id}/{name}", node_command(
-            module, robot_id, connect, params if params.exists() else None, args, zenoh_config)))
+            module, robot_id, connect, params if params.exists() else None, args, zenoh_config, mode)))
     return processes
 
 
@@ -64,16 +74,43 @@ def available(names: list[str]) -> list[str]:
     return [n for n in names if runnable(NODE_MODULES[n])]
 
 
+def telemetry_arguments(args: argparse.Namespace) -> list[str] | None:
+    """The telemetry node's settings, or None when the robot sends no telemetry (the lab without a destination)."""
+    if not args.telemetry_to:
+        if args.match:
+            raise SystemExit("pitchside robot --match: the robot's telemetry is all the team PC gets in a match; "
+                             "give --telemetry-to TEAM_PC[:PORT]")
+        return None
+    out = ["--set", f"destination={args.telemetry_to}"]
+    if args.telemetry_key:
+        out += ["--set", f"team_key={Path(args.telemetry_key).resolve()}"]
+    elif args.allow_dev_key:
+        out += ["--set", "allow_dev_key=true"]
+    elif args.match:
+        raise SystemExit("pitchside robot --match: give the team's telemetry key (--telemetry-key FILE, made by "
+                         "`pitchside telemetry-key`); --allow-dev-key sends under the published development key")
+    return out
+
+
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(prog="pitchside robot", description=__doc__)
+    parser = argparse.ArgumentParser(prog="pitchside robot", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--robot-id", default=None, help="robot id (default: the team config's robot, else robot1)")
     parser.add_argument("--model", default="minibot", help="robot description folder under robots/")
-    parser.add_argument("--connect", action="append", default=None, help=f"Zenoh endpoint (default {DEFAULT_ROUTER})")
-    parser.add_argument("--nodes", default=",".join(["cm730", *MOTION_NODES, "walking"]),
-                        help="comma-separated nodes to start")
-    parser.add_argument("--zenoh-config", default=None, metavar="FILE",
-                        help="Zenoh JSON5 config for every node (overrides --connect), e.g. the robot's file from "
-                             "`pitchside team-keys`")
+    parser.add_argument("--params", type=Path, default=None,
+                        help="the robot's params.yaml (default robots/<model>/params.yaml)")
+    parser.add_argument("--nodes", default=",".join(ROBOT_NODES),
+                        help="comma-separated nodes to start (telemetry only with --telemetry-to)")
+    add_bus_arguments(parser, connect_help="the team laptop's Zenoh router, in the lab (repeatable; the robot's "
+                                           "own router connects to it); none in a match")
+    parser.add_argument("--telemetry-to", default=None, metavar="HOST[:PORT]",
+                        help=f"the team PC's telemetry listener (UDP, port {DEFAULT_PORT} by default)")
+    parser.add_argument("--telemetry-key", default=None, metavar="FILE", help="the team's telemetry key file")
+    parser.add_argument("--allow-dev-key", action="store_true",
+                        help="send telemetry under the published development key (lab only)")
+    parser.add_argument("--match", action="store_true",
+                        help="match configuration: the robot's Zenoh connects to nobody (nothing reaches the team "
+                             "PC but the telemetry, nothing needs to come back); needs --telemetry-to and a key")
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s [robot] %(message)s")
     if args.zenoh_config:
@@ -81,10 +118,29 @@ def main(argv: list[str] | None = None) -> None:
             load_config_file(args.zenoh_config)
         except ValueError as exc:
             raise SystemExit(f"pitchside robot: {exc}") from None
+    if args.match and args.connect:
+        raise SystemExit("pitchside robot --match: a robot in a match connects to no other machine (the team PC "
+                         "would answer with packets the rules forbid); drop --connect")
     robot_id = robot_id_for(args.robot_id, args.zenoh_config)
-    names = available([n.strip() for n in args.nodes.split(",") if n.strip()])
-    run_until_signal(Launcher(robot_nodes(robot_id, args.connect or [DEFAULT_ROUTER], args.model, names,
-                                          zenoh_config=args.zenoh_config)))
+    telemetry = telemetry_arguments(args)
+    wanted = [n.strip() for n in args.nodes.split(",") if n.strip()]
+    if telemetry is None and "telemetry" in wanted:
+        wanted.remove("telemetry")
+        logging.info("no telemetry (no --telemetry-to): in the lab the dashboard reads the bus")
+    names = available(wanted)
+    router = None
+    if args.zenoh_config:  # a team file says where its member connects (its TLS endpoints)
+        connect: list[str] = []
+    else:
+        router = start_machine_router(args.listen, [] if args.match else (args.connect or env_endpoints()))
+        connect = [router.local_endpoint]
+    launcher = Launcher(robot_nodes(robot_id, connect, args.model, names, {"telemetry": telemetry or []},
+                                    args.zenoh_config, args.params, args.mode))
+    try:
+        run_until_signal(launcher)
+    finally:
+        if router is not None:
+            router.close()
 
 
 if __name__ == "__main__":

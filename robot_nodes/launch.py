@@ -18,6 +18,9 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from robot_nodes.runtime.bus import add_bus_arguments, bus_from_arguments
+from robot_nodes.runtime.machine_router import remote, start_machine_router
+
 log = logging.getLogger("pitchside.launch")
 
 # node name -> python module run with -m; the set a robot is made of
@@ -136,12 +139,15 @@ class Launcher:
 
 
 def node_command(module: str, robot_id: str, connect: list[str], params: Path | None = None,
-                 extra: list[str] | None = None, zenoh_config: str | Path | None = None) -> list[str]:
+                 extra: list[str] | None = None, zenoh_config: str | Path | None = None,
+                 mode: str = "auto") -> list[str]:
     """The node's command line; a Zenoh config file (the robot's team file: TLS, access control) wins over
     connect."""
     argv = [sys.executable, "-m", module, "--robot-id", robot_id]
     for endpoint in connect:
         argv += ["--connect", endpoint]
+    if mode != "auto":
+        argv += ["--mode", mode]
     if zenoh_config is not None:
         argv += ["--zenoh-config", str(Path(zenoh_config).resolve())]  # the node may run in another folder
     if params is not None:
@@ -153,19 +159,27 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("nodes", nargs="+", help=f"nodes to start: {', '.join(NODE_MODULES)} or a module path")
     parser.add_argument("--robot-id", default="robot1")
-    parser.add_argument("--connect", action="append", default=None)
     parser.add_argument("--params", type=Path, default=None)
-    parser.add_argument("--zenoh-config", default=None, metavar="FILE",
-                        help="Zenoh JSON5 config for every node, e.g. the robot's file from `pitchside team-keys`")
+    add_bus_arguments(parser, connect_help="the Zenoh router to join (repeatable; default this machine's, "
+                                           "tcp/127.0.0.1:7447); a router on another machine is joined through "
+                                           "a router of this machine that this command starts")
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s [launch] %(message)s")
-    connect = args.connect or ["tcp/127.0.0.1:7447"]
+    connect = args.connect or bus_from_arguments(args).connect
+    router = None
+    if not args.zenoh_config and remote(connect):
+        router = start_machine_router(args.listen, connect)  # --listen: where that router listens
+        connect = [router.local_endpoint]
     launcher = Launcher([
         NodeProcess(name, node_command(NODE_MODULES.get(name, name), args.robot_id, connect, args.params,
-                                       zenoh_config=args.zenoh_config))
+                                       zenoh_config=args.zenoh_config, mode=args.mode))
         for name in args.nodes
     ])
-    run_until_signal(launcher)
+    try:
+        run_until_signal(launcher)
+    finally:
+        if router is not None:
+            router.close()
 
 
 def run_until_signal(launcher: Launcher) -> None:

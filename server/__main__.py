@@ -7,7 +7,7 @@ import logging
 import sys
 from pathlib import Path
 
-from robot_nodes.runtime.bus import BusConfig, load_config_file
+from robot_nodes.runtime.bus import add_bus_arguments, bus_from_arguments, load_config_file
 from server.config import RobotDescription, ServerConfig
 from server.security.credentials import ENV_TOKEN
 from server.security.token_file import remove_token_file, write_token_file
@@ -28,10 +28,8 @@ def arguments() -> argparse.ArgumentParser:
                         "recordings/ and robots/)")
     p.add_argument("--match", action="store_true",
                    help="match mode: send nothing to robots (telemetry only, no Zenoh, control answers 403)")
-    p.add_argument("--connect", action="append", default=None, help="Zenoh endpoint of the team (repeatable)")
-    p.add_argument("--zenoh-config", default=None, metavar="FILE",
-                   help="a Zenoh JSON5 config file, e.g. the laptop's file from `pitchside team-keys` (overrides "
-                        "--connect)")
+    add_bus_arguments(p, connect_help="the team's Zenoh router (repeatable; default the one on this machine, "
+                                      "tcp/127.0.0.1:7447); on another machine the server joins as a client")
     p.add_argument("--no-live", action="store_true", help="do not join the Zenoh network at start")
     p.add_argument("--no-telemetry", action="store_true", help="do not listen for UDP telemetry")
     p.add_argument("--telemetry-host", default="0.0.0.0")
@@ -68,9 +66,7 @@ def arguments() -> argparse.ArgumentParser:
 
 
 def config_from(args: argparse.Namespace) -> ServerConfig:
-    bus = BusConfig(config_file=args.zenoh_config)
-    if args.connect:
-        bus.connect = args.connect
+    bus = bus_from_arguments(args)
     if args.zenoh_config:
         try:
             load_config_file(args.zenoh_config)  # said at start, not when the first panel opens the session

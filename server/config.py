@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-import ipaddress
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from robot_nodes.runtime.bus import BusConfig
+from robot_nodes.runtime.machine import is_loopback
 from server.security.credentials import ENV_TOKEN, new_token
 
 REPO = Path(__file__).resolve().parents[1]
@@ -95,12 +95,3 @@ class ServerConfig:
 
     def description_for(self, robot: str) -> RobotDescription:
         return self.descriptions.get(robot) or self.descriptions.get("*") or RobotDescription()
-
-
-def is_loopback(host: str) -> bool:
-    if host == "localhost":
-        return True
-    try:
-        return ipaddress.ip_address(host).is_loopback
-    except ValueError:
-        return False

@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import schemas
+from server.lateness import LATE_AFTER_S, Lateness
 
 ANY = "*"
 # Big messages get their own short queue per subscriber: memory stays bounded by a few images, not thousands.
@@ -35,6 +36,9 @@ class HubMessage:
     data: Any  # a decoded message, or CDR bytes
     source: str  # "live", "telemetry", "replay", ...
     received: float = field(default_factory=time.monotonic)
+    # when the robot sent it, by the robot's clock (header stamp, Zenoh timestamp, telemetry send time); None: not
+    # known, or not live (replay). The hub holds back messages that arrive late (server.lateness).
+    sent: float | None = None
     frame: str | bytes | None = None  # cache of the browser frame (server.protocol), built once for all clients
 
     @property
@@ -68,9 +72,10 @@ class Subscription:
 class Subscriber:
     """A bounded queue of hub messages for one consumer, rate-limited per (robot, topic) keeping the newest."""
 
-    def __init__(self, hub: Hub, name: str, maxlen: int) -> None:
+    def __init__(self, hub: Hub, name: str, maxlen: int, include_late: bool = False) -> None:
         self.hub = hub
         self.name = name
+        self.include_late = include_late  # a recorder keeps what arrived late; a browser shows only live data
         self.subscriptions: list[Subscription] = []
         self.delivered = 0
         self.dropped = 0  # lost to the bounded queue (slow reader)
@@ -172,6 +177,7 @@ class StreamStats:
     typename: str
     source: str
     count: int = 0
+    late: int = 0  # arrived late (after a link cut): recorded, not shown as live
     last_received: float = 0.0  # monotonic
     rate_hz: float = 0.0
     _window_start: float = 0.0
@@ -220,6 +226,7 @@ class Hub:
         self.robots: dict[str, RobotSeen] = {}
         self.published = 0
         self.decode_errors = 0  # messages whose CDR did not decode when a subscriber needed them
+        self.lateness = Lateness()  # per robot and source: which messages arrive late (server.lateness)
         self.loop: asyncio.AbstractEventLoop | None = None
         self._robot_listeners: list[Callable[[str], None]] = []
 
@@ -227,8 +234,9 @@ class Hub:
         """The loop whose thread owns the hub; sources on other threads hand messages to it."""
         self.loop = loop
 
-    def subscribe(self, name: str = "", maxlen: int | None = None) -> Subscriber:
-        sub = Subscriber(self, name or f"subscriber{len(self.subscribers)}", maxlen or self.default_maxlen)
+    def subscribe(self, name: str = "", maxlen: int | None = None, include_late: bool = False) -> Subscriber:
+        sub = Subscriber(self, name or f"subscriber{len(self.subscribers)}", maxlen or self.default_maxlen,
+                         include_late)
         self.subscribers.append(sub)
         return sub
 
@@ -240,20 +248,29 @@ class Hub:
         self._robot_listeners.append(listener)
 
     def publish(self, msg: HubMessage) -> None:
-        """On the loop thread only."""
+        """On the loop thread only. A message that arrives late is counted and recorded but not shown as live:
+        not kept as the stream's latest, not sent to browsers."""
         now = msg.received
+        late = msg.sent is not None and \
+            self.lateness.late_by(msg.robot, msg.source, time.time(), msg.sent) > LATE_AFTER_S
         robot = self.robots.get(msg.robot)
         if robot is None:
             robot = self.robots[msg.robot] = RobotSeen(msg.robot, time.time())
             for listener in self._robot_listeners:
                 listener(msg.robot)
-        robot.last_received = now
         stats = robot.streams.get(msg.topic)
         if stats is None:
             stats = robot.streams[msg.topic] = StreamStats(msg.typename, msg.source)
+        self.published += 1
+        if late:
+            stats.late += 1
+            for sub in self.subscribers:
+                if sub.include_late:
+                    sub.offer(msg)
+            return
+        robot.last_received = now
         stats.seen(now, msg.source)
         self.latest[(msg.robot, msg.topic)] = msg
-        self.published += 1
         for sub in self.subscribers:
             sub.offer(msg)
 

@@ -31,6 +31,8 @@ def robots_info(state: ServerState) -> list[dict[str, Any]]:
                 "rate_hz": round(stats.current_rate(now), 2),
                 "age_s": round(age, 3),
             }
+            if stats.late:  # arrived late after a link cut: recorded, never shown as live
+                entry["late"] = stats.late
             entry.update(extra.get((robot.robot, topic), {}))
             streams[topic] = entry
         age = now - robot.last_received

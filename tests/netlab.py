@@ -152,10 +152,12 @@ class Network:
             raise ValueError(answer["error"])
         return {name: answer[port] for name, port in self._ports.items()}
 
-    def frames_between(self, source: str, destination: str) -> int:
-        """Frames the air delivered to ``destination`` that ``source`` sent (by MAC address)."""
-        counters = self.shape(destination)[destination]
-        return int(counters["frames_from"].get(self.machines[source].mac, 0))
+    def frames_between(self, source: str, destination: str, arp: bool = False) -> int:
+        """Frames the air delivered to ``destination`` that ``source`` sent (by MAC address); ARP only if asked."""
+        counters = self.shape(destination)[destination]["frames_from"]
+        mac = self.machines[source].mac
+        return sum(int(n) for key, n in counters.items()
+                   if key.startswith(mac) and (arp or not key.endswith("/0806")))
 
     def close(self) -> None:
         for machine in self.machines.values():

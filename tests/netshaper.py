@@ -112,7 +112,8 @@ class Hub:
                 continue
             try:
                 self.sockets[port].send(frame)
-                source = frame[6:12].hex(":")
+                # by source MAC and EtherType (0806 ARP, 0800 IPv4, 86dd IPv6): "no packet but ARP" is checkable
+                source = f"{frame[6:12].hex(':')}/{frame[12:14].hex()}"
                 with self.lock:
                     link.frames_out += 1
                     link.frames_from[source] = link.frames_from.get(source, 0) + 1

@@ -19,7 +19,7 @@ import pytest
 import websockets.sync.client as ws_client
 from websockets.exceptions import InvalidStatus
 
-from server.security.hosts import machine_addresses
+from robot_nodes.runtime.machine import machine_addresses
 from server.security.token_file import read_token_file, token_path
 from tests.conftest import REPO, free_port
 from tests.dashboard_server import RunningServer, dashboard_server

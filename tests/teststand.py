@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 
 import schemas
-from robot_nodes.runtime import Node, header, param
+from robot_nodes.runtime import Node, header, param, run
 
 JOINTS = [f"joint{i}" for i in range(20)]
 HL = "humanoid_league_msgs/msg/"
@@ -135,3 +135,7 @@ class SceneStand(Node):
                  for i in range(3)]
         p["servo_data"].publish(schemas.make(HL + "AdditionalServoData", header=header(), temperature=temps,
                                              voltage=[12.1, 12.3]))
+
+
+if __name__ == "__main__":  # a stand-in robot on a test machine: python -m tests.teststand --robot-id ...
+    run(TestStand)

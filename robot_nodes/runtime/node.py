@@ -20,7 +20,7 @@ import zenoh
 import schemas
 from robot_nodes.runtime import keys
 from robot_nodes.runtime.actions import ActionClient, ActionServer, ServerGoal
-from robot_nodes.runtime.bus import BusConfig, load_config_file, open_session
+from robot_nodes.runtime.bus import BusConfig, add_bus_arguments, bus_from_arguments, load_config_file, open_session
 from robot_nodes.runtime.loop import EventLoop, Timer
 from robot_nodes.runtime.parameters import ParameterError, ParameterStore
 from robot_nodes.runtime.services import ServiceServer
@@ -353,13 +353,7 @@ class Node:
 def node_arguments(description: str) -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(description=description)
     parser.add_argument("--robot-id", default="robot1", help="robot id in the Zenoh keys (default robot1)")
-    parser.add_argument("--connect", action="append", default=None,
-                        help="Zenoh endpoint to connect to (repeatable; default tcp/127.0.0.1:7447)")
-    parser.add_argument("--mode", choices=["peer", "client"], default="peer",
-                        help="Zenoh mode: peer (direct links to other peers) or client (everything via the router)")
-    parser.add_argument("--zenoh-config", default=None, metavar="FILE",
-                        help="a Zenoh JSON5 config file, e.g. the robot's file from `pitchside team-keys` "
-                             "(overrides --connect and --mode)")
+    add_bus_arguments(parser)
     parser.add_argument("--params", type=Path, default=None, help="params.yaml of the robot")
     parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                         help="override a parameter (YAML value syntax)")
@@ -383,9 +377,7 @@ def run(node_cls: type[Node], argv: list[str] | None = None, **kwargs: Any) -> N
     """Process entry point of a node: parse arguments, spin, stop cleanly on SIGINT/SIGTERM."""
     args = node_arguments(node_cls.__doc__ or node_cls.name).parse_args(argv)
     logging.basicConfig(level=args.log_level, format=f"%(asctime)s %(levelname)s [{node_cls.name}] %(message)s")
-    bus = BusConfig(config_file=args.zenoh_config, mode=args.mode)
-    if args.connect:
-        bus.connect = args.connect
+    bus = bus_from_arguments(args)
     if args.zenoh_config:
         try:
             load_config_file(args.zenoh_config)  # a wrong path is said once, not retried as a missing router

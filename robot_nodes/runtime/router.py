@@ -20,7 +20,11 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--listen", action="append", default=None,
                         help=f"endpoint to listen on (repeatable; default {DEFAULT_LISTEN} or the config file's, "
                              "use tcp/0.0.0.0:7447 to serve other machines)")
-    parser.add_argument("--connect", action="append", default=[], help="another router to join (repeatable)")
+    parser.add_argument("--connect", action="append", default=[],
+                        help="another machine's router to join (repeatable): routers of a team link up router to "
+                             "router")
+    parser.add_argument("--mode", choices=["router"], default="router",
+                        help="always router: the peers and clients of a machine connect to it (they take --mode)")
     parser.add_argument("--zenoh-config", default=None, metavar="FILE",
                         help="a Zenoh JSON5 config, e.g. a team's router.json5 from `pitchside team-keys` (TLS and "
                              "access control)")

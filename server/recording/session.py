@@ -72,10 +72,11 @@ def storable(msg: HubMessage) -> tuple[str, str, bytes] | None:
 
 class RecorderSubscriber(Subscriber):
     """A hub subscriber whose images share the big queue: a browser may skip images, a recording must not
-    (the hub keeps only a few images per subscriber, enough for a display, not for a writer between batches)."""
+    (the hub keeps only a few images per subscriber, enough for a display, not for a writer between batches).
+    It takes what arrives late after a link cut too: old for a display, still the robot's data for the log."""
 
     def __init__(self, hub: Hub, name: str, maxlen: int) -> None:
-        super().__init__(hub, name, maxlen)
+        super().__init__(hub, name, maxlen, include_late=True)
         self._bulk = deque(maxlen=maxlen)
 
 

@@ -8,8 +8,9 @@ names, this machine's own addresses when it listens beyond loopback, names given
 from __future__ import annotations
 
 import ipaddress
-import socket
 import time
+
+from robot_nodes.runtime.machine import is_loopback, machine_addresses, machine_names
 
 LOOPBACK_NAMES = frozenset({"localhost", "127.0.0.1", "::1"})
 _ADDRESSES_TTL_S = 5.0  # the laptop may get a new address from the venue's Wi-Fi while the server runs
@@ -41,39 +42,13 @@ def _is_address(text: str) -> bool:
     return True
 
 
-def _is_loopback_name(name: str) -> bool:
-    if name in LOOPBACK_NAMES or name.endswith(".localhost"):
-        return True
-    try:
-        return ipaddress.ip_address(name).is_loopback
-    except ValueError:
-        return False
-
-
-def machine_addresses() -> set[str]:
-    """Every address of this machine's interfaces (IPv4 and IPv6, without zone ids)."""
-    import psutil
-
-    found = set()
-    for addresses in psutil.net_if_addrs().values():
-        for address in addresses:
-            if address.family in (socket.AF_INET, socket.AF_INET6):
-                found.add(address.address.split("%", 1)[0].lower())
-    return found
-
-
-def machine_names() -> set[str]:
-    names = {socket.gethostname().lower(), socket.getfqdn().lower()}
-    return names | {f"{n.split('.', 1)[0]}.local" for n in names if n}
-
-
 class AllowedHosts:
     """The Host names one server answers to, decided from where it listens and the names given by flag."""
 
     def __init__(self, bind_host: str, extra: list[str] | tuple[str, ...] = ()) -> None:
         self.bind_host = bind_host.strip("[]").lower()
         self.extra = {n.strip().lower().rstrip(".") for n in extra if n.strip()}
-        self.beyond_loopback = not _is_loopback_name(self.bind_host)
+        self.beyond_loopback = not is_loopback(self.bind_host)
         self.all_interfaces = self.bind_host in ("0.0.0.0", "::", "")
         self._names = machine_names() if self.beyond_loopback else set()
         self._addresses: set[str] = set()
@@ -82,7 +57,7 @@ class AllowedHosts:
     def allows(self, name: str | None) -> bool:
         if name is None:
             return False
-        if _is_loopback_name(name) or name in self.extra:
+        if is_loopback(name) or name in self.extra:
             return True
         if not self.beyond_loopback:
             return False

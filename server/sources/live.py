@@ -55,7 +55,7 @@ class LiveZenohSource(Source):
         self.unknown = 0
         self.overflow = 0
         self.bad_names = 0  # messages whose robot id or topic breaks the naming rules
-        self._pending: deque[tuple[str, bytes, str]] = deque()
+        self._pending: deque[tuple[str, bytes, str, float | None]] = deque()
         self._lock = threading.Lock()
         self._scheduled = False
         self._sub: zenoh.Subscriber | None = None
@@ -87,7 +87,9 @@ class LiveZenohSource(Source):
         key = str(sample.key_expr)
         if not keys.is_topic_key(key):
             return
-        item = (key, sample.payload.to_bytes(), str(sample.encoding))
+        stamp = sample.timestamp  # the publisher's clock (every pitchside session stamps what it puts)
+        sent = stamp.get_time().timestamp() if stamp is not None else None
+        item = (key, sample.payload.to_bytes(), str(sample.encoding), sent)
         with self._lock:
             if len(self._pending) >= MAX_PENDING:
                 self._pending.popleft()
@@ -106,7 +108,7 @@ class LiveZenohSource(Source):
             self._scheduled = False
         if not self.running:
             return
-        for key, payload, encoding in batch:
+        for key, payload, encoding, sent in batch:
             try:
                 robot, topic = keys.split_topic_key(key)
             except ValueError as exc:  # a name that breaks the rules never reaches the hub (or a page)
@@ -119,7 +121,8 @@ class LiveZenohSource(Source):
                 self.unknown += 1
                 continue
             self.received += 1
-            self.hub.publish(HubMessage(robot, topic, typename, stamp_of(payload, typename), payload, self.name))
+            self.hub.publish(HubMessage(robot, topic, typename, stamp_of(payload, typename), payload, self.name,
+                                        sent=sent))
 
     def status(self) -> dict[str, Any]:
         status = super().status()

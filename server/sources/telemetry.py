@@ -76,7 +76,8 @@ class TelemetrySource(Source):
                 continue
             self.messages += 1
             stamp = stamp_of(item.payload, item.type) if starts_with_header(item.type) else item.send_time
-            self.hub.publish(HubMessage(item.robot_id, item.topic, item.type, stamp, item.msg, self.name))
+            self.hub.publish(HubMessage(item.robot_id, item.topic, item.type, stamp, item.msg, self.name,
+                                        sent=item.send_time))
 
     def stream_health(self) -> dict[tuple[str, str], dict[str, Any]]:
         if self.receiver is None:

@@ -17,6 +17,7 @@ from robot_nodes.cm730.node import Cm730Node
 from robot_nodes.cm730.sim import SimRunner, SimWorld
 from robot_nodes.cm730.sim_backend import MujocoBackend
 from robot_nodes.runtime import BusConfig, Node, open_session
+from robot_nodes.runtime.bus import add_bus_arguments, bus_from_arguments
 from robot_nodes.runtime.node import parse_overrides
 
 
@@ -36,15 +37,13 @@ def serve(n_robots: int, bus: BusConfig, params: Path | None = None, overrides: 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--robots", type=int, default=1)
-    parser.add_argument("--connect", action="append", default=None, help="Zenoh endpoint (repeatable)")
+    add_bus_arguments(parser)
     parser.add_argument("--params", type=Path, default=None)
     parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
     parser.add_argument("--real-time-factor", type=float, default=1.0, help="0 = as fast as possible")
     args = parser.parse_args()
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s [sim] %(message)s")
-    bus = BusConfig()
-    if args.connect:
-        bus.connect = args.connect
+    bus = bus_from_arguments(args)
     stop = threading.Event()
     signal.signal(signal.SIGINT, lambda *_: stop.set())
     signal.signal(signal.SIGTERM, lambda *_: stop.set())
