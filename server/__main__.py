@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 from robot_nodes.runtime.bus import add_bus_arguments, bus_from_arguments, load_config_file
+from robot_nodes.runtime.machine import machine_addresses
 from server.config import RobotDescription, ServerConfig
 from server.security.credentials import ENV_TOKEN
 from server.security.token_file import remove_token_file, write_token_file
@@ -106,9 +107,24 @@ def dashboard_url(config: ServerConfig) -> str:
     return f"http://{shown}:{config.port}/"
 
 
+def reachable_urls(config: ServerConfig) -> list[str]:
+    """Where browsers reach the dashboard: on every interface address when it listens on all of them."""
+    if config.host not in ("0.0.0.0", "::"):
+        return [dashboard_url(config)]
+    addresses = sorted(a for a in machine_addresses() if ":" not in a and not a.startswith("127."))
+    if config.host == "::":
+        addresses += sorted(a for a in machine_addresses() if ":" in a and not a.startswith(("fe80", "::1")))
+    return [dashboard_url(config)] + [f"http://{f'[{a}]' if ':' in a else a}:{config.port}/" for a in addresses]
+
+
 def start_banner(config: ServerConfig) -> str:
-    """The link carries the token: opening it signs the browser in (an HttpOnly cookie) and drops it from the URL."""
-    lines = [f"pitchside dashboard: {dashboard_url(config)}?token={config.token}"]
+    """The link carries the token: opening it signs the browser in (an HttpOnly cookie) and drops it from the URL.
+    Listening on all interfaces, every address is printed: other machines need one of them."""
+    urls = reachable_urls(config)
+    lines = [f"pitchside dashboard: {urls[0]}?token={config.token}"]
+    lines += [f"                     {url}?token={config.token}" for url in urls[1:]]
+    if len(urls) == 1 and not config.beyond_loopback:
+        lines.append("(this machine only; other machines need --host 0.0.0.0, or the address to listen on)")
     if config.match_mode:
         lines.append("MATCH MODE: telemetry only, nothing is sent to robots, control is off")
         lines.append(f"telemetry key: {telemetry_key_name(config)}")

@@ -9,6 +9,7 @@ the credential whatever the method, so a GET that queries robots (their paramete
 from __future__ import annotations
 
 import re
+import time
 
 from fastapi import Depends, HTTPException
 from starlette.requests import HTTPConnection
@@ -52,6 +53,18 @@ def require_token(conn: HTTPConnection, state: ServerState = Depends(get_state))
     """For server-side switches that send nothing to robots (sources, recordings, replay): the credential only."""
     check_credential(conn, state)
     return state
+
+
+def robot_on_link(robot: str, state: ServerState = Depends(require_control)) -> str:
+    """503 at once for a robot the server hears from but has not heard for a while (a cut link, a robot out of
+    Wi-Fi): a command to it would only wait for its timeout. A robot never heard (yet) is asked as usual. After
+    the control gate: match mode and a missing credential are answered first."""
+    seen = state.hub.robots.get(robot)
+    if seen is not None and seen.last_received:
+        silent = time.monotonic() - seen.last_received
+        if silent > state.config.stale_after_s:
+            raise HTTPException(503, f"{robot} has been silent for {silent:.1f} s (link lost?): nothing was sent")
+    return robot
 
 
 def valid_robot(robot: str) -> str:

@@ -153,11 +153,12 @@ class Network:
         return {name: answer[port] for name, port in self._ports.items()}
 
     def frames_between(self, source: str, destination: str, arp: bool = False) -> int:
-        """Frames the air delivered to ``destination`` that ``source`` sent (by MAC address); ARP only if asked."""
+        """Frames ``source`` addressed to ``destination`` (unicast, by MAC) that the air delivered; ARP only if
+        asked. Broadcast and multicast frames (IPv6 neighbour discovery) are addressed to no machine."""
         counters = self.shape(destination)[destination]["frames_from"]
-        mac = self.machines[source].mac
+        pair = f"{self.machines[source].mac}>{self.machines[destination].mac}/"
         return sum(int(n) for key, n in counters.items()
-                   if key.startswith(mac) and (arp or not key.endswith("/0806")))
+                   if key.startswith(pair) and (arp or not key.endswith("/0806")))
 
     def close(self) -> None:
         for machine in self.machines.values():

@@ -112,8 +112,9 @@ class Hub:
                 continue
             try:
                 self.sockets[port].send(frame)
-                # by source MAC and EtherType (0806 ARP, 0800 IPv4, 86dd IPv6): "no packet but ARP" is checkable
-                source = f"{frame[6:12].hex(':')}/{frame[12:14].hex()}"
+                # by source and destination MAC and EtherType (0806 ARP, 0800 IPv4, 86dd IPv6): "no packet to the
+                # robot but ARP" is checkable, and multicast (IPv6 neighbour discovery) is told from unicast
+                source = f"{frame[6:12].hex(':')}>{frame[0:6].hex(':')}/{frame[12:14].hex()}"
                 with self.lock:
                     link.frames_out += 1
                     link.frames_from[source] = link.frames_from.get(source, 0) + 1

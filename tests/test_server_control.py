@@ -66,3 +66,22 @@ def test_penalize_and_animation(server: RunningServer, bus: BusConfig) -> None:
         node.shutdown()
     reply = server.http.post(f"{server.url}/api/robots/nobody/penalize", json={"penalize": "on"}, timeout=30)
     assert reply.status_code == 504 and "no answer" in reply.json()["detail"]
+
+
+def test_a_command_to_a_robot_gone_silent_fails_at_once(server: RunningServer, bus: BusConfig) -> None:
+    """During a cut link the robot cannot answer: the control API says so instead of waiting for a timeout."""
+    from tests.teststand import TestStand
+    from tests.waiting import wait_for
+
+    stand = TestStand("r5", bus, overrides={"rate_hz": 20.0}).start()
+    try:
+        wait_for(lambda: server.http.get(f"{server.url}/api/robots/r5/params").status_code == 200, 20.0, 0.2,
+                 "the robot answers while it is heard")
+    finally:
+        stand.shutdown()
+    wait_for(lambda: any(r["robot"] == "r5" and r["status"] != "ok"
+                         for r in server.http.get(f"{server.url}/api/robots").json()), 20.0, 0.1, "r5 gone stale")
+    for method, path, body in (("GET", "params", None), ("POST", "penalize", {"penalize": "on"}),
+                               ("POST", "teleop", {"x": 0.1})):
+        reply = server.http.request(method, f"{server.url}/api/robots/r5/{path}", json=body)
+        assert reply.status_code == 503 and "silent" in reply.json()["detail"], (path, reply.text)

@@ -43,7 +43,7 @@ from robot_nodes.animation.animation_file import animation_to_dict
 from robot_nodes.runtime import ActionError, header
 from robot_nodes.runtime.param_client import ParameterClient
 from robot_nodes.runtime.parameters import ParameterError
-from server.deps import require_control, valid_robot
+from server.deps import require_control, robot_on_link, valid_robot
 from server.lab import JointLimits, lab_tools, urdf_joint_limits, urdf_mirror_signs
 from server.security import AllowedFolders
 from server.state import ServerState
@@ -319,7 +319,7 @@ def _set_record_mode(state: ServerState, robot: str, on: bool) -> dict[str, Any]
     return ParameterClient(state.link.session(), robot, timeout=TIMEOUT_S).set("hcm", {"record_mode": on})
 
 
-@router.post("/animation-play")
+@router.post("/animation-play", dependencies=[Depends(robot_on_link)])
 async def play_animation_file(robot: str, request: PlayRequest, state: ServerState = Depends(require_control)
                               ) -> dict[str, Any]:
     """Leaves RECORD, then plays the saved file by name (keyframes 0..upto only, if upto is given)."""
@@ -396,7 +396,7 @@ async def stop_animation(robot: str, state: ServerState = Depends(require_contro
     return out
 
 
-@router.post("/record")
+@router.post("/record", dependencies=[Depends(robot_on_link)])
 async def record_mode(robot: str, request: RecordRequest, state: ServerState = Depends(require_control)
                       ) -> dict[str, Any]:
     try:
@@ -422,7 +422,7 @@ async def record_pose(robot: str, state: ServerState = Depends(require_control))
     return {"robot": robot, "positions": positions, "age_s": age}
 
 
-@router.post("/record/goals")
+@router.post("/record/goals", dependencies=[Depends(robot_on_link)])
 async def record_goals(robot: str, goals: RecordGoals, state: ServerState = Depends(require_control)
                        ) -> dict[str, Any]:
     """record_motor_goals: held joints go to their goals (torque on), limp joints get torque off at their pose."""

@@ -17,7 +17,7 @@ from robot_nodes.runtime import ActionError, ServiceError, call_service
 from robot_nodes.runtime.actions import ActionClient
 from robot_nodes.runtime.param_client import ParameterClient
 from robot_nodes.runtime.parameters import ParameterError
-from server.deps import require_control, valid_node, valid_robot
+from server.deps import require_control, robot_on_link, valid_node, valid_robot
 from server.state import ServerState
 
 router = APIRouter(prefix="/api/robots/{robot}", tags=["control"], dependencies=[Depends(valid_robot)])
@@ -42,13 +42,13 @@ def _parameter_client(state: ServerState, robot: str) -> ParameterClient:
     return ParameterClient(state.link.session(), robot, timeout=TIMEOUT_S)
 
 
-@router.get("/params")
+@router.get("/params", dependencies=[Depends(robot_on_link)])
 async def list_parameters(robot: str, state: ServerState = Depends(require_control)) -> dict[str, Any]:
     """Every node of the robot that answers, with its parameters."""
     return await asyncio.to_thread(lambda: _parameter_client(state, robot).nodes())
 
 
-@router.get("/params/{node}", dependencies=[Depends(valid_node)])
+@router.get("/params/{node}", dependencies=[Depends(robot_on_link), Depends(valid_node)])
 async def get_parameters(robot: str, node: str, state: ServerState = Depends(require_control)
                          ) -> list[dict[str, Any]]:
     try:
@@ -57,7 +57,7 @@ async def get_parameters(robot: str, node: str, state: ServerState = Depends(req
         raise HTTPException(504, str(exc)) from exc
 
 
-@router.post("/params/{node}", dependencies=[Depends(valid_node)])
+@router.post("/params/{node}", dependencies=[Depends(robot_on_link), Depends(valid_node)])
 async def set_parameters(robot: str, node: str, write: ParameterWrite, state: ServerState = Depends(require_control)
                          ) -> dict[str, Any]:
     """The node validates: out of range -> 422 with its reason, value unchanged; a write based on an old revision
@@ -69,7 +69,7 @@ async def set_parameters(robot: str, node: str, write: ParameterWrite, state: Se
         raise HTTPException(409 if "changed meanwhile" in str(exc) else 422, str(exc)) from exc
 
 
-@router.post("/penalize")
+@router.post("/penalize", dependencies=[Depends(robot_on_link)])
 async def penalize(robot: str, request: PenalizeRequest, state: ServerState = Depends(require_control)
                    ) -> dict[str, Any]:
     consts = schemas.constants("humanoid_league_msgs/srv/ManualPenalize_Request")
@@ -82,7 +82,7 @@ async def penalize(robot: str, request: PenalizeRequest, state: ServerState = De
     return {"robot": robot, "penalized": bool(response.penalized)}
 
 
-@router.post("/animation")
+@router.post("/animation", dependencies=[Depends(robot_on_link)])
 async def play_animation(robot: str, request: AnimationRequest, state: ServerState = Depends(require_control)
                          ) -> dict[str, Any]:
     goal = schemas.make("humanoid_league_msgs/action/PlayAnimation_Goal", animation=request.animation, hcm=False)

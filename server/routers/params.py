@@ -23,7 +23,7 @@ from pydantic import BaseModel
 from robot_nodes.runtime import keys
 from robot_nodes.runtime.param_client import ParameterClient
 from robot_nodes.runtime.parameters import ParameterError, load_yaml_section
-from server.deps import require_control, valid_node, valid_robot
+from server.deps import require_control, robot_on_link, valid_node, valid_robot
 from server.state import ServerState
 
 router = APIRouter(prefix="/api/robots/{robot}/params/{node}", tags=["params"], dependencies=[Depends(valid_robot)])
@@ -49,7 +49,7 @@ def params_yaml(model: str) -> Path:
     return ROBOTS_DIR / model / "params.yaml"
 
 
-@router.post("/reset", dependencies=[Depends(valid_node)])
+@router.post("/reset", dependencies=[Depends(robot_on_link), Depends(valid_node)])
 async def reset_parameters(robot: str, node: str, request: ResetRequest,
                            state: ServerState = Depends(require_control)) -> dict[str, Any]:
     """Back to the declared defaults (the named parameters, or all)."""
@@ -59,7 +59,7 @@ async def reset_parameters(robot: str, node: str, request: ResetRequest,
         raise HTTPException(422, str(exc)) from exc
 
 
-@router.post("/save", dependencies=[Depends(valid_node)])
+@router.post("/save", dependencies=[Depends(robot_on_link), Depends(valid_node)])
 async def save_parameters(robot: str, node: str, state: ServerState = Depends(require_control)) -> dict[str, Any]:
     """The node writes its live values into the YAML file it was started with (its own path, never ours)."""
     try:
@@ -68,7 +68,7 @@ async def save_parameters(robot: str, node: str, state: ServerState = Depends(re
         raise HTTPException(422, str(exc)) from exc
 
 
-@router.get("/diff", dependencies=[Depends(valid_node)])
+@router.get("/diff", dependencies=[Depends(robot_on_link), Depends(valid_node)])
 async def diff_parameters(robot: str, node: str, model: str = "minibot",
                           state: ServerState = Depends(require_control)) -> dict[str, Any]:
     """Live values that differ from the robot model's YAML (or the default where the YAML is silent)."""

@@ -11,7 +11,7 @@ from typing import Any
 from fastapi import APIRouter, Depends
 from pydantic import BaseModel, Field
 
-from server.deps import require_control, valid_robot
+from server.deps import require_control, robot_on_link, valid_robot
 from server.lab import TELEOP_HOLD_S, TELEOP_HZ, lab_tools
 from server.state import ServerState
 
@@ -25,7 +25,7 @@ class DriveCommand(BaseModel):
     hold_s: float = Field(TELEOP_HOLD_S, gt=0.0, le=2.0, description="zero after this long without a refresh")
 
 
-@router.post("")
+@router.post("", dependencies=[Depends(robot_on_link)])
 async def drive(robot: str, command: DriveCommand, state: ServerState = Depends(require_control)) -> dict[str, Any]:
     cmd = await lab_tools(state).drive(robot, command.x, command.y, command.yaw, command.hold_s)
     return {"robot": robot, "x": cmd.x, "y": cmd.y, "yaw": cmd.yaw, "rate_hz": TELEOP_HZ, "sent": cmd.sent}
