@@ -2,7 +2,9 @@
 
 The robot is one machine: its router (inside this process) lets its nodes meet on the robot and, in the lab,
 links the robot to the team laptop's router (``--connect``). In a match (``--match``) it connects nowhere, and the
-robot's only traffic to the team PC is its one-way telemetry (``--telemetry-to``).
+robot's only traffic to the team PC is its one-way telemetry (``--telemetry-to``). On a team's secured bus the
+router takes the robot's file from ``pitchside team-keys`` (``--zenoh-config``: mutual TLS to the team router, the
+access control); the nodes join it on loopback as always and never hold the robot's key.
 """
 
 from __future__ import annotations
@@ -15,7 +17,7 @@ from pitchside.team_access import Role
 from pitchside.team_keys import member_of
 from robot_nodes.launch import NODE_MODULES, Launcher, NodeProcess, node_command, run_until_signal
 from robot_nodes.runtime.bus import add_bus_arguments, env_endpoints, load_config_file
-from robot_nodes.runtime.machine_router import start_machine_router
+from robot_nodes.runtime.machine_router import MachineRouter, is_router_config, start_machine_router
 from robot_nodes.telemetry.datagram import DEFAULT_PORT
 
 REPO = Path(__file__).resolve().parents[1]
@@ -54,11 +56,30 @@ def robot_id_for(robot_id: str | None, zenoh_config: str | None) -> str:
         if role is not Role.ROBOT:
             raise SystemExit(f"pitchside robot: {zenoh_config} is the team config of {name} ({role.value}), "
                              "not of a robot")
+        if zenoh_config and not is_router_config(zenoh_config):
+            raise SystemExit(f"pitchside robot: {zenoh_config} is {name}'s file from an older `pitchside team-keys` "
+                             "(a peer of the team router; now each robot runs its own router): write the team's "
+                             "files again, keeping the keys, with `pitchside team-keys FOLDER --rewrite`")
         if robot_id and robot_id != name:
             raise SystemExit(f"pitchside robot: {zenoh_config} is {name}'s team config, not {robot_id}'s (the team's "
                              f"access control would drop everything {robot_id} sends)")
         return name
     return robot_id or "robot1"
+
+
+def robot_router(args: argparse.Namespace) -> MachineRouter:
+    """The robot's own router: from the robot's file (--zenoh-config: its endpoints unless --listen/--connect)
+    or from --listen/--connect; in a match it connects nowhere, whatever the file says."""
+    if args.match:
+        connect: list[str] | None = []
+    elif args.zenoh_config:
+        connect = args.connect or None  # None: the file's, the team router over TLS
+    else:
+        connect = args.connect or env_endpoints()
+    try:
+        return start_machine_router(args.listen, connect, args.zenoh_config)
+    except ValueError as exc:
+        raise SystemExit(f"pitchside robot: {exc}") from None
 
 
 def available(names: list[str]) -> list[str]:
@@ -128,19 +149,14 @@ def main(argv: list[str] | None = None) -> None:
         wanted.remove("telemetry")
         logging.info("no telemetry (no --telemetry-to): in the lab the dashboard reads the bus")
     names = available(wanted)
-    router = None
-    if args.zenoh_config:  # a team file says where its member connects (its TLS endpoints)
-        connect: list[str] = []
-    else:
-        router = start_machine_router(args.listen, [] if args.match else (args.connect or env_endpoints()))
-        connect = [router.local_endpoint]
-    launcher = Launcher(robot_nodes(robot_id, connect, args.model, names, {"telemetry": telemetry or []},
-                                    args.zenoh_config, args.params, args.mode))
+    router = robot_router(args)
+    # the nodes join the robot's router on loopback; a team file (the robot's key) stays with the router
+    launcher = Launcher(robot_nodes(robot_id, [router.local_endpoint], args.model, names,
+                                    {"telemetry": telemetry or []}, params=args.params, mode=args.mode))
     try:
         run_until_signal(launcher)
     finally:
-        if router is not None:
-            router.close()
+        router.close()
 
 
 if __name__ == "__main__":

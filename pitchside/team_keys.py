@@ -2,11 +2,20 @@
 
     pitchside team-keys team/ --team Bit-Bots --robots robot1,robot2 --laptop laptop --router-host 10.0.0.5
 
-writes into team/ a team CA, one Zenoh config per member (router.json5, laptop.json5, robot1.json5, ...) and
-team.json (who is who). Each member file is complete on its own: mutual TLS with the member's key and
-certificate (both inline, so the file is mode 0600 and belongs on that one machine), the team CA as the only
-trust root, and the team's access control (pitchside.team_access). Every pitchside process takes it with
-``--zenoh-config``. ``--add`` adds members to an existing team and keeps everyone's keys.
+writes into team/ a team CA, one Zenoh config per member and team.json (who is who). The files follow the bus's
+topology (one router per machine, machines linked router to router):
+
+* router.json5: the team router on the team laptop (``pitchside router``), on every interface, mutual TLS only;
+* robot1.json5, ...: the robot's own router (``pitchside robot``): it links to the team router over mutual TLS
+  and listens for the robot's nodes on loopback only, where they join it in plain TCP (the robot is trusted, the
+  network is not; its private key stays in the router's process);
+* laptop.json5: the dashboard (``pitchside serve``), a peer of the team router on the same laptop;
+* viewers' files: read-only clients of the team router, from any machine.
+
+Each file is complete on its own: the member's key and certificate (inline, so the file is mode 0600 and
+belongs on that one machine), the team CA as the only trust root, and the access control of its place
+(pitchside.team_access). Every pitchside process takes it with ``--zenoh-config``. ``--add`` adds members to an
+existing team and keeps everyone's keys.
 """
 
 from __future__ import annotations
@@ -24,9 +33,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from pitchside.team_access import Role, access_control
+from pitchside.team_access import Role, access_control, robot_router_access_control
 from pitchside.team_certificates import MemberCredentials, TeamAuthority, TeamCertificateError, member_credentials
-from robot_nodes.runtime.bus import BusConfig, router_settings
+from robot_nodes.runtime.bus import DEFAULT_LISTEN, BusConfig, router_settings
 from robot_nodes.telemetry.datagram import check_robot_id
 
 TEAM_FILE = "team.json"
@@ -35,6 +44,7 @@ CA_CERTIFICATE = "team-ca.pem"
 ROUTER = "router"
 DEFAULT_PORT = 7447
 MEMBER_LISTEN = "tls/127.0.0.1:0"  # as BusConfig's default: peers of one machine meet directly on loopback
+ROBOT_LISTEN = DEFAULT_LISTEN  # a robot's router, for the robot's nodes: plain TCP on loopback only
 _NAME = re.compile(r"^[A-Za-z0-9_-]{1,32}$")
 _LOOPBACK = ("127.0.0.1", "localhost", "::1")
 _TLS = "transport/link/tls/"
@@ -61,8 +71,14 @@ class Team:
     @property
     def router_listen(self) -> str:
         # a router for other machines listens on every interface: mutual TLS, not the address, keeps strangers out
-        host = "127.0.0.1" if self.router_host in _LOOPBACK else "0.0.0.0"
-        return f"tls/{host}:{self.router_port}"
+        if self.router_host in _LOOPBACK:
+            return f"tls/127.0.0.1:{self.router_port}"
+        return f"tls/{'[::]' if ':' in self.router_host else '0.0.0.0'}:{self.router_port}"
+
+    @property
+    def laptop_endpoint(self) -> str:
+        """Where processes on the team router's own machine (the dashboard) reach it: on loopback."""
+        return f"tls/127.0.0.1:{self.router_port}"
 
     def to_json(self) -> str:
         return json.dumps({"team": self.name, "router_host": self.router_host, "router_port": self.router_port,
@@ -116,16 +132,20 @@ def create_team(folder: Path, team: str, robots: Iterable[str], laptops: Iterabl
 
 
 def add_members(folder: Path, robots: Iterable[str] = (), laptops: Iterable[str] = (),
-                viewers: Iterable[str] = ()) -> dict[str, Path]:
-    """New members signed by the team's CA; everyone keeps their keys, every file gets the new access control."""
+                viewers: Iterable[str] = (), rewrite: bool = False) -> dict[str, Path]:
+    """New members signed by the team's CA; everyone keeps their keys, every file gets the new access control.
+
+    With rewrite, no new member is needed: every file is written again with the keys it holds (files made by an
+    older pitchside take the bus's current layout).
+    """
     folder = Path(folder)
     team = _existing_team(folder)
     if team is None:
         raise TeamKeysError(f"{folder} holds no team ({TEAM_FILE} is missing); make one first")
     before = set(team.members)
     _add_names(team, robots, laptops, viewers)
-    if set(team.members) == before:
-        raise TeamKeysError("name at least one member to add (--robots, --laptop or --viewers)")
+    if set(team.members) == before and not rewrite:
+        raise TeamKeysError("name at least one member to add (--robots, --laptop or --viewers), or --rewrite")
     try:
         authority = TeamAuthority.load((folder / CA_KEY).read_bytes(), (folder / CA_CERTIFICATE).read_bytes())
     except FileNotFoundError as exc:
@@ -142,26 +162,37 @@ def add_members(folder: Path, robots: Iterable[str] = (), laptops: Iterable[str]
 
 
 def member_config(team: Team, member: str, credentials: MemberCredentials, ca_pem: bytes) -> dict[str, Any]:
-    """The Zenoh config of one member: its endpoints, its mutual TLS identity and the team's access control."""
-    if team.members[member] is Role.ROUTER:
+    """The Zenoh config of one member: its endpoints, its mutual TLS identity and its access control."""
+    role = team.members[member]
+    protocols = ["tls"]  # no plain TCP, not even by a --connect given by mistake
+    if role is Role.ROUTER:
         config = router_settings([team.router_listen])
-    else:
-        config = BusConfig(connect=[team.router_endpoint], listen=[MEMBER_LISTEN]).settings()
-    config["transport"] = {"link": {
-        "protocols": ["tls"],  # no plain TCP, not even by a --connect given by mistake
-        "tls": {
-            "root_ca_certificate_base64": _b64(ca_pem),
-            "listen_private_key_base64": _b64(credentials.key_pem),
-            "listen_certificate_base64": _b64(credentials.certificate_pem),
-            "connect_private_key_base64": _b64(credentials.key_pem),
-            "connect_certificate_base64": _b64(credentials.certificate_pem),
-            "enable_mtls": True,
-            # peers meet at addresses no certificate can name (gossip, loopback ports); the team CA is the only
-            # trust root and the access control reads who is at the other end from the certificate's common name
-            "verify_name_on_connect": False,
-        },
-    }}
-    config["access_control"] = access_control(team.members)
+        config["access_control"] = access_control(team.members)
+    elif role is Role.ROBOT:
+        # TLS to the team router; plain TCP only for the robot's own nodes, on loopback (the router refuses to
+        # listen beyond loopback without TLS, and its access control gives the robot's rights to loopback only)
+        config = router_settings([ROBOT_LISTEN], [team.router_endpoint])
+        config["access_control"] = robot_router_access_control(member, team.members)
+        protocols = ["tls", "tcp"]
+    elif role is Role.LAPTOP:
+        config = BusConfig(connect=[team.laptop_endpoint], listen=[MEMBER_LISTEN], mode="peer").settings()
+        config["access_control"] = access_control(team.members)
+    else:  # a viewer may sit on any machine: a client, all its traffic through the team router
+        config = BusConfig(connect=[team.router_endpoint], mode="client").settings()
+        config["access_control"] = access_control(team.members)
+    link = config["transport"]["link"]  # keeps the bus's link settings (lease, buffers): TLS comes on top
+    link["protocols"] = protocols
+    link["tls"] = {
+        "root_ca_certificate_base64": _b64(ca_pem),
+        "listen_private_key_base64": _b64(credentials.key_pem),
+        "listen_certificate_base64": _b64(credentials.certificate_pem),
+        "connect_private_key_base64": _b64(credentials.key_pem),
+        "connect_certificate_base64": _b64(credentials.certificate_pem),
+        "enable_mtls": True,
+        # members meet at addresses no certificate can name (gossip, loopback ports); the team CA is the only
+        # trust root and the access control reads who is at the other end from the certificate's common name
+        "verify_name_on_connect": False,
+    }
     return config
 
 
@@ -192,14 +223,23 @@ def _write_team(folder: Path, team: Team, authority: TeamAuthority,
     written = {}
     for name, role in team.members.items():
         path = folder / f"{name}.json5"
-        header = (f"// pitchside team {team.name!r}: the Zenoh config of {name} ({role.value}), made by "
+        header = (f"// pitchside team {team.name!r}: the Zenoh config of {_PLACES[role].format(name=name)}, made by "
                   "`pitchside team-keys`.\n"
-                  f"// It holds {name}'s private key: keep it on {name} only. Use: --zenoh-config {path.name}\n")
+                  f"// It holds {name}'s private key: keep it on {name} only. Use: {_COMMANDS[role]} --zenoh-config "
+                  f"{path.name}\n")
         config = member_config(team, name, credentials[name], authority.certificate_pem)
         _write_private(path, (header + json.dumps(config, indent=2) + "\n").encode())
         written[name] = path
     _write_private(folder / TEAM_FILE, team.to_json().encode())
     return written
+
+
+_PLACES = {Role.ROUTER: "the team router, on the team laptop",
+           Role.ROBOT: "{name}'s own router, on {name} (its nodes join it on loopback)",
+           Role.LAPTOP: "{name}'s dashboard, a peer of the team router on the same laptop",
+           Role.VIEWER: "{name}, a read-only client of the team router from any machine"}
+_COMMANDS = {Role.ROUTER: "pitchside router", Role.ROBOT: "pitchside robot", Role.LAPTOP: "pitchside serve",
+             Role.VIEWER: "pitchside serve"}
 
 
 def _write_private(path: Path, data: bytes) -> None:
@@ -282,12 +322,17 @@ def main(argv: list[str] | None = None) -> None:
                         help="address of the machine that runs `pitchside router`, as the robots reach it")
     parser.add_argument("--router-port", type=int, default=DEFAULT_PORT)
     parser.add_argument("--add", action="store_true", help="add members to the team in folder; keys are kept")
+    parser.add_argument("--rewrite", action="store_true",
+                        help="write every member's file in folder again, keys kept (after a pitchside update)")
     parser.add_argument("--force", action="store_true", help="replace the team in folder: new keys for everyone")
     args = parser.parse_args(argv)
+    updating = args.add or args.rewrite
     try:
-        before = _existing_team(args.folder) if args.add else None
-        if args.add:
-            written = add_members(args.folder, _names(args.robots), _names(args.laptop), _names(args.viewers))
+        before = _existing_team(args.folder) if updating else None
+        old_files = {p.name: p.read_bytes() for p in args.folder.glob("*.json5")} if updating else {}
+        if updating:
+            written = add_members(args.folder, _names(args.robots), _names(args.laptop), _names(args.viewers),
+                                  rewrite=args.rewrite)
         else:
             if not args.team:
                 parser.error("--team NAME is required for a new team")
@@ -301,14 +346,15 @@ def main(argv: list[str] | None = None) -> None:
     print(f"team {team.name!r} in {args.folder}/ (router at {team.router_endpoint}); copy each file to its machine:")
     for name, path in written.items():
         role = team.members[name]
-        command = {Role.ROUTER: "pitchside router", Role.ROBOT: "pitchside robot", Role.LAPTOP: "pitchside serve",
-                   Role.VIEWER: "pitchside serve"}[role]
-        note = "" if before is None else ("  (new)" if name not in before.members else "  (rewritten)")
-        print(f"  {path.name:<20} {role.value:<7} {command} --zenoh-config {path.name}{note}")
+        note = ""
+        if before is not None and name not in before.members:
+            note = "  (new)"
+        elif before is not None:
+            note = "  (unchanged)" if old_files.get(path.name) == path.read_bytes() else "  (rewritten)"
+        print(f"  {path.name:<20} {role.value:<7} {_COMMANDS[role]} --zenoh-config {path.name}{note}")
     if before is not None:
-        added = {team.members[n] for n in written if n not in before.members}
-        who = "every member" if Role.LAPTOP in added else "the router, laptops and viewers"
-        print(f"The access control now names the new members: {who} need their rewritten file.")
+        print("Copy each new and rewritten file to its machine (a robot's file names only the team router: new "
+              "members leave it unchanged).")
     print(f"Keep {CA_KEY} here: it signs new members (--add) and belongs on no robot.")
 
 if __name__ == "__main__":

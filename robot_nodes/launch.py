@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from robot_nodes.runtime.bus import add_bus_arguments, bus_from_arguments
-from robot_nodes.runtime.machine_router import remote, start_machine_router
+from robot_nodes.runtime.machine_router import is_router_config, remote, start_machine_router
 
 log = logging.getLogger("pitchside.launch")
 
@@ -141,8 +141,7 @@ class Launcher:
 def node_command(module: str, robot_id: str, connect: list[str], params: Path | None = None,
                  extra: list[str] | None = None, zenoh_config: str | Path | None = None,
                  mode: str = "auto") -> list[str]:
-    """The node's command line; a Zenoh config file (the robot's team file: TLS, access control) wins over
-    connect."""
+    """The node's command line; a Zenoh config file (of a peer or a client) wins over connect."""
     argv = [sys.executable, "-m", module, "--robot-id", robot_id]
     for endpoint in connect:
         argv += ["--connect", endpoint]
@@ -167,12 +166,21 @@ def main(argv: list[str] | None = None) -> None:
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s [launch] %(message)s")
     connect = args.connect or bus_from_arguments(args).connect
     router = None
-    if not args.zenoh_config and remote(connect):
-        router = start_machine_router(args.listen, connect)  # --listen: where that router listens
-        connect = [router.local_endpoint]
+    zenoh_config = args.zenoh_config
+    try:
+        if zenoh_config and is_router_config(zenoh_config):
+            # a router's file (a robot's from `pitchside team-keys`): this machine's router runs it, and the nodes
+            # join that router on loopback without the file (its key stays with the router)
+            router = start_machine_router(args.listen, args.connect or None, zenoh_config)
+            connect, zenoh_config = [router.local_endpoint], None
+        elif not zenoh_config and remote(connect):
+            router = start_machine_router(args.listen, connect)  # --listen: where that router listens
+            connect = [router.local_endpoint]
+    except ValueError as exc:
+        raise SystemExit(f"launch: {exc}") from None
     launcher = Launcher([
         NodeProcess(name, node_command(NODE_MODULES.get(name, name), args.robot_id, connect, args.params,
-                                       zenoh_config=args.zenoh_config, mode=args.mode))
+                                       zenoh_config=zenoh_config, mode=args.mode))
         for name in args.nodes
     ])
     try:

@@ -1,12 +1,16 @@
 """A team's secured bus (`pitchside team-keys`): only the team's processes steer its robots.
 
-A real router with the team's router.json5 (mutual TLS + access control), real member sessions with their own
-files. Refused messages are shown missing after an allowed message sent later has arrived, and where it
-matters the allowed one follows the refused one on the same session, so it cannot overtake it.
+A real team router with the team's router.json5 (mutual TLS + access control), real robot routers with the
+robots' files (the robot's nodes join theirs in plain TCP on loopback, as `pitchside robot` starts them), real
+laptop and viewer sessions with their own files; all on this machine's loopback (tests/test_bus_security_machines
+puts them on separate machines). Refused messages are shown missing after an allowed message sent later has
+arrived, and where it matters the allowed one follows the refused one on the same session, so it cannot
+overtake it.
 """
 
 from __future__ import annotations
 
+import argparse
 import json
 import stat
 import subprocess
@@ -33,8 +37,9 @@ from pitchside.team_keys import (
     member_of,
     read_credentials,
 )
-from robot_nodes.runtime import BusConfig, ParameterClient, ParameterError, keys, open_router
-from robot_nodes.runtime.bus import load_config_file
+from robot_nodes.runtime import BusConfig, ParameterClient, ParameterError, keys, open_router, open_session
+from robot_nodes.runtime.bus import LEASE_MS, load_config_file, router_config
+from robot_nodes.runtime.machine_router import MachineRouter, start_machine_router
 from tests.conftest import REPO, free_port
 from tests.waiting import wait_for
 
@@ -57,7 +62,8 @@ def router(team: Path) -> Iterator[zenoh.Session]:
 
 
 def member_session(team: Path, member: str, mode: str = "peer", access_control: bool = True) -> zenoh.Session:
-    """A session with a member's own file; without its access control, as a member who edited their file."""
+    """A laptop's or viewer's session with its own file; without its access control, as a member who edited
+    their file."""
     conf = load_config_file(team / f"{member}.json5")
     conf.insert_json5("mode", json.dumps(mode))
     if not access_control:
@@ -67,13 +73,45 @@ def member_session(team: Path, member: str, mode: str = "peer", access_control: 
     return session
 
 
+def edited_file(team: Path, member: str, **changes: Any) -> Path:
+    """A copy of a member's file with top-level sections changed, as a member who edited their file."""
+    config = json.loads((team / f"{member}.json5").read_text().split("\n", 2)[2])
+    for section, value in changes.items():
+        if isinstance(value, dict):
+            config[section].update(value)
+        else:
+            config[section] = value
+    path = team.parent / f"{member}-edited.json5"
+    path.write_text(json.dumps(config))
+    return path
+
+
+def robot_router(team: Path, robot: str, access_control: bool = True) -> MachineRouter:
+    """The robot's own router from its file, as `pitchside robot` runs it (here on a free loopback port)."""
+    config = team / f"{robot}.json5"
+    if not access_control:
+        config = edited_file(team, robot, access_control={"enabled": False})
+    return start_machine_router([f"tcp/127.0.0.1:{free_port()}"], None, config)
+
+
+def robot_process(router: MachineRouter) -> zenoh.Session:
+    """One of the robot's nodes: a plain peer of the robot's router on loopback, as `pitchside robot` starts it."""
+    session = open_session(BusConfig(connect=[router.local_endpoint]))
+    wait_for(lambda: session.info.routers_zid(), timeout=10, what="a robot process joined its robot's router")
+    return session
+
+
+def linked_to_team_router(router: MachineRouter, team_router: zenoh.Session) -> bool:
+    return str(router.session.info.zid()) in {str(z) for z in team_router.info.routers_zid()}
+
+
 def goals(sender: str) -> bytes:
     """A real motor_goals message whose joint name says who sent it."""
     point = schemas.make("trajectory_msgs/msg/JointTrajectoryPoint", positions=[0.5])
     return schemas.encode(schemas.make("trajectory_msgs/msg/JointTrajectory", joint_names=[sender], points=[point]))
 
 
-DRIVERS = ["viewer", "laptop"]  # a cmd_vel says who sent it by its speed: 0.1 * (index + 1)
+DRIVERS = ["viewer", "laptop", "outsider"]  # a cmd_vel says who sent it by its speed: 0.1 * (index + 1)
 
 
 def drive(sender: str) -> bytes:
@@ -117,6 +155,11 @@ def wait_matched(publisher: zenoh.Publisher, what: str) -> None:
     wait_for(lambda: publisher.matching_status.matching, timeout=10, what=what)  # type: ignore[attr-defined]
 
 
+def config_of(team: Path, member: str) -> dict[str, Any]:
+    config: dict[str, Any] = json.loads((team / f"{member}.json5").read_text().split("\n", 2)[2])
+    return config
+
+
 def test_team_keys_writes_one_private_file_per_member_and_keeps_keys(team: Path) -> None:
     described = Team.from_json((team / TEAM_FILE).read_text())
     assert described.members == {"router": Role.ROUTER, "robot1": Role.ROBOT, "robot2": Role.ROBOT,
@@ -127,9 +170,16 @@ def test_team_keys_writes_one_private_file_per_member_and_keeps_keys(team: Path)
     for member in described.members:
         load_config_file(team / f"{member}.json5")  # Zenoh itself accepts every file
         assert member_of(team / f"{member}.json5") == (member, described.members[member])
-    robot1 = json.loads((team / "robot1.json5").read_text().split("\n", 2)[2])
+        # the bus's link-loss settings (README, "Several machines") hold on the secured bus too
+        assert config_of(team, member)["transport"]["link"]["tx"]["lease"] == LEASE_MS, member
+    robot1 = config_of(team, "robot1")
     assert robot1["access_control"]["enabled"] is True and robot1["transport"]["link"]["tls"]["enable_mtls"] is True
     assert robot1["connect"]["endpoints"] == [described.router_endpoint]
+    # the robot's file is its own router's: TLS to the team router, its nodes in plain TCP on loopback only
+    assert robot1["mode"] == "router" and robot1["listen"]["endpoints"] == ["tcp/127.0.0.1:7447"]
+    laptop, viewer = config_of(team, "laptop"), config_of(team, "viewer")
+    assert laptop["mode"] == "peer" and laptop["connect"]["endpoints"] == [f"tls/127.0.0.1:{described.router_port}"]
+    assert viewer["mode"] == "client" and viewer["connect"]["endpoints"] == [described.router_endpoint]
     authority = TeamAuthority.load((team / CA_KEY).read_bytes(), (team / CA_CERTIFICATE).read_bytes())
     assert authority.certificate_pem == (team / CA_CERTIFICATE).read_bytes()
 
@@ -140,10 +190,25 @@ def test_team_keys_writes_one_private_file_per_member_and_keeps_keys(team: Path)
     assert refused.returncode == 2 and "already holds the team 'Test Team'" in refused.stderr
     assert (team / CA_CERTIFICATE).read_bytes() == ca
     robot1_key = read_credentials(team / "robot1.json5").key_pem
+    robot1_file = (team / "robot1.json5").read_bytes()
     add_members(team, robots=["robot3"])
     assert read_credentials(team / "robot1.json5").key_pem == robot1_key
     assert member_of(team / "robot3.json5") == ("robot3", Role.ROBOT)
-    assert "robot-robot3" in (team / "laptop.json5").read_text()  # every file names the new robot
+    assert "robot-robot3" in (team / "laptop.json5").read_text()  # every file that checks robots names the new one
+    add_members(team, laptops=["laptop2"])
+    assert "laptop2" in (team / "router.json5").read_text()
+    assert (team / "robot1.json5").read_bytes() == robot1_file  # a robot's file names only the team router
+    # a robot's file from before the robots ran their own routers (a peer of the team router): --rewrite keeps
+    # its key and writes it as the robot's router
+    robot2_key = read_credentials(team / "robot2.json5").key_pem
+    (team / "robot2.json5").write_text(edited_file(team, "robot2", mode="peer").read_text())
+    rewritten = subprocess.run([sys.executable, "-m", "pitchside.cli", "team-keys", str(team), "--rewrite"],
+                               cwd=REPO, capture_output=True, text=True, timeout=60)
+    assert rewritten.returncode == 0, rewritten.stderr
+    notes = {line.split()[0]: line.split()[-1] for line in rewritten.stdout.splitlines() if line.startswith("  ")}
+    assert notes["robot2.json5"] == "(rewritten)" and notes["robot1.json5"] == notes["router.json5"] == "(unchanged)"
+    assert config_of(team, "robot2")["mode"] == "router"
+    assert read_credentials(team / "robot2.json5").key_pem == robot2_key
     with pytest.raises(TeamKeysError, match="already a member"):
         add_members(team, robots=["robot2"])
     with pytest.raises(TeamKeysError, match="must be 1-32 characters"):
@@ -156,9 +221,11 @@ def test_team_keys_writes_one_private_file_per_member_and_keeps_keys(team: Path)
 
 
 def test_unauthenticated_sessions_cannot_publish_motor_goals(team: Path, router: zenoh.Session) -> None:
-    cm730 = member_session(team, "robot1")  # robot1's servo node
-    hcm = member_session(team, "robot1")  # robot1's HCM, the one writer of motor_goals
+    robot1 = robot_router(team, "robot1")
+    cm730 = robot_process(robot1)  # robot1's servo node
+    hcm = robot_process(robot1)  # robot1's HCM, the one writer of motor_goals
     inbox = ControlInbox(cm730)
+    wait_for(lambda: linked_to_team_router(robot1, router), timeout=10, what="robot1's router linked to the team's")
     endpoint = Team.from_json((team / TEAM_FILE).read_text()).router_endpoint
     ca = json.loads(load_config_file(team / "robot1.json5").get_json("transport/link/tls/root_ca_certificate_base64"))
     stranger = TeamAuthority.create("Strangers").issue("robot1", "robot")  # right name, wrong CA
@@ -189,17 +256,21 @@ def test_unauthenticated_sessions_cannot_publish_motor_goals(team: Path, router:
     assert inbox.senders("motor_goals") == ["hcm"]
     cm730.close()
     hcm.close()
+    robot1.close()
 
 
 @pytest.mark.parametrize("mode", ["peer", "client"])
 def test_members_may_steer_only_what_the_access_control_allows(team: Path, router: zenoh.Session, mode: str) -> None:
-    """Peers meet directly (the receiving peer checks), clients only through the router (the router checks)."""
-    cm730 = member_session(team, "robot1")
+    """Robots behind their own routers, the laptop and the viewer as peers or clients of the team router: what
+    comes from another machine is checked where it enters the team router."""
+    robot1 = robot_router(team, "robot1")
+    cm730 = robot_process(robot1)
     inbox = ControlInbox(cm730)
     sessions = []
+    # robot2 (even with the access control deleted from its router's file) may not write robot1's keys, its own yes
+    robot2_router = robot_router(team, "robot2", access_control=False)
     try:
-        # robot2 (even with the access control deleted from its own file) may not write robot1's keys, its own yes
-        robot2 = member_session(team, "robot2", mode, access_control=False)
+        robot2 = robot_process(robot2_router)
         laptop = member_session(team, "laptop", mode)
         viewer = member_session(team, "viewer", mode, access_control=False)
         sessions += [robot2, laptop, viewer]
@@ -218,7 +289,7 @@ def test_members_may_steer_only_what_the_access_control_allows(team: Path, route
         laptop_cmd.put(drive("laptop"))  # the lab laptop may drive, not set servo goals
         wait_for(lambda: inbox.senders("robot2") and inbox.senders("cmd_vel"), timeout=10,
                  what="the allowed messages")
-        hcm = member_session(team, "robot1", mode)
+        hcm = robot_process(robot1)
         sessions.append(hcm)
         hcm_goals = hcm.declare_publisher(MOTOR_GOALS)
         wait_matched(hcm_goals, "robot1's own processes see each other")
@@ -231,19 +302,68 @@ def test_members_may_steer_only_what_the_access_control_allows(team: Path, route
         for session in sessions:
             session.close()
         cm730.close()
+        robot2_router.close()
+        robot1.close()
+
+
+def test_a_robot_hears_only_the_team_router_not_one_posing_as_it(team: Path, router: zenoh.Session) -> None:
+    """A router with another member's certificate (robot2's key, the team CA's signature) at an address robot1's
+    router connects to, as after a spoofed address at the venue: linked, but neither heard nor served."""
+    impostor_port = free_port()
+    impostor = zenoh.open(router_config([f"tls/127.0.0.1:{impostor_port}"], None, edited_file(
+        team, "robot2", access_control={"enabled": False}, connect={"endpoints": []})))
+    endpoint = Team.from_json((team / TEAM_FILE).read_text()).router_endpoint
+    robot1 = start_machine_router([f"tcp/127.0.0.1:{free_port()}"], [endpoint, f"tls/127.0.0.1:{impostor_port}"],
+                                  team / "robot1.json5")
+    sessions = []
+    try:
+        cm730, hcm, laptop = robot_process(robot1), robot_process(robot1), member_session(team, "laptop")
+        sessions += [cm730, hcm, laptop]
+        inbox = ControlInbox(cm730)
+        wait_for(lambda: {str(impostor.info.zid()), str(router.info.zid())} <= {
+            str(z) for z in robot1.session.info.routers_zid()}, timeout=10, what="robot1's router linked to both")
+        joint_states_key = keys.topic_key("robot1", "joint_states")
+        seen: dict[str, list[int]] = {"laptop": [], "impostor": []}
+        laptop.declare_subscriber(joint_states_key, lambda _: seen["laptop"].append(1))
+        impostor.declare_subscriber(joint_states_key, lambda _: seen["impostor"].append(1))
+        joint_states, laptop_cmd = hcm.declare_publisher(joint_states_key), laptop.declare_publisher(CMD_VEL)
+        state = schemas.encode(schemas.make("sensor_msgs/msg/JointState", name=["HeadPan"], position=[0.0]))
+
+        def one_round() -> bool:
+            impostor.put(MOTOR_GOALS, goals("robot2"))
+            impostor.put(CMD_VEL, drive("outsider"))
+            joint_states.put(state)
+            laptop_cmd.put(drive("laptop"))
+            return len(seen["laptop"]) >= 10 and len(inbox.senders("cmd_vel")) >= 10
+
+        wait_for(one_round, timeout=20, interval=0.05, what="robot1 and the laptop exchanging data")
+        assert seen["impostor"] == []
+        assert inbox.senders("motor_goals") == [] and set(inbox.senders("cmd_vel")) == {"laptop"}
+    finally:
+        for session in sessions:
+            session.close()
+        robot1.close()
+        impostor.close()
 
 
 def test_a_node_works_through_the_secured_router_and_only_the_laptop_sets_its_parameters(team: Path) -> None:
     team_port = Team.from_json((team / TEAM_FILE).read_text()).router_port
-    router = subprocess.Popen([sys.executable, "-m", "pitchside.cli", "router", "--zenoh-config",
-                               str(team / "router.json5")], cwd=REPO, stderr=subprocess.PIPE, text=True)
+    robot_port = free_port()
+    cli = [sys.executable, "-m", "pitchside.cli"]
+    router = subprocess.Popen([*cli, "router", "--zenoh-config", str(team / "router.json5")], cwd=REPO,
+                              stderr=subprocess.PIPE, text=True)
+    # robot1's router from robot1's file, its node a plain peer of it on loopback (as `pitchside robot` runs them)
+    robot = subprocess.Popen([*cli, "router", "--zenoh-config", str(team / "robot1.json5"), "--listen",
+                              f"tcp/127.0.0.1:{robot_port}"], cwd=REPO, stderr=subprocess.PIPE, text=True)
     talker = subprocess.Popen([sys.executable, "-m", "tests.proc_nodes", "talker", "--robot-id", "robot1",
-                               "--zenoh-config", str(team / "robot1.json5"), "--set", "rate_hz=50"], cwd=REPO)
+                               "--connect", f"tcp/127.0.0.1:{robot_port}", "--set", "rate_hz=50"], cwd=REPO)
     sessions: list[zenoh.Session] = []
     try:
-        assert router.stderr is not None
+        assert router.stderr is not None and robot.stderr is not None
         line = router.stderr.readline()
         assert f"listening on tls/127.0.0.1:{team_port} (access control on)" in line, line
+        line = robot.stderr.readline()
+        assert f"listening on tcp/127.0.0.1:{robot_port} (access control on)" in line, line
         laptop, viewer, robot2 = (member_session(team, m) for m in ("laptop", "viewer", "robot2"))
         sessions += [laptop, viewer, robot2]
         labels: list[str] = []
@@ -261,9 +381,10 @@ def test_a_node_works_through_the_secured_router_and_only_the_laptop_sets_its_pa
     finally:
         for session in sessions:
             session.close()
-        for proc in (talker, router):
+        for proc in (talker, robot, router):
             proc.terminate()
         talker.wait(15)
+        assert robot.wait(15) == 0
         assert router.wait(15) == 0
 
 
@@ -271,13 +392,14 @@ def test_a_node_works_through_the_secured_router_and_only_the_laptop_sets_its_pa
 def test_the_simulated_servo_node_moves_only_for_its_own_robot(team: Path, router: zenoh.Session) -> None:
     from robot_nodes.cm730.node import Cm730Node
 
-    node = Cm730Node(robot_id="robot1", bus=BusConfig(config_file=str(team / "robot1.json5")),
+    robot1 = robot_router(team, "robot1")
+    robot2_router = robot_router(team, "robot2", access_control=False)
+    node = Cm730Node(robot_id="robot1", bus=BusConfig(connect=[robot1.local_endpoint]),
                      overrides={"publish_rate": 100.0})
     node.start()
     sessions: list[zenoh.Session] = []
     try:
-        laptop, robot2, hcm = (member_session(team, m, access_control=m != "robot2")
-                               for m in ("laptop", "robot2", "robot1"))
+        laptop, robot2, hcm = member_session(team, "laptop"), robot_process(robot2_router), robot_process(robot1)
         sessions += [laptop, robot2, hcm]
         head_pan: list[float] = []
 
@@ -305,23 +427,59 @@ def test_the_simulated_servo_node_moves_only_for_its_own_robot(team: Path, route
         for session in sessions:
             session.close()
         node.shutdown()
+        robot2_router.close()
+        robot1.close()
 
 
-def test_pitchside_robot_gives_its_team_file_to_every_node(team: Path) -> None:
-    from pitchside.robot import robot_id_for, robot_nodes
+def test_pitchside_robot_runs_its_own_router_from_its_team_file(team: Path, router: zenoh.Session) -> None:
+    from pitchside import robot as robot_command
+    from pitchside.robot import robot_id_for
 
-    processes = robot_nodes("robot1", ["tcp/127.0.0.1:7447"], "minibot", ["cm730", "hcm"],
-                            zenoh_config=team / "robot1.json5")
-    for process in processes:
-        assert process.argv[process.argv.index("--zenoh-config") + 1] == str((team / "robot1.json5").resolve())
     assert robot_id_for(None, str(team / "robot2.json5")) == "robot2"
     with pytest.raises(SystemExit, match="robot2's team config, not robot1's"):
         robot_id_for("robot1", str(team / "robot2.json5"))
     with pytest.raises(SystemExit, match=r"laptop \(laptop\), not of a robot"):
         robot_id_for(None, str(team / "laptop.json5"))
+    with pytest.raises(SystemExit, match="older `pitchside team-keys`"):
+        robot_id_for(None, str(edited_file(team, "robot1", mode="peer")))  # the robot's file before routers
     assert robot_id_for(None, None) == "robot1"
+
+    def started(match: bool, listen: str) -> MachineRouter:
+        return robot_command.robot_router(argparse.Namespace(match=match, zenoh_config=str(team / "robot1.json5"),
+                                                     connect=None, listen=[listen]))
+
+    lab = started(False, f"tcp/127.0.0.1:{free_port()}")
+    try:
+        assert lab.connect == [Team.from_json((team / TEAM_FILE).read_text()).router_endpoint]
+        wait_for(lambda: linked_to_team_router(lab, router), timeout=10, what="robot1's router at the team router")
+    finally:
+        lab.close()
+    match = started(True, f"tcp/127.0.0.1:{free_port()}")
+    try:
+        assert match.connect == []  # in a match the file's endpoint is dropped: the bus stays on the robot
+    finally:
+        match.close()
+    # the nodes join in plain TCP: the robot's router never listens for them beyond loopback
+    with pytest.raises(SystemExit, match=r"beyond loopback only with TLS, not on tcp/0\.0\.0\.0:"):
+        started(False, f"tcp/0.0.0.0:{free_port()}")
     plain = BusConfig().settings()  # without a team file: no TLS, no access control
     assert "tls" not in plain["transport"]["link"] and "access_control" not in plain
+
+
+def test_pitchside_robot_with_its_team_file_reports_to_the_laptop(team: Path, router: zenoh.Session) -> None:
+    """`pitchside robot --zenoh-config robot1.json5`: its router from the file, its nodes on loopback without it."""
+    robot = subprocess.Popen([sys.executable, "-m", "pitchside.cli", "robot", "--zenoh-config",
+                              str(team / "robot1.json5"), "--listen", f"tcp/127.0.0.1:{free_port()}",
+                              "--nodes", "pause"], cwd=REPO)
+    laptop = member_session(team, "laptop")
+    try:
+        paused: list[bytes] = []
+        laptop.declare_subscriber(keys.topic_key("robot1", "paused"), lambda s: paused.append(s.payload.to_bytes()))
+        wait_for(lambda: paused, timeout=30, what="robot1's pause node at the laptop")
+    finally:
+        laptop.close()
+        robot.terminate()
+        assert robot.wait(15) == 0
 
 
 def _b64(data: bytes) -> str:

@@ -4,18 +4,24 @@ A robot is one machine: its router lets its nodes meet on loopback and is the ro
 (``connect``: the laptop's router, in the lab). With nothing to connect to (a match) the robot's bus never
 leaves the robot. If the router's port is taken on this machine (another router runs here), a free loopback
 port is taken instead and said so.
+
+On a team's secured bus the router takes the robot's file from ``pitchside team-keys`` (mutual TLS to the team
+router, the access control): the nodes still join it in plain TCP on loopback, so such a router refuses to
+listen beyond loopback without TLS.
 """
 
 from __future__ import annotations
 
+import json
 import logging
 import socket
 from dataclasses import dataclass
+from pathlib import Path
 
 import zenoh
 
-from robot_nodes.runtime.bus import DEFAULT_LISTEN, open_router
-from robot_nodes.runtime.machine import endpoint_host, is_on_this_machine
+from robot_nodes.runtime.bus import DEFAULT_LISTEN, load_config_file, router_config
+from robot_nodes.runtime.machine import endpoint_host, is_loopback, is_on_this_machine
 
 log = logging.getLogger("pitchside.router")
 
@@ -54,17 +60,52 @@ def _free_loopback_endpoint() -> str:
         return f"tcp/127.0.0.1:{probe.getsockname()[1]}"
 
 
-def start_machine_router(listen: list[str] | None, connect: list[str]) -> MachineRouter:
-    endpoints = list(listen or [DEFAULT_LISTEN])
+def _endpoints(conf: zenoh.Config, key: str) -> list[str]:
+    return [str(e) for e in json.loads(conf.get_json(key)) or []]
+
+
+def is_secured(conf: zenoh.Config) -> bool:
+    """True for a config with Zenoh's access control on (a team's file)."""
+    return json.loads(conf.get_json("access_control/enabled")) is True
+
+
+def is_router_config(config_file: str | Path) -> bool:
+    """True for a Zenoh config file of a router (a robot's file from `pitchside team-keys`); ValueError if it
+    cannot be read."""
+    return json.loads(load_config_file(config_file).get_json("mode")) == "router"
+
+
+def start_machine_router(listen: list[str] | None, connect: list[str] | None,
+                         config_file: str | Path | None = None) -> MachineRouter:
+    """This machine's router. listen and connect, when given, replace the config file's endpoints; connect None
+    keeps the file's, [] connects nowhere (a robot in a match). ValueError for a config it will not run."""
+    conf = router_config(listen, connect, config_file)
+    if connect is not None and not connect:
+        conf.insert_json5("connect/endpoints", "[]")
+    endpoints = _endpoints(conf, "listen/endpoints") or [DEFAULT_LISTEN]
     if not _port_free(endpoints[0]):
         taken = endpoints[0]
-        endpoints[0] = _free_loopback_endpoint()
+        protocol = taken.partition("/")[0]
+        endpoints[0] = protocol + _free_loopback_endpoint().removeprefix("tcp")
         log.warning("%s is taken on this machine (another router?); this machine's router listens on %s", taken,
                     endpoints[0])
-    session = open_router(endpoints, connect)
-    where = f", connecting to {', '.join(connect)}" if connect else " (connecting nowhere: the bus stays here)"
-    log.info("this machine's Zenoh router listens on %s%s", ", ".join(endpoints), where)
-    return MachineRouter(session, endpoints, list(connect))
+    conf.insert_json5("listen/endpoints", json.dumps(endpoints))
+    secured = is_secured(conf)
+    if secured:
+        # the robot's nodes join in plain TCP: anything but TLS beyond loopback would let the network in
+        exposed = [e for e in endpoints if e.partition("/")[0] != "tls" and not is_loopback(endpoint_host(e) or "")]
+        if exposed:
+            raise ValueError(f"a router with a team's access control listens beyond loopback only with TLS, not on "
+                             f"{', '.join(exposed)}")
+    targets = _endpoints(conf, "connect/endpoints")
+    try:
+        session = zenoh.open(conf)
+    except zenoh.ZError as exc:
+        raise ValueError(f"this machine's Zenoh router did not start: {exc}") from None
+    where = f", connecting to {', '.join(targets)}" if targets else " (connecting nowhere: the bus stays here)"
+    how = f" ({config_file}, access control on)" if secured else f" ({config_file})" if config_file else ""
+    log.info("this machine's Zenoh router listens on %s%s%s", ", ".join(endpoints), where, how)
+    return MachineRouter(session, endpoints, targets)
 
 
 def remote(endpoints: list[str]) -> list[str]:
