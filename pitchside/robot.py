@@ -123,7 +123,9 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--nodes", default=",".join(ROBOT_NODES),
                         help="comma-separated nodes to start (telemetry only with --telemetry-to)")
     add_bus_arguments(parser, connect_help="the team laptop's Zenoh router, in the lab (repeatable; the robot's "
-                                           "own router connects to it); none in a match")
+                                           "own router connects to it); none in a match",
+                      config_help="the robot's file from `pitchside team-keys`: its router's config (mutual TLS, "
+                                  "access control); the nodes join that router on loopback")
     parser.add_argument("--telemetry-to", default=None, metavar="HOST[:PORT]",
                         help=f"the team PC's telemetry listener (UDP, port {DEFAULT_PORT} by default)")
     parser.add_argument("--telemetry-key", default=None, metavar="FILE", help="the team's telemetry key file")

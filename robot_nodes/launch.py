@@ -161,7 +161,10 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--params", type=Path, default=None)
     add_bus_arguments(parser, connect_help="the Zenoh router to join (repeatable; default this machine's, "
                                            "tcp/127.0.0.1:7447); a router on another machine is joined through "
-                                           "a router of this machine that this command starts")
+                                           "a router of this machine that this command starts",
+                      config_help="a Zenoh JSON5 config: a robot's router file from `pitchside team-keys` runs "
+                                  "that router here (nodes join it on loopback); a peer or client file goes to "
+                                  "every node")
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s [launch] %(message)s")
     connect = args.connect or bus_from_arguments(args).connect

@@ -105,7 +105,8 @@ class BusConfig:
         return f"Zenoh {self.resolved_mode} connecting to {', '.join(self.connect)}"
 
 
-def add_bus_arguments(parser: argparse.ArgumentParser, *, connect_help: str | None = None) -> None:
+def add_bus_arguments(parser: argparse.ArgumentParser, *, connect_help: str | None = None,
+                      config_help: str | None = None) -> None:
     """--connect, --listen, --mode and --zenoh-config: the same options on every command that joins the bus."""
     parser.add_argument("--connect", action="append", default=None, metavar="ENDPOINT",
                         help=connect_help or f"the Zenoh router to join (repeatable; default ${ENV_CONNECT} or "
@@ -116,8 +117,8 @@ def add_bus_arguments(parser: argparse.ArgumentParser, *, connect_help: str | No
                         help="peer (meets the peers of its machine directly), client (everything through the "
                              "router), auto (default: peer if the router is on this machine, else client)")
     parser.add_argument("--zenoh-config", default=None, metavar="FILE",
-                        help="a Zenoh JSON5 config (e.g. a member's file from `pitchside team-keys`); replaces "
-                             "--connect, --listen and --mode")
+                        help=config_help or "a Zenoh JSON5 config (e.g. a member's file from `pitchside team-keys`); "
+                                            "replaces --connect, --listen and --mode")
 
 
 def bus_from_arguments(args: argparse.Namespace) -> BusConfig:
