@@ -23,8 +23,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import psutil
 
-from tests.conftest import launch_chromium
 from tests.running_demo import DashboardObserver, cpu_by_process, running_demo
+from tests.support import launch_chromium
 
 
 def open_dashboard(pw: Any, url: str) -> Any:

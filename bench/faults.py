@@ -58,8 +58,8 @@ import schemas
 from robot_nodes.launch import NODE_MODULES
 from robot_nodes.runtime import BusConfig, keys, open_session
 from schemas.mcap_log import LogError, LogReader
-from tests.conftest import REPO
 from tests.running_demo import DashboardObserver, RunningDemo, running_demo
+from tests.support import REPO
 from tests.waiting import wait_for
 
 ROUTER = re.compile(r"Zenoh router (tcp/[0-9.]+:\d+)")

@@ -34,7 +34,7 @@ import psutil
 
 import schemas
 from robot_nodes.runtime import BusConfig, GoalStatus, Node, header, open_router
-from tests.conftest import free_port
+from tests.support import free_port
 
 REPO = Path(__file__).resolve().parents[1]
 SWAY = {"name": "bench_sway", "author": "bench/hcm.py", "keyframes": [

@@ -143,7 +143,7 @@ def main() -> None:
     if args.publisher:
         publisher_main(args.publisher, args.hz, args.count, args.connect)
         return
-    from tests.conftest import free_port
+    from tests.support import free_port
 
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     router = open_router([endpoint])

@@ -29,8 +29,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import httpx
 import psutil
 
-from tests.conftest import launch_chromium
 from tests.running_demo import running_demo
+from tests.support import launch_chromium
 
 SAMPLE_S = 10.0
 WARM_UP_S = 60.0

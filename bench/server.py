@@ -40,7 +40,7 @@ from robot_nodes.runtime import BusConfig, open_router, open_session
 from robot_nodes.runtime.keys import topic_key
 from robot_nodes.telemetry import datagram as tdg
 from server.protocol import unbatch
-from tests.conftest import free_port
+from tests.support import free_port
 
 REPO = Path(__file__).resolve().parents[1]
 ROBOTS = [f"r{i}" for i in range(1, 12)]

@@ -20,7 +20,7 @@ from PIL import Image
 
 import schemas
 from robot_nodes.runtime import BusConfig, Node, open_router
-from tests.conftest import free_port
+from tests.support import free_port
 
 REPO = Path(__file__).resolve().parents[1]
 

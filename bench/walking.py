@@ -28,7 +28,7 @@ import schemas
 from robot_nodes.runtime import BusConfig, Node, header, open_router
 from robot_nodes.walking import WalkEngine
 from robot_nodes.walking.engine import WalkOutput
-from tests.conftest import free_port
+from tests.support import free_port
 
 REPO = Path(__file__).resolve().parents[1]
 

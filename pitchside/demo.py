@@ -13,13 +13,13 @@ import sys
 import tempfile
 from pathlib import Path
 
+import robots as descriptions
 from pitchside.robot import MOTION_NODES, available, robot_nodes
 from robot_nodes.launch import Launcher, NodeProcess, run_until_signal
 from robot_nodes.runtime.bus import open_router
 from robot_nodes.telemetry.datagram import write_new_key
 from server.security.credentials import ENV_TOKEN, new_token
 
-REPO = Path(__file__).resolve().parents[1]
 log = logging.getLogger("pitchside.demo")
 
 
@@ -51,7 +51,7 @@ def demo_processes(robots: int, endpoint: str, http_port: int, telemetry_port: i
     py = sys.executable
     connect = ["--connect", endpoint]
     processes = [NodeProcess("world", [py, "-m", "robot_nodes.cm730.sim", "--robots", str(robots),
-                                       *connect, "--params", str(REPO / "robots" / model / "params.yaml")])]
+                                       *connect, "--params", str(descriptions.params_file(model))])]
     per_robot = available([*MOTION_NODES, "walking", "game_controller", "telemetry"])
     for i in range(1, robots + 1):
         robot_id = f"robot{i}"
@@ -69,7 +69,7 @@ def demo_processes(robots: int, endpoint: str, http_port: int, telemetry_port: i
         gc += ["--to", f"127.0.0.1:{port}"]
     processes.append(NodeProcess("gamecontroller", gc))
     server = [py, "-m", "server", "--port", str(http_port), "--telemetry-port", str(telemetry_port),
-              "--urdf", str(REPO / "robots" / model / "urdf" / f"{model}.urdf"), "--robot3d", "--plots", *connect]
+              "--urdf", str(descriptions.urdf(model)), "--robot3d", "--plots", *connect]
     server += ["--telemetry-key", str(telemetry_key)] if telemetry_key else ["--allow-dev-key"]
     if match:
         server.append("--match")

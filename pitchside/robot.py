@@ -13,6 +13,7 @@ import argparse
 import logging
 from pathlib import Path
 
+import robots
 from pitchside.team_access import Role
 from pitchside.team_keys import member_of
 from robot_nodes.launch import NODE_MODULES, Launcher, NodeProcess, node_command, run_until_signal
@@ -20,14 +21,13 @@ from robot_nodes.runtime.bus import add_bus_arguments, env_endpoints, load_confi
 from robot_nodes.runtime.machine_router import MachineRouter, is_router_config, start_machine_router
 from robot_nodes.telemetry.datagram import DEFAULT_PORT
 
-REPO = Path(__file__).resolve().parents[1]
 MOTION_NODES = ["hcm", "animation", "pause", "speaker"]
 # everything a robot runs in a match (telemetry only when it has somewhere to send to)
 ROBOT_NODES = ["cm730", *MOTION_NODES, "walking", "game_controller", "mitecom", "telemetry"]
 
 
 def params_file(model: str) -> Path:
-    return REPO / "robots" / model / "params.yaml"
+    return robots.params_file(model)
 
 
 def robot_nodes(robot_id: str, connect: list[str], model: str, names: list[str],

@@ -6,13 +6,14 @@ import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import robots
+import web
 from robot_nodes.runtime.bus import BusConfig
 from robot_nodes.runtime.machine import is_loopback
 from server.security.credentials import ENV_TOKEN, new_token
 
-REPO = Path(__file__).resolve().parents[1]
-DEFAULT_URDF = REPO / "robots" / "minibot" / "urdf" / "minibot.urdf"
-WEB_DIR = REPO / "web"
+DEFAULT_URDF = robots.urdf()
+WEB_DIR = web.ROOT
 
 
 @dataclass(slots=True)
@@ -61,9 +62,10 @@ class ServerConfig:
     plots_max_hz: float = 10.0
     plots_all_topics: bool = False  # also every numeric field of every topic, a tab per topic
     web_dir: Path = WEB_DIR
-    # where recordings go and replay looks for bare file names; $PITCHSIDE_RECORDINGS overrides (e.g. for tests)
+    # where recordings go and replay looks for bare file names: recordings/ in the folder the server starts in
+    # (the checkout's, for ./run demo); $PITCHSIDE_RECORDINGS or --recordings elsewhere
     recordings_dir: Path = field(default_factory=lambda: Path(os.environ.get("PITCHSIDE_RECORDINGS")
-                                                              or REPO / "recordings"))
+                                                              or Path.cwd() / "recordings"))
     auto_record_matches: bool = True  # record every match (per half) from the robots' gamestate
     replay_file: Path | None = None  # a log the replay source opens at start (pitchside replay FILE)
 

@@ -4,7 +4,6 @@ Playwright, and paths to the shared test data."""
 from __future__ import annotations
 
 import os
-import socket
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -13,17 +12,7 @@ import pytest
 import zenoh
 
 from robot_nodes.runtime import BusConfig, open_router, open_session
-
-REPO = Path(__file__).resolve().parents[1]
-TESTDATA = REPO.parent / "shared" / "testdata"
-CHROMIUM = Path("/usr/bin/chromium")
-CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update"]
-
-
-def free_port(kind: int = socket.SOCK_STREAM) -> int:
-    with socket.socket(socket.AF_INET, kind) as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
+from tests.support import TESTDATA, free_port, launch_chromium
 
 
 @pytest.fixture(scope="session", autouse=True)
@@ -67,14 +56,6 @@ def client(bus: BusConfig) -> Iterator[zenoh.Session]:
     session = open_session(bus)
     yield session
     session.close()
-
-
-def launch_chromium(playwright: Any) -> Any:
-    """Debian's chromium, headless, through Playwright: the browser tests never download a browser."""
-    if not CHROMIUM.exists():
-        pytest.fail(f"{CHROMIUM} is missing: install Debian's chromium (apt-get install chromium); "
-                    "the browser tests never download a browser")
-    return playwright.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_ARGS)
 
 
 @pytest.fixture

@@ -20,7 +20,7 @@ import httpx
 import psutil
 
 from server.protocol import unbatch
-from tests.conftest import REPO, free_port
+from tests.support import REPO, free_port
 from tests.waiting import wait_for
 
 BANNER = re.compile(r"open (http://127\.0\.0\.1:\d+)/\?token=(\S+)")

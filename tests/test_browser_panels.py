@@ -11,8 +11,8 @@ import pytest
 
 import schemas
 from robot_nodes.runtime import BusConfig, Node
-from tests.conftest import REPO
 from tests.dashboard_server import RunningServer, dashboard_server
+from tests.support import REPO
 from tests.teststand import SceneStand
 from tests.waiting import wait_for
 
@@ -178,7 +178,7 @@ def _changed_pixels(before: Any, after: Any) -> int:
 def test_robot3d_panel_shows_viser(browser: Any, router_endpoint: str, bus: BusConfig, testdata: Path,
                                    tmp_path: Path) -> None:
     """The 3D panel embeds viser's own client, which draws the Wolfgang URDF driven by joint_states, in sight."""
-    from tests.conftest import free_port
+    from tests.support import free_port
     from tests.teststand import TestStand
 
     wolfgang = testdata / "robots" / "wolfgang"

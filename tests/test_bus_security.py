@@ -40,7 +40,7 @@ from pitchside.team_keys import (
 from robot_nodes.runtime import BusConfig, ParameterClient, ParameterError, keys, open_router, open_session
 from robot_nodes.runtime.bus import LEASE_MS, load_config_file, router_config
 from robot_nodes.runtime.machine_router import MachineRouter, start_machine_router
-from tests.conftest import REPO, free_port
+from tests.support import REPO, free_port
 from tests.waiting import wait_for
 
 MOTOR_GOALS = keys.topic_key("robot1", "motor_goals")

@@ -8,7 +8,7 @@ import sys
 import pytest
 
 from pitchside.cli import COMMANDS
-from tests.conftest import REPO
+from tests.support import REPO
 
 
 def test_usage_lists_every_command() -> None:

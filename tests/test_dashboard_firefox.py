@@ -18,10 +18,10 @@ import pytest
 
 import schemas
 from tests import firefox_bidi
-from tests.conftest import REPO
 from tests.firefox_bidi import FIREFOX, FirefoxBidi, LogEntry
 from tests.pictures import picture, wait_for_moving_plot
 from tests.running_demo import DashboardObserver, RunningDemo, running_demo
+from tests.support import REPO
 from tests.waiting import wait_for
 
 OUTPUT = REPO / "test-output" / "firefox"

@@ -20,9 +20,9 @@ import psutil
 import pytest
 
 import schemas
-from tests.conftest import REPO, launch_chromium
 from tests.pictures import picture, wait_for_moving_plot
 from tests.running_demo import DashboardObserver, RunningDemo, cpu_by_process, running_demo
+from tests.support import REPO, launch_chromium
 from tests.waiting import wait_for
 
 OUTPUT = REPO / "test-output" / "demo"

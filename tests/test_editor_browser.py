@@ -13,8 +13,8 @@ import pytest
 
 from robot_nodes.animation.node import AnimationNode
 from robot_nodes.runtime import BusConfig
-from tests.conftest import REPO, free_port
 from tests.dashboard_server import RunningServer, dashboard_server
+from tests.support import REPO, free_port
 from tests.waiting import wait_for
 
 pytestmark = [pytest.mark.slow, pytest.mark.browser]

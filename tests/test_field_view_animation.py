@@ -15,8 +15,8 @@ import pytest
 
 import schemas
 from robot_nodes.runtime import BusConfig, Node, header
-from tests.conftest import REPO, launch_chromium
 from tests.dashboard_server import RunningServer, dashboard_server
+from tests.support import REPO, launch_chromium
 
 OUTPUT = REPO / "test-output" / "field_view"
 SPEED = 0.5  # m/s along x

@@ -22,7 +22,7 @@ from robot_nodes.game_controller.packets import (
 from robot_nodes.game_controller.receiver import GameControllerNode, gamestate_fields
 from robot_nodes.game_controller.simulator import SimulatedGame, SimulatedGameController
 from robot_nodes.runtime import BusConfig, Node
-from tests.conftest import free_port
+from tests.support import free_port
 from tests.waiting import wait_for
 
 ROBOT = "gc_robot"

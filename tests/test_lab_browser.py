@@ -15,8 +15,8 @@ from robot_nodes.animation.node import AnimationNode
 from robot_nodes.cm730.node import Cm730Node
 from robot_nodes.hcm.node import HcmNode
 from robot_nodes.runtime import BusConfig, ParameterClient
-from tests.conftest import REPO
 from tests.dashboard_server import RunningServer, dashboard_server
+from tests.support import REPO
 from tests.waiting import wait_for
 
 pytestmark = [pytest.mark.slow, pytest.mark.browser]

@@ -25,8 +25,8 @@ from robot_nodes.runtime import BusConfig, ParameterClient
 from robot_nodes.runtime.keys import topic_key
 from server.app import create_app
 from server.config import ServerConfig
-from tests.conftest import REPO
 from tests.dashboard_server import RunningServer, dashboard_server
+from tests.support import REPO
 from tests.waiting import wait_for
 
 LAB_TAGS = {"params", "animations", "teleop"}
@@ -234,7 +234,7 @@ def test_lab_endpoints_refused_in_match_mode(tmp_path: Path) -> None:
 
 @pytest.mark.slow
 def test_preview_drives_a_ghost_robot_in_the_3d_view(router_endpoint: str, tmp_path: Path) -> None:
-    from tests.conftest import free_port
+    from tests.support import free_port
 
     anim = {"name": "nod", "keyframes": [{"duration": 0.3, "goals": {"HeadTilt": -30.0}},
                                          {"duration": 0.3, "goals": {"HeadTilt": 0.0}}]}
@@ -255,7 +255,7 @@ def test_preview_drives_a_ghost_robot_in_the_3d_view(router_endpoint: str, tmp_p
 @pytest.mark.slow
 def test_keyframe_ghosts_in_the_3d_view_hold_each_keyframes_pose(router_endpoint: str, tmp_path: Path) -> None:
     """The viser scene gets a still ghost per keyframe whose joint frames are posed at the keyframe's goals."""
-    from tests.conftest import free_port
+    from tests.support import free_port
 
     anim = {"name": "wave", "keyframes": [
         {"duration": 0.5, "goals": {"LShoulderPitch": 40.0, "RShoulderPitch": -40.0, "HeadPan": 10.0}},

@@ -14,7 +14,7 @@ import pytest
 
 from robot_nodes.launch import Launcher, NodeProcess, node_command
 from robot_nodes.runtime import BusConfig, ParameterClient, keys, open_session
-from tests.conftest import REPO, free_port
+from tests.support import REPO, free_port
 from tests.waiting import wait_for
 
 

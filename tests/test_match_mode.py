@@ -13,8 +13,8 @@ import psutil
 import pytest
 
 from robot_nodes.runtime import BusConfig
-from tests.conftest import free_port
 from tests.dashboard_server import RunningServer, dashboard_server
+from tests.support import free_port
 from tests.teststand import TestStand
 from tests.waiting import wait_for
 

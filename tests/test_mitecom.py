@@ -19,7 +19,7 @@ from robot_nodes.mitecom.node import MitecomNode, parse_peers
 from robot_nodes.mitecom.protobuf_codec import TeamMessageError
 from robot_nodes.mitecom.report import SeenRobot, TeammateReport
 from robot_nodes.runtime import BusConfig, Node
-from tests.conftest import free_port
+from tests.support import free_port
 from tests.waiting import wait_for
 
 SPEC_EXAMPLE = bytes.fromhex(

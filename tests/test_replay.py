@@ -14,8 +14,8 @@ import websockets
 import schemas
 from schemas.mcap_log import LogWriter
 from server.protocol import unbatch
-from tests.conftest import TESTDATA
 from tests.dashboard_server import RunningServer, dashboard_server
+from tests.support import TESTDATA
 from tests.waiting import wait_for
 
 T0 = 1_700_000_000_000_000_000  # ns

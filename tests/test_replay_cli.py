@@ -9,7 +9,7 @@ from pathlib import Path
 
 import httpx
 
-from tests.conftest import REPO, free_port
+from tests.support import REPO, free_port
 from tests.test_replay import _pitchside_log
 from tests.waiting import wait_for
 

@@ -26,7 +26,7 @@ from robot_nodes.runtime import (
     open_session,
     param,
 )
-from tests.conftest import REPO
+from tests.support import REPO
 from tests.waiting import wait_for
 
 

@@ -13,8 +13,8 @@ import pytest
 
 from robot_nodes.runtime import BusConfig
 from server.protocol import unbatch
-from tests.conftest import free_port
 from tests.dashboard_server import dashboard_server
+from tests.support import free_port
 from tests.teststand import SceneStand
 from tests.waiting import wait_for
 

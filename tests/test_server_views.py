@@ -16,7 +16,7 @@ import pytest
 import schemas
 from server.config import RobotDescription, ServerConfig
 from server.hub import Hub, HubMessage
-from tests.conftest import free_port
+from tests.support import free_port
 from tests.waiting import wait_for
 
 WOLFGANG_JOINTS = ["HeadPan", "HeadTilt", "LKnee", "RKnee", "LElbow", "RElbow"]

@@ -21,8 +21,8 @@ from websockets.exceptions import InvalidStatus
 
 from robot_nodes.runtime.machine import machine_addresses
 from server.security.token_file import read_token_file, token_path
-from tests.conftest import REPO, free_port
 from tests.dashboard_server import RunningServer, dashboard_server
+from tests.support import REPO, free_port
 from tests.waiting import wait_for
 
 EVIL = "http://evil.example"

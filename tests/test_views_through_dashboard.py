@@ -302,7 +302,7 @@ def test_a_slow_browser_holds_back_viser_instead_of_filling_the_proxy(testdata: 
 
     from server.app import create_app
     from server.config import ServerConfig
-    from tests.conftest import free_port
+    from tests.support import free_port
 
     port = free_port()
     app = create_app(ServerConfig(port=port, live_source=False, telemetry_source=False, robot3d=True,

@@ -21,8 +21,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from robot_nodes.telemetry import datagram
-from tests.conftest import free_port
 from tests.dashboard_server import RunningServer, dashboard_server
+from tests.support import free_port
 
 FAST_FRAMES = 10_000
 FULL_FRAMES = 100_000

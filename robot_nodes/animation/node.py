@@ -27,13 +27,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import robots
 import schemas
 from robot_nodes.animation.animation_file import Animation, AnimationError, check_joints
 from robot_nodes.animation.library import AnimationLibrary
 from robot_nodes.animation.player import INTERPOLATIONS, AnimationPlayer
 from robot_nodes.runtime import Node, ServerGoal, header, param
 
-REPO = Path(__file__).resolve().parents[2]
 NO_TORQUE_REQUEST = -1.0
 
 
@@ -83,10 +83,14 @@ class AnimationNode(Node):
 
     # -- configuration ---------------------------------------------------------------------------------
     def folders(self) -> list[Path]:
-        main = Path(self.params.animation_dir) if self.params.animation_dir else \
-            REPO / "robots" / self.params.model / "animations"
         extra = [Path(p) for p in self.params.search_path.split(os.pathsep) if p.strip()]
-        return [main, *extra]
+        if self.params.animation_dir:
+            return [Path(self.params.animation_dir), *extra]
+        try:
+            return [robots.animations_dir(self.params.model), *extra]
+        except robots.UnknownModel as exc:  # no animations of its own; the search path may still have some
+            self.record_error(str(exc))
+            return extra
 
     def on_parameters_changed(self, changed: dict[str, Any]) -> None:
         if {"model", "animation_dir", "search_path"} & set(changed):

@@ -14,7 +14,6 @@ from __future__ import annotations
 import importlib
 import io
 import math
-import re
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -22,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+import robots
 import schemas
 from robot_nodes.cm730.backend import AngleLimitRegisters, BusReading, ServoBackend
 from robot_nodes.cm730.joint_limits import ClampedGoals, ClampTally, GoalLimits, JointLimitsError
@@ -30,7 +30,6 @@ from robot_nodes.runtime import Node, param
 OPTICAL_FRAME = "camera_optical_frame"
 FOOTPRINT_FRAME = "base_footprint"
 MAP_FRAME = "map"
-ROBOTS = Path(__file__).resolve().parents[2] / "robots"
 LIMIT_PARAMS = ("model", "urdf", "limit_margin_deg")  # read once at start-up (section "Safety" of the README)
 CLAMP_REPORT_EVERY_S = 5.0  # at most one error line per this many seconds while goals are being clamped
 
@@ -106,9 +105,10 @@ class Cm730Node(Node):
         p = self.params
         if p.urdf:
             return Path(p.urdf)
-        if not re.fullmatch(r"[A-Za-z0-9_][A-Za-z0-9_.-]*", p.model):
-            raise JointLimitsError(f"model {p.model!r} is not a folder name under {ROBOTS}")
-        return ROBOTS / p.model / "urdf" / f"{p.model}.urdf"
+        try:
+            return robots.urdf(p.model)
+        except robots.UnknownModel as exc:
+            raise JointLimitsError(str(exc)) from None
 
     def _load_limits(self) -> GoalLimits | None:
         """The clamp from the URDF. Without it a real robot does not start (a bus without limits is the dangerous

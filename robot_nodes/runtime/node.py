@@ -158,7 +158,12 @@ class Node:
         self._params_changed = self.session.declare_publisher(keys.params_changed_key(robot_id, self.name))
         self.parameters.on_change(self._announce_parameters)
         self.timer(1.0 / self.diagnostics_period, self._publish_diagnostics)
-        self.setup()
+        try:
+            self.setup()
+        except BaseException:  # a node that cannot start leaves no session behind (it would hold the process)
+            self.loop.stop()
+            self._close()
+            raise
 
     # -- for subclasses -------------------------------------------------------------------------------
     def setup(self) -> None:

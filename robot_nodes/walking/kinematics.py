@@ -16,8 +16,9 @@ from pathlib import Path
 
 import numpy as np
 
-REPO = Path(__file__).resolve().parents[2]
-MINIBOT_URDF = REPO / "robots" / "minibot" / "urdf" / "minibot.urdf"
+import robots
+
+MINIBOT_URDF = robots.urdf("minibot")
 LEG_JOINTS = ("HipYaw", "HipRoll", "HipPitch", "Knee", "AnklePitch", "AnkleRoll")
 SIDES = ("L", "R")
 

@@ -22,6 +22,7 @@ import numpy as np
 from fastapi import APIRouter, Depends, HTTPException
 from pydantic import BaseModel
 
+import robots
 import schemas
 from robot_nodes.animation import (
     Animation,
@@ -49,7 +50,6 @@ from server.security import AllowedFolders
 from server.state import ServerState
 
 router = APIRouter(prefix="/api/robots/{robot}", tags=["animations"], dependencies=[Depends(valid_robot)])
-REPO = Path(__file__).resolve().parents[2]
 TIMEOUT_S = 3.0
 PREVIEW_FILE = "_editor_preview"  # "play up to keyframe k" plays a cut copy saved under this name
 FOLDER_CACHE_S = 10.0
@@ -98,11 +98,14 @@ def _ask_folder(state: ServerState, robot: str) -> tuple[Path, str]:
     try:
         described = ParameterClient(state.link.session(), robot, timeout=TIMEOUT_S).describe("animation")
     except ParameterError:
-        return REPO / "robots" / "minibot" / "animations", "default (the robot's animation node did not answer)"
+        return robots.animations_dir(), "default (the robot's animation node did not answer)"
     params = {p["name"]: p["value"] for p in described}
     if params.get("animation_dir"):
         return Path(params["animation_dir"]), "animation node's animation_dir"
-    return REPO / "robots" / str(params.get("model", "minibot")) / "animations", "animation node's model"
+    try:
+        return robots.animations_dir(str(params.get("model", robots.DEFAULT_MODEL))), "animation node's model"
+    except robots.UnknownModel as exc:
+        raise HTTPException(404, str(exc)) from None
 
 
 async def animation_folder(state: ServerState, robot: str) -> tuple[Path, str]:
@@ -112,7 +115,7 @@ async def animation_folder(state: ServerState, robot: str) -> tuple[Path, str]:
     if cached is not None and time.monotonic() - cached[0] < FOLDER_CACHE_S and "default" not in cached[2]:
         return cached[1], cached[2]
     folder, how = await asyncio.to_thread(_ask_folder, state, robot)
-    allowed = AllowedFolders([REPO / "robots", *state.config.allowed_folders], "animation folders")
+    allowed = AllowedFolders([robots.ROOT, *state.config.allowed_folders], "animation folders")
     if not allowed.contains(folder):
         # the folder comes from the network (the robot's parameter): the editor writes files there
         raise HTTPException(403, f"the robot's animation folder {str(folder)!r} is outside the folders this "

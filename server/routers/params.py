@@ -20,6 +20,7 @@ from fastapi import APIRouter, Depends, HTTPException
 from fastapi.responses import StreamingResponse
 from pydantic import BaseModel
 
+import robots
 from robot_nodes.runtime import keys
 from robot_nodes.runtime.param_client import ParameterClient
 from robot_nodes.runtime.parameters import ParameterError, load_yaml_section
@@ -27,9 +28,7 @@ from server.deps import require_control, robot_on_link, valid_node, valid_robot
 from server.state import ServerState
 
 router = APIRouter(prefix="/api/robots/{robot}/params/{node}", tags=["params"], dependencies=[Depends(valid_robot)])
-ROBOTS_DIR = Path(__file__).resolve().parents[2] / "robots"
 TIMEOUT_S = 3.0
-_MODEL = re.compile(r"^[A-Za-z0-9_-]+$")
 _NAME = re.compile(r"^[A-Za-z0-9_.-]+$")  # a robot or node name: nothing a Zenoh key expression would read as a pattern
 EVENTS_KEEPALIVE_S = 15.0  # a comment line this often, so proxies and the browser see the stream alive
 EVENTS_QUEUE = 1000  # a browser this far behind loses events and is told to read everything again
@@ -44,9 +43,10 @@ def _client(state: ServerState, robot: str) -> ParameterClient:
 
 
 def params_yaml(model: str) -> Path:
-    if not _MODEL.match(model) or not (ROBOTS_DIR / model).is_dir():
-        raise HTTPException(404, f"no robot model {model!r} under robots/")
-    return ROBOTS_DIR / model / "params.yaml"
+    try:
+        return robots.params_file(model)
+    except robots.UnknownModel as exc:
+        raise HTTPException(404, str(exc)) from None
 
 
 @router.post("/reset", dependencies=[Depends(robot_on_link), Depends(valid_node)])
@@ -85,7 +85,8 @@ async def diff_parameters(robot: str, node: str, model: str = "minibot",
         if expected != p["value"]:
             changes.append({"name": p["name"], "live": p["value"], "yaml": expected, "from": "yaml" if in_yaml
                             else "default"})
-    return {"robot": robot, "node": node, "file": str(path.relative_to(ROBOTS_DIR.parent)), "changes": changes}
+    return {"robot": robot, "node": node, "file": f"robots/{path.relative_to(robots.ROOT)}",
+            "changes": changes}
 
 
 @router.get("/events")

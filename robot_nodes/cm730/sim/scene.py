@@ -9,10 +9,10 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+import robots
 from robot_nodes.cm730.sim.field import KID_SIZE, FieldDimensions, goal_posts, line_segments
 
-REPO = Path(__file__).resolve().parents[3]
-MINIBOT_URDF = REPO / "robots" / "minibot" / "urdf" / "minibot.urdf"
+MINIBOT_URDF = robots.urdf("minibot")
 
 # geom groups: 0 robots and ball, 1 field furniture (goals), 2 painted lines (never hit by rays)
 GROUP_LINES = 2

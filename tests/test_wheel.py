@@ -1,0 +1,86 @@
+"""pitchside as a user installs it: the built wheel in a fresh virtualenv outside the checkout runs the demo, whose
+robot descriptions and web page come from the installed package (importlib.resources), not from the checkout."""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import re
+import signal
+import subprocess
+import sys
+import sysconfig
+from pathlib import Path
+
+import httpx
+import pytest
+
+from tests.support import REPO, free_port
+from tests.waiting import wait_for
+
+pytestmark = pytest.mark.slow
+
+
+def _fresh_venv(tmp_path: Path) -> Path:
+    """A virtualenv with only the wheel of pitchside; its dependencies come from the test's own environment
+    (a .pth line, so nothing is downloaded), never pitchside itself."""
+    wheels = tmp_path / "wheels"
+    built = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q", "-w",
+                            str(wheels), str(REPO)], capture_output=True, text=True, timeout=300)
+    assert built.returncode == 0, built.stderr[-3000:]
+    (wheel,) = wheels.glob("pitchside-*.whl")
+    venv = tmp_path / "venv"
+    subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True, timeout=300)
+    site = Path(subprocess.run([str(venv / "bin" / "python"), "-c", "import sysconfig; print(sysconfig.get_paths()"
+                                "['purelib'])"], capture_output=True, text=True, check=True).stdout.strip())
+    (site / "zz_dependencies.pth").write_text(sysconfig.get_paths()["purelib"] + "\n")
+    installed = subprocess.run([str(venv / "bin" / "python"), "-m", "pip", "install", "-q", "--no-deps",
+                                "--no-index", str(wheel)], capture_output=True, text=True, timeout=300)
+    assert installed.returncode == 0, installed.stderr[-3000:]
+    return venv
+
+
+def test_the_wheel_runs_the_demo_outside_the_checkout(tmp_path: Path) -> None:
+    venv = _fresh_venv(tmp_path)
+    elsewhere = tmp_path / "somewhere"
+    elsewhere.mkdir()
+    where = subprocess.run([str(venv / "bin" / "python"), "-c", "import robots, server, web; "
+                            "print(server.__file__); print(robots.urdf()); print(web.ROOT)"],
+                           cwd=elsewhere, capture_output=True, text=True, check=True).stdout.split()
+    assert all(p.startswith(str(venv)) for p in where), where  # the installed package, not the checkout
+    log = tmp_path / "demo.log"
+    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH",)}
+    env.update(PYTHONUNBUFFERED="1", MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl"))
+    with log.open("wb") as out:
+        demo = subprocess.Popen([str(venv / "bin" / "pitchside"), "demo", "--port", str(free_port())], cwd=elsewhere,
+                                stdout=out, stderr=subprocess.STDOUT, env=env, start_new_session=True)
+    try:
+        found = wait_for(lambda: re.search(r"open (http://127\.0\.0\.1:\d+)/\?token=(\S+)", log.read_text()),
+                         90.0, 0.2, "the demo's link")
+        url, token = found.group(1), found.group(2)
+        page = wait_for(lambda: _get(f"{url}/"), 60.0, 0.2, "the page")
+        assert "pitchside" in page.text and _get(f"{url}/app.js") is not None
+        heard = wait_for(lambda: (r := _get(f"{url}/api/robots")) and any(
+            x["robot"] == "robot1" and "joint_states" in x["streams"] for x in r.json()), 90.0, 0.5,
+            "robot1's joint states from the installed simulation")
+        assert heard
+        params = httpx.get(f"{url}/api/robots/robot1/params", headers={"Authorization": f"Bearer {token}"},
+                           timeout=30)
+        assert params.status_code == 200 and "walking" in params.json(), params.text[:500]
+        assert "Traceback" not in log.read_text(), log.read_text()[-3000:]
+    finally:
+        demo.send_signal(signal.SIGTERM)
+        try:
+            demo.wait(30)
+        except subprocess.TimeoutExpired:
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(demo.pid, signal.SIGKILL)
+            demo.wait(5)
+
+
+def _get(url: str) -> httpx.Response | None:
+    try:
+        reply = httpx.get(url, timeout=5)
+    except httpx.HTTPError:
+        return None
+    return reply if reply.status_code == 200 else None
