@@ -3,7 +3,6 @@ answers, messages of foreign types replayed from another team's log)."""
 
 from __future__ import annotations
 
-import functools
 import inspect
 import math
 from typing import Any
@@ -16,17 +15,25 @@ MAX_INLINE_BYTES = 4096
 _AS_IS = frozenset({int, str, bool, type(None)})
 
 
-@functools.cache
+_FIELDS: dict[type, tuple[str, ...] | None] = {}  # per class, once (the converter asks for every nested value)
+
+
 def field_names(cls: type) -> tuple[str, ...] | None:
     """The fields of a message class in definition order, without its constants; None if ``cls`` is no message.
 
     rosbags keeps a .msg's constants as dataclass fields too, annotated ``ClassVar``: that tells them apart in
     our own types and in types decoded with another log's definitions alike.
     """
-    if not isinstance(getattr(cls, "__msgtype__", None), str):
-        return None
-    annotations = inspect.get_annotations(cls)
-    return tuple(name for name, annotation in annotations.items() if "ClassVar" not in str(annotation))
+    try:
+        return _FIELDS[cls]
+    except KeyError:
+        pass
+    names = None
+    if isinstance(getattr(cls, "__msgtype__", None), str):
+        annotations = inspect.get_annotations(cls)
+        names = tuple(name for name, annotation in annotations.items() if "ClassVar" not in str(annotation))
+    _FIELDS[cls] = names
+    return names
 
 
 def to_dict(value: Any) -> Any:

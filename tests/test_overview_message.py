@@ -74,7 +74,8 @@ def test_the_overview_is_recorded_as_its_message(tmp_path: Path) -> None:
         assert (channel.robot_id, channel.topic, channel.typename) == ("r2", "overview", OVERVIEW_TYPE)
         (item,) = log.messages()
         assert schemas.to_dict(item.msg) == schemas.to_dict(overview) and math.isnan(item.msg.battery_voltage)
-        assert "float32 hottest_servo_temperature" in log.schema(channel.channel_id).data.decode()
+        schema = log.schema(channel.channel_id)
+        assert schema is not None and "float32 hottest_servo_temperature" in schema.data.decode()
 
 
 def test_replay_shows_overviews_of_earlier_and_this_version(tmp_path: Path) -> None:

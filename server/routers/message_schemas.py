@@ -16,7 +16,7 @@ router = APIRouter(prefix="/api", tags=["schemas"])
 
 def carried_types() -> list[str]:
     """Every message type the topic table's topics carry, the types nested in them included."""
-    fielddefs = typestore().fielddefs
+    fielddefs: dict[str, Any] = typestore().fielddefs
     seen: set[str] = set()
     todo = [t.type for t in TOPICS.values()]
     while todo:
@@ -24,7 +24,9 @@ def carried_types() -> list[str]:
         if typename in seen:
             continue
         seen.add(typename)
-        for _, (kind, detail) in fielddefs[typename][1]:
+        field: Any
+        for _, field in fielddefs[typename][1]:
+            kind, detail = field
             # rosbags field kinds: 1 base, 2 nested message, 3 array, 4 sequence (of (kind, detail))
             if kind in (3, 4):
                 kind, detail = detail[0]
