@@ -1,6 +1,7 @@
 """Message definitions, the topic table and the CDR codec every pitchside process shares."""
 
-from schemas.codec import SchemaError, constant_names, constants, decode, encode, make, message_class, msgdef, to_dict
+from schemas.codec import SchemaError, constant_names, constants, decode, encode, make, message_class, msgdef
+from schemas.json_view import to_dict
 from schemas.topics import ACTIONS, SERVICES, TOPICS, Priority, Topic, topic
 
 __all__ = [

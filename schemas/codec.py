@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 import functools
 import hashlib
 from pathlib import Path
@@ -174,23 +173,6 @@ def schema_hash(typename: str) -> int:
     """A 32-bit fingerprint of the full definition, so a receiver spots a type mismatch."""
     digest = hashlib.sha256(msgdef(typename).encode()).digest()
     return int.from_bytes(digest[:4], "little")
-
-
-def to_dict(msg: Any) -> Any:
-    """A JSON-ready view of a message (numpy arrays become lists, bytes stay out)."""
-    if dataclasses.is_dataclass(msg):
-        # rosbags keeps .msg constants as dataclass fields too; only the real fields belong in the data
-        fields = typestore().fielddefs[msg.__msgtype__][1]  # type: ignore[union-attr]
-        return {name: to_dict(getattr(msg, name)) for name, _ in fields}
-    if isinstance(msg, np.ndarray):
-        if msg.dtype == np.uint8 and msg.size > 4096:
-            return {"bytes": int(msg.size)}
-        return msg.tolist()
-    if isinstance(msg, list | tuple):
-        return [to_dict(v) for v in msg]
-    if isinstance(msg, float) and not np.isfinite(msg):
-        return None
-    return msg
 
 
 def constants(typename: str) -> dict[str, Any]:

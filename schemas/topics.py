@@ -25,6 +25,9 @@ class Topic:
     type: str
     description: str
     priority: Priority = Priority.STATE
+    # published only when something happens (an animation plays, the robot walks or talks): silence on it is
+    # normal, so the dashboard shows its age but never calls it stale or lost
+    event: bool = False
 
 
 _HL = "humanoid_league_msgs/msg/"
@@ -33,24 +36,27 @@ _TABLE: tuple[Topic, ...] = (
         Topic("joint_states", "sensor_msgs/msg/JointState", "measured joint positions, cm730 -> all"),
         Topic("imu/data", "sensor_msgs/msg/Imu", "orientation, angular velocity, acceleration; cm730 -> hcm"),
         Topic("servo_data", _HL + "AdditionalServoData", "servo temperatures and voltage", Priority.PERCEPTION),
-        Topic("motor_goals", "trajectory_msgs/msg/JointTrajectory", "joint goals, hcm -> cm730"),
+        Topic("servo_health", "pitchside_msgs/msg/ServoHealth",
+              "servos that do not answer and the bus state, on change and every second; cm730 -> hcm, dashboard",
+              Priority.CRITICAL),
+        Topic("motor_goals", "trajectory_msgs/msg/JointTrajectory", "joint goals, hcm -> cm730", event=True),
         Topic("motor_torque", "sensor_msgs/msg/JointState",
               "servo torque on/off per joint: name lists joints, effort 1.0 = on, 0.0 = off (limp); hcm -> cm730",
-              Priority.CRITICAL),
-        Topic("walk_motor_goals", "trajectory_msgs/msg/JointTrajectory", "walking -> hcm"),
-        Topic("head_motor_goals", "trajectory_msgs/msg/JointTrajectory", "head behaviour -> hcm"),
-        Topic("record_motor_goals", "trajectory_msgs/msg/JointTrajectory", "animation recorder -> hcm"),
-        Topic("animation", _HL + "Animation", "keyframe animation steps, animation -> hcm"),
+              Priority.CRITICAL, event=True),
+        Topic("walk_motor_goals", "trajectory_msgs/msg/JointTrajectory", "walking -> hcm", event=True),
+        Topic("head_motor_goals", "trajectory_msgs/msg/JointTrajectory", "head behaviour -> hcm", event=True),
+        Topic("record_motor_goals", "trajectory_msgs/msg/JointTrajectory", "animation recorder -> hcm", event=True),
+        Topic("animation", _HL + "Animation", "keyframe animation steps, animation -> hcm", event=True),
         Topic("robot_state", _HL + "RobotControlState", "HCM state, hcm -> all", Priority.CRITICAL),
         Topic("hcm_graph", "pitchside_msgs/msg/StateMachineGraph", "HCM states, transitions, history"),
-        Topic("cmd_vel", "geometry_msgs/msg/Twist", "walk command, behaviour/teleop -> walking"),
-        Topic("walk_odometry", "nav_msgs/msg/Odometry", "walking -> localization"),
+        Topic("cmd_vel", "geometry_msgs/msg/Twist", "walk command, behaviour/teleop -> walking", event=True),
+        Topic("walk_odometry", "nav_msgs/msg/Odometry", "walking -> localization", event=True),
         Topic("walking_active", "std_msgs/msg/Bool", "walking tells the HCM it is stepping"),
         Topic("gamestate", _HL + "GameState", "GameController state, game_controller -> all", Priority.CRITICAL),
         Topic("paused", "std_msgs/msg/Bool", "penalty/pause, pause logic -> hcm", Priority.CRITICAL),
-        Topic("team_data", _HL + "TeamData", "teammates' data, mitecom -> all"),
+        Topic("team_data", _HL + "TeamData", "teammates' data, mitecom -> all", event=True),
         Topic("strategy", _HL + "Strategy", "role and action, behaviour -> mitecom"),
-        Topic("speak", _HL + "Speak", "sentences for the speaker", Priority.PERCEPTION),
+        Topic("speak", _HL + "Speak", "sentences for the speaker", Priority.PERCEPTION, event=True),
         Topic("camera/image/compressed", "sensor_msgs/msg/CompressedImage", "JPEG camera image", Priority.BULK),
         Topic("camera/camera_info", "sensor_msgs/msg/CameraInfo", "camera intrinsics", Priority.PERCEPTION),
         Topic("ball_in_image", _HL + "BallsInImage", "ball candidates in the image", Priority.PERCEPTION),
@@ -67,7 +73,9 @@ _TABLE: tuple[Topic, ...] = (
         Topic("position", _HL + "Position2D", "own position on the field"),
         Topic("ground_truth", "pitchside_msgs/msg/GroundTruth", "simulation ground truth poses"),
         Topic("diagnostics", "diagnostic_msgs/msg/DiagnosticArray", "node health, every node -> dashboard"),
-
+        Topic("overview", "pitchside_msgs/msg/RobotOverview",
+              "one robot at a glance: telemetry's compact overview datagram, every tick; telemetry -> dashboard",
+              Priority.CRITICAL),
 )
 
 

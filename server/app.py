@@ -15,7 +15,19 @@ from robot_nodes.telemetry.datagram import key_fingerprint, load_key
 from server.config import ServerConfig
 from server.hub import Hub
 from server.recording.wiring import attach_recording
-from server.routers import animations, control, params, plots_viewer, robot3d_view, robots, session, sources, teleop, ws
+from server.routers import (
+    animations,
+    control,
+    message_schemas,
+    params,
+    plots_viewer,
+    robot3d_view,
+    robots,
+    session,
+    sources,
+    teleop,
+    ws,
+)
 from server.routers.recordings import router as recordings_router
 from server.routers.replay import router as replay_router
 from server.security import AllowedHosts, Credentials, VenueGuard, VenuePolicy
@@ -67,7 +79,8 @@ def create_app(config: ServerConfig) -> FastAPI:
     recording = attach_recording(app, state)
     app.include_router(recordings_router)
     app.include_router(replay_router)
-    for module in (session, robots, sources, control, params, animations, teleop, ws, plots_viewer, robot3d_view):
+    for module in (session, robots, message_schemas, sources, control, params, animations, teleop, ws, plots_viewer,
+                   robot3d_view):
         app.include_router(module.router)
     app.mount("/", StaticFiles(directory=config.web_dir, html=True), name="web")
     return app

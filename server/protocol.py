@@ -14,7 +14,8 @@ Server -> client, text frames (JSON objects with a "type"):
 
     {"type": "hello", "match_mode": bool, "server_time": <s>}              first frame after connecting
     {"type": "msg", "robot": id, "topic": name, "msgtype": "pkg/msg/Type", "stamp": <s since epoch>,
-     "source": "live" | "telemetry" | ..., "data": {...}}                  a decoded message (fields by name;
+     "source": "live" | "telemetry" | ..., "data": {...}}                  a decoded message, as schemas.to_dict
+                                                                          gives it (fields by name, NaN as null,
                                                                           big uint8 arrays as {"bytes": n})
     {"type": "robots", "server_time": <s>, "robots": [RobotInfo, ...]}    discovered robots and link health,
                                                                           on connect and twice a second
@@ -35,17 +36,13 @@ RobotInfo = {"robot": id, "first_seen": <s>, "age_s": <s since last message>, "s
 
 from __future__ import annotations
 
-import dataclasses
-import functools
 import json
 import math
 import struct
 import time
 from typing import Any, Literal, TypedDict
 
-import numpy as np
-
-from schemas.codec import typestore
+from schemas.json_view import to_dict
 from server.hub import HubMessage
 from server.security.json_limits import JsonLimitError, loads_limited
 
@@ -108,31 +105,6 @@ def parse_client_frame(text: str) -> ClientOp:
     return SubscribeOp(op="subscribe", robot=robot, topic=topic, max_hz=float(max_hz))
 
 
-# -- message data -----------------------------------------------------------------------------------
-@functools.cache
-def _field_names(msgtype: str) -> tuple[str, ...]:
-    """The message's fields without its constants (rosbags keeps constants as dataclass fields)."""
-    return tuple(name for name, _ in typestore().fielddefs[msgtype][1])
-
-
-def message_data(msg: Any) -> Any:
-    """A JSON-ready view of a message: fields only, numpy arrays as lists, big byte arrays as their size."""
-    msgtype = getattr(msg, "__msgtype__", None)
-    if msgtype is not None:
-        return {name: message_data(getattr(msg, name)) for name in _field_names(msgtype)}
-    if isinstance(msg, np.ndarray):
-        if msg.dtype == np.uint8 and msg.size > 4096:
-            return {"bytes": int(msg.size)}
-        return msg.tolist()
-    if isinstance(msg, list | tuple):
-        return [message_data(v) for v in msg]
-    if isinstance(msg, float) and not math.isfinite(msg):
-        return None
-    if dataclasses.is_dataclass(msg):  # a nested type without __msgtype__ (should not happen)
-        return {f.name: message_data(getattr(msg, f.name)) for f in dataclasses.fields(msg)}
-    return msg
-
-
 # -- server -> client ---------------------------------------------------------------------------------
 class MsgFrame(TypedDict):
     type: Literal["msg"]
@@ -163,18 +135,8 @@ class RobotsFrame(TypedDict):
 def _dumps(obj: Any) -> str:
     try:
         return json.dumps(obj, separators=(",", ":"), allow_nan=False)
-    except ValueError:  # NaN/inf inside numeric arrays: JSON has no such numbers, the browser gets null
-        return json.dumps(_finite(obj), separators=(",", ":"), allow_nan=False)
-
-
-def _finite(obj: Any) -> Any:
-    if isinstance(obj, float):
-        return obj if math.isfinite(obj) else None
-    if isinstance(obj, dict):
-        return {k: _finite(v) for k, v in obj.items()}
-    if isinstance(obj, list):
-        return [_finite(v) for v in obj]
-    return obj
+    except ValueError:  # a NaN in a frame of the server's own (message data has none): JSON has no such numbers
+        return json.dumps(to_dict(obj), separators=(",", ":"), allow_nan=False)
 
 
 def frame_of(msg: HubMessage) -> str | bytes:
@@ -187,7 +149,7 @@ def frame_of(msg: HubMessage) -> str | bytes:
             msg.frame = image_frame(msg)
         else:
             frame = MsgFrame(type="msg", robot=msg.robot, topic=msg.topic, msgtype=msg.typename,
-                             stamp=msg.stamp, source=msg.source, data=message_data(msg.message))
+                             stamp=msg.stamp, source=msg.source, data=to_dict(msg.message))
             msg.frame = _dumps(frame)
     return msg.frame
 

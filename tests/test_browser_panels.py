@@ -136,6 +136,33 @@ def test_panels_show_live_data(browser: Any, scene: RunningServer, stands: dict[
     assert not errors, errors
 
 
+def test_the_page_names_what_the_msg_files_name(browser: Any, scene: RunningServer) -> None:
+    """State names, colours, levels and event topics in the page come from the server, and agree with the schemas."""
+    page = browser.new_page(bypass_csp=True)
+    page.goto(scene.url)
+    page.wait_for_function("window.pitchside && window.pitchside.schemas", timeout=30_000)
+    shown = page.evaluate("""async () => {
+        const m = await import(new URL("msgtypes.js", location.href).href);
+        const values = [...Array(20).keys()];
+        return { hcm: values.map(m.hcmName), game: values.map(m.gameName), secondary: values.map(m.secondaryName),
+                 obstacle: values.map(m.obstacleColor), level: values.map(m.diagnosticLevelName),
+                 unknown: m.hcmName(255),
+                 events: [...window.pitchside.store.eventTopics].sort() }; }""")
+    hcm = schemas.constant_names("humanoid_league_msgs/msg/RobotControlState")
+    game = schemas.constant_names("humanoid_league_msgs/msg/GameState", "GAMESTATE_")
+    secondary = schemas.constant_names("humanoid_league_msgs/msg/GameState", "STATE_")
+    obstacle = schemas.constant_names("humanoid_league_msgs/msg/ObstacleRelative")
+    level = schemas.constant_names("diagnostic_msgs/msg/DiagnosticStatus")
+    for i in range(20):
+        assert shown["hcm"][i] == hcm.get(i, f"state {i}")
+        assert shown["game"][i] == game.get(i, "unknown")
+        assert shown["secondary"][i] == secondary.get(i, "")
+        assert shown["obstacle"][i] == obstacle.get(i, "")
+        assert shown["level"][i] == level.get(i, str(i))
+    assert shown["unknown"] == "unknown"  # RobotOverview.UNKNOWN: the robot has not said yet
+    assert shown["events"] == sorted(t.name for t in schemas.TOPICS.values() if t.event)
+
+
 def test_layout_is_changed_and_remembered(browser: Any, scene: RunningServer) -> None:
     page = browser.new_page(bypass_csp=True, viewport={"width": 1400, "height": 2400})  # no scrolling while dragging
     page.goto(scene.login_url)

@@ -463,3 +463,47 @@ def test_cm730_node_drives_the_emulated_bus(bus1: ServoBusEmulator, bus: Runtime
         sub.undeclare()
         session.close()
         node.shutdown()
+
+
+def test_cm730_node_publishes_servo_health(bus1: ServoBusEmulator, bus: RuntimeBus) -> None:
+    """servo_health (what the HCM's HARDWARE_PROBLEM comes from): who is silent and the bus state, at once on a
+    change and every second, from the real protocol on the emulated bus."""
+    bus_state = schemas.constants("pitchside_msgs/msg/ServoHealth")
+    node = Cm730Node(robot_id="robot1", bus=bus, backend=backend_on(bus1, reprobe_interval_s=0.2),
+                     overrides={"publish_rate": 50.0}).start()
+    session = open_session(bus)
+    health: list[tuple[float, Any]] = []
+    sub = session.declare_subscriber(topic_key("robot1", "servo_health"), lambda s: health.append(
+        (time.monotonic(), schemas.decode(s.payload.to_bytes(), schemas.topic("servo_health").type))))
+
+    def first_since(t0: float, want: Any) -> Any:
+        return next((h for t, h in list(health) if t > t0 and want(h)), None)
+
+    try:
+        wait_for(lambda: sum(h.bus_state == bus_state["BUS_OK"] and not list(h.missing_servos) for _, h in health)
+                 >= 2, timeout=10, what="servo_health every second, every servo answering")
+        silent_joint = BITBOTS_JOINTS[4]
+        t0 = time.monotonic()
+        bus1.silence(5)
+        silent = wait_for(lambda: first_since(t0, lambda h: list(h.missing_servos)), timeout=10,
+                          what="a silent servo on servo_health")
+        assert list(silent.missing_servos) == [silent_joint] and silent.bus_state == bus_state["BUS_DEGRADED"]
+        assert silent_joint in silent.description and silent.header.stamp.sec > 0
+        t1 = time.monotonic()
+        bus1.silence(5, False)
+        wait_for(lambda: first_since(t1, lambda h: h.bus_state == bus_state["BUS_OK"] and not list(h.missing_servos)),
+                 timeout=10, what="the servo back on servo_health")
+        t2 = time.monotonic()
+        bus1.silence(200)  # the CM-730 board: every servo still answers, the bus is not whole
+        board = wait_for(lambda: first_since(t2, lambda h: h.bus_state == bus_state["BUS_DEGRADED"]), timeout=10,
+                         what="the silent CM-730 on servo_health")
+        assert not list(board.missing_servos) and "CM730 silent" in board.description
+        t3 = time.monotonic()
+        bus1.stop()  # the USB adapter disappears
+        lost = wait_for(lambda: first_since(t3, lambda h: h.bus_state == bus_state["BUS_LOST"]), timeout=10,
+                        what="the lost port on servo_health")
+        assert len(lost.missing_servos) == 20 and "port lost" in lost.description
+    finally:
+        sub.undeclare()
+        session.close()
+        node.shutdown()

@@ -113,3 +113,55 @@ def test_a_topic_defined_twice_is_refused() -> None:
     twice = (Topic("a", "std_msgs/msg/Bool", "one"), Topic("a", "std_msgs/msg/Bool", "two"))
     with pytest.raises(ValueError, match="defined twice"):
         _by_name(twice)
+
+
+def test_field_names_are_the_fields_without_constants_for_every_type() -> None:
+    from schemas.json_view import field_names
+
+    store = codec.typestore()
+    for typename, cls in store.types.items():
+        assert field_names(cls) == tuple(name for name, _ in store.fielddefs[typename][1]), typename
+    assert field_names(dict) is None and field_names(int) is None
+
+
+def test_to_dict_is_json_ready_for_own_and_foreign_types() -> None:
+    from rosbags.typesys import Stores, get_typestore
+
+    data = schemas.to_dict(schemas.make("sensor_msgs/msg/Imu", orientation_covariance=[1.0, float("nan")] + [0.0] * 7,
+                                        angular_velocity_covariance=[float("inf")] * 9))
+    assert data["orientation_covariance"][:3] == [1.0, None, 0.0] and data["angular_velocity_covariance"] == [None] * 9
+    big = schemas.to_dict(schemas.make("sensor_msgs/msg/CompressedImage", data=np.zeros(5000, np.uint8)))
+    assert big["data"] == {"bytes": 5000}
+    small = schemas.to_dict(schemas.make("sensor_msgs/msg/CompressedImage", data=np.arange(3, dtype=np.uint8)))
+    assert small["data"] == [0, 1, 2]
+    assert schemas.to_dict({"a": [np.float32(1.5), np.int64(2), np.bool_(True), float("nan")]}) == {
+        "a": [1.5, 2, True, None]}
+    # a type of another store (a ROS 2 bag's own definitions): fields by name, constants left out
+    ros1 = get_typestore(Stores.ROS1_NOETIC)
+    log = ros1.types["rosgraph_msgs/msg/Log"](header=ros1.types["std_msgs/msg/Header"](
+        seq=1, stamp=ros1.types["builtin_interfaces/msg/Time"](sec=2, nanosec=3), frame_id="f"),
+        level=2, name="n", msg="m", file="x.py", function="f", line=7, topics=["/a"])
+    assert schemas.to_dict(log) == {"header": {"seq": 1, "stamp": {"sec": 2, "nanosec": 3}, "frame_id": "f"},
+                                    "level": 2, "name": "n", "msg": "m", "file": "x.py", "function": "f",
+                                    "line": 7, "topics": ["/a"]}
+
+
+def test_numeric_fields_name_joints_and_skip_headers() -> None:
+    from schemas.numeric import numeric_values
+
+    state = schemas.make("sensor_msgs/msg/JointState", name=["HeadPan", "LKnee"], position=[0.5, -1.0],
+                         velocity=[], effort=[])
+    assert [(f.path, f.name, f.label, f.value) for f in numeric_values(state)] == [
+        ("position/0", "position/HeadPan", "position/0 (HeadPan)", 0.5),
+        ("position/1", "position/LKnee", "position/1 (LKnee)", -1.0)]
+    image = schemas.make("sensor_msgs/msg/CompressedImage", data=np.zeros(100, np.uint8))
+    assert list(numeric_values(image)) == []  # a long byte array is no plot
+
+
+def test_the_overview_and_servo_health_are_rows_of_the_topic_table() -> None:
+    assert schemas.topic("overview").type == "pitchside_msgs/msg/RobotOverview"
+    assert schemas.topic("servo_health").type == "pitchside_msgs/msg/ServoHealth"
+    assert schemas.constants("pitchside_msgs/msg/RobotOverview") == {"UNKNOWN": 255, "NEVER_MS": 65535}
+    assert {t.name for t in schemas.TOPICS.values() if t.event} == {
+        "animation", "motor_torque", "speak", "cmd_vel", "walk_odometry", "walk_motor_goals", "head_motor_goals",
+        "record_motor_goals", "motor_goals", "team_data"}

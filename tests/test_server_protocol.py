@@ -16,7 +16,6 @@ from server.protocol import (
     ProtocolError,
     batch_frame,
     frame_of,
-    message_data,
     parse_client_frame,
     split_binary_frame,
     unbatch,
@@ -84,12 +83,12 @@ def test_image_frame_round_trip_and_batches() -> None:
 
 def test_message_data_has_fields_not_constants_and_no_nan() -> None:
     imu = schemas.make("sensor_msgs/msg/Imu", orientation_covariance=[float("nan")] * 9)
-    data = message_data(imu)
+    data = schemas.to_dict(imu)
     assert data["orientation_covariance"] == [None] * 9 or all(v != v for v in data["orientation_covariance"])
     frame = frame_of(HubMessage("r1", "imu/data", imu.__msgtype__, 0.0, imu, "live"))
     assert "NaN" not in frame and json.loads(frame)["data"]["orientation_covariance"] == [None] * 9
     obstacles = schemas.make("humanoid_league_msgs/msg/ObstaclesInImage", obstacles=[
         schemas.make("humanoid_league_msgs/msg/ObstacleInImage", color=2)])
-    assert message_data(obstacles)["obstacles"][0] == {
+    assert schemas.to_dict(obstacles)["obstacles"][0] == {
         "color": 2, "player_number": 0, "top_left": {"x": 0.0, "y": 0.0, "z": 0.0}, "height": 0, "width": 0,
         "confidence": 0.0}

@@ -28,13 +28,14 @@ from robot_nodes.telemetry.datagram import (
     DatagramWriter,
     Header,
     Kind,
-    RobotOverview,
     Sealer,
     StreamInfo,
     TelemetryError,
     decode_stream_table,
+    encode_overview,
     encode_stream_tables,
     load_key,
+    new_overview,
     parse_header,
 )
 from robot_nodes.telemetry.receiver import TelemetryReceiver
@@ -110,17 +111,17 @@ def test_max_size_every_datagram_fits() -> None:
 def test_overview_round_trip() -> None:
     writer = DatagramWriter(KEY, "robot2")
     receiver = TelemetryReceiver(KEY)
-    overview = RobotOverview(hcm_state=10, game_state=3, penalized=True, pose_known=True, pose_x=-2.5,
-                             pose_y=1.25, pose_theta=0.5, pose_confidence=0.75, ball_known=True, ball_x=0.5,
-                             battery_voltage=12.25, hottest_servo="RKnee", hottest_servo_temperature=61.5,
-                             own_score=2, rival_score=1, seconds_remaining=-12, pose_age_ms=40)
-    body = overview.encode()
+    overview = new_overview(hcm_state=10, game_state=3, penalized=True, pose_known=True, pose_x=-2.5,
+                            pose_y=1.25, pose_theta=0.5, pose_confidence=0.75, ball_known=True, ball_x=0.5,
+                            battery_voltage=12.25, hottest_servo="RKnee", hottest_servo_temperature=61.5,
+                            own_score=2, rival_score=1, seconds_remaining=-12, pose_age_ms=40)
+    body = encode_overview(overview)
     assert len(body) == 64
     (d,) = writer.message(Kind.OVERVIEW, OVERVIEW_STREAM, OVERVIEW_HASH, body)
     assert len(d) == 64 + 64 + 16
     (got,) = receiver.feed(d)  # the overview needs no stream table: a late receiver has it at once
     assert got.topic == "overview" and got.msg == overview
-    assert got.msg.to_dict()["hcm_state"] == 10
+    assert schemas.to_dict(got.msg)["hcm_state"] == 10
 
 
 def test_stream_table_round_trip_and_split() -> None:
@@ -163,9 +164,9 @@ def test_robot_id_inside_the_authenticated_header() -> None:
     receiver = TelemetryReceiver(KEY, robot_keys={"robot1": key1, "robot2": key2})
     impostor = DatagramWriter(key2, "robot1")
     assert receiver.feed(impostor.message(Kind.OVERVIEW, OVERVIEW_STREAM, OVERVIEW_HASH,
-                                          RobotOverview().encode())[0]) == []
+                                          encode_overview(new_overview()))[0]) == []
     honest = DatagramWriter(key2, "robot2").message(Kind.OVERVIEW, OVERVIEW_STREAM, OVERVIEW_HASH,
-                                                     RobotOverview().encode())[0]
+                                                     encode_overview(new_overview()))[0]
     relabelled = honest[:6] + b"robot1\0\0\0\0\0\0" + honest[18:]
     assert receiver.feed(relabelled) == []
     assert receiver.rejected["auth_failed"] == 2
@@ -178,7 +179,7 @@ def test_replayed_datagrams_are_rejected() -> None:
     now = [1_700_000_000.0]
     receiver = TelemetryReceiver(KEY, clock=lambda: now[0])
     writer = DatagramWriter(KEY, "robot1", clock_ns=lambda: int(now[0] * 1e9))
-    body = RobotOverview().encode()
+    body = encode_overview(new_overview())
     first = writer.message(Kind.OVERVIEW, OVERVIEW_STREAM, OVERVIEW_HASH, body)[0]
     assert len(receiver.feed(first)) == 1
     assert receiver.feed(first) == []  # exact duplicate
@@ -324,7 +325,7 @@ def test_asyncio_listener_delivers_whole_messages() -> None:
             port = transport.get_extra_info("sockname")[1]
             with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
                 for d in DatagramWriter(KEY, "robot5").message(Kind.OVERVIEW, OVERVIEW_STREAM, OVERVIEW_HASH,
-                                                               RobotOverview(hcm_state=2).encode()):
+                                                               encode_overview(new_overview(hcm_state=2))):
                     s.sendto(d, ("127.0.0.1", port))
                 s.sendto(b"garbage", ("127.0.0.1", port))
             await asyncio.wait_for(arrived.wait(), 10)

@@ -26,11 +26,12 @@ from robot_nodes.telemetry.datagram import (
     DatagramWriter,
     Header,
     Kind,
-    RobotOverview,
     StreamInfo,
+    encode_overview,
     encode_stream_tables,
     fragment_count,
     fragment_length,
+    new_overview,
 )
 from robot_nodes.telemetry.receiver import TelemetryReceiver
 from schemas.codec import schema_hash
@@ -69,7 +70,7 @@ def valid_datagrams(writer: DatagramWriter, rng: random.Random) -> list[bytes]:
     ]
     out = [d for sid, m in msgs for d in writer.message(Kind.MESSAGE, sid, schema_hash(TYPES[sid][1]),
                                                          schemas.encode(m))]
-    out += writer.message(Kind.OVERVIEW, OVERVIEW_STREAM, OVERVIEW_HASH, RobotOverview(hcm_state=3).encode())
+    out += writer.message(Kind.OVERVIEW, OVERVIEW_STREAM, OVERVIEW_HASH, encode_overview(new_overview(hcm_state=3)))
     return out
 
 

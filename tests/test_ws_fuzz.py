@@ -77,7 +77,7 @@ class Feed:
         writer = datagram.DatagramWriter(datagram.DEV_KEY, "fz1")
         with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
             while not self._stop.wait(0.05):
-                body = datagram.RobotOverview(hcm_state=2).encode()
+                body = datagram.encode_overview(datagram.new_overview(hcm_state=2))
                 for packet in writer.message(datagram.Kind.OVERVIEW, datagram.OVERVIEW_STREAM,
                                              datagram.OVERVIEW_HASH, body):
                     sock.sendto(packet, ("127.0.0.1", udp))

@@ -4,6 +4,7 @@ import { Connection } from "./connection.js";
 import { setOptions } from "./dom.js";
 import { SessionBar } from "./session.js";
 import { Layout } from "./layout.js";
+import { eventTopics, learnSchemas } from "./msgtypes.js";
 import { Store } from "./store.js";
 import teamOverview from "./panels/team_overview.js";
 import fieldView from "./panels/field_view.js";
@@ -23,8 +24,11 @@ const PANELS = [teamOverview, fieldView, relativeView, hcmGraph, camera, diagnos
   animationEditor, teleop, replay, recordings];
 
 async function main() {
-  const config = await (await fetch("api/config")).json();
-  const store = new Store();
+  // the message constants and the topic table come from the server (the .msg files), before any panel starts
+  const [config, schemas] = await Promise.all(["api/config", "api/schemas"]
+    .map(async (path) => (await fetch(path)).json()));
+  learnSchemas(schemas);
+  const store = new Store(eventTopics());
   const status = document.getElementById("link-status");
   const wsUrl = `${location.protocol === "https:" ? "wss" : "ws"}://${location.host}/ws`;
   const conn = new Connection(wsUrl, (frame) => store.handle(frame), (up) => {
@@ -47,7 +51,7 @@ async function main() {
     },
   };
   const layout = new Layout(document.getElementById("grid"), PANELS, ctx);
-  window.pitchside = { store, conn, layout, config };
+  window.pitchside = { store, conn, layout, config, schemas };
 
   const addMenu = document.getElementById("add-panel");
   function refreshAddMenu(state) {

@@ -23,6 +23,12 @@ export async function api(method, path, body, { keepalive = false } = {}) {
   return data;
 }
 
+/** The numeric fields of the newest message of a robot's stream, [{path, label}], as the server defines them
+ * (schemas/numeric.py): path addresses the number in a msg frame's data, label names array elements. */
+export async function numericFields(robot, topic) {
+  const path = topic.split("/").map(encodeURIComponent).join("/");
+  return (await api("GET", `api/fields/${encodeURIComponent(robot)}/${path}`)).fields;
+}
 
 /** A <select> of the robots the page knows, following the focused robot until the user picks one. */
 export function robotPicker(select, ctx, onChange) {

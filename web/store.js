@@ -1,14 +1,13 @@
 // What the page knows: latest message per (robot, topic), the robots list with link health, the focused robot.
 
-/** Topics published only when something happens (an animation plays, the robot walks or talks, a teammate is
- * heard...): silence on them is normal, so their age is shown but never as stale or lost. */
-export const EVENT_TOPICS = new Set(["animation", "motor_torque", "speak", "cmd_vel", "walk_odometry",
-  "walk_motor_goals", "head_motor_goals", "record_motor_goals", "motor_goals", "team_data"]);
 /** A stream that arrived at least this often (Hz) is periodic: once it stops, that is news. */
 export const PERIODIC_HZ = 0.9;
 
 export class Store {
-  constructor() {
+  /** eventTopics: topics published only when something happens (an animation plays, the robot walks or talks, a
+   * teammate is heard...), from the topic table: silence on them is normal, their age is never stale or lost. */
+  constructor(eventTopics = new Set()) {
+    this.eventTopics = eventTopics;
     this.latest = new Map();   // robot -> Map(topic -> frame)
     this.arrivals = new Map(); // "robot|topic" and "robot" -> performance.now() of the last frame
     this.robots = [];          // RobotInfo list of the last "robots" frame
@@ -74,7 +73,7 @@ export class Store {
   /** Link health of one stream: "ok", "stale", "lost", or "event" for a stream whose silence means nothing
    * (an event topic, or one never seen arriving periodically). The robot's own status uses robotAge(info). */
   streamHealth(info, topic, staleAfter, lostAfter) {
-    if (EVENT_TOPICS.has(topic) || !this.periodic.has(`${info.robot}|${topic}`)) return "event";
+    if (this.eventTopics.has(topic) || !this.periodic.has(`${info.robot}|${topic}`)) return "event";
     const age = this.robotAge(info, topic);
     return age >= lostAfter ? "lost" : age >= staleAfter ? "stale" : "ok";
   }

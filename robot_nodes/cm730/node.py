@@ -1,4 +1,4 @@
-"""The cm730 node: the servo bus on Zenoh (joint states, IMU, servo data out; motor goals and torque in).
+"""The cm730 node: the servo bus on Zenoh (joint states, IMU, servo data and health out; motor goals and torque in).
 
 Every motor goal passes one clamp first (joint_limits.GoalLimits): positions into the URDF joint limits less
 `limit_margin_deg`, speeds capped at the URDF velocity, whichever backend drives the joints; on Dynamixel the
@@ -32,6 +32,8 @@ FOOTPRINT_FRAME = "base_footprint"
 MAP_FRAME = "map"
 LIMIT_PARAMS = ("model", "urdf", "limit_margin_deg")  # read once at start-up (section "Safety" of the README)
 CLAMP_REPORT_EVERY_S = 5.0  # at most one error line per this many seconds while goals are being clamped
+SERVO_HEALTH_PERIOD_S = 1.0  # servo_health goes out on every change and at least this often
+_BUS = schemas.constants("pitchside_msgs/msg/ServoHealth")
 
 
 @dataclass
@@ -65,7 +67,8 @@ class Cm730Params:
 
 
 class Cm730Node(Node):
-    """Servo bus node: publishes joint_states, imu/data, servo_data; applies motor_goals and motor_torque."""
+    """Servo bus node: publishes joint_states, imu/data, servo_data, servo_health; applies motor_goals and
+    motor_torque."""
 
     name = "cm730"
     Params = Cm730Params
@@ -84,7 +87,7 @@ class Cm730Node(Node):
         self.clamps = ClampTally(CLAMP_REPORT_EVERY_S)
         self.refused_goals = 0  # goals for joints the URDF has no limits for
         self.angle_limit_report: dict[str, str] = {}
-        self._missing_text = ""
+        self._missing: tuple[str, ...] | None = None  # joints not answering in the last read (None: no read yet)
         self._start_limits()
         self._sim = _sim_parts(self.backend)
         self._apply_sim_params()
@@ -93,8 +96,10 @@ class Cm730Node(Node):
         self._joint_pub = self.publisher("joint_states")
         self._imu_pub = self.publisher("imu/data")
         self._servo_pub = self.publisher("servo_data")
+        self._health_pub = self.publisher("servo_health")
         self._state_timer = self.timer(p.publish_rate, self._publish_state, name="joint_states")
         self._servo_timer = self.timer(p.servo_data_rate, self._publish_servo_data, name="servo_data")
+        self.timer(1.0 / SERVO_HEALTH_PERIOD_S, self._publish_servo_health, name="servo_health")
         self._last: BusReading | None = None
         self._camera = None
         if self._sim is not None:
@@ -250,17 +255,35 @@ class Cm730Node(Node):
                 orientation_covariance=cov, angular_velocity_covariance=cov, linear_acceleration_covariance=cov,
                 angular_velocity=_vector3(imu.angular_velocity),
                 linear_acceleration=_vector3(imu.linear_acceleration)))
-        missing = ",".join(reading.missing)
-        if missing != self._missing_text:
-            # a servo that falls silent (or comes back) is news now, not at the next diagnostics tick
-            self._missing_text = missing
-            self.set_diagnostic("missing_servos", missing)
+        missing = tuple(reading.missing)
+        if missing != self._missing:
+            # a servo that falls silent (or comes back) is news now, not at the next periodic report
+            self._missing = missing
+            self.set_diagnostic("missing_servos", ",".join(missing))
             if missing:
-                self.record_error(f"servos not answering: {missing}")
-            health = getattr(self.backend, "health", None)
-            if health is not None:
-                self.set_diagnostic("bus", health().get("text", ""))
+                self.record_error(f"servos not answering: {','.join(missing)}")
+            self._publish_servo_health()
             self.publish_diagnostics()
+
+    def _publish_servo_health(self) -> None:
+        """servo_health: who does not answer and the bus state (the HCM's HARDWARE_PROBLEM comes from here)."""
+        if self._missing is None:
+            return  # nothing read yet: nothing known
+        missing = list(self._missing)
+        health = getattr(self.backend, "health", None)  # the Dynamixel bus counts more than who is missing
+        report: dict[str, Any] = health() if health is not None else {}
+        if report.get("port_lost"):
+            state = _BUS["BUS_LOST"]
+        elif missing or report.get("ok") is False:
+            state = _BUS["BUS_DEGRADED"]
+        else:
+            state = _BUS["BUS_OK"]
+        description = str(report.get("text") or (f"silent: {', '.join(missing)}" if missing else "ok"))
+        if health is not None:
+            self.set_diagnostic("bus", description)
+        self._health_pub.publish(schemas.make(
+            "pitchside_msgs/msg/ServoHealth", header=schemas.make("std_msgs/msg/Header", stamp=_stamp(time.time())),
+            missing_servos=missing, bus_state=state, description=description))
 
     def _publish_servo_data(self) -> None:
         reading = self._last

@@ -75,7 +75,7 @@ class HcmNode(Node):
         self.own_goal: ClientGoal | None = None
         self.forwarded = dict.fromkeys(GoalSource, 0)
         self.battery_announced = False
-        self.missing_servos = ""  # what the servo bus (cm730) reports as not answering
+        self.missing_servos = ""  # what the servo bus reports as not answering (servo_health), comma-separated
         self._shutdown_requested_at: float | None = None
 
         self.goals_pub = self.publisher("motor_goals")
@@ -93,7 +93,7 @@ class HcmNode(Node):
         self.subscribe("paused", self.on_paused)
         self.subscribe("walking_active", self.on_walking_active)
         self.subscribe("servo_data", self.on_servo_data)
-        self.subscribe("diagnostics", self.on_diagnostics)
+        self.subscribe("servo_health", self.on_servo_health)
         self.step_timer = self.timer(self.params.rate_hz, self.step)
         self.state_timer = self.timer(self.params.state_publish_hz, self.publish_state)
         self.timer(1.0, self.publish_graph)
@@ -130,15 +130,13 @@ class HcmNode(Node):
             self.speak(f"battery low: {float(np.min(msg.voltage)):.1f} volts", 2)
         self.battery_announced = low
 
-    def on_diagnostics(self, msg: Any) -> None:
-        # a servo that stops answering keeps its last value in joint_states; the bus says so in diagnostics
-        for status in msg.status:
-            if status.name.endswith("/cm730"):
-                values = {kv.key: kv.value for kv in status.values}
-                if "missing_servos" in values and values["missing_servos"] != self.missing_servos:
-                    self.missing_servos = values["missing_servos"]
-                    self.set_diagnostic("missing_servos", self.missing_servos)
-                    self.step()
+    def on_servo_health(self, msg: Any) -> None:
+        # a servo that stops answering keeps its last value in joint_states; the servo bus says which on servo_health
+        missing = ",".join(msg.missing_servos)
+        if missing != self.missing_servos:
+            self.missing_servos = missing
+            self.set_diagnostic("missing_servos", missing)
+            self.step()
 
     def on_goals(self, source: GoalSource, trajectory: Any) -> None:
         self.last_motion = time.monotonic()

@@ -1,6 +1,6 @@
 """One-way UDP telemetry: the robot's sender node, the shared datagram format and the team PC's receiver."""
 
-from robot_nodes.telemetry.datagram import DEFAULT_PORT, RobotOverview, TelemetryError
+from robot_nodes.telemetry.datagram import DEFAULT_PORT, TelemetryError, decode_overview, encode_overview, new_overview
 from robot_nodes.telemetry.estimate import estimate_bandwidth
 from robot_nodes.telemetry.receiver import (
     ReceivedMessage,
@@ -16,12 +16,14 @@ __all__ = [
     "DEFAULT_PORT",
     "ReceivedMessage",
     "RobotHealth",
-    "RobotOverview",
     "StreamHealth",
     "TelemetryError",
     "TelemetryListener",
     "TelemetryNode",
     "TelemetryReceiver",
+    "decode_overview",
+    "encode_overview",
     "estimate_bandwidth",
     "listen",
+    "new_overview",
 ]

@@ -44,7 +44,8 @@ Stream-table body::
                                     u8 len | topic utf-8 | u8 len | type utf-8)
 
 ``OVERVIEW`` body (64 bytes, fixed; stream 65534, schema hash ``OVERVIEW_HASH``), every tick, alone
-enough for the team overview:
+enough for the team overview: a ``pitchside_msgs/RobotOverview`` message (topic ``overview`` of the topic table)
+packed to fit the budget; the receiver hands on the message (``encode_overview``, ``decode_overview``):
 
     ======  ====  =====================================================================
     offset  type  field
@@ -90,7 +91,9 @@ from typing import Any
 from cryptography.exceptions import InvalidTag
 from cryptography.hazmat.primitives.ciphers.aead import AESGCM
 
+import schemas
 from robot_nodes.runtime import keys
+from schemas.topics import topic
 
 log = logging.getLogger(__name__)
 
@@ -360,65 +363,46 @@ _OVERVIEW = struct.Struct("<BBBB9f16sBBhHH")
 OVERVIEW_SIZE = _OVERVIEW.size  # 64
 OVERVIEW_HASH = int.from_bytes(hashlib.sha256(b"pitchside/telemetry/Overview:1").digest()[:4], "little")
 OVERVIEW_TOPIC = "overview"
-OVERVIEW_TYPE = "pitchside_telemetry/Overview"
-UNKNOWN = 255
-NEVER_MS = 65535
+OVERVIEW_TYPE = topic(OVERVIEW_TOPIC).type  # pitchside_msgs/msg/RobotOverview
+UNKNOWN = schemas.constants(OVERVIEW_TYPE)["UNKNOWN"]
+NEVER_MS = schemas.constants(OVERVIEW_TYPE)["NEVER_MS"]
 _NAN = float("nan")
+_NOT_KNOWN = {"hcm_state": UNKNOWN, "game_state": UNKNOWN, "secondary_state": UNKNOWN, "battery_voltage": _NAN,
+              "hottest_servo_temperature": _NAN, "pose_age_ms": NEVER_MS, "ball_age_ms": NEVER_MS}
 
 
-@dataclass(slots=True)
-class RobotOverview:
-    """One robot at a glance, as the team overview shows it; NaN / UNKNOWN where the robot does not know."""
+def new_overview(**fields: Any) -> Any:
+    """A RobotOverview message that knows nothing yet (UNKNOWN, NaN, NEVER_MS) except the fields given."""
+    return schemas.make(OVERVIEW_TYPE, **{**_NOT_KNOWN, **fields})
 
-    hcm_state: int = UNKNOWN
-    game_state: int = UNKNOWN
-    secondary_state: int = UNKNOWN
-    penalized: bool = False
-    pose_known: bool = False
-    ball_known: bool = False
-    gamestate_known: bool = False
-    pose_x: float = 0.0
-    pose_y: float = 0.0
-    pose_theta: float = 0.0
-    pose_confidence: float = 0.0
-    ball_x: float = 0.0
-    ball_y: float = 0.0
-    ball_confidence: float = 0.0
-    battery_voltage: float = _NAN
-    hottest_servo_temperature: float = _NAN
-    hottest_servo: str = ""
-    own_score: int = 0
-    rival_score: int = 0
-    seconds_remaining: int = 0
-    pose_age_ms: int = NEVER_MS
-    ball_age_ms: int = NEVER_MS
 
-    def encode(self) -> bytes:
-        flags = (self.penalized | self.pose_known << 1 | self.ball_known << 2 | self.gamestate_known << 3)
-        name = self.hottest_servo.encode("ascii", "replace")[:16]
-        return _OVERVIEW.pack(
-            _u8(self.hcm_state), _u8(self.game_state), _u8(self.secondary_state), flags,
-            self.pose_x, self.pose_y, self.pose_theta, self.pose_confidence,
-            self.ball_x, self.ball_y, self.ball_confidence, self.battery_voltage,
-            self.hottest_servo_temperature, name, _u8(self.own_score), _u8(self.rival_score),
-            max(-32768, min(32767, int(self.seconds_remaining))),
-            min(NEVER_MS, max(0, int(self.pose_age_ms))), min(NEVER_MS, max(0, int(self.ball_age_ms))),
-        )
+def encode_overview(overview: Any) -> bytes:
+    """The 64-byte OVERVIEW body of a RobotOverview message (see the module docstring)."""
+    o = overview
+    flags = (o.penalized | o.pose_known << 1 | o.ball_known << 2 | o.gamestate_known << 3)
+    name = o.hottest_servo.encode("ascii", "replace")[:16]
+    return _OVERVIEW.pack(
+        _u8(o.hcm_state), _u8(o.game_state), _u8(o.secondary_state), flags,
+        o.pose_x, o.pose_y, o.pose_theta, o.pose_confidence, o.ball_x, o.ball_y, o.ball_confidence,
+        o.battery_voltage, o.hottest_servo_temperature, name, _u8(o.own_score), _u8(o.rival_score),
+        max(-32768, min(32767, int(o.seconds_remaining))),
+        min(NEVER_MS, max(0, int(o.pose_age_ms))), min(NEVER_MS, max(0, int(o.ball_age_ms))),
+    )
 
-    @classmethod
-    def decode(cls, body: bytes) -> RobotOverview:
-        if len(body) != OVERVIEW_SIZE:
-            raise TelemetryError("malformed", f"overview of {len(body)} bytes, expected {OVERVIEW_SIZE}")
-        (hcm, game, secondary, flags, px, py, pt, pc, bx, by, bc, volt, temp, name, own, rival, secs, page,
-         bage) = _OVERVIEW.unpack(body)
-        return cls(hcm, game, secondary, bool(flags & 1), bool(flags & 2), bool(flags & 4), bool(flags & 8),
-                   px, py, pt, pc, bx, by, bc, volt, temp, name.rstrip(b"\0").decode("ascii", "replace"),
-                   own, rival, secs, page, bage)
 
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-ready (NaN becomes None)."""
-        return {k: (None if isinstance(v, float) and not math.isfinite(v) else v)
-                for k, v in dataclasses.asdict(self).items()}
+def decode_overview(body: bytes) -> Any:
+    """The RobotOverview message of a 64-byte OVERVIEW body; TelemetryError("malformed") for another size."""
+    if len(body) != OVERVIEW_SIZE:
+        raise TelemetryError("malformed", f"overview of {len(body)} bytes, expected {OVERVIEW_SIZE}")
+    (hcm, game, secondary, flags, px, py, pt, pc, bx, by, bc, volt, temp, name, own, rival, secs, page,
+     bage) = _OVERVIEW.unpack(body)
+    return schemas.make(
+        OVERVIEW_TYPE, hcm_state=hcm, game_state=game, secondary_state=secondary, penalized=bool(flags & 1),
+        pose_known=bool(flags & 2), ball_known=bool(flags & 4), gamestate_known=bool(flags & 8), pose_x=px,
+        pose_y=py, pose_theta=pt, pose_confidence=pc, ball_x=bx, ball_y=by, ball_confidence=bc,
+        battery_voltage=volt, hottest_servo_temperature=temp,
+        hottest_servo=name.rstrip(b"\0").decode("ascii", "replace"), own_score=own, rival_score=rival,
+        seconds_remaining=secs, pose_age_ms=page, ball_age_ms=bage)
 
 
 def _u8(value: int) -> int:

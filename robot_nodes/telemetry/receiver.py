@@ -40,10 +40,10 @@ from robot_nodes.telemetry.datagram import (
     TABLE_STREAM,
     Header,
     Kind,
-    RobotOverview,
     Sealer,
     StreamInfo,
     TelemetryError,
+    decode_overview,
     decode_stream_table,
     load_key,
     parse_header,
@@ -63,10 +63,10 @@ class ReceivedMessage:
     """One whole message from a robot. ``msg`` is None if it did not decode (``error`` says why)."""
 
     robot_id: str
-    topic: str  # a topic of the table, or "overview" (msg is a RobotOverview)
-    type: str  # full ROS type name, or OVERVIEW_TYPE
+    topic: str  # a topic of the table ("overview" for the overview datagram)
+    type: str  # full ROS type name
     msg: Any
-    payload: bytes  # CDR bytes (the 64-byte overview body for the overview)
+    payload: bytes  # CDR bytes (of the RobotOverview message for the overview datagram)
     send_time: float  # s since the Unix epoch, robot clock, when its first datagram was sealed
     receive_time: float  # s since the Unix epoch, this machine, when it was complete
     stream_id: int
@@ -236,12 +236,13 @@ class TelemetryReceiver:
         if header.kind == Kind.OVERVIEW:
             if header.stream_id != OVERVIEW_STREAM or header.schema_hash != OVERVIEW_HASH:
                 raise TelemetryError("schema_mismatch", "overview datagram with a foreign stream id or schema")
-            overview = RobotOverview.decode(body)
+            overview = decode_overview(body)
             stream.messages += 1
             stream.add(now, 0, 0, len(data), 1)
             self.messages += 1
-            return [ReceivedMessage(header.robot_id, OVERVIEW_TOPIC, OVERVIEW_TYPE, overview, body,
-                                    header.send_time_ns / 1e9, now, header.stream_id, header.frame_id)]
+            return [ReceivedMessage(header.robot_id, OVERVIEW_TOPIC, OVERVIEW_TYPE, overview,
+                                    schemas.encode(overview), header.send_time_ns / 1e9, now, header.stream_id,
+                                    header.frame_id)]
         info = robot.streams.get(header.stream_id) if robot.boot == header.boot_id else None
         if info is None:
             stream.add(now, 0, 0, len(data), 0)

@@ -19,16 +19,18 @@ from robot_nodes.telemetry.datagram import (
     MAX_TOPIC_STREAM,
     OVERVIEW_HASH,
     OVERVIEW_STREAM,
+    OVERVIEW_TOPIC,
     TABLE_HASH,
     TABLE_STREAM,
     DatagramWriter,
     Kind,
-    RobotOverview,
     Sealer,
     StreamInfo,
+    encode_overview,
     encode_stream_tables,
     key_fingerprint,
     load_key,
+    new_overview,
 )
 from robot_nodes.telemetry.images import ImageError, shrink_jpeg
 from schemas.codec import schema_hash
@@ -62,6 +64,9 @@ def parse_topics(spec: str) -> dict[str, float]:
                              f"({exc})") from None
         if not 0.0 < rate <= 1000.0 or not math.isfinite(rate):
             raise ValueError(f"telemetry topic entry {item!r}: rate must be in (0, 1000] Hz")
+        if name == OVERVIEW_TOPIC:
+            raise ValueError(f"telemetry topic entry {item!r}: the overview is sent by itself every tick "
+                             "(parameter overview_hz)")
         rates[name] = rate
     return rates
 
@@ -97,7 +102,7 @@ class _OverviewState:
     """What the overview datagram needs, kept from the subscriptions."""
 
     def __init__(self) -> None:
-        self.overview = RobotOverview()
+        self.overview = new_overview()
         self.pose_at: float | None = None
         self.ball_at: float | None = None
         self._penalty_states = {v for k, v in schemas.constants("humanoid_league_msgs/msg/RobotControlState").items()
@@ -136,7 +141,7 @@ class _OverviewState:
         o = self.overview
         o.pose_age_ms = int((now - self.pose_at) * 1000) if self.pose_at is not None else 65535
         o.ball_age_ms = int((now - self.ball_at) * 1000) if self.ball_at is not None else 65535
-        return o.encode()
+        return encode_overview(o)
 
 
 class TelemetryNode(Node):

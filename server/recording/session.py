@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import json
 import logging
 import time
 from collections import deque
@@ -18,8 +17,6 @@ from server.hub import Hub, HubMessage, Subscriber
 
 log = logging.getLogger(__name__)
 
-OVERVIEW_TOPIC = "overview"  # telemetry's RobotOverview: not CDR, stored as JSON in a std_msgs/String
-STRING_TYPE = "std_msgs/msg/String"
 QUEUE_MAXLEN = 100_000  # messages waiting for the writer thread; beyond, the oldest go (and are counted)
 WAKE_S = 0.25
 # The open chunk goes to disk at the first write this long after the last one (or after this long of quiet), so
@@ -58,12 +55,6 @@ class RecordingStatus:
 
 def storable(msg: HubMessage) -> tuple[str, str, bytes] | None:
     """(topic, typename, CDR) of a hub message as the log stores it, or None when it cannot be stored."""
-    if msg.topic == OVERVIEW_TOPIC and not isinstance(msg.data, bytes | bytearray | memoryview):
-        to_dict = getattr(msg.data, "to_dict", None)
-        if to_dict is None:
-            return None
-        text = json.dumps(to_dict(), allow_nan=False)
-        return msg.topic, STRING_TYPE, codec.encode(codec.make(STRING_TYPE, data=text))
     try:
         return msg.topic, codec.full_name(msg.typename), msg.cdr
     except Exception:  # a foreign (replayed) type or a message object that does not encode

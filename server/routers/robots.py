@@ -1,4 +1,5 @@
-"""GET /api/robots: the robots discovered from what arrived, when each was last heard, link health per stream."""
+"""GET /api/robots: the robots discovered from what arrived, when each was last heard, link health per stream; the
+numeric fields of a stream's newest message."""
 
 from __future__ import annotations
 
@@ -8,7 +9,10 @@ from fastapi import APIRouter, Depends, HTTPException
 from pydantic import BaseModel
 from starlette.requests import HTTPConnection
 
+from schemas import SchemaError
+from schemas.numeric import numeric_values
 from server.deps import get_state, has_credential, require_token
+from server.hub import BULK_TYPES
 from server.link_health import robots_info
 from server.state import ServerState
 
@@ -18,6 +22,23 @@ router = APIRouter(prefix="/api", tags=["robots"])
 @router.get("/robots")
 def list_robots(state: ServerState = Depends(get_state)) -> list[dict[str, Any]]:
     return robots_info(state)
+
+
+@router.get("/fields/{robot}/{topic:path}")
+def numeric_fields(robot: str, topic: str, state: ServerState = Depends(get_state)) -> dict[str, Any]:
+    """The numeric fields of the newest message of one robot's stream, as schemas.numeric defines them: what the
+    field choosers of the parameters and replay panels offer. ``path`` addresses the number in the message's JSON
+    view (a msg frame's data); ``label`` names array elements after the message's own name list."""
+    latest = state.hub.latest.get((robot, topic))
+    if latest is None:
+        raise HTTPException(404, f"no message on topic {topic!r} from robot {robot!r} yet")
+    try:
+        message = latest.message
+    except SchemaError as exc:
+        raise HTTPException(422, str(exc)) from None
+    fields = [] if latest.typename in BULK_TYPES else [{"path": f.path, "label": f.label}
+                                                        for f in numeric_values(message)]
+    return {"robot": robot, "topic": topic, "msgtype": latest.typename, "fields": fields}
 
 
 @router.get("/hub")

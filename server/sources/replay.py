@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import dataclasses
 import functools
 import heapq
 import json
@@ -25,7 +24,6 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 from rosbags.typesys import get_types_from_msg
 
 from robot_nodes.runtime import keys
@@ -33,7 +31,6 @@ from schemas import codec
 from schemas.mcap_log import ChannelInfo, LogError, LogMessage, LogReader, LogSeriesReader
 from schemas.topics import TOPICS
 from server.hub import Hub, HubMessage
-from server.protocol import _dumps
 from server.security import AllowedFolders, FolderError
 from server.sources import Source, SourceError
 
@@ -46,22 +43,8 @@ MAX_IN_FLIGHT = 8  # batches handed to the loop and not yet published
 BATCH_S = 0.02  # wall time a batch may gather before it goes to the hub
 PREVIEW_S = 1.0  # after a seek: the newest message of each stream from this long before the seek point
 OVERVIEW_TOPIC, STRING_TYPE = "overview", "std_msgs/msg/String"
-
-
-def foreign_data(msg: Any) -> Any:
-    """JSON-ready fields of a message from a type pitchside does not know (constants, UPPER_CASE, left out)."""
-    if dataclasses.is_dataclass(msg) and not isinstance(msg, type):
-        return {f.name: foreign_data(getattr(msg, f.name)) for f in dataclasses.fields(msg)
-                if not f.name.isupper() and not f.name.startswith("__")}
-    if isinstance(msg, np.ndarray):
-        return {"bytes": int(msg.size)} if msg.dtype == np.uint8 and msg.size > 4096 else msg.tolist()
-    if isinstance(msg, list | tuple):
-        return [foreign_data(v) for v in msg]
-    if isinstance(msg, float) and not math.isfinite(msg):
-        return None
-    if isinstance(msg, np.generic):
-        return msg.item()
-    return msg
+OVERVIEW_TYPE = TOPICS[OVERVIEW_TOPIC].type
+_OVERVIEW_FIELDS = frozenset(n for n, _ in codec.typestore().fielddefs[OVERVIEW_TYPE][1])
 
 
 BAD_NAME = f"robot id or topic breaks the naming rules (robot id: {keys.NAME_RULE}; topic: {keys.TOPIC_RULE})"
@@ -109,22 +92,15 @@ class ReplayFile:
         if not _well_named(item.robot_id, item.topic):
             return None  # a name from a foreign file that breaks the rules never reaches the hub (or a page)
         typename, data = item.typename, item.msg
-        foreign = False
-        if item.raw:
-            if item.topic not in self._raw_names:
-                return None  # a channel without a usable schema
-        else:
-            foreign = hasattr(data, "__msgtype__")
+        if item.raw and item.topic not in self._raw_names:
+            return None  # a channel without a usable schema
         if item.topic == OVERVIEW_TOPIC and typename == STRING_TYPE:
-            overview = _overview(codec.decode(data, STRING_TYPE).data if item.raw else data.data)
-            if overview is not None:
-                typename, data = overview
-                foreign = False
-        msg = HubMessage(robot, item.topic, typename, item.log_time_ns / 1e9, data, SOURCE)
-        if foreign:
-            msg.frame = _dumps({"type": "msg", "robot": robot, "topic": item.topic, "msgtype": typename,
-                                "stamp": msg.stamp, "source": SOURCE, "data": foreign_data(data)})
-        return msg
+            # a recording of an earlier version stored telemetry's overview as JSON text
+            overview = _legacy_overview(data)
+            if overview is None:
+                return None
+            typename, data = OVERVIEW_TYPE, overview
+        return HubMessage(robot, item.topic, typename, item.log_time_ns / 1e9, data, SOURCE)
 
     @functools.cached_property
     def _raw_names(self) -> frozenset[str]:
@@ -158,14 +134,20 @@ def _shared_schema(reader: LogReader, channel: ChannelInfo) -> bool:
     return all(shared.get(name) == definition for name, definition in parsed.items())
 
 
-def _overview(text: str) -> tuple[str, Any] | None:
-    """A recorded telemetry overview (JSON) back into the RobotOverview the team overview panel reads."""
+def _legacy_overview(data: Any) -> Any | None:
+    """The RobotOverview message of an overview an earlier version recorded as JSON in a std_msgs/String (CDR
+    bytes or decoded), NaN as null; None if it is not one."""
     try:
-        from robot_nodes.telemetry.datagram import OVERVIEW_TYPE, RobotOverview
-
-        fields: dict[str, Any] = {k: (math.nan if v is None else v) for k, v in json.loads(text).items()}
-        return OVERVIEW_TYPE, RobotOverview(**fields)
-    except (ImportError, TypeError, ValueError):
+        raw = isinstance(data, bytes | bytearray | memoryview)
+        text = codec.decode(data, STRING_TYPE).data if raw else data.data
+        fields = json.loads(text)
+        if not isinstance(fields, dict):
+            return None
+        known = {name: (math.nan if value is None else value) for name, value in fields.items()
+                 if name in _OVERVIEW_FIELDS}
+        # through CDR and back: a field of the wrong type or range is refused here, not in a panel
+        return codec.decode(codec.encode(codec.make(OVERVIEW_TYPE, **known)), OVERVIEW_TYPE)
+    except Exception:  # rosbags and json raise several kinds on bad input; such a message is skipped
         return None
 
 

@@ -2,8 +2,8 @@
 
 The only source that runs in match mode. Authentication, reassembly, loss counting and decoding belong to
 ``robot_nodes.telemetry.receiver.TelemetryReceiver``; this module owns the listening socket and the hand-over.
-Besides the table's topics, each robot's compact overview arrives as topic ``overview`` (type
-``pitchside_telemetry/Overview``, data: RobotOverview fields), enough for the team overview alone.
+Besides the robots' chosen topics, each robot's compact overview datagram arrives as topic ``overview`` (type
+``pitchside_msgs/msg/RobotOverview``, a row of the topic table like every other), enough for the team overview.
 """
 
 from __future__ import annotations

@@ -1,8 +1,8 @@
 // Diagnostics and log: every node's latest DiagnosticStatus (level, message, values), errors on top and in red.
 
 import { esc } from "../dom.js";
+import { diagnosticLevel, diagnosticLevelName } from "../msgtypes.js";
 
-const LEVELS = ["OK", "WARN", "ERROR", "STALE"];
 const STALE_MS = 5000; // diagnostics come at 1 Hz: five missed reports and the node counts as silent
 
 export default {
@@ -23,7 +23,7 @@ export default {
         const old = statuses.get(key);
         if (!old || old.status.level !== status.level || old.status.message !== status.message) {
           log.push(`${new Date(frame.stamp * 1000).toLocaleTimeString()} ${frame.robot} ${status.name}: ` +
-            `${LEVELS[status.level] ?? status.level} ${status.message}`);
+            `${diagnosticLevelName(status.level)} ${status.message}`);
           if (log.length > 200) log.shift();
         }
         statuses.set(key, { robot: frame.robot, status, at: performance.now() });
@@ -36,11 +36,14 @@ export default {
       if (!dirty && ++renders % 4) return; // re-check silence every 2 s even without news
       dirty = false;
       const now = performance.now();
-      const rows = [...statuses.values()].map((r) => ({ ...r, level: now - r.at > STALE_MS ? 3 : r.status.level }))
+      const stale = diagnosticLevel("STALE");
+      const rows = [...statuses.values()]
+        .map((r) => ({ ...r, level: now - r.at > STALE_MS ? stale : r.status.level }))
         .sort((a, b) => b.level - a.level || a.robot.localeCompare(b.robot) || a.status.name.localeCompare(b.status.name));
       tbody.innerHTML = rows.map(({ robot, status, level }) => `<tr class="level-${level}" data-node="${esc(status.name)}">
         <td>${esc(robot)}</td><td>${esc(status.name)}</td>
-        <td>${level === 3 && status.level !== 3 ? "STALE (silent)" : LEVELS[status.level] ?? status.level}</td>
+        <td>${level === stale && status.level !== stale ? "STALE (silent)"
+          : esc(diagnosticLevelName(status.level))}</td>
         <td>${esc(status.message)}</td>
         <td class="values">${status.values.map((v) => `${esc(v.key)}=${esc(v.value)}`).join(" ")}</td></tr>`).join("");
       logEl.innerHTML = log.slice(-30).reverse().map((l) => `<div>${esc(l)}</div>`).join("");

@@ -2,7 +2,7 @@
 // Drawn on every animation frame while the panel is on screen (none while hidden, scrolled away or in a background
 // tab); poses glide between the 15 Hz updates: extrapolated a short way past the newest sample, never further.
 
-import { css, fitCanvas, fmtClock, gameName, SECONDARY_STATES, yaw } from "../msgtypes.js";
+import { css, fitCanvas, fmtClock, gameName, obstacleColor, secondaryName, yaw } from "../msgtypes.js";
 
 // RoboCup Humanoid League kid-size field (metres)
 export const FIELD = { length: 9, width: 6, goalDepth: 0.6, goalWidth: 2.6, goalAreaLength: 1, goalAreaWidth: 3,
@@ -232,7 +232,8 @@ export default {
         for (const o of store.get(id, "obstacles_relative")?.data?.obstacles || []) {
           if (!entry.estimate) break;
           const p = transform(entry.estimate, o.position);
-          g.fillStyle = o.color === 2 ? "#ff00ff" : o.color === 3 ? "#00ffff" : "#222";
+          const color = obstacleColor(o.color);
+          g.fillStyle = color === "ROBOT_MAGENTA" ? "#ff00ff" : color === "ROBOT_CYAN" ? "#00ffff" : "#222";
           g.fillRect(X(p.x) - 0.1 * scale, Y(p.y) - 0.1 * scale, 0.2 * scale, 0.2 * scale);
         }
       }
@@ -257,7 +258,7 @@ export default {
       g.fillStyle = "#ffffff";
       g.font = "bold 18px sans-serif";
       if (!game) { g.fillText("no game state", 8, 20); return; }
-      const secondary = game.secondary_state ? ` ${SECONDARY_STATES[game.secondary_state] ?? ""}` : "";
+      const secondary = game.secondary_state ? ` ${secondaryName(game.secondary_state)}` : "";
       const penalized = [];
       for (const id of store.latest.keys()) if (store.get(id, "gamestate")?.data?.penalized) penalized.push(id);
       const text = `${gameName(game.game_state)}${secondary}   ${game.own_score} : ${game.rival_score}   ` +

@@ -1,35 +1,17 @@
 // Parameters: every node of a robot with its parameters, edited live (the node validates), undo, diff, save, reset,
-// and a small plot of a numeric field against time with a parameter drawn as a threshold line. The panel follows
-// changes made elsewhere (another dashboard, the command line, the node itself) through the server's stream of the
-// nodes' parameter events; an input being typed into is never overwritten.
+// and a small plot of a numeric field (the server lists them) against time with a parameter drawn as a threshold
+// line. The panel follows changes made elsewhere (another dashboard, the command line, the node itself) through the
+// server's stream of the nodes' parameter events; an input being typed into is never overwritten.
 
-import { api, labToolOff, robotPicker } from "../lab_api.js";
+import { api, labToolOff, numericFields, robotPicker } from "../lab_api.js";
 import { esc } from "../dom.js";
 
 const PLOT_SECONDS = 20;
 const PLOT_HZ = 30;
 const DEFAULT_PLOT = ["imu/data", "angular_velocity/y"]; // the fall checker's gyro pitch against its threshold
-const MAX_ARRAY = 32; // numeric array fields offered per element up to this many
 
 function pick(obj, path) {
   return path.split("/").reduce((o, k) => (o == null ? undefined : o[k]), obj);
-}
-
-/** Paths of the numeric fields of a msg frame's data ("angular_velocity/y", "position/3"), with a label that names
- * an array element after the message's own name list where it has one (JointState: "position/3 (LKnee)"). */
-function numericFields(data, prefix = "", out = [], names = null) {
-  if (typeof data === "number") out.push([prefix, prefix]);
-  else if (Array.isArray(data)) {
-    data.slice(0, MAX_ARRAY).forEach((v, i) => {
-      const path = prefix ? `${prefix}/${i}` : `${i}`;
-      if (typeof v === "number" && names?.[i] !== undefined) out.push([path, `${path} (${names[i]})`]);
-      else numericFields(v, path, out);
-    });
-  } else if (data && typeof data === "object" && !("bytes" in data)) {
-    const own = Array.isArray(data.name) ? data.name : Array.isArray(data.joint_names) ? data.joint_names : null;
-    for (const [k, v] of Object.entries(data)) numericFields(v, prefix ? `${prefix}/${k}` : k, out, own);
-  }
-  return out;
 }
 
 function controlFor(p) {
@@ -353,14 +335,21 @@ export default {
       if (!plot.topic && topics.includes(DEFAULT_PLOT[0])) chooseTopic(DEFAULT_PLOT[0], DEFAULT_PLOT[1]);
       topicSel.value = plot.topic;
     }
-    function refreshFields(frame) {
-      const fields = numericFields(frame.data);
-      const key = fields.map(([f]) => f).join();
-      if (key === plot.fieldsOf) return;
+    /** The topic's numeric fields, from the server (the one definition of a numeric field), once the robot's first
+     * message of the topic is there; asked again for another robot or topic. */
+    async function refreshFields() {
+      const { topic } = plot, robot = state.robot, key = `${robot}|${topic}`;
+      if (plot.fieldsOf === key) return;
       plot.fieldsOf = key;
+      let fields;
+      try { fields = await numericFields(robot, topic); } catch {
+        if (plot.fieldsOf === key) plot.fieldsOf = ""; // no message yet: the next frame asks again
+        return;
+      }
+      if (plot.topic !== topic || state.robot !== robot) return;
       fieldSel.innerHTML = '<option value="">field…</option>' +
-        fields.map(([f, label]) => `<option value="${esc(f)}">${esc(label)}</option>`).join("");
-      if (!plot.field && plot.topic === DEFAULT_PLOT[0] && key.split(",").includes(DEFAULT_PLOT[1])) plot.field = DEFAULT_PLOT[1];
+        fields.map((f) => `<option value="${esc(f.path)}">${esc(f.label)}</option>`).join("");
+      if (!plot.field && topic === DEFAULT_PLOT[0] && fields.some((f) => f.path === DEFAULT_PLOT[1])) plot.field = DEFAULT_PLOT[1];
       fieldSel.value = plot.field;
     }
     function chooseTopic(topic, field = "") {
@@ -371,7 +360,7 @@ export default {
       if (!topic) return;
       plot.off = ctx.subscribe(topic, PLOT_HZ, (frame) => {
         if (frame.robot !== state.robot || frame.type !== "msg" || frame.topic !== plot.topic) return;
-        refreshFields(frame);
+        refreshFields();
         const v = plot.field ? pick(frame.data, plot.field) : undefined;
         if (typeof v !== "number") return;
         const now = performance.now() / 1000;
@@ -379,7 +368,7 @@ export default {
         while (state.series.length && state.series[0][0] < now - PLOT_SECONDS) state.series.shift();
       });
       const latest = ctx.store.get(state.robot, topic);
-      if (latest?.type === "msg") refreshFields(latest);
+      if (latest?.type === "msg") refreshFields();
     }
     topicSel.addEventListener("change", () => chooseTopic(topicSel.value));
     fieldSel.addEventListener("change", () => { plot.field = fieldSel.value; state.series = []; });

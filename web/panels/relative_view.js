@@ -1,6 +1,6 @@
 // Relative view: what the focused robot sees around itself (x forward is up): ball, goal, obstacles, lines.
 
-import { css, fitCanvas } from "../msgtypes.js";
+import { css, fitCanvas, obstacleColor } from "../msgtypes.js";
 
 const TOPICS = [["ball_relative", 15], ["goal_relative", 5], ["obstacles_relative", 5], ["line_information_relative", 5]];
 const RANGE_M = 5;
@@ -57,7 +57,8 @@ export default {
       for (const o of store.get(robot, "obstacles_relative")?.data?.obstacles || []) {
         const [x, y] = P(o.position);
         const size = Math.max(8, (o.width || 0.2) * scale);
-        g.fillStyle = o.color === 2 ? "#ff00ff" : o.color === 3 ? "#00c8ff" : "#333";
+        const color = obstacleColor(o.color);
+        g.fillStyle = color === "ROBOT_MAGENTA" ? "#ff00ff" : color === "ROBOT_CYAN" ? "#00c8ff" : "#333";
         g.fillRect(x - size / 2, y - size / 2, size, size);
         label(g, x, y, o.confidence.toFixed(2));
       }

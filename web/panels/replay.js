@@ -2,7 +2,7 @@
 // a progress bar while an unindexed log is scanned, and a small plot of any numeric field of any replayed topic
 // (topics panels do not know, e.g. from another team's ROS 2 bag). Replay feeds the same hub as live data.
 
-import { api } from "../lab_api.js";
+import { api, numericFields } from "../lab_api.js";
 import { esc } from "../dom.js";
 
 const SPEEDS = [0.1, 0.25, 0.5, 1, 2, 5, 10];
@@ -11,16 +11,6 @@ const PLOT_POINTS = 400;
 function clock(seconds) {
   const m = Math.floor(seconds / 60);
   return `${m}:${(seconds % 60).toFixed(1).padStart(4, "0")}`;
-}
-
-/** Paths of the numeric fields of a msg frame's data ("position/3", "linear_acceleration/x"). */
-function numericPaths(data, prefix = "", out = []) {
-  if (typeof data === "number") out.push(prefix);
-  else if (Array.isArray(data)) data.slice(0, 32).forEach((v, i) => numericPaths(v, prefix ? `${prefix}/${i}` : `${i}`, out));
-  else if (data && typeof data === "object" && !("bytes" in data)) {
-    for (const [k, v] of Object.entries(data)) numericPaths(v, prefix ? `${prefix}/${k}` : k, out);
-  }
-  return out;
 }
 
 function valueAt(data, path) {
@@ -93,10 +83,7 @@ export default {
       ctx.conn.subscribe(robot, topic, 30);
       plot.off = ctx.store.on(`topic:${topic}`, (frame) => {
         if (frame.robot !== robot || frame.type !== "msg") return;
-        if (!plot.lastFrame) {
-          $(".replay-plot-field").innerHTML = '<option value="">field…</option>' +
-            numericPaths(frame.data).map((p) => `<option>${esc(p)}</option>`).join("");
-        }
+        if (!plot.lastFrame) showFields(plot);
         plot.lastFrame = frame;
         if (!plot.field) return;
         const v = valueAt(frame.data, plot.field);
@@ -105,6 +92,16 @@ export default {
           if (plot.points.length > PLOT_POINTS) plot.points.shift();
         }
       });
+    }
+
+    /** The numeric fields the server lists for the plotted topic (asked once its first message is there). */
+    async function showFields(chosen) {
+      let fields = [];
+      try { fields = await numericFields(chosen.robot, chosen.topic); } catch (err) { fail(err); }
+      if (plot !== chosen) return; // another topic was chosen meanwhile
+      $(".replay-plot-field").innerHTML = '<option value="">field…</option>' +
+        fields.map((f) => `<option value="${esc(f.path)}">${esc(f.label)}</option>`).join("");
+      $(".replay-plot-field").value = plot.field;
     }
 
     async function loadInfo() {

@@ -1,6 +1,6 @@
 // Team overview: a card per robot with HCM state, penalty, game state, battery, hottest servo and link health.
 
-import { BAD_HCM_STATES, gameName, hcmName } from "../msgtypes.js";
+import { gameName, hcmName, hcmStateIsBad, hcmStateIsPenalty } from "../msgtypes.js";
 import { esc } from "../dom.js";
 
 const TOPICS = [["robot_state", 5], ["gamestate", 2], ["servo_data", 1], ["overview", 5]];
@@ -24,7 +24,7 @@ export function robotFacts(store, robot) {
     }
     if (best) hottest = `${best.header.frame_id || "?"} ${best.temperature.toFixed(0)} °C`;
   }
-  const penalized = Boolean(game?.penalized || overview?.penalized || state === 7 || state === 8);
+  const penalized = Boolean(game?.penalized || overview?.penalized || hcmStateIsPenalty(state));
   const gameState = game ? game.game_state : (overview?.gamestate_known ? overview.game_state : undefined);
   return { state, penalized, gameState, voltage, hottest };
 }
@@ -58,7 +58,7 @@ export default {
       const age = info ? store.robotAge(info) : Infinity;
       const status = age >= config.lost_after_s ? "lost" : age >= config.stale_after_s ? "stale" : "ok";
       const f = robotFacts(store, id);
-      const stateClass = f.state === undefined ? "" : BAD_HCM_STATES.has(f.state) ? "bad" : "ok";
+      const stateClass = f.state === undefined ? "" : hcmStateIsBad(f.state) ? "bad" : "ok";
       const streams = info ? Object.entries(info.streams) : [];
       const rows = streams.map(([topic, s]) => {
         const sAge = store.robotAge(info, topic);
