@@ -3,12 +3,16 @@
 Each machine (laptop, robot1, ...) is a namespace with its own loopback and one interface ``eth0`` at
 10.88.0.<n>/24, as separate computers have; the other end of its veth pair sits in the ``air`` namespace,
 where the netshaper hub passes frames between machines with the delay, jitter, loss and cuts a test asks for.
+Machines speak IPv4 only: IPv6 is off in every namespace, so a kernel's own chatter (router solicitations, MLD,
+duplicate address detection) never counts as a frame one machine sent another. ``Machine.connect`` opens a TCP
+connection from inside a machine (a browser on the laptop) for code that runs outside the namespaces.
 Needs root (CI runs as root) and ``ip``/``ethtool``; ``skip_reason()`` says why a test cannot run here.
 """
 
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import itertools
 import json
 import os
@@ -18,13 +22,16 @@ import socket
 import subprocess
 import sys
 import tempfile
-from collections.abc import Iterator
+import threading
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
+T = TypeVar("T")
 REPO = Path(__file__).resolve().parents[1]
 SUBNET = "10.88.0"
+CLONE_NEWNET = 0x40000000
 _ids = itertools.count(os.getpid() % 1000 * 10)
 
 
@@ -40,6 +47,36 @@ def skip_reason() -> str | None:
 
 def _ip(*args: str) -> None:
     subprocess.run(["ip", *args], check=True, capture_output=True, text=True)
+
+
+def _ipv4_only(netns: str) -> None:
+    """IPv6 off in a namespace before its links come up (no file for it when the kernel has no IPv6: fine)."""
+    subprocess.run(["ip", "netns", "exec", netns, "sh", "-c", "for c in all default; do "
+                    "echo 1 > /proc/sys/net/ipv6/conf/$c/disable_ipv6; done"], capture_output=True, check=False)
+
+
+def in_namespace(netns: str, work: Callable[[], T]) -> T:
+    """work() on a thread that has joined the namespace: sockets it makes belong there and stay usable anywhere."""
+    result: list[T] = []
+    failure: list[BaseException] = []
+
+    def run() -> None:
+        libc = ctypes.CDLL(None, use_errno=True)
+        try:
+            with open(f"/run/netns/{netns}") as handle:
+                if libc.setns(handle.fileno(), CLONE_NEWNET) != 0:  # this thread only; it ends right after
+                    errno = ctypes.get_errno()
+                    raise OSError(errno, f"setns into {netns}: {os.strerror(errno)}")
+            result.append(work())
+        except BaseException as exc:  # handed to the caller's thread
+            failure.append(exc)
+
+    thread = threading.Thread(target=run, name=f"in-{netns}")
+    thread.start()
+    thread.join()
+    if failure:
+        raise failure[0]
+    return result[0]
 
 
 @dataclass
@@ -66,6 +103,10 @@ class Machine:
                                        start_new_session=True)
         self.processes.append(process)
         return process
+
+    def connect(self, address: tuple[str, int], timeout: float = 5.0) -> socket.socket:
+        """A TCP connection made from this machine (e.g. to a server on its loopback); OSError if refused."""
+        return in_namespace(self.netns, lambda: socket.create_connection(address, timeout))
 
     def python(self, module_args: list[str], log: Path, env: dict[str, str] | None = None) -> subprocess.Popen[bytes]:
         return self.start([sys.executable, "-m", *module_args], log, env)
@@ -104,11 +145,13 @@ class Network:
 
     def _build(self, names: list[str]) -> None:
         _ip("netns", "add", self.air)
+        _ipv4_only(self.air)
         _ip("-n", self.air, "link", "set", "lo", "up")
         ports = []
         for n, name in enumerate(names, start=1):
             netns = f"{self.tag}-{name}"
             _ip("netns", "add", netns)
+            _ipv4_only(netns)
             port = f"l{n}"
             _ip("link", "add", f"{self.tag}e{n}", "type", "veth", "peer", "name", f"{self.tag}p{n}")
             _ip("link", "set", f"{self.tag}e{n}", "netns", netns, "name", "eth0")

@@ -15,17 +15,23 @@ Control: JSON datagrams on the unix socket, ``{"port": "l_robot1", "delay_ms": 2
 from __future__ import annotations
 
 import argparse
+import contextlib
 import heapq
 import json
 import os
 import random
 import select
 import socket
+import struct
 import threading
 import time
 from dataclasses import asdict, dataclass, field
+from typing import Any
 
 ETH_P_ALL = 0x0003
+SOL_PACKET = 263
+PACKET_STATISTICS = 6  # struct tpacket_stats {unsigned tp_packets, tp_drops}, reset on every read
+PACKET_IGNORE_OUTGOING = 23
 
 
 @dataclass
@@ -38,7 +44,9 @@ class LinkState:
     cut: bool = False
     frames_in: int = 0
     frames_out: int = 0
-    dropped: int = 0
+    dropped: int = 0  # by the shaping: loss, cut
+    send_errors: int = 0  # the hub could not pass a frame on (not the link's doing)
+    missed: int = 0  # frames the kernel dropped before the hub read them (its receive buffer was full)
     frames_from: dict[str, int] = field(default_factory=dict)  # by source MAC, for captures in tests
 
 
@@ -50,6 +58,8 @@ class Hub:
         for port in ports:
             s = socket.socket(socket.AF_PACKET, socket.SOCK_RAW, socket.htons(ETH_P_ALL))
             s.bind((port, 0))
+            with contextlib.suppress(OSError):  # Linux >= 4.20: our own sends never fill the receive buffer
+                s.setsockopt(SOL_PACKET, PACKET_IGNORE_OUTGOING, 1)
             s.setblocking(False)
             self.sockets[port] = s
         self.by_fd = {s.fileno(): p for p, s in self.sockets.items()}
@@ -119,7 +129,7 @@ class Hub:
                     link.frames_out += 1
                     link.frames_from[source] = link.frames_from.get(source, 0) + 1
             except OSError:
-                link.dropped += 1
+                link.send_errors += 1
 
     def control(self, path: str) -> None:
         with socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM) as s:
@@ -128,6 +138,7 @@ class Hub:
             s.bind(path)
             while True:
                 data, reply_to = s.recvfrom(65535)
+                answer: dict[str, Any]
                 try:
                     request = json.loads(data)
                     ports = self.ports if request.get("port", "*") == "*" else [request["port"]]
@@ -137,6 +148,9 @@ class Hub:
                             if key in request:
                                 setattr(link, key, type(getattr(link, key))(request[key]))
                     with self.lock:
+                        for port, sock in self.sockets.items():
+                            self.links[port].missed += struct.unpack(
+                                "II", sock.getsockopt(SOL_PACKET, PACKET_STATISTICS, 8))[1]
                         answer = {p: asdict(link) for p, link in self.links.items()}
                 except (ValueError, KeyError, TypeError) as exc:
                     answer = {"error": str(exc)}
