@@ -42,7 +42,9 @@ time); live robot_state has no header and the server stamps it on arrival, so it
   these machines, so a kernel's own IPv6 chatter is no false alarm), over the whole run of the mode, the browser
   attached. Match mode must send nothing; lab mode's count is there to show the counter sees traffic.
 
-RESULT keys: resume_s = the slowest resume over both modes and the shaped conditions; stale_shown = the sum over
+RESULT keys: resume_s = the slower of both modes' resume after the cut on the 20 +- 10 ms link without loss (the
+issue's "one 10 s cut"); resume_lossy_s = the slowest resume of the cuts made under 5 % and 20 % loss as well
+(reported, not budgeted: every reconnection attempt needs its SYN and SYN-ACK through); stale_shown = the sum over
 both modes and all conditions; match_packets_to_robot = match mode's count; loss5_state_delivered_pct = the worse
 mode at 5 % loss; loss20_state_age_p99_ms = the worse mode at 20 % loss; ref_* are the unshaped reference.
 Budgets: resume_s < 1, stale_shown = 0, match_packets_to_robot = 0, loss5_state_delivered_pct >= 90.
@@ -535,7 +537,9 @@ def main() -> None:
     def at(loss: float) -> list[Figures]:
         return [f for f in shaped if f.condition.loss == loss]
 
-    resume = worst([f.resume_s for f in shaped])
+    # the issue's one 10 s cut is on the 20 +- 10 ms link; cuts under loss as well are reported, not budgeted
+    resume = worst([f.resume_s for f in at(0.0)])
+    resume_lossy = worst([f.resume_s for f in shaped if f.condition.loss > 0])
     stale = sum(f.stale_shown for f in every)
     packets = results["match"][1] if "match" in results else -1
     delivered5 = worst([f.delivered_pct for f in at(0.05)], highest=False)
@@ -546,7 +550,7 @@ def main() -> None:
     print("\nbudgets: " + ", ".join(f"{text} {'ok' if met else 'NOT MET'}" for text, met in budgets))
     print(f"RESULT net resume_s={resume:.2f} stale_shown={stale} match_packets_to_robot={packets} "
           f"loss5_state_delivered_pct={delivered5:.1f} loss20_state_age_p99_ms={age20:.0f} "
-          f"ref_resume_s={worst([f.resume_s for f in reference]):.2f} "
+          f"resume_lossy_s={resume_lossy:.2f} ref_resume_s={worst([f.resume_s for f in reference]):.2f} "
           f"ref_state_age_p99_ms={worst([f.age_p99_ms for f in reference]):.0f}")
 
 

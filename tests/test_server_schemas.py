@@ -14,8 +14,8 @@ import pytest
 import schemas
 from schemas.codec import OWN_PACKAGES, SCHEMA_DIR
 from schemas.mcap_log import LogWriter
-from tests.conftest import REPO
 from tests.dashboard_server import RunningServer, dashboard_server
+from tests.support import REPO
 from tests.waiting import wait_for
 
 WEB = REPO / "web"

@@ -31,12 +31,13 @@ log = logging.getLogger(__name__)
 
 # Link loss (a robot walking out of the Wi-Fi, a cut cable): a link that has been silent for LEASE_MS is closed on
 # both ends, so the TCP connection's backed-off retransmissions never decide when data flows again; the side
-# that connected tries again every RETRY_MAX_MS at most, and comes back within about a second of the network.
+# that connected tries again at most RETRY_MAX_MS after an attempt ends, so it is back within about 0.6 s + the
+# handshake of the network returning.
 # A small send buffer keeps what queues up during a cut to a fraction of a second of data.
 LEASE_MS = 2000
 KEEP_ALIVE = 4  # keep-alives per lease: one every 0.5 s
-RETRY_INIT_MS = 100
-RETRY_MAX_MS = 250
+RETRY_INIT_MS = 50
+RETRY_MAX_MS = 100
 # an attempt to open a link gives up after this (Zenoh's default is 10 s): a SYN sent into a cut would otherwise
 # wait for the kernel's backed-off retransmission; a new attempt sends a new one
 OPEN_TIMEOUT_MS = 500
