@@ -19,8 +19,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import numpy as np
 
 import schemas
-from robot_nodes.animation import AnimationPlayer, load_animation
 from robot_nodes.runtime import header
+from wire.animation import AnimationPlayer, load_animation
 
 FILE = Path(__file__).resolve().parents[2] / "shared" / "testdata" / "animations" / "wolfgang_stand_up_back.json"
 

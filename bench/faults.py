@@ -56,11 +56,12 @@ import psutil
 
 import schemas
 from robot_nodes.launch import NODE_MODULES
-from robot_nodes.runtime import BusConfig, keys, open_session
+from robot_nodes.runtime import BusConfig, open_session
 from schemas.mcap_log import LogError, LogReader
 from tests.running_demo import DashboardObserver, RunningDemo, running_demo
 from tests.support import REPO
 from tests.waiting import wait_for
+from wire import keys
 
 ROUTER = re.compile(r"Zenoh router (tcp/[0-9.]+:\d+)")
 ROBOT_STATE = schemas.message_class("humanoid_league_msgs/msg/RobotControlState")

@@ -22,7 +22,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import zenoh
 
 import schemas
-from robot_nodes.runtime import BusConfig, Node, keys, open_router, open_session
+from robot_nodes.runtime import BusConfig, Node, open_router, open_session
+from wire import keys
 
 JOINTS = ["HeadPan", "HeadTilt", "LShoulderPitch", "LShoulderRoll", "LElbow", "RShoulderPitch", "RShoulderRoll",
           "RElbow", "LHipYaw", "LHipRoll", "LHipPitch", "LKnee", "LAnklePitch", "LAnkleRoll", "RHipYaw",

@@ -4,7 +4,7 @@
 
 The server runs as its own process (``python -m server``, telemetry on a free UDP port, joined to a Zenoh
 router in this process); 11 simulated robots' telemetry comes from a third process that writes real
-authenticated datagrams (``robot_nodes.telemetry.datagram``: stream tables, AES-GCM, sequence numbers)
+authenticated datagrams (``wire.telemetry.datagram``: stream tables, AES-GCM, sequence numbers)
 into the server's UDP port; the WebSocket clients run in a fourth. Figures:
 - hub_msgs_per_s: messages/s the hub took in from UDP telemetry while 11 robots flood robot_state;
 - ws1_msgs_per_s / ws10_msgs_per_s: messages/s delivered to 1 client / to 10 clients in total, same flood;
@@ -37,10 +37,10 @@ import httpx
 
 import schemas
 from robot_nodes.runtime import BusConfig, open_router, open_session
-from robot_nodes.runtime.keys import topic_key
-from robot_nodes.telemetry import datagram as tdg
 from server.protocol import unbatch
 from tests.support import free_port
+from wire.keys import topic_key
+from wire.telemetry import datagram as tdg
 
 REPO = Path(__file__).resolve().parents[1]
 ROBOTS = [f"r{i}" for i in range(1, 12)]

@@ -123,7 +123,8 @@ def baseline(datagrams_per_s: float, seconds: float = 3.0) -> tuple[float, float
 
 def receiver_rate(n: int = 20_000) -> float:
     """Whole joint_states messages/s the receiver authenticates, checks and decodes on one core."""
-    from robot_nodes.telemetry.datagram import (
+    from schemas.codec import schema_hash
+    from wire.telemetry.datagram import (
         TABLE_HASH,
         TABLE_STREAM,
         DatagramWriter,
@@ -131,8 +132,7 @@ def receiver_rate(n: int = 20_000) -> float:
         StreamInfo,
         encode_stream_tables,
     )
-    from robot_nodes.telemetry.receiver import TelemetryReceiver
-    from schemas.codec import schema_hash
+    from wire.telemetry.receiver import TelemetryReceiver
 
     key, typename = os.urandom(32), "sensor_msgs/msg/JointState"
     writer, receiver = DatagramWriter(key, "bench1"), TelemetryReceiver(key)

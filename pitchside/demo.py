@@ -16,9 +16,9 @@ from pathlib import Path
 import robots as descriptions
 from pitchside.robot import MOTION_NODES, available, robot_nodes
 from robot_nodes.launch import Launcher, NodeProcess, run_until_signal
-from robot_nodes.runtime.bus import open_router
-from robot_nodes.telemetry.datagram import write_new_key
 from server.security.credentials import ENV_TOKEN, new_token
+from wire.bus import open_router
+from wire.telemetry.datagram import write_new_key
 
 log = logging.getLogger("pitchside.demo")
 

@@ -17,9 +17,9 @@ import robots
 from pitchside.team_access import Role
 from pitchside.team_keys import member_of
 from robot_nodes.launch import NODE_MODULES, Launcher, NodeProcess, node_command, run_until_signal
-from robot_nodes.runtime.bus import add_bus_arguments, env_endpoints, load_config_file
-from robot_nodes.runtime.machine_router import MachineRouter, is_router_config, start_machine_router
-from robot_nodes.telemetry.datagram import DEFAULT_PORT
+from wire.bus import add_bus_arguments, env_endpoints, load_config_file
+from wire.machine_router import MachineRouter, is_router_config, start_machine_router
+from wire.telemetry.datagram import DEFAULT_PORT
 
 MOTION_NODES = ["hcm", "animation", "pause", "speaker"]
 # everything a robot runs in a match (telemetry only when it has somewhere to send to)

@@ -25,8 +25,8 @@ import enum
 from collections.abc import Mapping
 from typing import Any
 
-from robot_nodes.runtime import keys
 from schemas.topics import topic
+from wire import keys
 
 ALL_MESSAGES = ("put", "delete", "declare_subscriber", "query", "reply", "declare_queryable", "liveliness_token",
                 "liveliness_query", "declare_liveliness_subscriber")

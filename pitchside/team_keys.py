@@ -35,8 +35,8 @@ from typing import Any
 
 from pitchside.team_access import Role, access_control, robot_router_access_control
 from pitchside.team_certificates import MemberCredentials, TeamAuthority, TeamCertificateError, member_credentials
-from robot_nodes.runtime.bus import DEFAULT_LISTEN, BusConfig, router_settings
-from robot_nodes.telemetry.datagram import check_robot_id
+from wire.bus import DEFAULT_LISTEN, BusConfig, router_settings
+from wire.telemetry.datagram import check_robot_id
 
 TEAM_FILE = "team.json"
 CA_KEY = "team-ca.key"

@@ -18,8 +18,8 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from robot_nodes.runtime.bus import add_bus_arguments, bus_from_arguments
-from robot_nodes.runtime.machine_router import is_router_config, remote, start_machine_router
+from wire.bus import add_bus_arguments, bus_from_arguments
+from wire.machine_router import is_router_config, remote, start_machine_router
 
 log = logging.getLogger("pitchside.launch")
 

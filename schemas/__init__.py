@@ -2,6 +2,7 @@
 
 from schemas.codec import SchemaError, constant_names, constants, decode, encode, make, message_class, msgdef
 from schemas.json_view import to_dict
+from schemas.stamps import header, stamp
 from schemas.topics import ACTIONS, SERVICES, TOPICS, Priority, Topic, topic
 
 __all__ = [
@@ -15,9 +16,11 @@ __all__ = [
     "constants",
     "decode",
     "encode",
+    "header",
     "make",
     "message_class",
     "msgdef",
+    "stamp",
     "to_dict",
     "topic",
 ]

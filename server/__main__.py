@@ -7,11 +7,11 @@ import logging
 import sys
 from pathlib import Path
 
-from robot_nodes.runtime.bus import add_bus_arguments, bus_from_arguments, load_config_file
-from robot_nodes.runtime.machine import machine_addresses
 from server.config import RobotDescription, ServerConfig
 from server.security.credentials import ENV_TOKEN
 from server.security.token_file import remove_token_file, write_token_file
+from wire.bus import add_bus_arguments, bus_from_arguments, load_config_file
+from wire.machine import machine_addresses
 
 
 def arguments() -> argparse.ArgumentParser:
@@ -136,7 +136,7 @@ def start_banner(config: ServerConfig) -> str:
 
 
 def telemetry_key_name(config: ServerConfig) -> str:
-    from robot_nodes.telemetry.datagram import key_fingerprint, load_key
+    from wire.telemetry.datagram import key_fingerprint, load_key
 
     name = key_fingerprint(load_key(config.telemetry_key))
     return "the published development key (anyone can forge it)" if name == "development" else f"team {name}"

@@ -11,7 +11,6 @@ from contextlib import asynccontextmanager
 from fastapi import FastAPI
 from fastapi.staticfiles import StaticFiles
 
-from robot_nodes.telemetry.datagram import key_fingerprint, load_key
 from server.config import ServerConfig
 from server.hub import Hub
 from server.recording.wiring import attach_recording
@@ -37,6 +36,7 @@ from server.sources.live import LiveZenohSource
 from server.sources.telemetry import TelemetrySource
 from server.state import ServerState
 from server.zenoh_link import ZenohLink
+from wire.telemetry.datagram import key_fingerprint, load_key
 
 log = logging.getLogger(__name__)
 

@@ -8,9 +8,9 @@ from pathlib import Path
 
 import robots
 import web
-from robot_nodes.runtime.bus import BusConfig
-from robot_nodes.runtime.machine import is_loopback
 from server.security.credentials import ENV_TOKEN, new_token
+from wire.bus import BusConfig
+from wire.machine import is_loopback
 
 DEFAULT_URDF = robots.urdf()
 WEB_DIR = web.ROOT
@@ -46,7 +46,7 @@ class ServerConfig:
     live_source: bool | None = None  # None: on outside match mode, off in match mode
     telemetry_source: bool = True
     telemetry_host: str = "0.0.0.0"
-    telemetry_port: int = 5800  # robot_nodes.telemetry.datagram.DEFAULT_PORT
+    telemetry_port: int = 5800  # wire.telemetry.datagram.DEFAULT_PORT
     telemetry_key: str | None = None  # team key (hex or a file); None: the development key
     allow_dev_key: bool = False  # match mode with the published development key (refused unless set)
     queue_size: int = 2000  # frames per WebSocket client before the oldest are dropped

@@ -14,10 +14,10 @@ import time
 from fastapi import Depends, HTTPException
 from starlette.requests import HTTPConnection
 
-from robot_nodes.runtime.keys import NAME_RULE, is_valid_name
 from server.security import Credentials
 from server.state import ServerState
 from server.zenoh_link import MATCH_MODE_REASON
+from wire.keys import NAME_RULE, is_valid_name
 
 
 def get_state(conn: HTTPConnection) -> ServerState:

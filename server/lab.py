@@ -20,10 +20,10 @@ from typing import Any
 import numpy as np
 
 import schemas
-from robot_nodes.animation import Animation, AnimationPlayer, mirror_signs_from_axes
-from robot_nodes.runtime import keys
-from robot_nodes.runtime.actions import ActionClient, ClientGoal
 from server.state import ServerState
+from wire import keys
+from wire.actions import ActionClient, ClientGoal
+from wire.animation import Animation, AnimationPlayer, mirror_signs_from_axes
 
 TELEOP_HZ = 10.0
 TELEOP_HOLD_S = 0.5  # a command not refreshed for this long stops the robot
@@ -60,7 +60,7 @@ def urdf_joint_limits(path: Path) -> JointLimits:
 
 
 def urdf_mirror_signs(path: Path) -> dict[str, float]:
-    """Mirror signs of the robot's joints from its URDF's axes (robot_nodes.animation.editing explains the rule),
+    """Mirror signs of the robot's joints from its URDF's axes (wire.animation.editing explains the rule),
     so mirror is right for any robot the server is given, not only for Bit-Bots' axis conventions."""
     return dict(_mirror_signs(str(path), path.stat().st_mtime))
 

@@ -6,7 +6,7 @@ import threading
 
 import zenoh
 
-from robot_nodes.runtime.bus import BusConfig, open_session
+from wire.bus import BusConfig, open_session
 
 
 class MatchModeError(RuntimeError):

@@ -11,7 +11,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from robot_nodes.animation import (
+from wire.animation import (
     Animation,
     AnimationError,
     Keyframe,
@@ -31,8 +31,8 @@ from robot_nodes.animation import (
     save_animation,
     validate,
 )
-from robot_nodes.animation.animation_file import check_joints
-from robot_nodes.animation.editing import default_mirror_sign
+from wire.animation.animation_file import check_joints
+from wire.animation.editing import default_mirror_sign
 
 WOLFGANG_JOINTS = [
     "HeadPan", "HeadTilt", "LShoulderPitch", "LShoulderRoll", "LElbow", "RShoulderPitch", "RShoulderRoll", "RElbow",

@@ -11,7 +11,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from robot_nodes.animation import Animation, AnimationPlayer, JointCurve, Keyframe, load_animation
+from wire.animation import Animation, AnimationPlayer, JointCurve, Keyframe, load_animation
 
 
 def nod() -> Animation:

@@ -37,11 +37,12 @@ from pitchside.team_keys import (
     member_of,
     read_credentials,
 )
-from robot_nodes.runtime import BusConfig, ParameterClient, ParameterError, keys, open_router, open_session
-from robot_nodes.runtime.bus import LEASE_MS, load_config_file, router_config
-from robot_nodes.runtime.machine_router import MachineRouter, start_machine_router
+from robot_nodes.runtime import BusConfig, ParameterClient, ParameterError, open_router, open_session
 from tests.support import REPO, free_port
 from tests.waiting import wait_for
+from wire import keys
+from wire.bus import LEASE_MS, load_config_file, router_config
+from wire.machine_router import MachineRouter, start_machine_router
 
 MOTOR_GOALS = keys.topic_key("robot1", "motor_goals")
 CMD_VEL = keys.topic_key("robot1", "cmd_vel")

@@ -139,8 +139,9 @@ def _say(event: dict[str, Any]) -> None:
 def probe(argv: list[str]) -> None:
     """A team session: reports samples of --subscribe keys (control topics with their sender), puts --put
     messages in the order given, every 0.2 s, until stopped."""
-    from robot_nodes.runtime import BusConfig, keys, open_session
+    from robot_nodes.runtime import BusConfig, open_session
     from tests.test_bus_security import drive, goals, sender_of
+    from wire import keys
 
     parser = argparse.ArgumentParser()
     parser.add_argument("--zenoh-config", default=None)
@@ -183,8 +184,8 @@ def outsider(argv: list[str]) -> None:
     endpoint, then a peer that keeps putting robot1's motor goals and cmd_vel at all of them."""
     import zenoh
 
-    from robot_nodes.runtime import keys
     from tests.test_bus_security import drive, goals
+    from wire import keys
 
     parser = argparse.ArgumentParser()
     parser.add_argument("--ca", required=True, help="the team CA certificate, base64 (the TLS handshake shows it)")

@@ -14,8 +14,8 @@ import zenoh
 import schemas
 from robot_nodes.cm730.node import Cm730Node
 from robot_nodes.runtime import BusConfig
-from robot_nodes.runtime.keys import topic_key
 from tests.waiting import wait_for
+from wire.keys import topic_key
 
 
 class Listener:

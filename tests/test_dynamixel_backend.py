@@ -36,9 +36,9 @@ from robot_nodes.cm730.dynamixel.sdk_adapter import P1BulkRead
 from robot_nodes.cm730.node import Cm730Node
 from robot_nodes.runtime import BusConfig as RuntimeBus
 from robot_nodes.runtime import open_session
-from robot_nodes.runtime.keys import topic_key
 from tests.servo_bus_emulator import CORRUPTIONS, ServoBusEmulator, crc16, p1_packet, p2_packet, stuff, unstuff
 from tests.waiting import wait_for
+from wire.keys import topic_key
 
 MX64 = units.model("MX-64")
 TICK = MX64.rad_per_tick

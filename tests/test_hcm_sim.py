@@ -22,9 +22,9 @@ from robot_nodes.cm730.node import Cm730Node
 from robot_nodes.hcm.node import HcmNode
 from robot_nodes.hcm.pause import PauseNode
 from robot_nodes.runtime import BusConfig, ParameterClient, call_service, open_session
-from robot_nodes.runtime.actions import ActionClient, GoalStatus
-from robot_nodes.runtime.keys import topic_key
 from tests.waiting import wait_for
+from wire.actions import ActionClient, GoalStatus
+from wire.keys import topic_key
 
 pytestmark = pytest.mark.slow
 

@@ -12,10 +12,10 @@ import pytest
 import zenoh
 
 import schemas
-from robot_nodes.runtime.keys import topic_key
 from schemas.mcap_log import LogWriter
 from tests.dashboard_server import dashboard_server
 from tests.waiting import wait_for
+from wire.keys import topic_key
 
 pytestmark = [pytest.mark.slow, pytest.mark.browser]
 MARKUP = "<img src=x onerror=window.__pwned=1>"

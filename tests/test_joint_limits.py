@@ -17,16 +17,16 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import schemas
-from robot_nodes.animation import load_animation
 from robot_nodes.cm730.dynamixel import BITBOTS_JOINTS, DynamixelBackend, JointConfig, default_joints
 from robot_nodes.cm730.joint_limits import ClampTally, GoalLimits, JointLimitsError, read_urdf_limits
 from robot_nodes.cm730.node import Cm730Node
 from robot_nodes.runtime import BusConfig, open_session
-from robot_nodes.runtime.keys import topic_key
 from robots import ROOT as ROBOTS
 from tests.servo_bus_emulator import ServoBusEmulator
 from tests.support import TESTDATA
 from tests.waiting import wait_for
+from wire.animation import load_animation
+from wire.keys import topic_key
 
 MINIBOT_URDF = ROBOTS / "minibot" / "urdf" / "minibot.urdf"
 WOLFGANG_URDF = TESTDATA / "robots" / "wolfgang" / "urdf" / "robot.urdf"

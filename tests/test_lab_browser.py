@@ -10,7 +10,6 @@ from typing import Any
 import pytest
 import zenoh
 
-from robot_nodes.animation import load_animation
 from robot_nodes.animation.node import AnimationNode
 from robot_nodes.cm730.node import Cm730Node
 from robot_nodes.hcm.node import HcmNode
@@ -18,6 +17,7 @@ from robot_nodes.runtime import BusConfig, ParameterClient
 from tests.dashboard_server import RunningServer, dashboard_server
 from tests.support import REPO
 from tests.waiting import wait_for
+from wire.animation import load_animation
 
 pytestmark = [pytest.mark.slow, pytest.mark.browser]
 OUTPUT = REPO / "test-output"

@@ -18,16 +18,16 @@ import zenoh
 from fastapi.testclient import TestClient
 
 import schemas
-from robot_nodes.animation import load_animation
 from robot_nodes.animation.node import AnimationNode
 from robot_nodes.hcm.node import HcmNode
 from robot_nodes.runtime import BusConfig, ParameterClient
-from robot_nodes.runtime.keys import topic_key
 from server.app import create_app
 from server.config import ServerConfig
 from tests.dashboard_server import RunningServer, dashboard_server
 from tests.support import REPO
 from tests.waiting import wait_for
+from wire.animation import load_animation
+from wire.keys import topic_key
 
 LAB_TAGS = {"params", "animations", "teleop"}
 MINIBOT = REPO / "robots" / "minibot"
@@ -160,7 +160,7 @@ def test_animation_files_edits_record_and_play(server: RunningServer, bus: BusCo
                               json={"text": '{"name": "x", "keyframes": [{"duration": -1}]}'}, timeout=20)
         assert bad.status_code == 422 and "keyframe 0" in bad.json()["detail"] and not (folder / "broken.json").exists()
 
-        # edits run server-side through robot_nodes.animation.editing
+        # edits run server-side through wire.animation.editing
         anim = {"name": "wave", "keyframes": [{"duration": 0.5, "goals": {"LShoulderRoll": 30.0}},
                                               {"duration": 0.5, "goals": {"LShoulderRoll": 0.0}}]}
         mirrored = server.http.post(f"{url}/animation-edit", json={"animation": anim, "op": "mirror"},

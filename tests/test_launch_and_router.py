@@ -13,9 +13,10 @@ import time
 import pytest
 
 from robot_nodes.launch import Launcher, NodeProcess, node_command
-from robot_nodes.runtime import BusConfig, ParameterClient, keys, open_session
+from robot_nodes.runtime import BusConfig, ParameterClient, open_session
 from tests.support import REPO, free_port
 from tests.waiting import wait_for
+from wire import keys
 
 
 def test_killed_node_is_back_within_two_seconds_and_publishing(router_endpoint: str) -> None:

@@ -38,7 +38,7 @@ def control_calls(server: RunningServer) -> list[tuple[str, str, dict[str, Any] 
 
 
 def robot_overview_datagrams(robot: str) -> list[bytes]:
-    datagram = pytest.importorskip("robot_nodes.telemetry.datagram")
+    datagram = pytest.importorskip("wire.telemetry.datagram")
     writer = datagram.DatagramWriter(datagram.load_key(None), robot)
     overview = datagram.new_overview(hcm_state=10, pose_known=True, pose_x=1.5)
     return writer.message(datagram.Kind.OVERVIEW, datagram.OVERVIEW_STREAM, datagram.OVERVIEW_HASH,

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from robot_nodes.animation import AnimationPlayer, load_animation, validate
 from robot_nodes.cm730.sim import RobotHandle, SimWorld
+from wire.animation import AnimationPlayer, load_animation, validate
 
 ANIMATIONS = Path(__file__).resolve().parents[1] / "robots" / "minibot" / "animations"
 REQUIRED = ("walkready", "init", "falling_front", "falling_back", "stand_up_front", "stand_up_back",

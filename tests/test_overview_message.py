@@ -11,15 +11,6 @@ from pathlib import Path
 from typing import Any
 
 import schemas
-from robot_nodes.telemetry.datagram import (
-    OVERVIEW_HASH,
-    OVERVIEW_STREAM,
-    DatagramWriter,
-    Kind,
-    encode_overview,
-    new_overview,
-)
-from robot_nodes.telemetry.receiver import TelemetryReceiver
 from schemas.mcap_log import LogReader, LogWriter
 from server.hub import Hub, HubMessage
 from server.protocol import frame_of
@@ -27,6 +18,15 @@ from server.recording.session import HubRecording
 from tests.dashboard_server import dashboard_server
 from tests.test_replay import _collect, _post
 from tests.waiting import wait_for
+from wire.telemetry.datagram import (
+    OVERVIEW_HASH,
+    OVERVIEW_STREAM,
+    DatagramWriter,
+    Kind,
+    encode_overview,
+    new_overview,
+)
+from wire.telemetry.receiver import TelemetryReceiver
 
 OVERVIEW_TYPE = "pitchside_msgs/msg/RobotOverview"
 KEY = bytes(range(32))

@@ -22,12 +22,12 @@ from robot_nodes.runtime import (
     ServerGoal,
     ServiceError,
     call_service,
-    keys,
     open_session,
     param,
 )
 from tests.support import REPO
 from tests.waiting import wait_for
+from wire import keys
 
 
 class Listener(Node):

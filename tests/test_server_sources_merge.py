@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 import schemas
-from robot_nodes.telemetry.receiver import ReceivedMessage
 from server.hub import Hub, HubMessage
 from server.sources.telemetry import TelemetrySource
+from wire.telemetry.receiver import ReceivedMessage
 
 
 def received(topic: str, msg: object, typename: str) -> ReceivedMessage:

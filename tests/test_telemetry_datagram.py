@@ -15,7 +15,10 @@ import pytest
 
 import schemas
 from robot_nodes.telemetry.budget import ByteBudget, Frame, Stream
-from robot_nodes.telemetry.datagram import (
+from robot_nodes.telemetry.sender import parse_destination, parse_topics
+from schemas.codec import schema_hash
+from schemas.topics import Priority
+from wire.telemetry.datagram import (
     CHUNK,
     DEV_KEY,
     HEADER_SIZE,
@@ -38,10 +41,7 @@ from robot_nodes.telemetry.datagram import (
     new_overview,
     parse_header,
 )
-from robot_nodes.telemetry.receiver import TelemetryReceiver
-from robot_nodes.telemetry.sender import parse_destination, parse_topics
-from schemas.codec import schema_hash
-from schemas.topics import Priority
+from wire.telemetry.receiver import TelemetryReceiver
 
 KEY = bytes(range(32))
 IMAGE_TYPE = "sensor_msgs/msg/CompressedImage"
@@ -309,7 +309,7 @@ def test_dry_run_cli(tmp_path: Path) -> None:
 
 
 def test_asyncio_listener_delivers_whole_messages() -> None:
-    from robot_nodes.telemetry.receiver import listen
+    from wire.telemetry.receiver import listen
 
     async def scenario() -> list:
         receiver = TelemetryReceiver(KEY)

@@ -16,7 +16,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import schemas
-from robot_nodes.telemetry.datagram import (
+from schemas.codec import schema_hash
+from wire.telemetry.datagram import (
     CHUNK,
     MAX_FRAGMENTS,
     OVERVIEW_HASH,
@@ -33,8 +34,7 @@ from robot_nodes.telemetry.datagram import (
     fragment_length,
     new_overview,
 )
-from robot_nodes.telemetry.receiver import TelemetryReceiver
-from schemas.codec import schema_hash
+from wire.telemetry.receiver import TelemetryReceiver
 
 KEY = bytes(range(7, 39))
 TYPES = {1: ("robot_state", "humanoid_league_msgs/msg/RobotControlState"),

@@ -18,11 +18,11 @@ from PIL import Image
 
 import schemas
 from robot_nodes.runtime import BusConfig, Node
-from robot_nodes.telemetry.datagram import Kind, parse_header
-from robot_nodes.telemetry.receiver import ReceivedMessage, TelemetryListener, TelemetryReceiver
 from robot_nodes.telemetry.sender import DEFAULT_TOPICS, TelemetryNode, parse_topics
 from schemas.topics import topic
 from tests.waiting import wait_for
+from wire.telemetry.datagram import Kind, parse_header
+from wire.telemetry.receiver import ReceivedMessage, TelemetryListener, TelemetryReceiver
 
 KEY = bytes(range(100, 132))
 IMAGE = "camera/image/compressed"

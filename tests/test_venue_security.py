@@ -19,11 +19,11 @@ import pytest
 import websockets.sync.client as ws_client
 from websockets.exceptions import InvalidStatus
 
-from robot_nodes.runtime.machine import machine_addresses
 from server.security.token_file import read_token_file, token_path
 from tests.dashboard_server import RunningServer, dashboard_server
 from tests.support import REPO, free_port
 from tests.waiting import wait_for
+from wire.machine import machine_addresses
 
 EVIL = "http://evil.example"
 BODIES: dict[str, Any] = {"/params/{node}": {"values": {"rate_hz": 10}}, "/penalize": {"penalize": "on"},
@@ -284,7 +284,7 @@ def test_match_mode_refuses_the_development_key_unless_told(tmp_path: Path) -> N
 def test_names_from_the_bus_that_break_the_rules_never_reach_the_hub(router_endpoint: str, client: Any,
                                                                       tmp_path: Path) -> None:
     import schemas
-    from robot_nodes.runtime.keys import topic_key
+    from wire.keys import topic_key
 
     state = schemas.encode(schemas.make("humanoid_league_msgs/msg/RobotControlState", state=2))
     with dashboard_server(["--connect", router_endpoint, "--no-telemetry"], tmp_path) as server:

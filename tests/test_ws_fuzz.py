@@ -20,9 +20,9 @@ import websockets.sync.client as ws_client
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from robot_nodes.telemetry import datagram
 from tests.dashboard_server import RunningServer, dashboard_server
 from tests.support import free_port
+from wire.telemetry import datagram
 
 FAST_FRAMES = 10_000
 FULL_FRAMES = 100_000

@@ -7,7 +7,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
-from robot_nodes.animation.animation_file import Animation, AnimationError, load_animation
+from wire.animation.animation_file import Animation, AnimationError, load_animation
 
 
 @dataclass(frozen=True)

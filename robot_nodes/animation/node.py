@@ -29,10 +29,10 @@ from typing import Any
 
 import robots
 import schemas
-from robot_nodes.animation.animation_file import Animation, AnimationError, check_joints
 from robot_nodes.animation.library import AnimationLibrary
-from robot_nodes.animation.player import INTERPOLATIONS, AnimationPlayer
 from robot_nodes.runtime import Node, ServerGoal, header, param
+from wire.animation.animation_file import Animation, AnimationError, check_joints
+from wire.animation.player import INTERPOLATIONS, AnimationPlayer
 
 NO_TORQUE_REQUEST = -1.0
 

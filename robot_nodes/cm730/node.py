@@ -12,7 +12,6 @@ ground truth, standing in for camera, vision and localization nodes.
 from __future__ import annotations
 
 import importlib
-import io
 import math
 import time
 from dataclasses import dataclass
@@ -239,7 +238,7 @@ class Cm730Node(Node):
     def _publish_state(self) -> None:
         reading = self.backend.read()
         self._last = reading
-        stamp = _stamp(time.time())
+        stamp = schemas.stamp()
         hdr = schemas.make("std_msgs/msg/Header", stamp=stamp, frame_id="")
         self._joint_pub.publish(schemas.make(
             "sensor_msgs/msg/JointState", header=hdr, name=self.joint_names,
@@ -282,14 +281,14 @@ class Cm730Node(Node):
         if health is not None:
             self.set_diagnostic("bus", description)
         self._health_pub.publish(schemas.make(
-            "pitchside_msgs/msg/ServoHealth", header=schemas.make("std_msgs/msg/Header", stamp=_stamp(time.time())),
+            "pitchside_msgs/msg/ServoHealth", header=schemas.make("std_msgs/msg/Header", stamp=schemas.stamp()),
             missing_servos=missing, bus_state=state, description=description))
 
     def _publish_servo_data(self) -> None:
         reading = self._last
         if reading is None or reading.temperatures is None:
             return
-        stamp = _stamp(time.time())
+        stamp = schemas.stamp()
         temps = [schemas.make("sensor_msgs/msg/Temperature",
                               header=schemas.make("std_msgs/msg/Header", stamp=stamp, frame_id=name),
                               temperature=float(t), variance=0.0)
@@ -373,19 +372,5 @@ def _optional(values: Any, n: int) -> np.ndarray | None:
     return arr if len(arr) == n else None
 
 
-def _stamp(t: float) -> Any:
-    ns = int(t * 1e9)
-    return schemas.make("builtin_interfaces/msg/Time", sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
-
-
 def _vector3(v: np.ndarray) -> Any:
     return schemas.make("geometry_msgs/msg/Vector3", x=float(v[0]), y=float(v[1]), z=float(v[2]))
-
-
-def jpeg(image: np.ndarray, quality: int) -> bytes:
-    """JPEG bytes of an RGB image (Pillow)."""
-    from PIL import Image
-
-    buf = io.BytesIO()
-    Image.fromarray(image).save(buf, format="JPEG", quality=quality)
-    return buf.getvalue()

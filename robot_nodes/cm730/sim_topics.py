@@ -3,6 +3,7 @@ own position and ground truth (messages built from a SimRunner CameraFrame)."""
 
 from __future__ import annotations
 
+import io
 import time
 from typing import TYPE_CHECKING, Any
 
@@ -25,10 +26,17 @@ def _point(x: float, y: float, z: float = 0.0) -> Any:
     return schemas.make("geometry_msgs/msg/Point", x=float(x), y=float(y), z=float(z))
 
 
+def jpeg(image: np.ndarray, quality: int) -> bytes:
+    """JPEG bytes of the simulated camera's RGB image (Pillow)."""
+    from PIL import Image
+
+    buf = io.BytesIO()
+    Image.fromarray(image).save(buf, format="JPEG", quality=quality)
+    return buf.getvalue()
+
+
 def _header(stamp: float, frame: str) -> Any:
-    ns = int(stamp * 1e9)
-    t = schemas.make("builtin_interfaces/msg/Time", sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
-    return schemas.make("std_msgs/msg/Header", stamp=t, frame_id=frame)
+    return schemas.header(frame, stamp)
 
 
 class SimTopics:
@@ -57,7 +65,6 @@ class SimTopics:
 
     def on_frame(self, frame: CameraFrame) -> None:
         """Camera thread: JPEG-encode here (off the node loop), publish on the loop."""
-        from robot_nodes.cm730.node import jpeg
 
         data = jpeg(frame.image, self.node.params.jpeg_quality) if frame.image is not None else None
         self.node.loop.call_soon(self._publish_frame, frame, data)

@@ -14,7 +14,7 @@ from robot_nodes.hcm.fall_checker import FallChecker, FallThresholds
 from robot_nodes.hcm.joint_mutex import GoalSource, passes
 from robot_nodes.hcm.state_machine import PUBLISHED_VALUE, Blackboard, HcmState, HcmStateMachine
 from robot_nodes.runtime import GoalStatus, Node, header, param
-from robot_nodes.runtime.actions import ClientGoal
+from wire.actions import ClientGoal
 
 PLAY_GOAL = "humanoid_league_msgs/action/PlayAnimation_Goal"
 
@@ -266,7 +266,7 @@ class HcmNode(Node):
             transition_from=[t[0] for t in transitions], transition_to=[t[1] for t in transitions],
             transition_condition=[t[2] for t in transitions], current=self.machine.state.value,
             history_states=[h.state.value for h in history],
-            history_stamps=[_wall_stamp(h.wall_time) for h in history],
+            history_stamps=[schemas.stamp(h.wall_time) for h in history],
         ))
 
     def on_parameters_changed(self, changed: dict[str, Any]) -> None:
@@ -312,8 +312,5 @@ class HcmNode(Node):
                                             state=PUBLISHED_VALUE[HcmState.HCM_OFF]))
 
 
-def _wall_stamp(t: float) -> Any:
-    ns = int(t * 1e9)
-    return schemas.make("builtin_interfaces/msg/Time", sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
 
 

@@ -1,18 +1,14 @@
-"""The small runtime every robot node uses: Zenoh session, topics, timers, parameters, services, actions."""
+"""The small runtime every robot node uses: its loop, timers, publishers and subscriptions, parameters, and the
+service and action servers; what nodes share with the server (keys, bus, protocols, clients) is in ``wire``."""
 
-from robot_nodes.runtime.actions import (
-    ActionClient,
-    ActionError,
-    ActionServer,
-    ClientGoal,
-    GoalStatus,
-    ServerGoal,
-)
-from robot_nodes.runtime.bus import BusConfig, open_router, open_session
+from robot_nodes.runtime.action_server import ActionServer, ServerGoal
 from robot_nodes.runtime.node import Node, Publisher, Subscription, header, run, stamp_now
-from robot_nodes.runtime.param_client import ParameterClient
-from robot_nodes.runtime.parameters import ParameterError, ParameterStore, param
-from robot_nodes.runtime.services import ServiceError, ServiceServer, call_service
+from robot_nodes.runtime.parameters import ParameterStore, param
+from robot_nodes.runtime.service_server import ServiceServer
+from wire.actions import ActionClient, ActionError, ClientGoal, GoalStatus
+from wire.bus import BusConfig, open_router, open_session
+from wire.parameters import ParameterClient, ParameterError
+from wire.services import ServiceError, call_service
 
 __all__ = [
     "ActionClient",

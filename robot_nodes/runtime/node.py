@@ -18,13 +18,15 @@ from typing import Any, ClassVar
 import zenoh
 
 import schemas
-from robot_nodes.runtime import keys
-from robot_nodes.runtime.actions import ActionClient, ActionServer, ServerGoal
-from robot_nodes.runtime.bus import BusConfig, add_bus_arguments, bus_from_arguments, load_config_file, open_session
+from robot_nodes.runtime.action_server import ActionServer, ServerGoal
 from robot_nodes.runtime.loop import EventLoop, Timer
-from robot_nodes.runtime.parameters import ParameterError, ParameterStore
-from robot_nodes.runtime.services import ServiceServer
+from robot_nodes.runtime.parameters import ParameterStore
+from robot_nodes.runtime.service_server import ServiceServer
 from schemas.codec import SchemaError
+from wire import keys
+from wire.actions import ActionClient
+from wire.bus import BusConfig, add_bus_arguments, bus_from_arguments, load_config_file, open_session
+from wire.parameters import ParameterError
 
 log = logging.getLogger(__name__)
 FIRST_REPORT_AGAIN_S = 0.5  # the second report of a starting node (see spin)
@@ -37,12 +39,11 @@ class NoParams:
 
 def stamp_now() -> Any:
     """A builtin_interfaces/Time of the wall clock."""
-    t = time.time_ns()
-    return schemas.make("builtin_interfaces/msg/Time", sec=t // 1_000_000_000, nanosec=t % 1_000_000_000)
+    return schemas.stamp()
 
 
 def header(frame_id: str = "") -> Any:
-    return schemas.make("std_msgs/msg/Header", stamp=stamp_now(), frame_id=frame_id)
+    return schemas.header(frame_id)
 
 
 class Publisher:

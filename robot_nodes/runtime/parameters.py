@@ -6,16 +6,7 @@ A node declares::
     class FallCheckerParams:
         falling_thresh_gyro_pitch: float = param(7.0, range=(0.0, 30.0), doc="rad/s needed to call a fall")
 
-The wire protocol (JSON over the Zenoh queryable ``pitchside/<robot>/params/<node>``):
-
-    request  {"op": "list"}
-    reply    {"ok": true, "node": "hcm", "params": [{"name", "type", "value", "default", "range",
-              "choices", "doc", "revision"}, ...]}
-    request  {"op": "set", "values": {"name": value, ...}, "revisions": {"name": revision, ...}}
-             (revisions optional; a write based on an old revision is refused)
-    reply    {"ok": true, "changed": [...], "params": [...]} or {"ok": false, "error": "..."}
-    request  {"op": "reset", "names": [...]}          back to defaults
-    request  {"op": "save", "path": optional}         write the live values to the YAML file
+The wire protocol, the caller's side and the YAML files both read: wire.parameters.
 """
 
 from __future__ import annotations
@@ -29,9 +20,7 @@ from typing import Any, get_type_hints
 
 import yaml
 
-
-class ParameterError(ValueError):
-    """A parameter value was refused; the message says which parameter and why."""
+from wire.parameters import ParameterError, load_yaml_section
 
 
 def param(
@@ -113,19 +102,6 @@ def specs_of(params_cls: type) -> dict[str, ParameterSpec]:
             doc=f.metadata.get("doc", ""),
         )
     return specs
-
-
-def load_yaml_section(path: Path, node: str) -> dict[str, Any]:
-    """The parameters of one node in a robot's params.yaml (top-level key = node name)."""
-    if not path.exists():
-        return {}
-    data = yaml.safe_load(path.read_text()) or {}
-    if not isinstance(data, dict):
-        raise ParameterError(f"{path}: expected a mapping of node names to parameters")
-    section = data.get(node) or {}
-    if not isinstance(section, dict):
-        raise ParameterError(f"{path}: section {node!r} must be a mapping")
-    return section
 
 
 class ParameterStore:

@@ -10,7 +10,7 @@ import threading
 
 import zenoh
 
-from robot_nodes.runtime.bus import DEFAULT_LISTEN, router_config
+from wire.bus import DEFAULT_LISTEN, router_config
 
 log = logging.getLogger("pitchside.router")
 

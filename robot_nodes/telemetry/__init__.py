@@ -1,8 +1,9 @@
 """One-way UDP telemetry: the robot's sender node, the shared datagram format and the team PC's receiver."""
 
-from robot_nodes.telemetry.datagram import DEFAULT_PORT, TelemetryError, decode_overview, encode_overview, new_overview
 from robot_nodes.telemetry.estimate import estimate_bandwidth
-from robot_nodes.telemetry.receiver import (
+from robot_nodes.telemetry.sender import TelemetryNode
+from wire.telemetry.datagram import DEFAULT_PORT, TelemetryError, decode_overview, encode_overview, new_overview
+from wire.telemetry.receiver import (
     ReceivedMessage,
     RobotHealth,
     StreamHealth,
@@ -10,7 +11,6 @@ from robot_nodes.telemetry.receiver import (
     TelemetryReceiver,
     listen,
 )
-from robot_nodes.telemetry.sender import TelemetryNode
 
 __all__ = [
     "DEFAULT_PORT",

@@ -8,8 +8,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-from robot_nodes.telemetry.datagram import HEADER_SIZE, TAG_SIZE, split
 from schemas.topics import Priority
+from wire.telemetry.datagram import HEADER_SIZE, TAG_SIZE, split
 
 # Relative shares of the budget when every class has data; a class with nothing to send leaves its share
 # to the others (work conserving). CRITICAL (robot_state, gamestate, overview) gets the most per round.

@@ -10,10 +10,10 @@ import numpy as np
 
 import schemas
 from robot_nodes.telemetry.budget import SHARES
-from robot_nodes.telemetry.datagram import HEADER_SIZE, OVERVIEW_SIZE, TAG_SIZE, StreamInfo, encode_stream_tables
 from robot_nodes.telemetry.sender import IMAGE_TOPIC, TelemetryParams, parse_topics
 from schemas.codec import full_name, schema_hash
 from schemas.topics import Priority, topic
+from wire.telemetry.datagram import HEADER_SIZE, OVERVIEW_SIZE, TAG_SIZE, StreamInfo, encode_stream_tables
 
 OVERHEAD = HEADER_SIZE + TAG_SIZE
 JOINTS = 20

@@ -11,7 +11,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from robot_nodes.telemetry.datagram import key_fingerprint, write_new_key
+from wire.telemetry.datagram import key_fingerprint, write_new_key
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -14,7 +14,10 @@ import numpy as np
 import schemas
 from robot_nodes.runtime import Node, Subscription, param
 from robot_nodes.telemetry.budget import ByteBudget, Frame, Stream
-from robot_nodes.telemetry.datagram import (
+from robot_nodes.telemetry.images import ImageError, shrink_jpeg
+from schemas.codec import schema_hash
+from schemas.topics import Priority, topic
+from wire.telemetry.datagram import (
     DEFAULT_PORT,
     MAX_TOPIC_STREAM,
     OVERVIEW_HASH,
@@ -32,9 +35,6 @@ from robot_nodes.telemetry.datagram import (
     load_key,
     new_overview,
 )
-from robot_nodes.telemetry.images import ImageError, shrink_jpeg
-from schemas.codec import schema_hash
-from schemas.topics import Priority, topic
 
 IMAGE_TOPIC = "camera/image/compressed"
 OVERVIEW_SOURCES = ("robot_state", "gamestate", "position", "ball_relative", "servo_data")

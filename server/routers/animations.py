@@ -24,7 +24,12 @@ from pydantic import BaseModel
 
 import robots
 import schemas
-from robot_nodes.animation import (
+from server.deps import require_control, robot_on_link, valid_robot
+from server.lab import JointLimits, lab_tools, urdf_joint_limits, urdf_mirror_signs
+from server.security import AllowedFolders
+from server.state import ServerState
+from wire.actions import ActionError
+from wire.animation import (
     Animation,
     AnimationError,
     copy_side,
@@ -40,14 +45,8 @@ from robot_nodes.animation import (
     save_animation,
     validate,
 )
-from robot_nodes.animation.animation_file import animation_to_dict
-from robot_nodes.runtime import ActionError, header
-from robot_nodes.runtime.param_client import ParameterClient
-from robot_nodes.runtime.parameters import ParameterError
-from server.deps import require_control, robot_on_link, valid_robot
-from server.lab import JointLimits, lab_tools, urdf_joint_limits, urdf_mirror_signs
-from server.security import AllowedFolders
-from server.state import ServerState
+from wire.animation.animation_file import animation_to_dict
+from wire.parameters import ParameterClient, ParameterError
 
 router = APIRouter(prefix="/api/robots/{robot}", tags=["animations"], dependencies=[Depends(valid_robot)])
 TIMEOUT_S = 3.0
@@ -231,7 +230,7 @@ async def write_animation(robot: str, file: str, body: AnimationBody, state: Ser
 @router.post("/animation-edit")
 async def edit_animation(robot: str, request: EditRequest, state: ServerState = Depends(require_control)
                          ) -> dict[str, Any]:
-    """One editor operation of robot_nodes.animation.editing; the browser keeps the old version for undo."""
+    """One editor operation of wire.animation.editing; the browser keeps the old version for undo."""
     anim = _parse(AnimationBody(animation=request.animation), "<editor>")
     try:
         if request.op == "mirror":
@@ -448,6 +447,7 @@ async def record_goals(robot: str, goals: RecordGoals, state: ServerState = Depe
         raise HTTPException(422, "no joints: give positions and/or limp joints")
     point = schemas.make("trajectory_msgs/msg/JointTrajectoryPoint", positions=np.array(positions, dtype=float),
                          effort=np.array(efforts, dtype=float))
-    msg = schemas.make("trajectory_msgs/msg/JointTrajectory", header=header(), joint_names=names, points=[point])
+    msg = schemas.make("trajectory_msgs/msg/JointTrajectory", header=schemas.header(), joint_names=names,
+                       points=[point])
     await asyncio.to_thread(lab_tools(state).publish, robot, "record_motor_goals", msg)
     return {"robot": robot, "held": list(goals.positions), "limp": limp}

@@ -13,12 +13,11 @@ from fastapi import APIRouter, Depends, HTTPException
 from pydantic import BaseModel
 
 import schemas
-from robot_nodes.runtime import ActionError, ServiceError, call_service
-from robot_nodes.runtime.actions import ActionClient
-from robot_nodes.runtime.param_client import ParameterClient
-from robot_nodes.runtime.parameters import ParameterError
 from server.deps import require_control, robot_on_link, valid_node, valid_robot
 from server.state import ServerState
+from wire.actions import ActionClient, ActionError
+from wire.parameters import ParameterClient, ParameterError
+from wire.services import ServiceError, call_service
 
 router = APIRouter(prefix="/api/robots/{robot}", tags=["control"], dependencies=[Depends(valid_robot)])
 TIMEOUT_S = 3.0

@@ -21,11 +21,10 @@ from fastapi.responses import StreamingResponse
 from pydantic import BaseModel
 
 import robots
-from robot_nodes.runtime import keys
-from robot_nodes.runtime.param_client import ParameterClient
-from robot_nodes.runtime.parameters import ParameterError, load_yaml_section
 from server.deps import require_control, robot_on_link, valid_node, valid_robot
 from server.state import ServerState
+from wire import keys
+from wire.parameters import ParameterClient, ParameterError, load_yaml_section
 
 router = APIRouter(prefix="/api/robots/{robot}/params/{node}", tags=["params"], dependencies=[Depends(valid_robot)])
 TIMEOUT_S = 3.0

@@ -10,7 +10,7 @@ from __future__ import annotations
 import ipaddress
 import time
 
-from robot_nodes.runtime.machine import is_loopback, machine_addresses, machine_names
+from wire.machine import is_loopback, machine_addresses, machine_names
 
 LOOPBACK_NAMES = frozenset({"localhost", "127.0.0.1", "::1"})
 _ADDRESSES_TTL_S = 5.0  # the laptop may get a new address from the venue's Wi-Fi while the server runs

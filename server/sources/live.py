@@ -16,11 +16,11 @@ from typing import Any
 import zenoh
 
 import schemas
-from robot_nodes.runtime import keys
 from server.hub import Hub, HubMessage
 from server.sources import Source, SourceError
 from server.sources.stamps import stamp_of
 from server.zenoh_link import ZenohLink
+from wire import keys
 
 log = logging.getLogger(__name__)
 

@@ -26,13 +26,13 @@ from typing import Any
 
 from rosbags.typesys import get_types_from_msg
 
-from robot_nodes.runtime import keys
 from schemas import codec
 from schemas.mcap_log import ChannelInfo, LogError, LogMessage, LogReader, LogSeriesReader
 from schemas.topics import TOPICS
 from server.hub import Hub, HubMessage
 from server.security import AllowedFolders, FolderError
 from server.sources import Source, SourceError
+from wire import keys
 
 log = logging.getLogger(__name__)
 

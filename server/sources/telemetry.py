@@ -1,7 +1,7 @@
 """The UDP telemetry source: listens (never sends) for the robots' one-way telemetry and feeds the hub.
 
 The only source that runs in match mode. Authentication, reassembly, loss counting and decoding belong to
-``robot_nodes.telemetry.receiver.TelemetryReceiver``; this module owns the listening socket and the hand-over.
+``wire.telemetry.receiver.TelemetryReceiver``; this module owns the listening socket and the hand-over.
 Besides the robots' chosen topics, each robot's compact overview datagram arrives as topic ``overview`` (type
 ``pitchside_msgs/msg/RobotOverview``, a row of the topic table like every other), enough for the team overview.
 """
@@ -41,7 +41,7 @@ class TelemetrySource(Source):
 
     async def start(self) -> None:
         try:
-            from robot_nodes.telemetry.receiver import TelemetryReceiver, listen
+            from wire.telemetry.receiver import TelemetryReceiver, listen
         except ImportError as exc:
             raise SourceError(f"the telemetry receiver is not available: {exc}") from exc
         if self.receiver is None:

@@ -17,8 +17,8 @@ from robot_nodes.cm730.node import Cm730Node
 from robot_nodes.cm730.sim import SimRunner, SimWorld
 from robot_nodes.cm730.sim_backend import MujocoBackend
 from robot_nodes.runtime import BusConfig, Node, open_session
-from robot_nodes.runtime.bus import add_bus_arguments, bus_from_arguments
 from robot_nodes.runtime.node import parse_overrides
+from wire.bus import add_bus_arguments, bus_from_arguments
 
 
 def serve(n_robots: int, bus: BusConfig, params: Path | None = None, overrides: dict | None = None,

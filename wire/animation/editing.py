@@ -25,7 +25,7 @@ import copy
 import re
 from collections.abc import Iterable, Mapping, Sequence
 
-from robot_nodes.animation.animation_file import Animation, AnimationError, Keyframe
+from wire.animation.animation_file import Animation, AnimationError, Keyframe
 
 _SIDE_PATTERNS = (
     (re.compile(r"^L(?=[A-Z])"), "L", "R"),

@@ -21,7 +21,7 @@ from typing import Any
 
 import zenoh
 
-from robot_nodes.runtime.machine import is_on_this_machine
+from wire.machine import is_on_this_machine
 
 DEFAULT_ROUTER = "tcp/127.0.0.1:7447"
 DEFAULT_LISTEN = DEFAULT_ROUTER  # where a router listens without a config: loopback only

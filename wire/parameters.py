@@ -1,15 +1,48 @@
-"""The caller's side of the parameter protocol (dashboard, tools, tests); see parameters.py for the wire format."""
+"""The parameter protocol of nodes and the caller's side of it (dashboard, tools, tests).
+
+The wire protocol (JSON over the Zenoh queryable ``pitchside/<robot>/params/<node>``):
+
+    request  {"op": "list"}
+    reply    {"ok": true, "node": "hcm", "params": [{"name", "type", "value", "default", "range",
+              "choices", "doc", "revision"}, ...]}
+    request  {"op": "set", "values": {"name": value, ...}, "revisions": {"name": revision, ...}}
+             (revisions optional; a write based on an old revision is refused)
+    reply    {"ok": true, "changed": [...], "params": [...]} or {"ok": false, "error": "..."}
+    request  {"op": "reset", "names": [...]}          back to defaults
+    request  {"op": "save", "path": optional}         write the live values to the YAML file
+
+A robot's parameter files (``robots/<model>/params.yaml``) hold one section per node.
+"""
 
 from __future__ import annotations
 
 import json
 import time
+from pathlib import Path
 from typing import Any
 
+import yaml
 import zenoh
 
-from robot_nodes.runtime import keys
-from robot_nodes.runtime.parameters import ParameterError
+from wire import keys
+
+
+class ParameterError(ValueError):
+    """A parameter value was refused; the message says which parameter and why."""
+
+
+def load_yaml_section(path: Path, node: str) -> dict[str, Any]:
+    """The parameters of one node in a robot's params.yaml (top-level key = node name)."""
+    if not path.exists():
+        return {}
+    data = yaml.safe_load(path.read_text()) or {}
+    if not isinstance(data, dict):
+        raise ParameterError(f"{path}: expected a mapping of node names to parameters")
+    section = data.get(node) or {}
+    if not isinstance(section, dict):
+        raise ParameterError(f"{path}: section {node!r} must be a mapping")
+    return section
+
 
 
 class ParameterClient:

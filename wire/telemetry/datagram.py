@@ -92,8 +92,8 @@ from cryptography.exceptions import InvalidTag
 from cryptography.hazmat.primitives.ciphers.aead import AESGCM
 
 import schemas
-from robot_nodes.runtime import keys
 from schemas.topics import topic
+from wire import keys
 
 log = logging.getLogger(__name__)
 
@@ -156,7 +156,7 @@ class Header:
 
 
 def check_robot_id(robot_id: str) -> str:
-    """A robot id that fits the header (pitchside's one rule, robot_nodes.runtime.keys); ValueError says why not."""
+    """A robot id that fits the header (pitchside's one rule, wire.keys); ValueError says why not."""
     return keys.check_robot_id(robot_id)
 
 

@@ -29,7 +29,8 @@ from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import schemas
-from robot_nodes.telemetry.datagram import (
+from schemas.codec import SchemaError, schema_hash
+from wire.telemetry.datagram import (
     DEFAULT_PORT,
     MAX_DATAGRAM,
     OVERVIEW_HASH,
@@ -48,7 +49,6 @@ from robot_nodes.telemetry.datagram import (
     load_key,
     parse_header,
 )
-from schemas.codec import SchemaError, schema_hash
 
 log = logging.getLogger(__name__)
 

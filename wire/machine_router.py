@@ -20,8 +20,8 @@ from pathlib import Path
 
 import zenoh
 
-from robot_nodes.runtime.bus import DEFAULT_LISTEN, load_config_file, router_config
-from robot_nodes.runtime.machine import endpoint_host, is_loopback, is_on_this_machine
+from wire.bus import DEFAULT_LISTEN, load_config_file, router_config
+from wire.machine import endpoint_host, is_loopback, is_on_this_machine
 
 log = logging.getLogger("pitchside.router")
 

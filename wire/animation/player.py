@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from robot_nodes.animation.animation_file import Animation
+from wire.animation.animation_file import Animation
 
 INTERPOLATIONS = ("spline", "linear")
 _SAME_TIME = 1e-9

@@ -1,0 +1,129 @@
+"""The layers, as the code imports them: schemas at the bottom, wire above it, then the robot nodes and the server
+side by side (neither imports the other), pitchside's commands on top; and no module imports itself in a circle.
+
+Read from the source (ast), so an import inside a function counts too; imports only for type checking do not.
+"""
+
+from __future__ import annotations
+
+import ast
+from collections.abc import Iterator
+from pathlib import Path
+
+from tests.support import REPO
+
+PACKAGES = ("schemas", "wire", "robot_nodes", "server", "pitchside", "robots", "web")
+# package -> packages it must not import
+FORBIDDEN = {
+    "schemas": {"wire", "robot_nodes", "server", "pitchside"},
+    "wire": {"robot_nodes", "server", "pitchside"},
+    "robot_nodes": {"server", "pitchside"},
+    "server": {"robot_nodes", "pitchside"},
+    "robots": {"schemas", "wire", "robot_nodes", "server", "pitchside"},
+    "web": {"schemas", "wire", "robot_nodes", "server", "pitchside"},
+}
+
+
+def module_name(path: Path) -> str:
+    parts = list(path.relative_to(REPO).with_suffix("").parts)
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def modules() -> dict[str, Path]:
+    return {module_name(p): p for package in PACKAGES for p in (REPO / package).rglob("*.py")
+            if "__pycache__" not in p.parts}
+
+
+def _is_type_checking(node: ast.If) -> bool:
+    test = node.test
+    return (isinstance(test, ast.Name) and test.id == "TYPE_CHECKING") or (
+        isinstance(test, ast.Attribute) and test.attr == "TYPE_CHECKING")
+
+
+def imports_of(name: str, path: Path, known: dict[str, Path]) -> Iterator[str]:
+    """The repository's modules this module imports when it runs."""
+    tree = ast.parse(path.read_text(), str(path))
+    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    skipped: set[int] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.If) and _is_type_checking(node):
+            skipped |= {id(n) for stmt in node.body for n in ast.walk(stmt)}
+    for node in ast.walk(tree):
+        if id(node) in skipped:
+            continue
+        if isinstance(node, ast.Import):
+            for alias in node.names:
+                yield from _known(alias.name, known)
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                anchor = package.split(".")[: len(package.split(".")) - node.level + 1]
+                base = ".".join([*anchor, *([base] if base else [])])
+            for alias in node.names:
+                full = f"{base}.{alias.name}"
+                yield from _known(full if full in known else base, known)
+
+
+def _known(module: str, known: dict[str, Path]) -> Iterator[str]:
+    while module and module not in known:
+        module = module.rpartition(".")[0]
+    if module:
+        yield module
+
+
+def graph() -> dict[str, set[str]]:
+    known = modules()
+    return {name: set(imports_of(name, path, known)) - {name} for name, path in known.items()}
+
+
+def cycles(edges: dict[str, set[str]]) -> list[list[str]]:
+    """Strongly connected components of more than one module (Tarjan)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    found: list[list[str]] = []
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on_stack.add(v)
+        for w in edges.get(v, ()):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                component.append(w)
+                if w == v:
+                    break
+            if len(component) > 1:
+                found.append(sorted(component))
+
+    for v in sorted(edges):
+        if v not in index:
+            visit(v)
+    return found
+
+
+def test_no_module_imports_itself_in_a_circle() -> None:
+    assert cycles(graph()) == []
+
+
+def test_the_layers_import_only_downwards() -> None:
+    wrong = sorted((name, target) for name, targets in graph().items() for target in targets
+                   if target.split(".")[0] in FORBIDDEN.get(name.split(".")[0], set()))
+    assert wrong == []
+
+
+def test_the_checks_see_a_circle_and_a_layer_broken() -> None:
+    """The two checks above would fail on the mistakes they look for."""
+    assert cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+    edges = graph()
+    assert "wire.keys" in edges["robot_nodes.runtime.node"]  # the reader follows real imports
+    assert "server.sources.replay" in edges["server.recording.wiring"]
