@@ -57,7 +57,7 @@ import psutil
 import schemas
 from robot_nodes.launch import NODE_MODULES
 from robot_nodes.runtime import BusConfig, open_session
-from schemas.mcap_log import LogError, LogReader
+from schemas.logs import LogError, LogReader
 from tests.running_demo import DashboardObserver, RunningDemo, running_demo
 from tests.support import REPO
 from tests.waiting import wait_for

@@ -24,7 +24,7 @@ from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
 import schemas
-from schemas.mcap_log import LogReader, LogWriter
+from schemas.logs import LogReader, LogWriter
 
 JOINTS = ["HeadPan", "HeadTilt", "LShoulderPitch", "LShoulderRoll", "LElbow", "RShoulderPitch", "RShoulderRoll",
           "RElbow", "LHipYaw", "LHipRoll", "LHipPitch", "LKnee", "LAnklePitch", "LAnkleRoll", "RHipYaw",
@@ -62,7 +62,7 @@ def main() -> None:
         start = time.perf_counter()
         reader = LogReader(path)
         open_ms = (time.perf_counter() - start) * 1e3
-        print(f"open: {open_ms:.2f} ms ({len(reader.channels())} channels, {reader.duration:.1f} s of log)")
+        print(f"open: {open_ms:.2f} ms ({len(reader.channels)} channels, {reader.duration:.1f} s of log)")
 
         targets = [rng.randint(reader.start_ns, reader.end_ns) for _ in range(args.seeks)]
         ours, first_ms = [], []

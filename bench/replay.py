@@ -26,7 +26,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import numpy as np
 
 import schemas
-from schemas.mcap_log import LogWriter
+from schemas.logs import LogWriter
 from server.hub import Hub
 from server.sources.replay import ReplaySource
 

@@ -3,25 +3,32 @@
 from __future__ import annotations
 
 import importlib
-import inspect
 import sys
 from collections.abc import Callable
+from typing import cast
 
-# command -> (module with a main(argv) function, one line of help)
+# command -> ("module:function" taking argv, one line of help)
 COMMANDS: dict[str, tuple[str, str]] = {
-    "demo": ("pitchside.demo", "simulated world + robot nodes + GameController + dashboard; prints the URL"),
-    "robot": ("pitchside.robot", "one robot's nodes as supervised processes (simulated by default)"),
-    "sim": ("robot_nodes.cm730.sim.__main__", "the MuJoCo world and one cm730 node per robot (robot1..N)"),
-    "serve": ("server.__main__", "the dashboard server (live Zenoh and UDP telemetry sources)"),
-    "router": ("robot_nodes.runtime.router", "a Zenoh router for robots and dashboards on several machines"),
-    "team-keys": ("pitchside.team_keys", "a team's CA, certificates, access control and Zenoh configs (secured bus)"),
-    "launch": ("robot_nodes.launch", "start named nodes as supervised processes"),
-    "gamecontroller": ("robot_nodes.game_controller.simulator", "a simulated RoboCup GameController"),
-    "record": ("pitchside.record", "start/stop/list recordings of a running dashboard server"),
-    "replay": ("pitchside.replay", "the dashboard with an MCAP log (pitchside or ROS 2 bag) in the replay source"),
-    "export-rerun": ("pitchside.export_rerun", "a log's numeric fields as rerun scalars (.rrd)"),
-    "telemetry-key": ("robot_nodes.telemetry.keygen", "a new team key for telemetry (robots and the match dashboard)"),
+    "demo": ("pitchside.demo:main", "simulated world + robot nodes + GameController + dashboard; prints the link"),
+    "robot": ("pitchside.robot:main", "everything a robot runs, with its own Zenoh router (simulated by default)"),
+    "sim": ("robot_nodes.cm730.sim.__main__:main", "the MuJoCo world and one cm730 node per robot (robot1..N)"),
+    "serve": ("server.__main__:serve", "the dashboard server (live Zenoh and UDP telemetry sources)"),
+    "router": ("robot_nodes.runtime.router:main", "a Zenoh router for robots and dashboards on several machines"),
+    "team-keys": ("pitchside.team_keys:main", "a team's CA, certificates, access control and Zenoh configs (secured "
+                  "bus)"),
+    "launch": ("robot_nodes.launch:main", "start named nodes as supervised processes"),
+    "gamecontroller": ("robot_nodes.game_controller.simulator:main", "a simulated RoboCup GameController"),
+    "record": ("pitchside.record:main", "start/stop/list recordings of a running dashboard server"),
+    "replay": ("pitchside.replay:main", "the dashboard with an MCAP log (pitchside or ROS 2 bag) in the replay source"),
+    "export-rerun": ("pitchside.export_rerun:main", "a log's numeric fields as rerun scalars (.rrd)"),
+    "telemetry-key": ("robot_nodes.telemetry.keygen:main", "a new team key for telemetry (robots and the match "
+                      "dashboard)"),
 }
+
+
+def entry_point(command: str) -> Callable[[list[str]], None]:
+    module, _, function = COMMANDS[command][0].partition(":")
+    return cast(Callable[[list[str]], None], getattr(importlib.import_module(module), function))
 
 
 def usage() -> str:
@@ -41,11 +48,8 @@ def main(argv: list[str] | None = None) -> None:
     if command not in COMMANDS:
         print(f"pitchside: unknown command {command!r}\n\n{usage()}", file=sys.stderr)
         raise SystemExit(2)
-    module = importlib.import_module(COMMANDS[command][0])
-    entry: Callable[..., None] = getattr(module, "main", None) or module.serve
-    sys.argv = [f"pitchside {command}", *rest]
-    # entry points either take argv or read sys.argv themselves
-    entry(rest) if inspect.signature(entry).parameters else entry()
+    sys.argv = [f"pitchside {command}", *rest]  # what argparse names the program in its messages
+    entry_point(command)(rest)
 
 
 if __name__ == "__main__":

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from schemas.mcap_log import LogError, LogSeriesReader
+from schemas.logs import LogError, LogSeriesReader
 from schemas.numeric import numeric_fields
 
 
@@ -25,7 +25,7 @@ def export(path: Path, out: Path, topics: list[str] | None = None, robots: list[
     series: dict[str, tuple[list[int], list[float]]] = defaultdict(lambda: ([], []))
     messages = 0
     with LogSeriesReader(path) as reader:
-        bookmarks = reader.bookmarks()
+        bookmarks = reader.bookmarks
         for item in reader.messages(topics=topics, robots=robots):
             if item.raw:
                 continue

@@ -20,7 +20,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from schemas.mcap_log import LogError
+from schemas.logs import LogError
 from server.hub import Hub, HubMessage, Subscriber
 from server.recording.files import RecordingsFolder, safe_name, timestamped
 from server.recording.game_events import GameEvent, GameEvents

@@ -127,3 +127,14 @@ def test_the_checks_see_a_circle_and_a_layer_broken() -> None:
     edges = graph()
     assert "wire.keys" in edges["robot_nodes.runtime.node"]  # the reader follows real imports
     assert "server.sources.replay" in edges["server.recording.wiring"]
+
+
+def test_every_layer_ships_in_the_package() -> None:
+    """A new top-level package must be listed for setuptools, or the wheel installs without it."""
+    import tomllib
+
+    include = tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"]["find"]["include"]
+    shipped = {pattern.rstrip("*") for pattern in include}
+    on_disk = {p.parent.name for p in REPO.glob("*/__init__.py")} - {"tests", "bench"}
+    assert on_disk <= shipped, on_disk - shipped
+    assert set(PACKAGES) == on_disk, set(PACKAGES) ^ on_disk

@@ -12,7 +12,7 @@ import pytest
 import zenoh
 
 import schemas
-from schemas.mcap_log import LogWriter
+from schemas.logs import LogWriter
 from tests.dashboard_server import dashboard_server
 from tests.waiting import wait_for
 from wire.keys import topic_key

@@ -19,7 +19,7 @@ from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
 import schemas
-from schemas.mcap_log import BOOKMARK_TOPIC, LogError, LogReader, LogSeriesReader, LogWriter, log_series
+from schemas.logs import BOOKMARK_TOPIC, LogError, LogReader, LogSeriesReader, LogWriter, log_series
 
 REPO = Path(__file__).resolve().parents[1]
 T0 = 1_700_000_000_000_000_000
@@ -147,11 +147,11 @@ def test_cdr_bytes_take_their_type_from_the_topic_table(tmp_path: Path) -> None:
 def test_talker_bag_reads_with_decoded_strings_and_logs(testdata: Path) -> None:
     with LogReader(testdata / "mcap" / "talker.mcap") as reader:
         assert reader.indexed and not reader.warnings
-        assert reader.topics() == {"parameter_events": "rcl_interfaces/msg/ParameterEvent",
+        assert reader.topics == {"parameter_events": "rcl_interfaces/msg/ParameterEvent",
                                    "rosout": "rcl_interfaces/msg/Log", "topic": "std_msgs/msg/String"}
-        counts = {c.topic: c.message_count for c in reader.channels()}
+        counts = {c.topic: c.message_count for c in reader.channels}
         assert counts == {"parameter_events": 0, "rosout": 10, "topic": 10}
-        assert reader.robots() == [""]
+        assert reader.robots == [""]
         assert reader.start_ns == 1585866235112411371 and reader.end_ns == 1585866239643508139
         assert reader.duration == pytest.approx(4.531, abs=0.001)
         strings = [m.msg.data for m in reader.messages(topics=["topic"])]
@@ -164,7 +164,7 @@ def test_talker_bag_reads_with_decoded_strings_and_logs(testdata: Path) -> None:
 
 def test_cdr_test_bag_decodes_basic_types_and_arrays(testdata: Path) -> None:
     with LogReader(testdata / "mcap" / "cdr_test_0.mcap") as reader:
-        assert {c.topic: c.message_count for c in reader.channels()} == {"test_topic": 3, "array_topic": 4}
+        assert {c.topic: c.message_count for c in reader.channels} == {"test_topic": 3, "array_topic": 4}
         basics = list(reader.messages(topics=["test_topic"]))
         arrays = list(reader.messages(topics=["array_topic"]))
         everything = list(reader.messages())
@@ -178,7 +178,7 @@ def test_cdr_test_bag_decodes_basic_types_and_arrays(testdata: Path) -> None:
 
 def test_service_event_channels_yield_raw_bytes(testdata: Path) -> None:
     with LogReader(testdata / "mcap" / "bag_with_topics_and_service_events.mcap") as reader:
-        channels = {c.topic: c for c in reader.channels()}
+        channels = {c.topic: c for c in reader.channels}
         assert {t: c.message_count for t, c in channels.items()} == {
             "test_topic1": 1, "test_topic2": 1, "test_service1/_service_event": 4,
             "test_service2/_service_event": 4, "events/write_split": 0}
@@ -186,7 +186,7 @@ def test_service_event_channels_yield_raw_bytes(testdata: Path) -> None:
         assert not service.decodable and "BasicTypes_Event" in service.problem
         assert channels["test_topic1"].decodable
         items = list(reader.messages())
-        assert reader.bookmarks() == []  # its two "rosbag2" metadata records are not bookmarks
+        assert reader.bookmarks == []  # its two "rosbag2" metadata records are not bookmarks
     raw = [m for m in items if m.raw]
     assert len(items) == 10 and len(raw) == 8
     assert all(isinstance(m.msg, bytes) and m.topic.endswith("_service_event") for m in raw)
@@ -200,7 +200,7 @@ def test_every_shared_mcap_file_reads_completely(testdata: Path) -> None:
     assert len(files) >= 3
     for path in files:
         with LogReader(path) as reader:
-            total = sum(c.message_count for c in reader.channels())
+            total = sum(c.message_count for c in reader.channels)
             assert len(list(reader.messages())) == total == reader.message_count, path.name
             assert len(list(reader.messages(decode=False))) == total
 
@@ -231,8 +231,8 @@ def test_truncated_log_keeps_every_complete_chunk(tmp_path: Path, caplog: pytest
         assert not reader.indexed
         assert len(reader.warnings) == 1 and "cut inside a chunk record" in reader.warnings[0]
         items = list(reader.messages())
-        marks = reader.bookmarks()
-        counted = sum(c.message_count for c in reader.channels())
+        marks = reader.bookmarks
+        counted = sum(c.message_count for c in reader.channels)
         assert reader.end_ns == expected[-1][3]
     assert "cut inside a chunk record" in caplog.text
     assert [(m.robot_id, m.topic, m.log_time_ns) for m in items] == [(r, t, ts) for r, t, _, ts in expected]
@@ -248,7 +248,7 @@ def test_crashed_writer_process_loses_at_most_the_open_chunk(tmp_path: Path) -> 
     script = textwrap.dedent(f"""
         import os, sys
         import schemas
-        from schemas.mcap_log import LogWriter
+        from schemas.logs import LogWriter
         writer = LogWriter({str(path)!r}, chunk_size=2000, flush_interval_s=None)
         for i in range(500):
             msg = schemas.make("std_msgs/msg/String", data=f"message {{i}}")
@@ -310,10 +310,10 @@ def test_damaged_logs_never_crash_the_reader(tmp_path: Path, small_log: bytes, d
     except LogError:
         return
     with reader:
-        reader.channels()
+        channels = reader.channels
         items = list(reader.messages())
-        reader.bookmarks()
-    assert len(items) <= 40
+        marks = reader.bookmarks
+    assert len(items) <= 40 and len(channels) <= 40 and len(marks) <= 40
 
 
 # -- (d) bookmarks ---------------------------------------------------------------------------------------
@@ -331,8 +331,8 @@ def test_bookmarks_round_trip(tmp_path: Path) -> None:
         with pytest.raises(LogError, match="JSON"):
             writer.add_bookmark("bad", T0, {"x": object()})
     with LogReader(path) as reader:
-        marks = reader.bookmarks()
-        assert BOOKMARK_TOPIC not in reader.topics()
+        marks = reader.bookmarks
+        assert BOOKMARK_TOPIC not in reader.topics
         assert len(list(reader.messages())) == len(messages)
         assert len(list(reader.messages(topics=[BOOKMARK_TOPIC]))) == 2
     assert [(b.name, b.log_time_ns, b.data) for b in marks] == [
@@ -378,12 +378,12 @@ def test_rotation_by_size_gives_files_that_each_open(tmp_path: Path) -> None:
     with LogSeriesReader(path, on_progress=progress.append) as series:
         assert series.message_count == len(messages) and not series.warnings
         assert series.start_ns == messages[0][3] and series.end_ns == messages[-1][3]
-        counts = {(c.robot_id, c.topic): c.message_count for c in series.channels()}
+        counts = {(c.robot_id, c.topic): c.message_count for c in series.channels}
         expected = sum(1 for robot, topic, *_ in messages if (robot, topic) == ("robot1", "joint_states"))
         assert counts[("robot1", "joint_states")] == expected
         middle = messages[len(messages) // 2][3]
         assert [m.log_time_ns for m in series.messages(start_ns=middle)] == [t for *_, t in messages if t >= middle]
-        assert [b.name for b in series.bookmarks()] == [f"mark {i}" for i in range(0, len(messages), 150)]
+        assert [b.name for b in series.bookmarks] == [f"mark {i}" for i in range(0, len(messages), 150)]
     assert progress[-1] == 1.0
 
 
@@ -455,3 +455,21 @@ def test_flush_interval_writes_slow_streams_chunk_by_chunk(tmp_path: Path) -> No
                 assert reader.message_count == i + 1
     with open(path, "rb") as f:
         assert len(make_reader(f).get_summary().chunk_indexes) == 3
+
+
+def test_a_file_and_a_series_offer_the_same_surface(tmp_path: Path) -> None:
+    """Replay takes either: both are LogSource (checked by mypy) and answer alike for one file."""
+    from schemas.logs import LogSeriesReader, LogSource
+
+    path = tmp_path / "one.mcap"
+    write_log(path, mixed_messages(12))
+    sources: list[LogSource] = [LogReader(path), LogSeriesReader(path)]
+    try:
+        single, series = sources
+        assert [c.topic for c in single.channels] == [c.topic for c in series.channels]
+        assert (single.topics, single.robots, single.message_count, single.start_ns, single.end_ns) == \
+            (series.topics, series.robots, series.message_count, series.start_ns, series.end_ns)
+        assert len(list(single.messages())) == len(list(series.messages())) == single.message_count
+    finally:
+        for source in sources:
+            source.close()

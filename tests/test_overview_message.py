@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any
 
 import schemas
-from schemas.mcap_log import LogReader, LogWriter
+from schemas.logs import LogReader, LogWriter
 from server.hub import Hub, HubMessage
 from server.protocol import frame_of
 from server.recording.session import HubRecording
@@ -70,7 +70,7 @@ def test_the_overview_is_recorded_as_its_message(tmp_path: Path) -> None:
 
     asyncio.run(record())
     with LogReader(path) as log:
-        (channel,) = log.channels()
+        (channel,) = log.channels
         assert (channel.robot_id, channel.topic, channel.typename) == ("r2", "overview", OVERVIEW_TYPE)
         (item,) = log.messages()
         assert schemas.to_dict(item.msg) == schemas.to_dict(overview) and math.isnan(item.msg.battery_voltage)

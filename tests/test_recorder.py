@@ -15,7 +15,7 @@ import pytest
 
 import schemas
 from robot_nodes.runtime import BusConfig, Node
-from schemas.mcap_log import LogReader, LogSeriesReader
+from schemas.logs import LogReader, LogSeriesReader
 from server.hub import Hub, HubMessage
 from server.recorder import Recorder
 from server.recording.game_events import FINISHED, INITIAL, PLAYING, READY, SET, GameEvents
@@ -125,13 +125,13 @@ def test_match_recording_per_half_with_bookmarks(tmp_path: Path) -> None:
     assert half1.name.split("_")[0] == half2.name.split("_")[0]  # one match id
     with LogReader(half1) as log:
         assert log.indexed
-        marks = [b.name for b in log.bookmarks()]
+        marks = [b.name for b in log.bookmarks]
         assert marks == ["READY", "PLAYING", "penalty r2", "goal own 1:0", "READY", "unpenalized r2", "INITIAL"]
         positions = [m.msg.position[0] for m in log.messages(topics=["joint_states"])]
         assert positions == sorted(positions) and len(positions) >= 20
-        assert {c.robot_id for c in log.channels() if c.topic == "gamestate"} == {"r1", "r2"}
+        assert {c.robot_id for c in log.channels if c.topic == "gamestate"} == {"r1", "r2"}
     with LogReader(half2) as log:
-        assert [b.name for b in log.bookmarks()] == ["READY", "FINISHED"]
+        assert [b.name for b in log.bookmarks] == ["READY", "FINISHED"]
         assert log.message_count > 5
 
 
@@ -165,12 +165,12 @@ def test_rest_recording_of_live_messages(router_endpoint: str, stand: TestStand,
     assert entry["duration_s"] > 0.5 and entry["messages"] == stopped["messages"]
     with LogReader(folder / entry["name"]) as log:
         assert log.indexed
-        channels = {(c.robot_id, c.topic): c for c in log.channels()}
+        channels = {(c.robot_id, c.topic): c for c in log.channels}
         assert channels[("r1", "joint_states")].typename == "sensor_msgs/msg/JointState"
         assert ("r1", "robot_state") in channels
         seqs = [m.msg.position[0] for m in log.messages(topics=["joint_states"])]
         assert len(seqs) >= 40 and seqs == sorted(seqs)
-        assert [b.name for b in log.bookmarks()] == ["fell"]
+        assert [b.name for b in log.bookmarks] == ["fell"]
         # images are not thinned for the recorder as they are for a browser: about 30 per 50 joint states
         assert channels[("r1", "camera/image/compressed")].message_count >= len(seqs) * 30 / 50 * 0.8
 
@@ -288,7 +288,7 @@ def test_only_one_server_owns_a_folders_journal_and_old_journals_are_not_resumed
 
 
 def test_recording_rotates_by_size_and_reads_back_as_one(tmp_path: Path) -> None:
-    from schemas.mcap_log import LogSeriesReader
+    from schemas.logs import LogSeriesReader
 
     async def main() -> dict[str, Any]:
         hub = Hub()

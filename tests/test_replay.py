@@ -12,7 +12,7 @@ import pytest
 import websockets
 
 import schemas
-from schemas.mcap_log import LogWriter
+from schemas.logs import LogWriter
 from server.protocol import unbatch
 from tests.dashboard_server import RunningServer, dashboard_server
 from tests.support import TESTDATA

@@ -13,7 +13,7 @@ import pytest
 
 import schemas
 from schemas.codec import OWN_PACKAGES, SCHEMA_DIR
-from schemas.mcap_log import LogWriter
+from schemas.logs import LogWriter
 from tests.dashboard_server import RunningServer, dashboard_server
 from tests.support import REPO
 from tests.waiting import wait_for

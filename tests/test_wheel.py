@@ -44,9 +44,11 @@ def test_the_wheel_runs_the_demo_outside_the_checkout(tmp_path: Path) -> None:
     venv = _fresh_venv(tmp_path)
     elsewhere = tmp_path / "somewhere"
     elsewhere.mkdir()
-    where = subprocess.run([str(venv / "bin" / "python"), "-c", "import robots, server, web; "
-                            "print(server.__file__); print(robots.urdf()); print(web.ROOT)"],
-                           cwd=elsewhere, capture_output=True, text=True, check=True).stdout.split()
+    imported = subprocess.run([str(venv / "bin" / "python"), "-c", "import robots, server, web; "
+                               "print(server.__file__); print(robots.urdf()); print(web.ROOT)"],
+                              cwd=elsewhere, capture_output=True, text=True)
+    assert imported.returncode == 0, imported.stderr[-3000:]
+    where = imported.stdout.split()
     assert all(p.startswith(str(venv)) for p in where), where  # the installed package, not the checkout
     log = tmp_path / "demo.log"
     env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH",)}

@@ -111,8 +111,9 @@ class GameControllerNode(Node):
 
     # -- socket ---------------------------------------------------------------------------------------------
     def _open_socket(self) -> None:
-        self._udp = UdpPort(self.loop, self.params.listen_address, self.params.listen_port,
-                            lambda data, addr: self._on_datagram(data, addr[0]), _RECV_SIZE, "gc-receiver")
+        self._udp = UdpPort(self.params.listen_address, self.params.listen_port,
+                            lambda data, addr: self._on_datagram(data, addr[0]), loop=self.loop,
+                            recv_size=_RECV_SIZE, name="gc-receiver")
 
     def _close_socket(self) -> None:
         if self._udp is not None:

@@ -7,11 +7,9 @@ Run: ``python -m robot_nodes.game_controller.simulator --teams 1 2 --http-port 8
 from __future__ import annotations
 
 import argparse
-import contextlib
 import dataclasses
 import json
 import logging
-import socket
 import sys
 import threading
 import time
@@ -34,6 +32,7 @@ from robot_nodes.game_controller.packets import (
     build_state_packet,
     parse_return_packet,
 )
+from robot_nodes.runtime.udp import UdpPort
 
 log = logging.getLogger("pitchside.gc_simulator")
 
@@ -119,25 +118,21 @@ class SimulatedGameController:
         self._last_tick = time.monotonic()
         self._stop = threading.Event()
         self._threads: list[threading.Thread] = []
-        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        with contextlib.suppress(OSError):
-            self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_BROADCAST, 1)
-        self.sock.bind(return_address)
-        self.sock.settimeout(0.2)
+        self._udp = UdpPort(return_address[0], return_address[1], self._on_return, recv_size=2048,
+                            name="gc-sim-returns")
         self._http: ThreadingHTTPServer | None = None
 
     # -- running ---------------------------------------------------------------------------------------------
     @property
     def return_port(self) -> int:
         """Where robots' return packets arrive (the bound port, also when 0 was asked for)."""
-        return int(self.sock.getsockname()[1])
+        return self._udp.port
 
     def start(self) -> SimulatedGameController:
         self._phase_started = self._last_tick = time.monotonic()
-        for target, name in ((self._send_loop, "gc-sim-send"), (self._receive_loop, "gc-sim-returns")):
-            t = threading.Thread(target=target, name=name, daemon=True)
-            t.start()
-            self._threads.append(t)
+        sender = threading.Thread(target=self._send_loop, name="gc-sim-send", daemon=True)
+        sender.start()
+        self._threads.append(sender)
         return self
 
     def stop(self) -> None:
@@ -147,7 +142,7 @@ class SimulatedGameController:
             self._http.server_close()
         for t in self._threads:
             t.join(2.0)
-        self.sock.close()
+        self._udp.close()
 
     def __enter__(self) -> SimulatedGameController:
         return self.start()
@@ -162,39 +157,29 @@ class SimulatedGameController:
             packet = self.tick()
             for dest in self.destinations:
                 try:
-                    self.sock.sendto(packet, dest)
+                    self._udp.sendto(packet, dest)
                 except OSError as exc:  # a robot that is not there yet must not stop the game
                     log.debug("cannot send to %s: %s", dest, exc)
             next_due += period
             self._stop.wait(max(0.0, next_due - time.monotonic()))
 
-    def _receive_loop(self) -> None:
-        while not self._stop.is_set():
+    def _on_return(self, data: bytes, addr: tuple[str, int]) -> None:
+        try:
+            packet = parse_return_packet(data)
+        except GameControllerPacketError as exc:
+            self.bad_returns += 1
+            log.info("bad return packet from %s: %s", addr, exc)
+            return
+        with self._lock:
+            self.returns.append(ReceivedReturn(time.monotonic(), addr, packet))
+            del self.returns[:-10000]
             try:
-                data, addr = self.sock.recvfrom(2048)
-            except TimeoutError:
-                continue
-            except OSError:
-                if self._stop.is_set():
-                    return
-                time.sleep(0.05)
-                continue
-            try:
-                packet = parse_return_packet(data)
-            except GameControllerPacketError as exc:
-                self.bad_returns += 1
-                log.info("bad return packet from %s: %s", addr, exc)
-                continue
-            with self._lock:
-                self.returns.append(ReceivedReturn(time.monotonic(), addr, packet))
-                del self.returns[:-10000]
-                try:
-                    if packet.message == ReturnMessage.MAN_PENALISE:
-                        self._penalize(packet.team, packet.player, Penalty.MANUAL, 0)
-                    elif packet.message == ReturnMessage.MAN_UNPENALISE:
-                        self._unpenalize(packet.team, packet.player)
-                except CommandError as exc:
-                    log.info("ignored return packet from %s: %s", addr, exc)
+                if packet.message == ReturnMessage.MAN_PENALISE:
+                    self._penalize(packet.team, packet.player, Penalty.MANUAL, 0)
+                elif packet.message == ReturnMessage.MAN_UNPENALISE:
+                    self._unpenalize(packet.team, packet.player)
+            except CommandError as exc:
+                log.info("ignored return packet from %s: %s", addr, exc)
 
     # -- the game --------------------------------------------------------------------------------------------
     def tick(self) -> bytes:

@@ -170,9 +170,9 @@ class MitecomNode(Node):
         self._destinations = destinations
 
     def _open_socket(self) -> None:
-        self._udp = UdpPort(self.loop, self.params.listen_address, self.params.port,
-                            lambda data, _addr: self._on_datagram(data), _RECV_SIZE, "mitecom-receiver",
-                            reuse_address=True)
+        self._udp = UdpPort(self.params.listen_address, self.params.port,
+                            lambda data, _addr: self._on_datagram(data), loop=self.loop,
+                            recv_size=_RECV_SIZE, name="mitecom-receiver", reuse_address=True)
 
     def _close_socket(self) -> None:
         if self._udp is not None:

@@ -1,7 +1,7 @@
-"""A UDP port for nodes that speak to the world outside Zenoh (GameController, team communication).
+"""A UDP port for what speaks to the world outside Zenoh (GameController and its simulator, team communication).
 
-A reader thread only receives and hands each datagram to the node's loop, where it is decoded; sending
-happens on the caller's thread (the loop).
+A reader thread only receives; with a node's loop it hands each datagram to the loop, where it is decoded, otherwise
+it calls the handler itself. Sending happens on the caller's thread.
 """
 
 from __future__ import annotations
@@ -22,8 +22,9 @@ Address = tuple[str, int]
 class UdpPort:
     """Binds at once (OSError if it cannot); ``close`` stops the reader and the socket."""
 
-    def __init__(self, loop: EventLoop, host: str, port: int, on_datagram: Callable[[bytes, Address], None],
-                 recv_size: int = 65535, name: str = "udp", reuse_address: bool = False) -> None:
+    def __init__(self, host: str, port: int, on_datagram: Callable[[bytes, Address], None], *,
+                 loop: EventLoop | None = None, recv_size: int = 65535, name: str = "udp",
+                 reuse_address: bool = False) -> None:
         sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         if reuse_address:
             sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
@@ -68,4 +69,7 @@ class UdpPort:
                     return
                 time.sleep(0.05)
                 continue
-            self._loop.call_soon(self._on_datagram, data, addr)
+            if self._loop is not None:
+                self._loop.call_soon(self._on_datagram, data, addr)
+            else:
+                self._on_datagram(data, addr)

@@ -3,15 +3,8 @@
 from __future__ import annotations
 
 import io
-from types import ModuleType
 
-Image: ModuleType | None
-try:  # Pillow comes with the installed dependencies (imageio, viser); without it images pass through
-    from PIL import Image
-except ImportError:  # pragma: no cover - depends on the environment
-    Image = None
-
-HAVE_PILLOW = Image is not None
+from PIL import Image
 
 
 class ImageError(Exception):
@@ -19,11 +12,11 @@ class ImageError(Exception):
 
 
 def shrink_jpeg(data: bytes, max_width: int, quality: int) -> bytes:
-    """A JPEG at most ``max_width`` pixels wide; ``max_width`` 0 (or no Pillow) passes the bytes through.
+    """A JPEG at most ``max_width`` pixels wide; ``max_width`` 0 passes the bytes through.
 
     A JPEG already narrow enough is re-encoded only if that makes it smaller at ``quality``.
     """
-    if max_width <= 0 or Image is None:
+    if max_width <= 0:
         return data
     try:
         with Image.open(io.BytesIO(data)) as img:

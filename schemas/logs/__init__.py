@@ -3,6 +3,7 @@
 from schemas.logs.naming import BOOKMARK_TOPIC, LogError, channel_topic, log_series, rotated_path
 from schemas.logs.reader import Bookmark, ChannelInfo, LogMessage, LogReader
 from schemas.logs.series import LogSeriesReader
+from schemas.logs.source import LogSource
 from schemas.logs.writer import LogWriter
 
 __all__ = [
@@ -13,6 +14,7 @@ __all__ = [
     "LogMessage",
     "LogReader",
     "LogSeriesReader",
+    "LogSource",
     "LogWriter",
     "channel_topic",
     "log_series",

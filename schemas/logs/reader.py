@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import heapq
 import json
 import logging
@@ -166,22 +167,25 @@ class LogReader:
         """True when the file's own summary was used (a cleanly closed log)."""
         return self._recovery is None
 
+    @property
     def channels(self) -> list[ChannelInfo]:
         """Every data channel (bookmarks excluded), by robot then topic."""
         return sorted((c for c in self._channels.values() if c.topic != BOOKMARK_TOPIC or c.robot_id),
                       key=lambda c: (c.robot_id, c.topic, c.channel_id))
 
+    @property
     def topics(self) -> dict[str, str]:
         """Topic name -> type name, over all robots."""
-        return {c.topic: c.typename for c in self.channels()}
+        return {c.topic: c.typename for c in self.channels}
 
+    @property
     def robots(self) -> list[str]:
-        return sorted({c.robot_id for c in self.channels()})
+        return sorted({c.robot_id for c in self.channels})
 
     @property
     def message_count(self) -> int:
         """Messages on data channels (what messages() yields without filters)."""
-        return sum(c.message_count for c in self.channels())
+        return sum(c.message_count for c in self.channels)
 
     @property
     def start_ns(self) -> int:
@@ -331,8 +335,9 @@ class LogReader:
                 found.append(record)
         return found
 
+    @functools.cached_property
     def bookmarks(self) -> list[Bookmark]:
-        """Bookmarks from the bookmark channel and the ``bookmark`` metadata records, by time."""
+        """Bookmarks from the bookmark channel and the ``bookmark`` metadata records, by time (read once)."""
         marks: dict[tuple[int, str], Bookmark] = {}
         for record in self._metadata():
             if record.name != BOOKMARK_METADATA_NAME:

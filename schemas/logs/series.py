@@ -34,22 +34,25 @@ class LogSeriesReader:
     def warnings(self) -> list[str]:
         return [w for r in self.readers for w in r.warnings]
 
+    @property
     def channels(self) -> list[ChannelInfo]:
         """One entry per (robot, topic, type), message counts summed over the files."""
         merged: dict[tuple[str, str, str], ChannelInfo] = {}
         for reader in self.readers:
-            for info in reader.channels():
+            for info in reader.channels:
                 key = (info.robot_id, info.topic, info.typename)
                 seen = merged.get(key)
                 merged[key] = info if seen is None else dataclasses.replace(
                     seen, message_count=seen.message_count + info.message_count)
         return sorted(merged.values(), key=lambda c: (c.robot_id, c.topic, c.typename))
 
+    @property
     def topics(self) -> dict[str, str]:
-        return {c.topic: c.typename for c in self.channels()}
+        return {c.topic: c.typename for c in self.channels}
 
+    @property
     def robots(self) -> list[str]:
-        return sorted({c.robot_id for c in self.channels()})
+        return sorted({c.robot_id for c in self.channels})
 
     @property
     def message_count(self) -> int:
@@ -83,8 +86,9 @@ class LogSeriesReader:
                    and (end_ns is None or r.start_ns < end_ns)]
         return heapq.merge(*streams, key=lambda m: m.log_time_ns)
 
+    @property
     def bookmarks(self) -> list[Bookmark]:
-        marks = [b for r in self.readers for b in r.bookmarks()]
+        marks = [b for r in self.readers for b in r.bookmarks]
         return sorted(marks, key=lambda m: (m.log_time_ns, m.name))
 
     def close(self) -> None:

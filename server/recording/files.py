@@ -8,7 +8,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from schemas.mcap_log import LogError, LogReader
+from schemas.logs import LogError, LogReader
 
 _SAFE = re.compile(r"[^A-Za-z0-9_.-]+")
 
@@ -71,8 +71,8 @@ class RecordingsFolder:
         try:
             with LogReader(path) as reader:
                 info: dict[str, Any] = {"duration_s": round(reader.duration, 3), "messages": reader.message_count,
-                                        "robots": [r for r in reader.robots() if r], "indexed": reader.indexed,
-                                        "bookmarks": len(reader.bookmarks())}
+                                        "robots": [r for r in reader.robots if r], "indexed": reader.indexed,
+                                        "bookmarks": len(reader.bookmarks)}
         except LogError as exc:
             info = {"error": str(exc)}
         self._cache[path] = _Cached(key, info)

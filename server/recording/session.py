@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from schemas import codec
-from schemas.mcap_log import LogError, LogWriter
+from schemas.logs import LogError, LogWriter
 from server.hub import Hub, HubMessage, Subscriber
 
 log = logging.getLogger(__name__)

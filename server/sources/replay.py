@@ -27,7 +27,7 @@ from typing import Any
 from rosbags.typesys import get_types_from_msg
 
 from schemas import codec
-from schemas.mcap_log import ChannelInfo, LogError, LogMessage, LogReader, LogSeriesReader
+from schemas.logs import ChannelInfo, LogError, LogMessage, LogReader, LogSeriesReader
 from schemas.topics import TOPICS
 from server.hub import Hub, HubMessage
 from server.security import AllowedFolders, FolderError
@@ -63,12 +63,12 @@ class ReplayFile:
         self.path = path
         self.start_ns = reader.start_ns
         self.end_ns = reader.end_ns
-        self.channels = reader.channels()
-        self.bookmarks = reader.bookmarks()
+        self.channels = reader.channels
+        self.bookmarks = reader.bookmarks
         # Channels whose type the process typestore decodes the same way travel as CDR bytes (decoded only
         # where a panel needs them); the others are decoded here with the log's own definitions.
-        foreign = {c.mcap_topic for r in reader.readers for c in r.channels() if not _shared_schema(r, c)}
-        every = {c.mcap_topic for r in reader.readers for c in r.channels()}
+        foreign = {c.mcap_topic for r in reader.readers for c in r.channels if not _shared_schema(r, c)}
+        every = {c.mcap_topic for r in reader.readers for c in r.channels}
         self.raw_topics = sorted(every - foreign)
         self.decoded_topics = sorted(foreign)
 

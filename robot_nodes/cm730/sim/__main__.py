@@ -34,14 +34,14 @@ def serve(n_robots: int, bus: BusConfig, params: Path | None = None, overrides: 
     return runner, nodes, session
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--robots", type=int, default=1)
     add_bus_arguments(parser)
     parser.add_argument("--params", type=Path, default=None)
     parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
     parser.add_argument("--real-time-factor", type=float, default=1.0, help="0 = as fast as possible")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s [sim] %(message)s")
     bus = bus_from_arguments(args)
     stop = threading.Event()
