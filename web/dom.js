@@ -17,3 +17,12 @@ export function setOptions(select, pairs) {
   select.replaceChildren(...pairs.map(([value, label]) => new Option(label, value)));
   return true;
 }
+
+/** A lab tool's status line: set(text, bad) shows the text as text and marks a failure "bad"; onBad hears failures. */
+export function statusLine(el, onBad = () => {}) {
+  return (text, bad = false) => {
+    el.textContent = text;
+    el.classList.toggle("bad", bad);
+    if (bad) onBad(text);
+  };
+}

@@ -23,6 +23,11 @@ export async function api(method, path, body, { keepalive = false } = {}) {
   return data;
 }
 
+/** The control API's path of one robot (its id encoded), the start of every per-robot request. */
+export function robotPath(robot) {
+  return `api/robots/${encodeURIComponent(robot)}`;
+}
+
 /** The numeric fields of the newest message of a robot's stream, [{path, label}], as the server defines them
  * (schemas/numeric.py): path addresses the number in a msg frame's data, label names array elements. */
 export async function numericFields(robot, topic) {

@@ -1,22 +1,16 @@
 // Animation editor and recorder: open/upload a Bit-Bots animation, edit keyframes (structure edits run server-side
 // through robot_nodes.animation.editing), record poses from the robot in RECORD, preview in 3D, play, stop, save.
+// One editor object holds the panel's state; each function below renders one part or handles one user action.
 
-import { api, labToolOff, robotPicker } from "../lab_api.js";
-import { esc } from "../dom.js";
+import { api, labToolOff, robotPath, robotPicker } from "../lab_api.js";
+import { esc, statusLine } from "../dom.js";
 
 const SEND_EVERY_MS = 100; // record goals while a slider is dragged
 const RESEND_MS = 300; // in RECORD the held pose is sent again and again: a lost message costs nothing
 const GHOSTS_AFTER_MS = 150; // keyframe ghosts follow edits and the selection, at most this often
 
-function torqueLabel(v) { return v === undefined ? "" : v >= 0.5 ? "on" : "off"; }
-
-export default {
-  id: "animation",
-  title: "Animation editor",
-  size: [2, 4],
-  create(body, ctx) {
-    if (labToolOff(body, ctx.config)) return {};
-    body.innerHTML = `<div class="lab-bar">
+// The panel's markup; rows and the keyframe detail are rendered into its tbody and div below.
+const LAYOUT = `<div class="lab-bar">
         <label>robot <select data-role="robot"></select></label>
         <select data-role="files" title="animation files in the robot's animation folder"></select>
         <button data-act="open">open</button>
@@ -57,413 +51,581 @@ export default {
         <table class="grid-table"><thead><tr><th>joint</th><th>rec</th><th>limp</th><th>goal (deg)</th></tr></thead>
           <tbody data-role="joints"></tbody></table>
       </details>`;
-    const $ = (sel) => body.querySelector(sel);
-    const state = {
-      robot: "", file: "", anim: null, selected: -1, undo: [], redo: [], check: null, joints: [],
-      held: {}, limp: new Set(), recordJoints: new Set(), recordOn: false, lastError: "", saved: 0,
-      ghosts: "off", ghostsShown: 0, ghostsFor: "",
-    };
-    window.pitchside.animEditor = state;
-    let ghostTimer = null, ghostBusy = false, ghostAgain = false; // keyframe ghosts, see sendGhosts
-    const base = () => `api/robots/${encodeURIComponent(state.robot)}`;
-    const statusEl = $('[data-role="status"]');
-    const status = (text, bad = false) => {
-      statusEl.textContent = text; statusEl.classList.toggle("bad", bad);
-      if (bad) state.lastError = text;
-    };
-    async function guarded(fn) {
-      try { await fn(); } catch (err) { status(err.message, true); }
-    }
 
-    const picker = robotPicker($('[data-role="robot"]'), ctx, (robot) => {
-      clearGhosts();
-      state.robot = robot;
-      guarded(async () => { await listFiles(); await loadJoints(); });
-      scheduleGhosts();
-    });
+function torqueLabel(v) { return v === undefined ? "" : v >= 0.5 ? "on" : "off"; }
 
-    async function listFiles() {
-      if (!state.robot) return;
-      const list = await api("GET", `${base()}/animations`);
-      $('[data-role="files"]').innerHTML = list.animations.map((a) => `<option value="${esc(a.file)}">${esc(a.file)}${
-        a.error ? " (broken)" : ""}</option>`).join("");
-      if (list.animations.some((a) => a.file === state.file)) $('[data-role="files"]').value = state.file;
-      state.folder = list.folder;
-    }
+export default {
+  id: "animation",
+  title: "Animation editor",
+  size: [2, 4],
+  create(body, ctx) {
+    if (labToolOff(body, ctx.config)) return {};
+    body.innerHTML = LAYOUT;
+    const ed = newEditor(body, ctx);
+    window.pitchside.animEditor = ed.state;
+    ed.picker = robotPicker(ed.$('[data-role="robot"]'), ctx, (robot) => chooseRobot(ed, robot));
+    ed.state.recordKeyframe = () => guarded(ed, () => recordKeyframe(ed));
+    body.addEventListener("click", (e) => onClick(ed, e));
+    body.addEventListener("change", (e) => onChange(ed, e));
+    body.addEventListener("input", (e) => onSliderInput(ed, e));
+    ed.resend = setInterval(() => { if (ed.state.recordOn && ed.state.robot) sendGoals(ed); }, RESEND_MS);
+    ed.leave = () => clearGhosts(ed, { leaving: true });
+    window.addEventListener("pagehide", ed.leave);
+    render(ed);
+    return { destroy() { closeEditor(ed); } };
+  },
+};
 
-    async function loadJoints() {
-      if (!state.robot) return;
-      state.joints = (await api("GET", `${base()}/animations/joints`)).joints;
-      if (!state.recordJoints.size) state.joints.forEach((j) => state.recordJoints.add(j.name));
-      renderJoints();
-    }
+/** The editor: its state (window.pitchside.animEditor, for tests), its elements, timers and requests under way. */
+function newEditor(body, ctx) {
+  const $ = (sel) => body.querySelector(sel);
+  const state = {
+    robot: "", file: "", anim: null, selected: -1, undo: [], redo: [], check: null, joints: [],
+    held: {}, limp: new Set(), recordJoints: new Set(), recordOn: false, lastError: "", saved: 0,
+    ghosts: "off", ghostsShown: 0, ghostsFor: "",
+  };
+  return {
+    body, ctx, $, state, picker: null, resend: 0, leave: null,
+    status: statusLine($('[data-role="status"]'), (text) => { state.lastError = text; }),
+    ghost: { timer: null, busy: false, again: false }, // keyframe ghosts, see sendGhosts
+    goals: { lastSent: 0, pending: null, inFlight: false, again: false }, // record goals, see sendGoals
+  };
+}
 
-    // -- the animation and its history ---------------------------------------------------------------
-    function setAnimation(anim, check, { history = true } = {}) {
-      if (history && state.anim) { state.undo.push(JSON.stringify(state.anim)); state.redo = []; }
-      state.anim = anim;
-      if (state.selected >= anim.keyframes.length) state.selected = anim.keyframes.length - 1;
-      if (check) state.check = check;
-      render();
-      if (!check) guarded(runCheck);
-    }
-    async function runCheck() {
-      state.check = await api("POST", `${base()}/animation-check`, { animation: state.anim });
-      renderWarnings();
-    }
-    function edited() { // a field changed in place: history was pushed before
-      state.redo = [];
-      render();
-      guarded(runCheck);
-    }
-    function snapshot() { if (state.anim) state.undo.push(JSON.stringify(state.anim)); }
-    /** An undo/redo step: the animation as it was, the selection kept inside it. */
-    function restore(text) {
-      state.anim = JSON.parse(text);
-      const n = state.anim.keyframes.length;
-      state.selected = Math.min(Math.max(state.selected, n ? 0 : -1), n - 1);
-      render();
-    }
-    /** The pose the animation holds at the end of keyframe k: every goal up to k, the newest per joint. */
-    function poseAfter(k) {
-      const pose = {};
-      for (const kf of state.anim.keyframes.slice(0, k + 1)) Object.assign(pose, kf.goals);
-      return pose;
-    }
-    async function insertKeyframe() {
-      if (!state.anim) throw new Error("open, upload or start a new animation first");
-      const index = state.selected + 1;
-      await edit("insert", { index, keyframe: { duration: 1.0, pause: 0.0, goals: poseAfter(state.selected), torque: {} } });
-      state.selected = index;
-      render();
-      status(`inserted keyframe ${index}`);
-    }
+/** The editor closed: its timers stop, and the ghosts it showed leave the 3D view. */
+function closeEditor(ed) {
+  ed.picker.off(); clearInterval(ed.resend); if (ed.goals.pending) clearTimeout(ed.goals.pending);
+  if (ed.ghost.timer) clearTimeout(ed.ghost.timer);
+  ed.state.ghosts = "off"; window.removeEventListener("pagehide", ed.leave); clearGhosts(ed);
+}
 
-    async function edit(op, extra = {}) {
-      const reply = await api("POST", `${base()}/animation-edit`, { animation: state.anim, op, ...extra });
-      setAnimation(reply.animation, reply.check);
-      return reply;
-    }
+/** The robot's part of every request path. */
+function base(ed) { return robotPath(ed.state.robot); }
 
-    async function open(file) {
-      const reply = await api("GET", `${base()}/animations/${encodeURIComponent(file)}`);
-      state.file = reply.file;
-      state.undo = []; state.redo = []; state.selected = reply.animation.keyframes.length ? 0 : -1;
-      setAnimation(reply.animation, reply.check, { history: false });
-      status(`opened ${reply.file}`);
-    }
+/** Runs a user action: a failure (the server's reason) shows in the status line rather than being lost. */
+async function guarded(ed, fn) {
+  try { await fn(); } catch (err) { ed.status(err.message, true); }
+}
 
-    async function save() {
-      syncMeta();
-      const file = $('[data-role="file"]').value.trim() || state.anim.name;
-      const reply = await api("PUT", `${base()}/animations/${encodeURIComponent(file)}`,
-        { animation: state.anim, author: $('[data-role="author"]').value || state.anim.author || "" });
-      state.file = reply.file;
-      state.anim = reply.animation;
-      state.check = reply.check;
-      state.saved++;
-      render();
-      status(`saved ${reply.path}`);
-      await listFiles();
-    }
+/** Another robot chosen: the old one's ghosts go, the new one's files and joints are read. */
+function chooseRobot(ed, robot) {
+  clearGhosts(ed);
+  ed.state.robot = robot;
+  guarded(ed, async () => { await listFiles(ed); await loadJoints(ed); });
+  scheduleGhosts(ed);
+}
 
-    function syncMeta() {
-      if (!state.anim) return;
-      const name = $('[data-role="name"]').value.trim();
-      if (name) state.anim.name = name;
-    }
+/** The animation files in the robot's folder, into the file menu (a broken file says so). */
+async function listFiles(ed) {
+  const { state, $ } = ed;
+  if (!state.robot) return;
+  const list = await api("GET", `${base(ed)}/animations`);
+  $('[data-role="files"]').innerHTML = list.animations.map((a) => `<option value="${esc(a.file)}">${esc(a.file)}${
+    a.error ? " (broken)" : ""}</option>`).join("");
+  if (list.animations.some((a) => a.file === state.file)) $('[data-role="files"]').value = state.file;
+  state.folder = list.folder;
+}
 
-    // -- keyframe ghosts in 3D -----------------------------------------------------------------------
-    // one request at a time, the newest state wins; the server replaces the ghosts it showed before
-    function ghostKeyframes() {
-      const n = state.anim?.keyframes.length ?? 0;
-      if (state.ghosts === "all") return [...Array(n).keys()];
-      const s = state.selected;
-      return s < 0 ? [] : [s - 1, s, s + 1].filter((k) => k >= 0 && k < n);
-    }
-    function scheduleGhosts() {
-      if (state.ghosts === "off" || !state.robot) return;
-      if (!ghostTimer) ghostTimer = setTimeout(sendGhosts, GHOSTS_AFTER_MS);
-    }
-    async function sendGhosts() {
-      ghostTimer = null;
-      if (ghostBusy) { ghostAgain = true; return; }
-      if (state.ghosts === "off" || !state.robot) return;
-      ghostBusy = true;
-      const robot = state.robot;
-      state.ghostsFor = robot; // from now on the server may hold ghosts of this robot: clean them up on leaving
-      try {
-        const animation = state.anim ?? { name: "none", keyframes: [] };
-        const r = await api("POST", `${base()}/animation-ghosts`, { animation, keyframes: ghostKeyframes(),
-          selected: state.selected });
-        state.ghostsShown = r.keyframes.length;
-        state.ghostUpdates = (state.ghostUpdates || 0) + 1;
-        if (state.ghosts === "off" || state.robot !== robot) clearGhosts(); // switched off while under way
-      } catch (err) {
-        status(`keyframe ghosts: ${err.message}`, true);
-        state.ghosts = "off"; $('[data-role="ghosts"]').value = "off";
-      }
-      ghostBusy = false;
-      if (ghostAgain) { ghostAgain = false; sendGhosts(); }
-    }
-    /** Removes the ghosts from the 3D view (switched off, another robot, the editor closed). */
-    function clearGhosts({ leaving = false } = {}) {
-      if (!state.ghostsFor) return;
-      const robot = state.ghostsFor;
-      state.ghostsFor = ""; state.ghostsShown = 0;
-      const path = `api/robots/${encodeURIComponent(robot)}/animation-ghosts`;
-      api("DELETE", path, undefined, { keepalive: leaving }).catch((err) => {
-        if (!leaving) status(`keyframe ghosts: ${err.message}`, true);
-      });
-    }
+/** The robot's joints and limits, for the record table; every joint is recorded until the user says otherwise. */
+async function loadJoints(ed) {
+  const { state } = ed;
+  if (!state.robot) return;
+  state.joints = (await api("GET", `${base(ed)}/animations/joints`)).joints;
+  if (!state.recordJoints.size) state.joints.forEach((j) => state.recordJoints.add(j.name));
+  renderJoints(ed);
+}
 
-    // -- rendering ------------------------------------------------------------------------------------
-    function render() {
-      const anim = state.anim;
-      $('[data-role="file"]').value = state.file;
-      $('[data-role="name"]').value = anim?.name ?? "";
-      if (anim && document.activeElement !== $('[data-role="author"]')) $('[data-role="author"]').value = anim.author ?? "";
-      $('[data-act="undo"]').disabled = !state.undo.length;
-      $('[data-act="redo"]').disabled = !state.redo.length;
-      const rows = anim ? anim.keyframes.map((kf, i) => `<tr data-kf="${i}" class="${i === state.selected ? "selected" : ""}">
+// -- the animation and its history -----------------------------------------------------------------
+
+/** A new animation (an edit's reply, a file opened): the old one goes onto the undo stack unless told not to. */
+function setAnimation(ed, anim, check, { history = true } = {}) {
+  const { state } = ed;
+  if (history && state.anim) { state.undo.push(JSON.stringify(state.anim)); state.redo = []; }
+  state.anim = anim;
+  if (state.selected >= anim.keyframes.length) state.selected = anim.keyframes.length - 1;
+  if (check) state.check = check;
+  render(ed);
+  if (!check) guarded(ed, () => runCheck(ed));
+}
+
+/** The server's errors and warnings for the animation as it is now. */
+async function runCheck(ed) {
+  ed.state.check = await api("POST", `${base(ed)}/animation-check`, { animation: ed.state.anim });
+  renderWarnings(ed);
+}
+
+/** A field changed in place (the history was pushed before, by snapshot): redraw and check again. */
+function edited(ed) {
+  ed.state.redo = [];
+  render(ed);
+  guarded(ed, () => runCheck(ed));
+}
+
+/** The animation as it is, onto the undo stack, before an edit in place. */
+function snapshot(ed) { if (ed.state.anim) ed.state.undo.push(JSON.stringify(ed.state.anim)); }
+
+/** An undo/redo step: the animation as it was, the selection kept inside it. */
+function restore(ed, text) {
+  const { state } = ed;
+  state.anim = JSON.parse(text);
+  const n = state.anim.keyframes.length;
+  state.selected = Math.min(Math.max(state.selected, n ? 0 : -1), n - 1);
+  render(ed);
+}
+
+/** Undo (or redo): the animation now goes onto the other stack, the one from this stack is shown and checked. */
+async function stepHistory(ed, from, to) {
+  if (!from.length) return;
+  to.push(JSON.stringify(ed.state.anim));
+  restore(ed, from.pop());
+  await runCheck(ed);
+}
+
+/** The pose the animation holds at the end of keyframe k: every goal up to k, the newest per joint. */
+function poseAfter(anim, k) {
+  const pose = {};
+  for (const kf of anim.keyframes.slice(0, k + 1)) Object.assign(pose, kf.goals);
+  return pose;
+}
+
+/** "+ keyframe": a new keyframe after the selected one, posed where that one ends, so nothing jumps. */
+async function insertKeyframe(ed) {
+  const { state } = ed;
+  if (!state.anim) throw new Error("open, upload or start a new animation first");
+  const index = state.selected + 1;
+  await edit(ed, "insert", { index, keyframe: { duration: 1.0, pause: 0.0, goals: poseAfter(state.anim, state.selected),
+    torque: {} } });
+  state.selected = index;
+  render(ed);
+  ed.status(`inserted keyframe ${index}`);
+}
+
+/** A structure edit, done server-side (the one implementation of editing); its reply is the new animation. */
+async function edit(ed, op, extra = {}) {
+  const reply = await api("POST", `${base(ed)}/animation-edit`, { animation: ed.state.anim, op, ...extra });
+  setAnimation(ed, reply.animation, reply.check);
+  return reply;
+}
+
+/** Opens a file of the robot's folder: a fresh history, the first keyframe selected. */
+async function openFile(ed, file) {
+  const { state } = ed;
+  const reply = await api("GET", `${base(ed)}/animations/${encodeURIComponent(file)}`);
+  state.file = reply.file;
+  state.undo = []; state.redo = []; state.selected = reply.animation.keyframes.length ? 0 : -1;
+  setAnimation(ed, reply.animation, reply.check, { history: false });
+  ed.status(`opened ${reply.file}`);
+}
+
+/** "new": an empty animation named from the new-name box, not yet saved. */
+function startNew(ed) {
+  const { state } = ed;
+  const name = ed.$('[data-role="new-name"]').value.trim() || "new_animation";
+  state.file = name; state.undo = []; state.redo = []; state.selected = -1;
+  setAnimation(ed, { name, version: "1", author: "", description: "", keyframes: [] }, null, { history: false });
+}
+
+/** Uploads a Bit-Bots JSON file into the robot's folder (under a safe name) and opens it. */
+async function upload(ed, f) {
+  const name = f.name.replace(/\.json$/, "").replace(/[^A-Za-z0-9_.-]/g, "_");
+  await api("PUT", `${base(ed)}/animations/${encodeURIComponent(name)}`, { text: await f.text() });
+  await listFiles(ed);
+  await openFile(ed, name);
+}
+
+/** Saves under the file box's name (the animation's name if empty); the server's normalised copy is shown. */
+async function saveFile(ed) {
+  const { state, $ } = ed;
+  syncMeta(ed);
+  const file = $('[data-role="file"]').value.trim() || state.anim.name;
+  const reply = await api("PUT", `${base(ed)}/animations/${encodeURIComponent(file)}`,
+    { animation: state.anim, author: $('[data-role="author"]').value || state.anim.author || "" });
+  state.file = reply.file;
+  state.anim = reply.animation;
+  state.check = reply.check;
+  state.saved++;
+  render(ed);
+  ed.status(`saved ${reply.path}`);
+  await listFiles(ed);
+}
+
+/** The name box into the animation, in case it was typed but not yet committed by a change event. */
+function syncMeta(ed) {
+  if (!ed.state.anim) return;
+  const name = ed.$('[data-role="name"]').value.trim();
+  if (name) ed.state.anim.name = name;
+}
+
+// -- on the robot and in 3D -----------------------------------------------------------------------
+
+/** "preview 3D": a ghost robot plays the animation in the 3D view; the robot does not move. */
+async function preview(ed) {
+  const r = await api("POST", `${base(ed)}/animation-preview`, { animation: ed.state.anim });
+  ed.status(`preview on ${r.ghost} in the 3D view (${r.duration.toFixed(1)} s)`);
+}
+
+/** "▶ play" (all, or up to the selected keyframe): the robot plays the saved file, so it is saved first. */
+async function play(ed, toSelected) {
+  await saveFile(ed);
+  const upto = toSelected ? ed.state.selected : null;
+  const r = await api("POST", `${base(ed)}/animation-play`, { file: ed.state.file, upto, retry_s: 15 });
+  ed.state.recordOn = false;
+  ed.status(`playing ${r.animation} (${r.keyframes} keyframes)`);
+}
+
+/** "■ STOP": the animation is canceled and RECORD left; a failure to leave RECORD is shown as one. */
+async function stopOnRobot(ed) {
+  const r = await api("POST", `${base(ed)}/animation-stop`);
+  ed.state.recordOn = false;
+  ed.status(`stopped${r.canceled ? " (animation canceled)" : ""}${r.record_error ? `; ${r.record_error}` : ", RECORD off"}`,
+    Boolean(r.record_error));
+}
+
+// -- keyframe ghosts in 3D -------------------------------------------------------------------------
+// one request at a time, the newest state wins; the server replaces the ghosts it showed before
+
+/** The keyframes to show as ghosts: all, or the selected one and its neighbours. */
+function ghostKeyframes(state) {
+  const n = state.anim?.keyframes.length ?? 0;
+  if (state.ghosts === "all") return [...Array(n).keys()];
+  const s = state.selected;
+  return s < 0 ? [] : [s - 1, s, s + 1].filter((k) => k >= 0 && k < n);
+}
+
+/** The ghosts menu changed: off removes them, anything else shows them. */
+function setGhosts(ed, value) {
+  ed.state.ghosts = value;
+  if (value === "off") clearGhosts(ed); else scheduleGhosts(ed);
+}
+
+/** Ghosts follow edits and the selection, at most every GHOSTS_AFTER_MS. */
+function scheduleGhosts(ed) {
+  if (ed.state.ghosts === "off" || !ed.state.robot) return;
+  if (!ed.ghost.timer) ed.ghost.timer = setTimeout(() => sendGhosts(ed), GHOSTS_AFTER_MS);
+}
+
+/** Sends the ghosts to the server; one request at a time, a change meanwhile sends once more afterwards. */
+async function sendGhosts(ed) {
+  const { state, ghost } = ed;
+  ghost.timer = null;
+  if (ghost.busy) { ghost.again = true; return; }
+  if (state.ghosts === "off" || !state.robot) return;
+  ghost.busy = true;
+  const robot = state.robot;
+  state.ghostsFor = robot; // from now on the server may hold ghosts of this robot: clean them up on leaving
+  try {
+    const animation = state.anim ?? { name: "none", keyframes: [] };
+    const r = await api("POST", `${base(ed)}/animation-ghosts`, { animation, keyframes: ghostKeyframes(state),
+      selected: state.selected });
+    state.ghostsShown = r.keyframes.length;
+    state.ghostUpdates = (state.ghostUpdates || 0) + 1;
+    if (state.ghosts === "off" || state.robot !== robot) clearGhosts(ed); // switched off while under way
+  } catch (err) {
+    ed.status(`keyframe ghosts: ${err.message}`, true);
+    state.ghosts = "off"; ed.$('[data-role="ghosts"]').value = "off";
+  }
+  ghost.busy = false;
+  if (ghost.again) { ghost.again = false; sendGhosts(ed); }
+}
+
+/** Removes the ghosts from the 3D view (switched off, another robot, the editor closed). */
+function clearGhosts(ed, { leaving = false } = {}) {
+  const { state } = ed;
+  if (!state.ghostsFor) return;
+  const robot = state.ghostsFor;
+  state.ghostsFor = ""; state.ghostsShown = 0;
+  api("DELETE", `${robotPath(robot)}/animation-ghosts`, undefined, { keepalive: leaving }).catch((err) => {
+    if (!leaving) ed.status(`keyframe ghosts: ${err.message}`, true);
+  });
+}
+
+// -- rendering --------------------------------------------------------------------------------------
+
+/** Everything that shows the animation: the file bar, the keyframe list, the selected keyframe, the warnings. */
+function render(ed) {
+  renderFileBar(ed);
+  renderKeyframes(ed);
+  renderDetail(ed);
+  renderWarnings(ed);
+  scheduleGhosts(ed);
+}
+
+/** File, name and author boxes and the undo/redo buttons; an author being typed is left alone. */
+function renderFileBar(ed) {
+  const { state, $ } = ed;
+  const anim = state.anim;
+  $('[data-role="file"]').value = state.file;
+  $('[data-role="name"]').value = anim?.name ?? "";
+  if (anim && document.activeElement !== $('[data-role="author"]')) $('[data-role="author"]').value = anim.author ?? "";
+  $('[data-act="undo"]').disabled = !state.undo.length;
+  $('[data-act="redo"]').disabled = !state.redo.length;
+}
+
+/** The keyframe list, the selected row marked; a hint while there is no animation. */
+function renderKeyframes(ed) {
+  const { state } = ed;
+  const rows = state.anim ? state.anim.keyframes.map((kf, i) => keyframeRow(kf, i, i === state.selected)).join("") : "";
+  ed.$('[data-role="keyframes"]').innerHTML = rows
+    || '<tr><td colspan="6" class="empty">open, upload or start a new animation</td></tr>';
+}
+
+/** One keyframe's row: name, duration and pause edited in place, buttons to move, duplicate and delete it. */
+function keyframeRow(kf, i, selected) {
+  return `<tr data-kf="${i}" class="${selected ? "selected" : ""}">
         <td>${i}</td><td><input data-field="name" value="${esc(kf.name ?? "")}" size="8"></td>
         <td><input type="number" step="0.05" min="0" data-field="duration" value="${esc(kf.duration)}"></td>
         <td><input type="number" step="0.05" min="0" data-field="pause" value="${esc(kf.pause)}"></td>
         <td>${Object.keys(kf.goals).length}</td>
         <td><button data-kact="up" title="move up">↑</button><button data-kact="down" title="move down">↓</button>
           <button data-kact="duplicate" title="duplicate">dup</button><button data-kact="delete" title="delete">✕</button></td>
-        </tr>`).join("") : "";
-      $('[data-role="keyframes"]').innerHTML = rows || '<tr><td colspan="6" class="empty">open, upload or start a new animation</td></tr>';
-      renderDetail();
-      renderWarnings();
-      scheduleGhosts();
-    }
+        </tr>`;
+}
 
-    function renderWarnings() {
-      const c = state.check;
-      $('[data-role="warnings"]').innerHTML = c ? [...c.errors.map((e) => `<li class="bad">${esc(e)}</li>`),
-        ...c.warnings.map((w) => `<li class="warn">${esc(w)}</li>`)].join("") : "";
-    }
+/** The server's errors and warnings about the animation, errors first. */
+function renderWarnings(ed) {
+  const c = ed.state.check;
+  ed.$('[data-role="warnings"]').innerHTML = c ? [...c.errors.map((e) => `<li class="bad">${esc(e)}</li>`),
+    ...c.warnings.map((w) => `<li class="warn">${esc(w)}</li>`)].join("") : "";
+}
 
-    function renderDetail() {
-      const kf = state.anim?.keyframes[state.selected];
-      const el = $('[data-role="detail"]');
-      if (!kf) { el.innerHTML = ""; return; }
-      const missing = state.joints.filter((j) => !(j.name in kf.goals));
-      el.innerHTML = `<b>keyframe ${state.selected}</b> goals (deg) and torque
-        <table class="grid-table"><tbody>${Object.entries(kf.goals).map(([j, v]) => `<tr data-joint="${esc(j)}">
+/** The selected keyframe's goals and torques, and a menu to add a joint it does not move yet. */
+function renderDetail(ed) {
+  const { state } = ed;
+  const kf = state.anim?.keyframes[state.selected];
+  const el = ed.$('[data-role="detail"]');
+  if (!kf) { el.innerHTML = ""; return; }
+  const missing = state.joints.filter((j) => !(j.name in kf.goals));
+  el.innerHTML = `<b>keyframe ${state.selected}</b> goals (deg) and torque
+        <table class="grid-table"><tbody>${Object.entries(kf.goals).map(([j, v]) => goalRow(kf, j, v)).join("")}</tbody></table>
+        ${missing.length ? `<select data-role="add-joint">${missing.map((j) => `<option>${esc(j.name)}</option>`).join("")}</select>
+        <button data-act="add-joint">add joint</button>` : ""}`;
+}
+
+/** One joint of the selected keyframe: its goal, its torque (on, off, unchanged), a button to remove it. */
+function goalRow(kf, j, v) {
+  return `<tr data-joint="${esc(j)}">
           <td>${esc(j)}</td><td><input type="number" step="0.5" data-goal value="${esc(v)}"></td>
           <td><select data-torque><option value="">torque unchanged</option>
             <option value="1" ${torqueLabel(kf.torque?.[j]) === "on" ? "selected" : ""}>torque on</option>
             <option value="0" ${torqueLabel(kf.torque?.[j]) === "off" ? "selected" : ""}>torque off</option></select></td>
-          <td><button data-remove title="remove this joint from the keyframe">✕</button></td></tr>`).join("")}</tbody></table>
-        ${missing.length ? `<select data-role="add-joint">${missing.map((j) => `<option>${esc(j.name)}</option>`).join("")}</select>
-        <button data-act="add-joint">add joint</button>` : ""}`;
-    }
+          <td><button data-remove title="remove this joint from the keyframe">✕</button></td></tr>`;
+}
 
-    function renderJoints() {
-      $('[data-role="joints"]').innerHTML = state.joints.map((j) => `<tr data-joint="${esc(j.name)}">
+/** The record table: per joint whether it is recorded, whether it is limp, and the goal it is held at. */
+function renderJoints(ed) {
+  const { state } = ed;
+  ed.$('[data-role="joints"]').innerHTML = state.joints.map((j) => `<tr data-joint="${esc(j.name)}">
         <td>${esc(j.name)}</td>
         <td><input type="checkbox" data-rec ${state.recordJoints.has(j.name) ? "checked" : ""}></td>
         <td><input type="checkbox" data-limp ${state.limp.has(j.name) ? "checked" : ""}></td>
         <td><input type="range" data-slider min="${esc(j.lower)}" max="${esc(j.upper)}" step="0.5"
           value="${esc(state.held[j.name] ?? 0)}">
           <input type="number" data-held step="0.5" value="${(state.held[j.name] ?? 0).toFixed(1)}"></td></tr>`).join("");
-    }
+}
 
-    // -- recording ------------------------------------------------------------------------------------
-    // one request in flight at a time, so goals reach the robot in the order they were made; the newest wins
-    let lastSent = 0, pending = null, inFlight = false, again = false;
-    function sendGoals(now = false) {
-      const go = async () => {
-        pending = null;
-        if (inFlight) { again = true; return; }
-        const positions = {};
-        for (const [j, v] of Object.entries(state.held)) if (!state.limp.has(j)) positions[j] = v;
-        if (!Object.keys(positions).length && !state.limp.size) return;
-        inFlight = true; lastSent = performance.now();
-        await guarded(() => api("POST", `${base()}/record/goals`, { positions, limp: [...state.limp] }));
-        state.goalsSent = (state.goalsSent || 0) + 1;
-        inFlight = false;
-        if (again) { again = false; go(); }
-      };
-      if (now || performance.now() - lastSent > SEND_EVERY_MS) go();
-      else if (!pending) pending = setTimeout(go, SEND_EVERY_MS);
-    }
-    async function recordMode(on) {
-      state.recordOn = false;
-      if (on) { // hold the pose the robot is in, so nothing jumps when RECORD starts
-        const pose = (await api("GET", `${base()}/record/pose`)).positions;
-        state.held = {};
-        for (const j of state.joints) if (j.name in pose) state.held[j.name] = pose[j.name];
-        renderJoints();
-      }
-      await api("POST", `${base()}/record`, { on });
-      state.recordOn = on;
-      status(on ? "RECORD: move the sliders (or the limp joints by hand), then record keyframes" : "RECORD off");
-    }
-    async function recordKeyframe() {
-      const pose = (await api("GET", `${base()}/record/pose`)).positions;
-      const goals = {};
-      for (const j of state.joints) if (state.recordJoints.has(j.name) && j.name in pose) goals[j.name] = Math.round(pose[j.name] * 100) / 100;
-      if (!state.anim) state.anim = { name: $('[data-role="new-name"]').value || "recorded", keyframes: [] };
-      const index = state.selected + 1;
-      await edit("insert", { index, keyframe: { duration: 1.0, pause: 0.0, goals, torque: {} } });
-      state.selected = index;
-      render();
-      status(`recorded keyframe ${index} (${Object.keys(goals).length} joints)`);
-    }
-    state.recordKeyframe = () => guarded(recordKeyframe);
+// -- recording --------------------------------------------------------------------------------------
+// one request in flight at a time, so goals reach the robot in the order they were made; the newest wins
 
-    // -- events ---------------------------------------------------------------------------------------
-    body.addEventListener("click", (e) => {
-      const act = e.target.dataset?.act;
-      const kact = e.target.dataset?.kact;
-      const row = e.target.closest("tr[data-kf]");
-      if (row && !kact && e.target.tagName !== "INPUT") { state.selected = +row.dataset.kf; render(); }
-      if (kact) {
-        const i = +row.dataset.kf;
-        guarded(async () => {
-          if (kact === "up" && i > 0) { await edit("move", { index: i, new_index: i - 1 }); state.selected = i - 1; }
-          if (kact === "down" && i < state.anim.keyframes.length - 1) { await edit("move", { index: i, new_index: i + 1 }); state.selected = i + 1; }
-          if (kact === "duplicate") { await edit("duplicate", { index: i }); state.selected = i + 1; }
-          if (kact === "delete") {
-            await edit("delete", { index: i });
-            if (i < state.selected) state.selected--; // the selection stays on its keyframe
-          }
-          render();
-        });
-        return;
-      }
-      if (e.target.dataset?.remove !== undefined && e.target.closest("[data-role=detail]")) {
-        snapshot();
-        const kf = state.anim.keyframes[state.selected];
-        const j = e.target.closest("tr").dataset.joint;
-        delete kf.goals[j];
-        if (kf.torque) delete kf.torque[j];
-        edited();
-        return;
-      }
-      if (!act) return;
-      guarded(async () => {
-        if (act === "open") await open($('[data-role="files"]').value);
-        else if (act === "new") {
-          const name = $('[data-role="new-name"]').value.trim() || "new_animation";
-          state.file = name; state.undo = []; state.redo = []; state.selected = -1;
-          setAnimation({ name, version: "1", author: "", description: "", keyframes: [] }, null, { history: false });
-        } else if (act === "save") await save();
-        else if (act === "undo" && state.undo.length) {
-          state.redo.push(JSON.stringify(state.anim));
-          restore(state.undo.pop()); await runCheck();
-        } else if (act === "redo" && state.redo.length) {
-          state.undo.push(JSON.stringify(state.anim));
-          restore(state.redo.pop()); await runCheck();
-        } else if (act === "insert") await insertKeyframe();
-        else if (act === "mirror" && state.selected >= 0) await edit("mirror", { keyframes: [state.selected] });
-        else if (act === "mirror-all") await edit("mirror");
-        else if (act === "invert") await edit("invert");
-        else if (act === "preview") {
-          const r = await api("POST", `${base()}/animation-preview`, { animation: state.anim });
-          status(`preview on ${r.ghost} in the 3D view (${r.duration.toFixed(1)} s)`);
-        } else if (act === "play" || act === "play-upto") {
-          await save();
-          const upto = act === "play-upto" ? state.selected : null;
-          const r = await api("POST", `${base()}/animation-play`, { file: state.file, upto, retry_s: 15 });
-          state.recordOn = false;
-          status(`playing ${r.animation} (${r.keyframes} keyframes)`);
-        } else if (act === "stop") {
-          const r = await api("POST", `${base()}/animation-stop`);
-          state.recordOn = false;
-          status(`stopped${r.canceled ? " (animation canceled)" : ""}${r.record_error ? `; ${r.record_error}` : ", RECORD off"}`,
-            Boolean(r.record_error));
-        } else if (act === "record-on") await recordMode(true);
-        else if (act === "record-off") await recordMode(false);
-        else if (act === "record-kf") await recordKeyframe();
-        else if (act === "rec-all" || act === "rec-none") {
-          state.recordJoints = new Set(act === "rec-all" ? state.joints.map((j) => j.name) : []);
-          renderJoints();
-        } else if (act === "add-joint") {
-          snapshot();
-          const j = $('[data-role="add-joint"]').value;
-          state.anim.keyframes[state.selected].goals[j] = Math.round((state.held[j] ?? 0) * 100) / 100;
-          edited();
-        }
-      });
-    });
+/** The held pose to the robot: at once, or at most every SEND_EVERY_MS while a slider is dragged. */
+function sendGoals(ed, now = false) {
+  const { goals } = ed;
+  if (now || performance.now() - goals.lastSent > SEND_EVERY_MS) postGoals(ed);
+  else if (!goals.pending) goals.pending = setTimeout(() => postGoals(ed), SEND_EVERY_MS);
+}
 
-    body.addEventListener("change", (e) => {
-      const t = e.target;
-      if (t.dataset.role === "ghosts") {
-        state.ghosts = t.value;
-        if (t.value === "off") clearGhosts(); else scheduleGhosts();
-        return;
-      }
-      if (t.dataset.role === "upload" && t.files?.length) {
-        const f = t.files[0];
-        guarded(async () => {
-          const name = f.name.replace(/\.json$/, "").replace(/[^A-Za-z0-9_.-]/g, "_");
-          await api("PUT", `${base()}/animations/${encodeURIComponent(name)}`, { text: await f.text() });
-          await listFiles();
-          await open(name);
-        });
-        return;
-      }
-      const kfRow = t.closest("tr[data-kf]");
-      if (kfRow && t.dataset.field) {
-        snapshot();
-        const kf = state.anim.keyframes[+kfRow.dataset.kf];
-        if (t.dataset.field === "name") kf.name = t.value || undefined;
-        else kf[t.dataset.field] = Math.max(0, Number(t.value) || 0);
-        edited();
-        return;
-      }
-      const detailRow = t.closest("[data-role=detail] tr[data-joint]");
-      if (detailRow) {
-        snapshot();
-        const kf = state.anim.keyframes[state.selected];
-        const j = detailRow.dataset.joint;
-        if (t.dataset.goal !== undefined) {
-          const v = t.value.trim() === "" ? NaN : Number(t.value);
-          if (!Number.isFinite(v)) { state.undo.pop(); t.value = kf.goals[j]; status(`${j}: a goal is a number of degrees`, true); return; }
-          kf.goals[j] = v;
-        }
-        if (t.dataset.torque !== undefined) {
-          kf.torque = kf.torque || {};
-          if (t.value === "") delete kf.torque[j]; else kf.torque[j] = Number(t.value);
-        }
-        edited();
-        return;
-      }
-      const jointRow = t.closest("[data-role=joints] tr[data-joint]");
-      if (jointRow) {
-        const j = jointRow.dataset.joint;
-        if (t.dataset.rec !== undefined) { if (t.checked) state.recordJoints.add(j); else state.recordJoints.delete(j); }
-        if (t.dataset.limp !== undefined) { if (t.checked) state.limp.add(j); else state.limp.delete(j); sendGoals(true); }
-        if (t.dataset.held !== undefined) {
-          state.held[j] = Number(t.value);
-          jointRow.querySelector("[data-slider]").value = t.value;
-          sendGoals(true);
-        }
-      }
-      if (t.dataset.role === "name" && state.anim) { snapshot(); state.anim.name = t.value; edited(); }
-    });
-    body.addEventListener("input", (e) => {
-      const t = e.target;
-      if (t.dataset.slider === undefined) return;
-      const row = t.closest("tr[data-joint]");
-      state.held[row.dataset.joint] = Number(t.value);
-      row.querySelector("[data-held]").value = Number(t.value).toFixed(1);
-      sendGoals();
-    });
-    const resend = setInterval(() => { if (state.recordOn && state.robot) sendGoals(); }, RESEND_MS);
-    const leave = () => clearGhosts({ leaving: true });
-    window.addEventListener("pagehide", leave);
-    render();
-    return {
-      destroy() {
-        picker.off(); clearInterval(resend); if (pending) clearTimeout(pending); if (ghostTimer) clearTimeout(ghostTimer);
-        state.ghosts = "off"; window.removeEventListener("pagehide", leave); clearGhosts();
-      },
-    };
-  },
+/** Posts the held goals of the joints that are not limp, and the limp ones; a request under way sends again after. */
+async function postGoals(ed) {
+  const { state, goals } = ed;
+  goals.pending = null;
+  if (goals.inFlight) { goals.again = true; return; }
+  const positions = {};
+  for (const [j, v] of Object.entries(state.held)) if (!state.limp.has(j)) positions[j] = v;
+  if (!Object.keys(positions).length && !state.limp.size) return;
+  goals.inFlight = true; goals.lastSent = performance.now();
+  await guarded(ed, () => api("POST", `${base(ed)}/record/goals`, { positions, limp: [...state.limp] }));
+  state.goalsSent = (state.goalsSent || 0) + 1;
+  goals.inFlight = false;
+  if (goals.again) { goals.again = false; postGoals(ed); }
+}
+
+/** RECORD on or off; on holds the pose the robot is in, so nothing jumps when RECORD starts. */
+async function recordMode(ed, on) {
+  const { state } = ed;
+  state.recordOn = false;
+  if (on) {
+    const pose = (await api("GET", `${base(ed)}/record/pose`)).positions;
+    state.held = {};
+    for (const j of state.joints) if (j.name in pose) state.held[j.name] = pose[j.name];
+    renderJoints(ed);
+  }
+  await api("POST", `${base(ed)}/record`, { on });
+  state.recordOn = on;
+  ed.status(on ? "RECORD: move the sliders (or the limp joints by hand), then record keyframes" : "RECORD off");
+}
+
+/** "record keyframe": the robot's pose now (the recorded joints) as a new keyframe after the selected one. */
+async function recordKeyframe(ed) {
+  const { state } = ed;
+  const pose = (await api("GET", `${base(ed)}/record/pose`)).positions;
+  const goals = {};
+  for (const j of state.joints) {
+    if (state.recordJoints.has(j.name) && j.name in pose) goals[j.name] = Math.round(pose[j.name] * 100) / 100;
+  }
+  if (!state.anim) state.anim = { name: ed.$('[data-role="new-name"]').value || "recorded", keyframes: [] };
+  const index = state.selected + 1;
+  await edit(ed, "insert", { index, keyframe: { duration: 1.0, pause: 0.0, goals, torque: {} } });
+  state.selected = index;
+  render(ed);
+  ed.status(`recorded keyframe ${index} (${Object.keys(goals).length} joints)`);
+}
+
+/** "record all joints" / "none". */
+function chooseRecordJoints(ed, all) {
+  ed.state.recordJoints = new Set(all ? ed.state.joints.map((j) => j.name) : []);
+  renderJoints(ed);
+}
+
+// -- events -----------------------------------------------------------------------------------------
+
+/** The bars' buttons by their data-act, each a user action whose failure shows in the status line. */
+const ACTIONS = {
+  open: (ed) => openFile(ed, ed.$('[data-role="files"]').value),
+  new: startNew,
+  save: saveFile,
+  undo: (ed) => stepHistory(ed, ed.state.undo, ed.state.redo),
+  redo: (ed) => stepHistory(ed, ed.state.redo, ed.state.undo),
+  insert: insertKeyframe,
+  mirror: async (ed) => { if (ed.state.selected >= 0) await edit(ed, "mirror", { keyframes: [ed.state.selected] }); },
+  "mirror-all": (ed) => edit(ed, "mirror"),
+  invert: (ed) => edit(ed, "invert"),
+  preview,
+  play: (ed) => play(ed, false),
+  "play-upto": (ed) => play(ed, true),
+  stop: stopOnRobot,
+  "record-on": (ed) => recordMode(ed, true),
+  "record-off": (ed) => recordMode(ed, false),
+  "record-kf": recordKeyframe,
+  "rec-all": (ed) => chooseRecordJoints(ed, true),
+  "rec-none": (ed) => chooseRecordJoints(ed, false),
+  "add-joint": addGoal,
 };
+
+/** Clicks: a keyframe row selects it, its buttons edit it, a goal's ✕ removes it, the bars' buttons act. */
+function onClick(ed, e) {
+  const act = e.target.dataset?.act;
+  const kact = e.target.dataset?.kact;
+  const row = e.target.closest("tr[data-kf]");
+  if (row && !kact && e.target.tagName !== "INPUT") { ed.state.selected = +row.dataset.kf; render(ed); }
+  if (kact) { guarded(ed, () => keyframeAction(ed, kact, +row.dataset.kf)); return; }
+  if (e.target.dataset?.remove !== undefined && e.target.closest("[data-role=detail]")) {
+    removeGoal(ed, e.target.closest("tr").dataset.joint);
+    return;
+  }
+  if (act && Object.hasOwn(ACTIONS, act)) guarded(ed, () => ACTIONS[act](ed));
+}
+
+/** A keyframe row's buttons: move up or down, duplicate, delete; the selection stays on its keyframe. */
+async function keyframeAction(ed, kact, i) {
+  const { state } = ed;
+  if (kact === "up" && i > 0) { await edit(ed, "move", { index: i, new_index: i - 1 }); state.selected = i - 1; }
+  if (kact === "down" && i < state.anim.keyframes.length - 1) {
+    await edit(ed, "move", { index: i, new_index: i + 1 }); state.selected = i + 1;
+  }
+  if (kact === "duplicate") { await edit(ed, "duplicate", { index: i }); state.selected = i + 1; }
+  if (kact === "delete") {
+    await edit(ed, "delete", { index: i });
+    if (i < state.selected) state.selected--;
+  }
+  render(ed);
+}
+
+/** A goal's ✕: the joint leaves the selected keyframe (goal and torque). */
+function removeGoal(ed, j) {
+  snapshot(ed);
+  const kf = ed.state.anim.keyframes[ed.state.selected];
+  delete kf.goals[j];
+  if (kf.torque) delete kf.torque[j];
+  edited(ed);
+}
+
+/** "add joint": the chosen joint joins the selected keyframe at the goal it is held at in the record table. */
+function addGoal(ed) {
+  const { state } = ed;
+  snapshot(ed);
+  const j = ed.$('[data-role="add-joint"]').value;
+  state.anim.keyframes[state.selected].goals[j] = Math.round((state.held[j] ?? 0) * 100) / 100;
+  edited(ed);
+}
+
+/** Changes: the ghosts menu, an upload, a keyframe's field, a goal or torque, the record table, the name box. */
+function onChange(ed, e) {
+  const t = e.target;
+  if (t.dataset.role === "ghosts") { setGhosts(ed, t.value); return; }
+  if (t.dataset.role === "upload" && t.files?.length) {
+    const f = t.files[0];
+    guarded(ed, () => upload(ed, f));
+    return;
+  }
+  const kfRow = t.closest("tr[data-kf]");
+  if (kfRow && t.dataset.field) { editKeyframeField(ed, t, +kfRow.dataset.kf); return; }
+  const detailRow = t.closest("[data-role=detail] tr[data-joint]");
+  if (detailRow) { editGoal(ed, t, detailRow.dataset.joint); return; }
+  const jointRow = t.closest("[data-role=joints] tr[data-joint]");
+  if (jointRow) editRecordJoint(ed, t, jointRow);
+  if (t.dataset.role === "name" && ed.state.anim) { snapshot(ed); ed.state.anim.name = t.value; edited(ed); }
+}
+
+/** A keyframe's name, duration or pause edited in its row (times never below zero). */
+function editKeyframeField(ed, t, index) {
+  snapshot(ed);
+  const kf = ed.state.anim.keyframes[index];
+  if (t.dataset.field === "name") kf.name = t.value || undefined;
+  else kf[t.dataset.field] = Math.max(0, Number(t.value) || 0);
+  edited(ed);
+}
+
+/** A goal or torque of the selected keyframe edited; a goal that is not a number is refused and put back. */
+function editGoal(ed, t, j) {
+  const { state } = ed;
+  snapshot(ed);
+  const kf = state.anim.keyframes[state.selected];
+  if (t.dataset.goal !== undefined) {
+    const v = t.value.trim() === "" ? NaN : Number(t.value);
+    if (!Number.isFinite(v)) {
+      state.undo.pop(); t.value = kf.goals[j]; ed.status(`${j}: a goal is a number of degrees`, true);
+      return;
+    }
+    kf.goals[j] = v;
+  }
+  if (t.dataset.torque !== undefined) {
+    kf.torque = kf.torque || {};
+    if (t.value === "") delete kf.torque[j]; else kf.torque[j] = Number(t.value);
+  }
+  edited(ed);
+}
+
+/** The record table: recorded or not, limp or not (sent at once), a typed goal (sent at once, slider follows). */
+function editRecordJoint(ed, t, row) {
+  const { state } = ed;
+  const j = row.dataset.joint;
+  if (t.dataset.rec !== undefined) { if (t.checked) state.recordJoints.add(j); else state.recordJoints.delete(j); }
+  if (t.dataset.limp !== undefined) {
+    if (t.checked) state.limp.add(j); else state.limp.delete(j);
+    sendGoals(ed, true);
+  }
+  if (t.dataset.held !== undefined) {
+    state.held[j] = Number(t.value);
+    row.querySelector("[data-slider]").value = t.value;
+    sendGoals(ed, true);
+  }
+}
+
+/** A slider dragged: the goal follows it (its number box too) and goes to the robot, throttled. */
+function onSliderInput(ed, e) {
+  const t = e.target;
+  if (t.dataset.slider === undefined) return;
+  const row = t.closest("tr[data-joint]");
+  ed.state.held[row.dataset.joint] = Number(t.value);
+  row.querySelector("[data-held]").value = Number(t.value).toFixed(1);
+  sendGoals(ed);
+}

@@ -1,6 +1,7 @@
 // Field view: the kid-size field to scale, robot poses with confidence, ball, obstacles, teammates, game state.
 // Drawn on every animation frame while the panel is on screen (none while hidden, scrolled away or in a background
 // tab); poses glide between the 15 Hz updates: extrapolated a short way past the newest sample, never further.
+// One view object holds the panel's state; each function below draws one part or handles one event.
 
 import { css, fitCanvas, fmtClock, gameName, obstacleColor, secondaryName, yaw } from "../msgtypes.js";
 
@@ -18,16 +19,16 @@ export const MOTION = {
 };
 const HEADER = 28; // px: the game state bar
 
+/** A point relative to a robot (its x forward) on the field, given the robot's pose. */
 function transform(pose, p) {
   const c = Math.cos(pose.theta), s = Math.sin(pose.theta);
   return { x: pose.x + c * p.x - s * p.y, y: pose.y + s * p.x + c * p.y };
 }
 
+/** a - b wrapped into [-pi, pi], so turning through pi is not a jump. */
 function angleDiff(a, b) {
   return Math.atan2(Math.sin(a - b), Math.cos(a - b));
 }
-
-const clamp = (v, lim) => Math.max(-lim, Math.min(lim, v));
 
 /** One moving thing (a robot pose or a ball): its newest sample, velocity from the two newest, and the pose it is
  * shown at, which follows the samples smoothly. A stream that stops is shown where it was last seen (plus at most
@@ -88,242 +89,313 @@ export default {
   title: "Field view",
   size: [2, 3],
   create(body, ctx) {
-    const { store } = ctx;
-    const canvas = document.createElement("canvas");
-    body.append(canvas);
-    // frames: drawn so far (tests and bench/server.py read it); fps: over the last second; drawMs: per draw (average)
-    const stats = { drawn: [], frames: 0, fps: 0, balls: 0, drawMs: 0, running: false };
-    window.pitchside.fieldView = stats;
-    let view = null, raf = 0, fpsStart = performance.now(), fpsFrames = 0, onScreen = true, destroyed = false;
-    let theme = 0, field = null; // the static field (grass, lines, goals) drawn once per size and theme
-    const tracks = new Map(); // "kind|robot" -> Track
-    const offs = TOPICS.map(([topic, hz]) => ctx.subscribe(topic, hz, () => {}));
-    offs.push(store.on("theme", () => { theme++; }));
-
-    function track(key, frame, p, now) {
-      let t = tracks.get(key);
-      if (!t) tracks.set(key, t = new Track());
-      t.update(frame, p, frame.stamp, now);
-      t.used = true;
-      return t.pose(now);
-    }
-
-    /** Shown poses of estimates (position) and ground truth, per robot id. */
-    function poses(now) {
-      const out = new Map();
-      const truths = new Map(); // id -> newest ground truth frame that has it
-      for (const robot of store.latest.keys()) {
-        const frame = store.get(robot, "ground_truth");
-        if (!frame) continue;
-        for (const id of frame.data.robot_ids) if (!(truths.get(id)?.stamp >= frame.stamp)) truths.set(id, frame);
-      }
-      for (const [id, frame] of truths) {
-        const p = frame.data.robot_poses[frame.data.robot_ids.indexOf(id)];
-        out.set(id, { truth: track(`truth|${id}`, frame,
-          { x: p.position.x, y: p.position.y, theta: yaw(p.orientation) }, now) });
-      }
-      for (const robot of store.latest.keys()) {
-        const frame = store.get(robot, "position");
-        const overview = store.get(robot, "overview")?.data;
-        const entry = out.get(robot) || {};
-        if (frame) {
-          const pos = frame.data;
-          entry.estimate = track(`estimate|${robot}`, frame,
-            { x: pos.pose.x, y: pos.pose.y, theta: pos.pose.theta, confidence: pos.confidence }, now);
-        } else if (overview?.pose_known) {
-          entry.estimate = { x: overview.pose_x, y: overview.pose_y, theta: overview.pose_theta,
-            confidence: overview.pose_confidence };
-        }
-        if (entry.estimate || entry.truth) out.set(robot, entry);
-      }
-      return out;
-    }
-
-    /** Grass, lines and goals into an offscreen canvas of the visible one's size: one drawImage per frame. */
-    function staticField(w, h, scale, X, Y) {
-      const key = `${canvas.width}x${canvas.height}|${theme}`;
-      if (field?.key === key) return field.canvas;
-      const off = field?.canvas || document.createElement("canvas");
-      off.width = canvas.width;
-      off.height = canvas.height;
-      const g = off.getContext("2d");
-      g.setTransform(canvas.width / w, 0, 0, canvas.height / h, 0, 0);
-      const F = FIELD;
-      g.fillStyle = css("--field");
-      g.fillRect(0, 0, w, h);
-      g.strokeStyle = css("--field-line") || "#ffffff";
-      g.lineWidth = Math.max(2, 0.05 * scale);
-      const L = F.length / 2, W = F.width / 2;
-      g.strokeRect(X(-L), Y(W), F.length * scale, F.width * scale);
-      g.beginPath(); g.moveTo(X(0), Y(W)); g.lineTo(X(0), Y(-W)); g.stroke();
-      g.beginPath(); g.arc(X(0), Y(0), F.centerCircle / 2 * scale, 0, 2 * Math.PI); g.stroke();
-      for (const side of [-1, 1]) {
-        const gx = side * L;
-        g.strokeRect(Math.min(X(gx), X(gx - side * F.goalAreaLength)), Y(F.goalAreaWidth / 2),
-          F.goalAreaLength * scale, F.goalAreaWidth * scale);
-        g.strokeRect(Math.min(X(gx), X(gx - side * F.penaltyAreaLength)), Y(F.penaltyAreaWidth / 2),
-          F.penaltyAreaLength * scale, F.penaltyAreaWidth * scale);
-        g.fillStyle = "#ffffff";
-        g.fillRect(X(gx - side * F.penaltyMark) - 3, Y(0) - 3, 6, 6);
-        g.save();
-        g.strokeStyle = side < 0 ? "#ffe600" : "#00e5ff"; // own goal yellow, opponent goal cyan
-        g.lineWidth = Math.max(3, 0.08 * scale);
-        g.strokeRect(Math.min(X(gx), X(gx + side * F.goalDepth)), Y(F.goalWidth / 2), F.goalDepth * scale,
-          F.goalWidth * scale);
-        g.restore();
-      }
-      field = { key, canvas: off };
-      return off;
-    }
-
-    function draw(now) {
-      const { ctx: g, w, h } = fitCanvas(canvas);
-      const F = FIELD;
-      const scale = Math.min(w / (F.length + 2 * F.border), (h - HEADER) / (F.width + 2 * F.border));
-      const ox = w / 2, oy = HEADER + (h - HEADER) / 2;
-      const X = (x) => ox + x * scale, Y = (y) => oy - y * scale;
-      view = { X, Y, scale };
-      const background = staticField(w, h, scale, X, Y);
-      g.save();
-      g.setTransform(1, 0, 0, 1, 0, 0);
-      g.drawImage(background, 0, 0);
-      g.restore();
-      for (const t of tracks.values()) t.used = false;
-      const all = poses(now);
-      const drawn = [];
-      let balls = 0;
-      // teammates reported over team communication (small, hollow)
-      const team = store.get(store.focus, "team_data")?.data;
-      if (team) {
-        team.robot_ids.forEach((id, i) => {
-          const p = team.robot_positions[i]?.pose;
-          if (!p) return;
-          g.strokeStyle = "#ffffff"; g.lineWidth = 2;
-          g.beginPath(); g.arc(X(p.x), Y(p.y), 0.15 * scale, 0, 2 * Math.PI); g.stroke();
-          g.fillStyle = "#ffffff"; g.font = "bold 12px sans-serif"; g.fillText(`#${id}`, X(p.x) + 8, Y(p.y) - 8);
-        });
-      }
-      const silent = new Set(store.robots.filter((r) => store.robotAge(r) >= ctx.config.stale_after_s).map((r) => r.robot));
-      for (const [id, entry] of all) {
-        const focused = id === store.focus;
-        g.globalAlpha = silent.has(id) ? 0.45 : 1; // old news: drawn faded, labelled below
-        if (entry.truth) robotShape(g, X, Y, scale, entry.truth, "#ffffff", 0, focused);
-        if (entry.estimate) {
-          const c = Math.max(0, Math.min(1, entry.estimate.confidence ?? 1));
-          robotShape(g, X, Y, scale, entry.estimate, focused ? "#ff2d95" : "#1f3cff", 0.35 + 0.65 * c, focused);
-          g.strokeStyle = "#000"; g.lineWidth = 1; g.setLineDash([4, 3]);
-          g.beginPath(); g.arc(X(entry.estimate.x), Y(entry.estimate.y), (0.25 + (1 - c) * 0.6) * scale, 0, 2 * Math.PI);
-          g.stroke(); g.setLineDash([]);
-        }
-        const pose = entry.estimate || entry.truth;
-        const name = silent.has(id) ? `${id} (silent)` : id;
-        g.globalAlpha = 1;
-        g.fillStyle = "#ffffff"; g.strokeStyle = "#000"; g.lineWidth = 3; g.font = "bold 14px sans-serif";
-        g.strokeText(name, X(pose.x) + 12, Y(pose.y) + 18); g.fillText(name, X(pose.x) + 12, Y(pose.y) + 18);
-        drawn.push({ id, x: pose.x, y: pose.y, silent: silent.has(id) });
-        const ballFrame = store.get(id, "ball_relative");
-        const ball = ballFrame?.data;
-        if (ball && entry.estimate && ball.confidence > 0) {
-          const rel = track(`ball|${id}`, ballFrame, { x: ball.ball_relative.x, y: ball.ball_relative.y, theta: 0 }, now);
-          const b = transform(entry.estimate, rel);
-          ballShape(g, X(b.x), Y(b.y), scale, 0.3 + 0.7 * Math.min(1, ball.confidence));
-          balls++;
-        }
-        for (const o of store.get(id, "obstacles_relative")?.data?.obstacles || []) {
-          if (!entry.estimate) break;
-          const p = transform(entry.estimate, o.position);
-          const color = obstacleColor(o.color);
-          g.fillStyle = color === "ROBOT_MAGENTA" ? "#ff00ff" : color === "ROBOT_CYAN" ? "#00ffff" : "#222";
-          g.fillRect(X(p.x) - 0.1 * scale, Y(p.y) - 0.1 * scale, 0.2 * scale, 0.2 * scale);
-        }
-      }
-      for (const robot of store.latest.keys()) {
-        const frame = store.get(robot, "ground_truth");
-        if (!frame) continue;
-        const b = track(`truthball|${robot}`, frame, { x: frame.data.ball.x, y: frame.data.ball.y, theta: 0 }, now);
-        ballShape(g, X(b.x), Y(b.y), scale, 1, true);
-        balls++;
-      }
-      for (const [key, t] of tracks) if (!t.used) tracks.delete(key); // gone from the store
-      drawGameState(g, w);
-      stats.drawn = drawn;
-      stats.balls = balls;
-    }
-
-    function drawGameState(g, w) {
-      g.fillStyle = "#000000";
-      g.fillRect(0, 0, w, HEADER);
-      const ids = [store.focus, ...store.latest.keys()];
-      const game = ids.map((id) => store.get(id, "gamestate")?.data).find(Boolean);
-      g.fillStyle = "#ffffff";
-      g.font = "bold 18px sans-serif";
-      if (!game) { g.fillText("no game state", 8, 20); return; }
-      const secondary = game.secondary_state ? ` ${secondaryName(game.secondary_state)}` : "";
-      const penalized = [];
-      for (const id of store.latest.keys()) if (store.get(id, "gamestate")?.data?.penalized) penalized.push(id);
-      const text = `${gameName(game.game_state)}${secondary}   ${game.own_score} : ${game.rival_score}   ` +
-        `${fmtClock(game.seconds_remaining)}${game.first_half ? " 1st" : " 2nd"}` +
-        (penalized.length ? `   penalized: ${penalized.join(", ")}` : "");
-      g.fillText(text, 8, 20);
-    }
-
-    function wanted() {
-      return !destroyed && onScreen && canvas.isConnected && document.visibilityState !== "hidden";
-    }
-
-    /** Starts or stops the animation loop: it runs only while the panel can be seen. */
-    function schedule() {
-      if (wanted() && !raf) raf = requestAnimationFrame(loop);
-      else if (!wanted() && raf) { cancelAnimationFrame(raf); raf = 0; }
-      stats.running = !!raf;
-    }
-
-    function loop() {
-      raf = 0;
-      if (!wanted()) { stats.running = false; return; }
-      raf = requestAnimationFrame(loop);
-      const t0 = performance.now();
-      draw(t0);
-      const t1 = performance.now();
-      stats.drawMs = stats.frames ? 0.9 * stats.drawMs + 0.1 * (t1 - t0) : t1 - t0;
-      stats.frames++;
-      fpsFrames++;
-      if (t1 - fpsStart >= 1000) { stats.fps = fpsFrames * 1000 / (t1 - fpsStart); fpsFrames = 0; fpsStart = t1; }
-    }
-
-    const seen = new IntersectionObserver((entries) => {
-      onScreen = entries[entries.length - 1].isIntersecting;
-      schedule();
+    const fv = newFieldView(body, ctx);
+    window.pitchside.fieldView = fv.stats;
+    fv.offs = TOPICS.map(([topic, hz]) => ctx.subscribe(topic, hz, () => {}));
+    fv.offs.push(ctx.store.on("theme", () => { fv.theme++; }));
+    fv.seen = new IntersectionObserver((entries) => {
+      fv.onScreen = entries[entries.length - 1].isIntersecting;
+      fv.schedule();
     });
-    seen.observe(canvas);
-    document.addEventListener("visibilitychange", schedule);
-    raf = requestAnimationFrame(loop); // the observer's first report follows; until then, assume on screen
-    stats.running = true;
-
-    canvas.addEventListener("click", (e) => {
-      if (!view) return;
-      const rect = canvas.getBoundingClientRect();
-      const px = e.clientX - rect.left, py = e.clientY - rect.top;
-      let best = null, bestD = 0.5 * view.scale;
-      for (const r of stats.drawn) {
-        const d = Math.hypot(view.X(r.x) - px, view.Y(r.y) - py);
-        if (d < bestD) { best = r.id; bestD = d; }
-      }
-      if (best) store.setFocus(best);
-    });
-    return {
-      destroy() {
-        destroyed = true;
-        schedule();
-        seen.disconnect();
-        document.removeEventListener("visibilitychange", schedule);
-        offs.forEach((off) => off());
-      },
-      resize() { schedule(); },
-    };
+    fv.seen.observe(fv.canvas);
+    document.addEventListener("visibilitychange", fv.schedule);
+    fv.raf = requestAnimationFrame(fv.loop); // the observer's first report follows; until then, assume on screen
+    fv.stats.running = true;
+    fv.canvas.addEventListener("click", (e) => focusAt(fv, e));
+    return { destroy() { closeFieldView(fv); }, resize() { fv.schedule(); } };
   },
 };
 
+/** The view: its canvas, the figures tests and benchmarks read (stats), the animation loop and the tracks. */
+function newFieldView(body, ctx) {
+  const canvas = document.createElement("canvas");
+  body.append(canvas);
+  const fv = {
+    ctx, store: ctx.store, canvas,
+    // frames: drawn so far (tests and bench/server.py read it); fps: over the last second; drawMs: per draw (average)
+    stats: { drawn: [], frames: 0, fps: 0, balls: 0, drawMs: 0, running: false },
+    view: null, raf: 0, fpsStart: performance.now(), fpsFrames: 0, onScreen: true, destroyed: false,
+    theme: 0, field: null, // the static field (grass, lines, goals) drawn once per size and theme
+    tracks: new Map(), // "kind|robot" -> Track
+    offs: [], seen: null,
+  };
+  // bound once, so they can be handed to requestAnimationFrame and removed as listeners again
+  fv.loop = () => loop(fv);
+  fv.schedule = () => schedule(fv);
+  return fv;
+}
+
+/** The panel closed: the loop stops, the observers and subscriptions end. */
+function closeFieldView(fv) {
+  fv.destroyed = true;
+  fv.schedule();
+  fv.seen.disconnect();
+  document.removeEventListener("visibilitychange", fv.schedule);
+  fv.offs.forEach((off) => off());
+}
+
+// -- where things are -------------------------------------------------------------------------------
+
+/** The shown pose of one moving thing, following its newest sample smoothly; marked in use for this frame. */
+function track(fv, key, frame, p, now) {
+  let t = fv.tracks.get(key);
+  if (!t) fv.tracks.set(key, t = new Track());
+  t.update(frame, p, frame.stamp, now);
+  t.used = true;
+  return t.pose(now);
+}
+
+/** Shown poses of estimates (position) and ground truth, per robot id. */
+function poses(fv, now) {
+  const { store } = fv;
+  const out = new Map();
+  for (const [id, frame] of truthFrames(store)) {
+    const p = frame.data.robot_poses[frame.data.robot_ids.indexOf(id)];
+    out.set(id, { truth: track(fv, `truth|${id}`, frame,
+      { x: p.position.x, y: p.position.y, theta: yaw(p.orientation) }, now) });
+  }
+  for (const robot of store.latest.keys()) {
+    const frame = store.get(robot, "position");
+    const overview = store.get(robot, "overview")?.data;
+    const entry = out.get(robot) || {};
+    if (frame) {
+      const pos = frame.data;
+      entry.estimate = track(fv, `estimate|${robot}`, frame,
+        { x: pos.pose.x, y: pos.pose.y, theta: pos.pose.theta, confidence: pos.confidence }, now);
+    } else if (overview?.pose_known) {
+      entry.estimate = { x: overview.pose_x, y: overview.pose_y, theta: overview.pose_theta,
+        confidence: overview.pose_confidence };
+    }
+    if (entry.estimate || entry.truth) out.set(robot, entry);
+  }
+  return out;
+}
+
+/** Per robot id, the newest ground truth frame that has it (several simulators may report the same robot). */
+function truthFrames(store) {
+  const truths = new Map();
+  for (const robot of store.latest.keys()) {
+    const frame = store.get(robot, "ground_truth");
+    if (!frame) continue;
+    for (const id of frame.data.robot_ids) if (!(truths.get(id)?.stamp >= frame.stamp)) truths.set(id, frame);
+  }
+  return truths;
+}
+
+// -- drawing ----------------------------------------------------------------------------------------
+
+/** Metres to pixels: the field with its border fits below the game state bar, centred. */
+function fieldScale(w, h) {
+  const F = FIELD;
+  const scale = Math.min(w / (F.length + 2 * F.border), (h - HEADER) / (F.width + 2 * F.border));
+  const ox = w / 2, oy = HEADER + (h - HEADER) / 2;
+  return { X: (x) => ox + x * scale, Y: (y) => oy - y * scale, scale };
+}
+
+/** Grass, lines and goals into an offscreen canvas of the visible one's size: one drawImage per frame. */
+function staticField(fv, w, h, scale, X, Y) {
+  const { canvas } = fv;
+  const key = `${canvas.width}x${canvas.height}|${fv.theme}`;
+  if (fv.field?.key === key) return fv.field.canvas;
+  const off = fv.field?.canvas || document.createElement("canvas");
+  off.width = canvas.width;
+  off.height = canvas.height;
+  const g = off.getContext("2d");
+  g.setTransform(canvas.width / w, 0, 0, canvas.height / h, 0, 0);
+  const F = FIELD;
+  g.fillStyle = css("--field");
+  g.fillRect(0, 0, w, h);
+  g.strokeStyle = css("--field-line") || "#ffffff";
+  g.lineWidth = Math.max(2, 0.05 * scale);
+  const L = F.length / 2, W = F.width / 2;
+  g.strokeRect(X(-L), Y(W), F.length * scale, F.width * scale);
+  g.beginPath(); g.moveTo(X(0), Y(W)); g.lineTo(X(0), Y(-W)); g.stroke();
+  g.beginPath(); g.arc(X(0), Y(0), F.centerCircle / 2 * scale, 0, 2 * Math.PI); g.stroke();
+  for (const side of [-1, 1]) fieldEnd(g, side * L, side, scale, X, Y);
+  fv.field = { key, canvas: off };
+  return off;
+}
+
+/** One end of the field: goal area, penalty area, penalty mark and the goal (own yellow, opponent cyan). */
+function fieldEnd(g, gx, side, scale, X, Y) {
+  const F = FIELD;
+  g.strokeRect(Math.min(X(gx), X(gx - side * F.goalAreaLength)), Y(F.goalAreaWidth / 2),
+    F.goalAreaLength * scale, F.goalAreaWidth * scale);
+  g.strokeRect(Math.min(X(gx), X(gx - side * F.penaltyAreaLength)), Y(F.penaltyAreaWidth / 2),
+    F.penaltyAreaLength * scale, F.penaltyAreaWidth * scale);
+  g.fillStyle = "#ffffff";
+  g.fillRect(X(gx - side * F.penaltyMark) - 3, Y(0) - 3, 6, 6);
+  g.save();
+  g.strokeStyle = side < 0 ? "#ffe600" : "#00e5ff"; // own goal yellow, opponent goal cyan
+  g.lineWidth = Math.max(3, 0.08 * scale);
+  g.strokeRect(Math.min(X(gx), X(gx + side * F.goalDepth)), Y(F.goalWidth / 2), F.goalDepth * scale,
+    F.goalWidth * scale);
+  g.restore();
+}
+
+/** One frame: the field, teammates, every robot with its ball and obstacles, true balls, the game state bar. */
+function draw(fv, now) {
+  const { store, stats } = fv;
+  const { ctx: g, w, h } = fitCanvas(fv.canvas);
+  const view = fv.view = fieldScale(w, h);
+  const background = staticField(fv, w, h, view.scale, view.X, view.Y);
+  g.save();
+  g.setTransform(1, 0, 0, 1, 0, 0);
+  g.drawImage(background, 0, 0);
+  g.restore();
+  for (const t of fv.tracks.values()) t.used = false;
+  const all = poses(fv, now);
+  drawTeammates(fv, g, view);
+  const silent = new Set(store.robots.filter((r) => store.robotAge(r) >= fv.ctx.config.stale_after_s)
+    .map((r) => r.robot));
+  const drawn = [];
+  let balls = 0;
+  for (const [id, entry] of all) {
+    drawn.push(drawRobot(fv, g, view, id, entry, silent.has(id)));
+    if (drawSeenBall(fv, g, view, id, entry, now)) balls++;
+    drawObstacles(fv, g, view, id, entry);
+  }
+  balls += drawTrueBalls(fv, g, view, now);
+  for (const [key, t] of fv.tracks) if (!t.used) fv.tracks.delete(key); // gone from the store
+  drawGameState(fv, g, w);
+  stats.drawn = drawn;
+  stats.balls = balls;
+}
+
+/** Teammates reported over team communication to the focused robot (small, hollow). */
+function drawTeammates(fv, g, { X, Y, scale }) {
+  const team = fv.store.get(fv.store.focus, "team_data")?.data;
+  if (!team) return;
+  team.robot_ids.forEach((id, i) => {
+    const p = team.robot_positions[i]?.pose;
+    if (!p) return;
+    g.strokeStyle = "#ffffff"; g.lineWidth = 2;
+    g.beginPath(); g.arc(X(p.x), Y(p.y), 0.15 * scale, 0, 2 * Math.PI); g.stroke();
+    g.fillStyle = "#ffffff"; g.font = "bold 12px sans-serif"; g.fillText(`#${id}`, X(p.x) + 8, Y(p.y) - 8);
+  });
+}
+
+/** A robot: ground truth hollow, the estimate filled by confidence with a ring as wide as its doubt, its name. */
+function drawRobot(fv, g, { X, Y, scale }, id, entry, silent) {
+  const focused = id === fv.store.focus;
+  g.globalAlpha = silent ? 0.45 : 1; // old news: drawn faded, labelled below
+  if (entry.truth) robotShape(g, X, Y, scale, entry.truth, "#ffffff", 0, focused);
+  if (entry.estimate) {
+    const c = Math.max(0, Math.min(1, entry.estimate.confidence ?? 1));
+    robotShape(g, X, Y, scale, entry.estimate, focused ? "#ff2d95" : "#1f3cff", 0.35 + 0.65 * c, focused);
+    g.strokeStyle = "#000"; g.lineWidth = 1; g.setLineDash([4, 3]);
+    g.beginPath(); g.arc(X(entry.estimate.x), Y(entry.estimate.y), (0.25 + (1 - c) * 0.6) * scale, 0, 2 * Math.PI);
+    g.stroke(); g.setLineDash([]);
+  }
+  const pose = entry.estimate || entry.truth;
+  const name = silent ? `${id} (silent)` : id;
+  g.globalAlpha = 1;
+  g.fillStyle = "#ffffff"; g.strokeStyle = "#000"; g.lineWidth = 3; g.font = "bold 14px sans-serif";
+  g.strokeText(name, X(pose.x) + 12, Y(pose.y) + 18); g.fillText(name, X(pose.x) + 12, Y(pose.y) + 18);
+  return { id, x: pose.x, y: pose.y, silent };
+}
+
+/** The ball a robot sees, placed by its estimated pose, faded by confidence; true if one was drawn. */
+function drawSeenBall(fv, g, { X, Y, scale }, id, entry, now) {
+  const ballFrame = fv.store.get(id, "ball_relative");
+  const ball = ballFrame?.data;
+  if (!(ball && entry.estimate && ball.confidence > 0)) return false;
+  const rel = track(fv, `ball|${id}`, ballFrame, { x: ball.ball_relative.x, y: ball.ball_relative.y, theta: 0 }, now);
+  const b = transform(entry.estimate, rel);
+  ballShape(g, X(b.x), Y(b.y), scale, 0.3 + 0.7 * Math.min(1, ball.confidence));
+  return true;
+}
+
+/** The obstacles a robot sees, placed by its estimated pose, coloured by team. */
+function drawObstacles(fv, g, { X, Y, scale }, id, entry) {
+  for (const o of fv.store.get(id, "obstacles_relative")?.data?.obstacles || []) {
+    if (!entry.estimate) break;
+    const p = transform(entry.estimate, o.position);
+    const color = obstacleColor(o.color);
+    g.fillStyle = color === "ROBOT_MAGENTA" ? "#ff00ff" : color === "ROBOT_CYAN" ? "#00ffff" : "#222";
+    g.fillRect(X(p.x) - 0.1 * scale, Y(p.y) - 0.1 * scale, 0.2 * scale, 0.2 * scale);
+  }
+}
+
+/** The simulator's true ball (white), once per ground truth stream; returns how many were drawn. */
+function drawTrueBalls(fv, g, { X, Y, scale }, now) {
+  let balls = 0;
+  for (const robot of fv.store.latest.keys()) {
+    const frame = fv.store.get(robot, "ground_truth");
+    if (!frame) continue;
+    const b = track(fv, `truthball|${robot}`, frame, { x: frame.data.ball.x, y: frame.data.ball.y, theta: 0 }, now);
+    ballShape(g, X(b.x), Y(b.y), scale, 1, true);
+    balls++;
+  }
+  return balls;
+}
+
+/** The bar above the field: game state, score, clock, half, and who is penalized. */
+function drawGameState(fv, g, w) {
+  const { store } = fv;
+  g.fillStyle = "#000000";
+  g.fillRect(0, 0, w, HEADER);
+  const ids = [store.focus, ...store.latest.keys()];
+  const game = ids.map((id) => store.get(id, "gamestate")?.data).find(Boolean);
+  g.fillStyle = "#ffffff";
+  g.font = "bold 18px sans-serif";
+  if (!game) { g.fillText("no game state", 8, 20); return; }
+  const secondary = game.secondary_state ? ` ${secondaryName(game.secondary_state)}` : "";
+  const penalized = [];
+  for (const id of store.latest.keys()) if (store.get(id, "gamestate")?.data?.penalized) penalized.push(id);
+  const text = `${gameName(game.game_state)}${secondary}   ${game.own_score} : ${game.rival_score}   ` +
+    `${fmtClock(game.seconds_remaining)}${game.first_half ? " 1st" : " 2nd"}` +
+    (penalized.length ? `   penalized: ${penalized.join(", ")}` : "");
+  g.fillText(text, 8, 20);
+}
+
+// -- the animation loop ---------------------------------------------------------------------------
+
+/** Whether the panel can be seen: not closed, on screen, in the page, in a visible tab. */
+function wanted(fv) {
+  return !fv.destroyed && fv.onScreen && fv.canvas.isConnected && document.visibilityState !== "hidden";
+}
+
+/** Starts or stops the animation loop: it runs only while the panel can be seen. */
+function schedule(fv) {
+  if (wanted(fv) && !fv.raf) fv.raf = requestAnimationFrame(fv.loop);
+  else if (!wanted(fv) && fv.raf) { cancelAnimationFrame(fv.raf); fv.raf = 0; }
+  fv.stats.running = !!fv.raf;
+}
+
+/** One animation frame: draw, and keep the draw time and frame rate figures. */
+function loop(fv) {
+  const { stats } = fv;
+  fv.raf = 0;
+  if (!wanted(fv)) { stats.running = false; return; }
+  fv.raf = requestAnimationFrame(fv.loop);
+  const t0 = performance.now();
+  draw(fv, t0);
+  const t1 = performance.now();
+  stats.drawMs = stats.frames ? 0.9 * stats.drawMs + 0.1 * (t1 - t0) : t1 - t0;
+  stats.frames++;
+  fv.fpsFrames++;
+  if (t1 - fv.fpsStart >= 1000) {
+    stats.fps = fv.fpsFrames * 1000 / (t1 - fv.fpsStart);
+    fv.fpsFrames = 0; fv.fpsStart = t1;
+  }
+}
+
+/** A click near a drawn robot focuses it (within half a metre). */
+function focusAt(fv, e) {
+  const { view } = fv;
+  if (!view) return;
+  const rect = fv.canvas.getBoundingClientRect();
+  const px = e.clientX - rect.left, py = e.clientY - rect.top;
+  let best = null, bestD = 0.5 * view.scale;
+  for (const r of fv.stats.drawn) {
+    const d = Math.hypot(view.X(r.x) - px, view.Y(r.y) - py);
+    if (d < bestD) { best = r.id; bestD = d; }
+  }
+  if (best) fv.store.setFocus(best);
+}
+
+/** A robot as a triangle pointing where it faces: filled (alpha > 0) for an estimate, hollow for ground truth. */
 function robotShape(g, X, Y, scale, pose, color, alpha, focused) {
   const r = 0.2 * scale;
   g.save();
@@ -338,6 +410,7 @@ function robotShape(g, X, Y, scale, pose, color, alpha, focused) {
   g.restore();
 }
 
+/** A ball: orange as a robot sees it, white where the simulator has it. */
 function ballShape(g, x, y, scale, alpha, truth = false) {
   g.globalAlpha = alpha;
   g.fillStyle = truth ? "#ffffff" : "#ff8c00";

@@ -2,22 +2,24 @@
 // and a small plot of a numeric field (the server lists them) against time with a parameter drawn as a threshold
 // line. The panel follows changes made elsewhere (another dashboard, the command line, the node itself) through the
 // server's stream of the nodes' parameter events; an input being typed into is never overwritten.
+// One panel object holds the state; each function below renders one part or handles one user action.
 
-import { api, labToolOff, numericFields, robotPicker } from "../lab_api.js";
-import { esc } from "../dom.js";
+import { api, labToolOff, numericFields, robotPath, robotPicker } from "../lab_api.js";
+import { esc, statusLine } from "../dom.js";
 
 const PLOT_SECONDS = 20;
 const PLOT_HZ = 30;
 const DEFAULT_PLOT = ["imu/data", "angular_velocity/y"]; // the fall checker's gyro pitch against its threshold
 
+/** The number at a field path ("angular_velocity/y") of a message's data. */
 function pick(obj, path) {
   return path.split("/").reduce((o, k) => (o == null ? undefined : o[k]), obj);
 }
 
+/** The input that fits a parameter's type: a toggle, a menu of its choices, a number (with a slider in a range). */
 function controlFor(p) {
-  const dis = "";
   if (p.type === "bool") {
-    return `<label class="toggle"><input type="checkbox" data-role="value" ${p.value ? "checked" : ""}${dis}> on</label>`;
+    return `<label class="toggle"><input type="checkbox" data-role="value" ${p.value ? "checked" : ""}> on</label>`;
   }
   if (p.choices) {
     return `<select data-role="value">${p.choices.map((c) => `<option value="${esc(JSON.stringify(c))}"
@@ -33,6 +35,7 @@ function controlFor(p) {
   return `<input type="text" data-role="value" value="${esc(p.value)}">`;
 }
 
+/** The value a parameter's input holds, in the parameter's type; throws on a list or choice that is not JSON. */
 function readControl(p, row) {
   const el = row.querySelector('[data-role="value"]');
   if (p.type === "bool") return el.checked;
@@ -42,14 +45,8 @@ function readControl(p, row) {
   return el.value;
 }
 
-export default {
-  id: "parameters",
-  title: "Parameters",
-  size: [2, 3],
-  hidden: false,
-  create(body, ctx) {
-    if (labToolOff(body, ctx.config)) return {};
-    body.innerHTML = `<div class="lab-bar">
+// The panel's markup; the nodes' tables are rendered into data-role="nodes".
+const LAYOUT = `<div class="lab-bar">
         <label>robot <select data-role="robot"></select></label>
         <button data-act="reload" title="read every node's parameters again">reload</button>
         <button data-act="undo" title="write back the value before your last change" disabled>undo</button>
@@ -65,358 +62,460 @@ export default {
         <canvas data-role="plot" height="140"></canvas>
       </details>
       <div data-role="nodes"><div class="empty">waiting for a robot</div></div>`;
-    const $ = (sel) => body.querySelector(sel);
-    const nodesEl = $('[data-role="nodes"]');
-    const statusEl = $('[data-role="status"]');
-    const undoBtn = $('[data-act="undo"]');
-    const state = { robot: "", nodes: {}, undo: [], writes: 0, errors: 0, series: [], events: 0, deferred: new Map() };
-    window.pitchside.params = state;
-    let source = null; // EventSource of the robot's parameter events, see follow()
 
-    const status = (text, bad = false) => { statusEl.textContent = text; statusEl.classList.toggle("bad", bad); };
-    const picker = robotPicker($('[data-role="robot"]'), ctx, (robot) => {
-      state.robot = robot; state.series = []; state.deferred.clear(); load(); follow();
-    });
+export default {
+  id: "parameters",
+  title: "Parameters",
+  size: [2, 3],
+  hidden: false,
+  create(body, ctx) {
+    if (labToolOff(body, ctx.config)) return {};
+    body.innerHTML = LAYOUT;
+    const pp = newPanel(body, ctx);
+    const { el } = pp;
+    window.pitchside.params = pp.state;
+    pp.picker = robotPicker(pp.$('[data-role="robot"]'), ctx, (robot) => chooseRobot(pp, robot));
+    el.nodes.addEventListener("focusout", (e) => onLeaveInput(pp, e));
+    el.nodes.addEventListener("change", (e) => onValueChange(pp, e));
+    el.nodes.addEventListener("input", onSliderInput);
+    el.nodes.addEventListener("click", (e) => onNodeAction(pp, e));
+    el.undo.addEventListener("click", () => undoLast(pp));
+    pp.$('[data-act="reload"]').addEventListener("click", () => load(pp));
+    el.topic.addEventListener("change", () => chooseTopic(pp, el.topic.value));
+    el.field.addEventListener("change", () => { pp.plot.field = el.field.value; pp.state.series = []; });
+    const offs = [ctx.store.on("robots", () => refreshTopics(pp)), () => pp.plot.off?.()];
+    refreshTopics(pp);
+    const timer = setInterval(() => draw(pp), 200);
+    return { destroy() { clearInterval(timer); pp.picker.off(); offs.forEach((off) => off()); pp.source?.close(); } };
+  },
+};
 
-    async function load() {
-      if (!state.robot) return;
-      status("reading…");
-      try {
-        state.nodes = await api("GET", `api/robots/${encodeURIComponent(state.robot)}/params`);
-        render();
-        status(`${Object.keys(state.nodes).length} nodes`);
-      } catch (err) {
-        status(String(err.message), true);
-      }
-    }
+/** The panel: its state (window.pitchside.params, for tests), its elements, the event stream and the write queue. */
+function newPanel(body, ctx) {
+  const $ = (sel) => body.querySelector(sel);
+  const state = { robot: "", nodes: {}, undo: [], writes: 0, errors: 0, series: [], events: 0, deferred: new Map() };
+  // the threshold plot: any numeric field of any topic of the robot
+  state.plot = { topic: "", field: "", off: null, fieldsOf: "" };
+  return {
+    body, ctx, $, state, plot: state.plot, picker: null,
+    el: { nodes: $('[data-role="nodes"]'), undo: $('[data-act="undo"]'), topic: $('[data-role="topic"]'),
+      field: $('[data-role="field"]'), threshold: $('[data-role="threshold"]'),
+      bothSigns: $('[data-role="both-signs"]'), canvas: $('[data-role="plot"]') },
+    status: statusLine($('[data-role="status"]')),
+    source: null, // EventSource of the robot's parameter events, see follow()
+    writeQueue: Promise.resolve(), // see write()
+  };
+}
 
-    function render() {
-      const names = Object.keys(state.nodes).sort();
-      if (!names.length) { nodesEl.innerHTML = '<div class="empty">no node answered</div>'; return; }
-      nodesEl.innerHTML = names.map((node) => `<details class="param-node" data-node="${esc(node)}" open>
+/** The robot's parameter path (its node's, given one). */
+function paramsPath(pp, node) {
+  const path = `${robotPath(pp.state.robot)}/params`;
+  return node === undefined ? path : `${path}/${encodeURIComponent(node)}`;
+}
+
+/** Another robot chosen: its parameters are read and followed, the plot starts afresh. */
+function chooseRobot(pp, robot) {
+  const { state } = pp;
+  state.robot = robot; state.series = []; state.deferred.clear(); load(pp); follow(pp);
+}
+
+/** Every node's parameters, read and shown anew. */
+async function load(pp) {
+  const { state } = pp;
+  if (!state.robot) return;
+  pp.status("reading…");
+  try {
+    state.nodes = await api("GET", paramsPath(pp));
+    render(pp);
+    pp.status(`${Object.keys(state.nodes).length} nodes`);
+  } catch (err) {
+    pp.status(String(err.message), true);
+  }
+}
+
+// -- rendering ------------------------------------------------------------------------------------
+
+/** One section per node, sorted by name; the threshold menu follows the numeric parameters. */
+function render(pp) {
+  const { state, el } = pp;
+  const names = Object.keys(state.nodes).sort();
+  if (!names.length) { el.nodes.innerHTML = '<div class="empty">no node answered</div>'; return; }
+  el.nodes.innerHTML = names.map((node) => nodeSection(node, state.nodes[node])).join("");
+  refreshThresholds(pp);
+}
+
+/** A node's section: its buttons (diff, save, reset), the place for the diff, and its parameters' table. */
+function nodeSection(node, params) {
+  return `<details class="param-node" data-node="${esc(node)}" open>
         <summary>${esc(node)} <button data-act="diff">diff vs YAML</button> <button data-act="save">save</button>
           <button data-act="reset-node">reset all to default</button></summary>
         <div class="param-diff" data-role="diff"></div>
         <table class="grid-table params"><thead><tr><th>name</th><th>value</th><th>default</th><th>range / choices</th>
-          <th></th></tr></thead><tbody>${state.nodes[node].map((p) => `
+          <th></th></tr></thead><tbody>${params.map((p) => paramRow(node, p)).join("")}</tbody></table>
+        </details>`;
+}
+
+/** A parameter's row: name, type and doc, its input with revision and notes, default, range or choices, reset. */
+function paramRow(node, p) {
+  return `
           <tr data-param="${esc(node)}/${esc(p.name)}" title="${esc(p.doc)}">
             <td><b>${esc(p.name)}</b> <span class="muted">${esc(p.type)}</span><div class="muted doc">${esc(p.doc)}</div></td>
             <td class="param-control">${controlFor(p)} <span class="muted" data-role="revision"
               title="revision: how often the value changed since the node started">rev ${esc(p.revision)}</span>
               <div class="param-elsewhere" data-role="elsewhere"></div><div class="param-error" data-role="error"></div></td>
             <td>${esc(JSON.stringify(p.default))}</td>
-            <td>${p.range ? `[${p.range[0]}, ${p.range[1]}]` : p.choices ? esc(p.choices.join(", ")) : ""}</td>
-            <td><button data-act="reset" title="reset to default">↺</button></td></tr>`).join("")}</tbody></table>
-        </details>`).join("");
-      refreshThresholds();
+            <td>${p.range ? `[${esc(p.range[0])}, ${esc(p.range[1])}]` : p.choices ? esc(p.choices.join(", ")) : ""}</td>
+            <td><button data-act="reset" title="reset to default">↺</button></td></tr>`;
+}
+
+/** A parameter as the panel holds it. */
+function find(state, node, name) { return state.nodes[node]?.find((p) => p.name === name); }
+
+/** The row of a parameter ("node/name"), if shown. */
+function rowOf(pp, key) {
+  return pp.el.nodes.querySelector(`tr[data-param="${CSS.escape(key)}"]`);
+}
+
+/** Shows a value; an input the user is typing into is left alone unless forced (a refused write reverts). */
+function showValue(pp, node, p, force = false) {
+  const row = rowOf(pp, `${node}/${p.name}`);
+  if (!row) return;
+  const rev = row.querySelector('[data-role="revision"]');
+  if (rev) rev.textContent = `rev ${p.revision}`;
+  const el = row.querySelector('[data-role="value"]');
+  if (el === document.activeElement && !force) return;
+  if (p.type === "bool") el.checked = p.value;
+  else if (p.choices) el.value = JSON.stringify(p.value);
+  else if (p.type === "list") el.value = JSON.stringify(p.value);
+  else el.value = p.value;
+  const slider = row.querySelector('[data-role="slider"]');
+  if (slider) slider.value = p.value;
+}
+
+/** A node's reply (its parameters after a write or reset) into the panel and the rows. */
+function applyReply(pp, node, reply) {
+  if (reply?.params) pp.state.nodes[node] = reply.params;
+  for (const p of pp.state.nodes[node] || []) showValue(pp, node, p);
+}
+
+// -- following changes made elsewhere ----------------------------------------------------------
+
+/** The server's stream of the robot's parameter events (every node); reconnects by itself. */
+function follow(pp) {
+  pp.source?.close();
+  pp.source = null;
+  if (!pp.state.robot) return;
+  let opened = false;
+  const source = pp.source = new EventSource(`${paramsPath(pp)}/*/events`);
+  source.onopen = () => { if (opened) refreshValues(pp); opened = true; }; // reconnected: catch up
+  source.onmessage = (e) => { try { applyEvent(pp, JSON.parse(e.data)); } catch (err) { console.warn(err); } };
+  source.addEventListener("resync", () => refreshValues(pp));
+}
+
+/** Is the user editing this parameter (typing, or holding its slider)? */
+function editing(pp, node, name) {
+  const row = rowOf(pp, `${node}/${name}`);
+  const active = document.activeElement;
+  return Boolean(row && active && row.contains(active) && active.matches("input, select"));
+}
+
+/** A change made elsewhere: shown at once, unless the user is editing that parameter. Then the panel keeps
+ * the revision the user's edit is based on (so writing it is refused as a conflict, as it should be) and shows
+ * the other value beside the input until the user leaves it. */
+function applyEvent(pp, event, { authoritative = false } = {}) {
+  const { state } = pp;
+  const params = state.nodes[event.node];
+  if (!params) { load(pp); return; } // a node we have not seen yet
+  for (const [name, value] of Object.entries(event.changed || {})) {
+    const p = params.find((x) => x.name === name);
+    const revision = event.revisions?.[name];
+    if (!p || revision === undefined) { refreshValues(pp); continue; }
+    // we already show this or newer (e.g. our own write's reply); a full read is taken as it is (a node that
+    // restarted counts its revisions from 0 again)
+    if (authoritative ? revision === p.revision && value === p.value : revision <= p.revision) continue;
+    if (editing(pp, event.node, name)) { defer(pp, `${event.node}/${name}`, value, revision); continue; }
+    Object.assign(p, { value, revision });
+    showValue(pp, event.node, p);
+  }
+  state.events++;
+}
+
+/** A change made elsewhere while the user edits the parameter: kept, and noted beside the input. */
+function defer(pp, key, value, revision) {
+  pp.state.deferred.set(key, { value, revision });
+  const note = rowOf(pp, key)?.querySelector('[data-role="elsewhere"]');
+  if (note) note.textContent = `changed elsewhere to ${JSON.stringify(value)} (rev ${revision})`;
+}
+
+/** The user left a parameter's input: a change made elsewhere meanwhile is shown now, after any write the
+ * input started (that write was based on the revision the user saw, and is refused if it was overtaken). */
+function onLeaveInput(pp, e) {
+  const row = e.target.closest("tr[data-param]");
+  if (!row) return;
+  const key = row.dataset.param;
+  pp.writeQueue.then(() => {
+    const fresh = pp.state.deferred.get(key);
+    if (!fresh || editing(pp, ...key.split("/"))) return;
+    pp.state.deferred.delete(key);
+    row.querySelector('[data-role="elsewhere"]').textContent = "";
+    const [node, name] = key.split("/");
+    const p = find(pp.state, node, name);
+    if (p && fresh.revision !== p.revision) { Object.assign(p, fresh); showValue(pp, node, p); }
+  });
+}
+
+/** Every node's values again, into the rows already shown (no re-render: inputs keep focus and text). */
+async function refreshValues(pp) {
+  const { state } = pp;
+  if (!state.robot) return;
+  try {
+    const fresh = await api("GET", paramsPath(pp));
+    if (Object.keys(fresh).sort().join() !== Object.keys(state.nodes).sort().join()) {
+      state.nodes = fresh; render(pp); return;
     }
-
-    function find(node, name) { return state.nodes[node]?.find((p) => p.name === name); }
-
-    /** Shows a value; an input the user is typing into is left alone unless forced (a refused write reverts). */
-    function showValue(node, p, force = false) {
-      const row = nodesEl.querySelector(`tr[data-param="${CSS.escape(`${node}/${p.name}`)}"]`);
-      if (!row) return;
-      const rev = row.querySelector('[data-role="revision"]');
-      if (rev) rev.textContent = `rev ${p.revision}`;
-      const el = row.querySelector('[data-role="value"]');
-      if (el === document.activeElement && !force) return;
-      if (p.type === "bool") el.checked = p.value;
-      else if (p.choices) el.value = JSON.stringify(p.value);
-      else if (p.type === "list") el.value = JSON.stringify(p.value);
-      else el.value = p.value;
-      const slider = row.querySelector('[data-role="slider"]');
-      if (slider) slider.value = p.value;
+    for (const [node, params] of Object.entries(fresh)) {
+      applyEvent(pp, { node, changed: Object.fromEntries(params.map((p) => [p.name, p.value])),
+        revisions: Object.fromEntries(params.map((p) => [p.name, p.revision])) }, { authoritative: true });
     }
+  } catch (err) {
+    pp.status(String(err.message), true);
+  }
+}
 
-    function applyReply(node, reply) {
-      if (reply?.params) state.nodes[node] = reply.params;
-      for (const p of state.nodes[node] || []) showValue(node, p);
-    }
+// -- writing --------------------------------------------------------------------------------------
 
-    // -- following changes made elsewhere ----------------------------------------------------------
-    /** The server's stream of the robot's parameter events (every node); reconnects by itself. */
-    function follow() {
-      source?.close();
-      source = null;
-      if (!state.robot) return;
-      let opened = false;
-      source = new EventSource(`api/robots/${encodeURIComponent(state.robot)}/params/*/events`);
-      source.onopen = () => { if (opened) refreshValues(); opened = true; }; // reconnected: catch up
-      source.onmessage = (e) => { try { applyEvent(JSON.parse(e.data)); } catch (err) { console.warn(err); } };
-      source.addEventListener("resync", refreshValues);
-    }
+/** Queues a write: writes go one after another, so each is based on the revision the previous one's reply brought. */
+function write(pp, node, name, value, options = {}) {
+  pp.writeQueue = pp.writeQueue.then(() => writeNow(pp, node, name, value, options));
+  return pp.writeQueue;
+}
 
-    /** Is the user editing this parameter (typing, or holding its slider)? */
-    function editing(node, name) {
-      const row = nodesEl.querySelector(`tr[data-param="${CSS.escape(`${node}/${name}`)}"]`);
-      const active = document.activeElement;
-      return Boolean(row && active && row.contains(active) && active.matches("input, select"));
-    }
-
-    /** A change made elsewhere: shown at once, unless the user is editing that parameter. Then the panel keeps
-     * the revision the user's edit is based on (so writing it is refused as a conflict, as it should be) and shows
-     * the other value beside the input until the user leaves it. */
-    function applyEvent(event, { authoritative = false } = {}) {
-      const params = state.nodes[event.node];
-      if (!params) { load(); return; } // a node we have not seen yet
-      for (const [name, value] of Object.entries(event.changed || {})) {
-        const p = params.find((x) => x.name === name);
-        const revision = event.revisions?.[name];
-        if (!p || revision === undefined) { refreshValues(); continue; }
-        // we already show this or newer (e.g. our own write's reply); a full read is taken as it is (a node that
-        // restarted counts its revisions from 0 again)
-        if (authoritative ? revision === p.revision && value === p.value : revision <= p.revision) continue;
-        const key = `${event.node}/${name}`;
-        if (editing(event.node, name)) {
-          state.deferred.set(key, { value, revision });
-          const note = nodesEl.querySelector(`tr[data-param="${CSS.escape(key)}"] [data-role="elsewhere"]`);
-          if (note) note.textContent = `changed elsewhere to ${JSON.stringify(value)} (rev ${revision})`;
-          continue;
-        }
-        Object.assign(p, { value, revision });
-        showValue(event.node, p);
-      }
-      state.events++;
-    }
-
-    /** The user left a parameter's input: a change made elsewhere meanwhile is shown now, after any write the
-     * input started (that write was based on the revision the user saw, and is refused if it was overtaken). */
-    nodesEl.addEventListener("focusout", (e) => {
-      const row = e.target.closest("tr[data-param]");
-      if (!row) return;
-      const key = row.dataset.param;
-      writes.then(() => {
-        const fresh = state.deferred.get(key);
-        if (!fresh || editing(...key.split("/"))) return;
-        state.deferred.delete(key);
-        row.querySelector('[data-role="elsewhere"]').textContent = "";
-        const [node, name] = key.split("/");
-        const p = find(node, name);
-        if (p && fresh.revision !== p.revision) { Object.assign(p, fresh); showValue(node, p); }
-      });
-    });
-
-    /** Every node's values again, into the rows already shown (no re-render: inputs keep focus and text). */
-    async function refreshValues() {
-      if (!state.robot) return;
+/** Writes one value based on the revision we showed; a refusal is shown at the row and the value reverts. */
+async function writeNow(pp, node, name, value, { recordUndo = true } = {}) {
+  const { state } = pp;
+  const p = find(state, node, name);
+  const row = rowOf(pp, `${node}/${name}`);
+  const errEl = row?.querySelector('[data-role="error"]');
+  if (errEl) errEl.textContent = "";
+  row?.classList.remove("refused");
+  const old = p.value;
+  try {
+    const reply = await api("POST", paramsPath(pp, node),
+      { values: { [name]: value }, revisions: { [name]: p.revision } });
+    applyReply(pp, node, reply);
+    state.writes++;
+    if (recordUndo && old !== value) { state.undo.push({ node, name, value: old }); pp.el.undo.disabled = false; }
+    pp.status(`${node}.${name} = ${JSON.stringify(find(state, node, name)?.value)}`);
+  } catch (err) {
+    state.errors++;
+    if (errEl) errEl.textContent = err.message;
+    row?.classList.add("refused");
+    showValue(pp, node, p, true);
+    if (err.status === 409) { // someone else changed it meanwhile: show theirs, keep the message
       try {
-        const fresh = await api("GET", `api/robots/${encodeURIComponent(state.robot)}/params`);
-        if (Object.keys(fresh).sort().join() !== Object.keys(state.nodes).sort().join()) { state.nodes = fresh; render(); return; }
-        for (const [node, params] of Object.entries(fresh)) {
-          applyEvent({ node, changed: Object.fromEntries(params.map((p) => [p.name, p.value])),
-            revisions: Object.fromEntries(params.map((p) => [p.name, p.revision])) }, { authoritative: true });
-        }
-      } catch (err) {
-        status(String(err.message), true);
-      }
+        applyReply(pp, node, { params: await api("GET", paramsPath(pp, node)) });
+      } catch { /* the message above is what matters */ }
     }
+  }
+}
 
-    // writes go one after another, so each is based on the revision the previous one's reply brought
-    let writes = Promise.resolve();
-    function write(node, name, value, options = {}) {
-      writes = writes.then(() => writeNow(node, name, value, options));
-      return writes;
-    }
+/** An input changed: its value (read in the parameter's type) is written; one that does not parse is refused. */
+function onValueChange(pp, e) {
+  const row = e.target.closest("tr[data-param]");
+  if (!row) return;
+  const [node, name] = row.dataset.param.split("/");
+  const p = find(pp.state, node, name);
+  if (e.target.dataset.role === "slider") row.querySelector('[data-role="value"]').value = e.target.value;
+  let value;
+  try { value = readControl(p, row); } catch (err) {
+    row.querySelector('[data-role="error"]').textContent = `not valid: ${err.message}`;
+    return;
+  }
+  write(pp, node, name, value);
+}
 
-    /** Writes one value based on the revision we showed; a refusal is shown at the row and the value reverts. */
-    async function writeNow(node, name, value, { recordUndo = true } = {}) {
-      const p = find(node, name);
-      const row = nodesEl.querySelector(`tr[data-param="${CSS.escape(`${node}/${name}`)}"]`);
-      const errEl = row?.querySelector('[data-role="error"]');
-      if (errEl) errEl.textContent = "";
-      row?.classList.remove("refused");
-      const old = p.value;
-      try {
-        const reply = await api("POST", `api/robots/${encodeURIComponent(state.robot)}/params/${encodeURIComponent(node)}`,
-          { values: { [name]: value }, revisions: { [name]: p.revision } });
-        applyReply(node, reply);
-        state.writes++;
-        if (recordUndo && old !== value) { state.undo.push({ node, name, value: old }); undoBtn.disabled = false; }
-        status(`${node}.${name} = ${JSON.stringify(find(node, name)?.value)}`);
-      } catch (err) {
-        state.errors++;
-        if (errEl) errEl.textContent = err.message;
-        row?.classList.add("refused");
-        showValue(node, p, true);
-        if (err.status === 409) { // someone else changed it meanwhile: show theirs, keep the message
-          try {
-            const fresh = await api("GET", `api/robots/${encodeURIComponent(state.robot)}/params/${encodeURIComponent(node)}`);
-            applyReply(node, { params: fresh });
-          } catch { /* the message above is what matters */ }
-        }
-      }
-    }
+/** The slider shows its number while dragged. */
+function onSliderInput(e) {
+  if (e.target.dataset.role !== "slider") return;
+  e.target.closest("tr").querySelector('[data-role="value"]').value = e.target.value;
+}
 
-    nodesEl.addEventListener("change", (e) => {
-      const row = e.target.closest("tr[data-param]");
-      if (!row) return;
-      const [node, name] = row.dataset.param.split("/");
-      const p = find(node, name);
-      if (e.target.dataset.role === "slider") row.querySelector('[data-role="value"]').value = e.target.value;
-      let value;
-      try { value = readControl(p, row); } catch (err) {
-        row.querySelector('[data-role="error"]').textContent = `not valid: ${err.message}`;
-        return;
-      }
-      write(node, name, value);
-    });
-    nodesEl.addEventListener("input", (e) => { // the slider shows its number while dragged
-      if (e.target.dataset.role === "slider") e.target.closest("tr").querySelector('[data-role="value"]').value = e.target.value;
-    });
-    nodesEl.addEventListener("click", async (e) => {
-      const act = e.target.dataset?.act;
-      if (!act) return;
-      e.preventDefault();
-      const nodeEl = e.target.closest("[data-node]");
-      const node = nodeEl?.dataset.node;
-      const base = `api/robots/${encodeURIComponent(state.robot)}/params/${encodeURIComponent(node)}`;
-      try {
-        if (act === "reset") {
-          const name = e.target.closest("tr").dataset.param.split("/")[1];
-          applyReply(node, await api("POST", `${base}/reset`, { names: [name] }));
-        } else if (act === "reset-node") {
-          applyReply(node, await api("POST", `${base}/reset`, { names: [] }));
-        } else if (act === "save") {
-          const reply = await api("POST", `${base}/save`);
-          status(`saved to ${reply.path}`);
-        } else if (act === "diff") {
-          const diff = await api("GET", `${base}/diff?model=${encodeURIComponent($('[data-role="model"]').value)}`);
-          nodeEl.querySelector('[data-role="diff"]').innerHTML = diff.changes.length
-            ? `<table class="grid-table"><tr><th>${esc(diff.file)}</th><th>file / default</th><th>live</th></tr>${diff.changes
-              .map((c) => `<tr data-diff="${esc(c.name)}"><td>${esc(c.name)}</td><td>${esc(JSON.stringify(c.yaml))}
-              <span class="muted">${esc(c.from)}</span></td><td><b>${esc(JSON.stringify(c.live))}</b></td></tr>`).join("")}</table>`
-            : `<div class="muted">live values match ${esc(diff.file)}</div>`;
-        }
-      } catch (err) {
-        status(err.message, true);
-      }
-    });
-    undoBtn.addEventListener("click", async () => {
-      const last = state.undo.pop();
-      undoBtn.disabled = !state.undo.length;
-      if (last) await write(last.node, last.name, last.value, { recordUndo: false });
-    });
-    $('[data-act="reload"]').addEventListener("click", load);
+/** "undo": the value before the user's last change is written back (not itself undoable). */
+async function undoLast(pp) {
+  const last = pp.state.undo.pop();
+  pp.el.undo.disabled = !pp.state.undo.length;
+  if (last) await write(pp, last.node, last.name, last.value, { recordUndo: false });
+}
 
-    // -- threshold plot ---------------------------------------------------------------------------
-    const fieldSel = $('[data-role="field"]');
-    const thresholdSel = $('[data-role="threshold"]');
-    const canvas = $('[data-role="plot"]');
-    function refreshThresholds() {
-      const keep = thresholdSel.value;
-      const opts = ['<option value="">(none)</option>'];
-      for (const [node, params] of Object.entries(state.nodes)) {
-        for (const p of params) {
-          if (p.type === "float" || p.type === "int") opts.push(`<option value="${esc(node)}/${esc(p.name)}">${esc(node)}.${esc(p.name)}</option>`);
-        }
-      }
-      thresholdSel.innerHTML = opts.join("");
-      thresholdSel.value = keep || (find("hcm", "falling_gyro_pitch") ? "hcm/falling_gyro_pitch" : "");
-    }
-    // any numeric field of any topic of the robot: topics from the server's list of the robot's streams, fields
-    // from the newest message of the chosen topic
-    const topicSel = $('[data-role="topic"]');
-    const bothSigns = $('[data-role="both-signs"]');
-    const plot = { topic: "", field: "", off: null, fieldsOf: "" };
-    state.plot = plot;
-    function robotTopics() {
-      const info = ctx.store.robots.find((r) => r.robot === state.robot);
-      const topics = new Set(Object.entries(info?.streams ?? {})
-        .filter(([, st]) => !/Image$/.test(st.msgtype ?? "")).map(([t]) => t));
-      for (const [t, frame] of ctx.store.latest.get(state.robot) ?? []) if (frame.type === "msg") topics.add(t);
-      if (plot.topic) topics.add(plot.topic);
-      return [...topics].sort();
-    }
-    function refreshTopics() {
-      const topics = robotTopics();
-      const html = topics.map((t) => `<option value="${esc(t)}">${esc(t)}</option>`).join("");
-      if (topicSel.innerHTML !== html) topicSel.innerHTML = html;
-      if (!plot.topic && topics.includes(DEFAULT_PLOT[0])) chooseTopic(DEFAULT_PLOT[0], DEFAULT_PLOT[1]);
-      topicSel.value = plot.topic;
-    }
-    /** The topic's numeric fields, from the server (the one definition of a numeric field), once the robot's first
-     * message of the topic is there; asked again for another robot or topic. */
-    async function refreshFields() {
-      const { topic } = plot, robot = state.robot, key = `${robot}|${topic}`;
-      if (plot.fieldsOf === key) return;
-      plot.fieldsOf = key;
-      let fields;
-      try { fields = await numericFields(robot, topic); } catch {
-        if (plot.fieldsOf === key) plot.fieldsOf = ""; // no message yet: the next frame asks again
-        return;
-      }
-      if (plot.topic !== topic || state.robot !== robot) return;
-      fieldSel.innerHTML = '<option value="">field…</option>' +
-        fields.map((f) => `<option value="${esc(f.path)}">${esc(f.label)}</option>`).join("");
-      if (!plot.field && topic === DEFAULT_PLOT[0] && fields.some((f) => f.path === DEFAULT_PLOT[1])) plot.field = DEFAULT_PLOT[1];
-      fieldSel.value = plot.field;
-    }
-    function chooseTopic(topic, field = "") {
-      plot.off?.();
-      Object.assign(plot, { topic, field, off: null, fieldsOf: "" });
-      state.series = [];
-      fieldSel.innerHTML = '<option value="">field…</option>';
-      if (!topic) return;
-      plot.off = ctx.subscribe(topic, PLOT_HZ, (frame) => {
-        if (frame.robot !== state.robot || frame.type !== "msg" || frame.topic !== plot.topic) return;
-        refreshFields();
-        const v = plot.field ? pick(frame.data, plot.field) : undefined;
-        if (typeof v !== "number") return;
-        const now = performance.now() / 1000;
-        state.series.push([now, v]);
-        while (state.series.length && state.series[0][0] < now - PLOT_SECONDS) state.series.shift();
-      });
-      const latest = ctx.store.get(state.robot, topic);
-      if (latest?.type === "msg") refreshFields();
-    }
-    topicSel.addEventListener("change", () => chooseTopic(topicSel.value));
-    fieldSel.addEventListener("change", () => { plot.field = fieldSel.value; state.series = []; });
-    const offs = [ctx.store.on("robots", refreshTopics), () => plot.off?.()];
-    refreshTopics();
-
-    function draw() {
-      if (!body.querySelector(".lab-plot").open) return;
-      const w = canvas.clientWidth, h = canvas.clientHeight;
-      if (canvas.width !== w) canvas.width = w;
-      const g = canvas.getContext("2d");
-      const css = getComputedStyle(body);
-      g.clearRect(0, 0, w, h);
-      const [tn, tp] = thresholdSel.value ? thresholdSel.value.split("/") : [];
-      const line = tn ? find(tn, tp)?.value : undefined;
-      const lines = line === undefined ? [] : bothSigns.checked ? [line, -line] : [line];
-      const values = [0, ...state.series.map((s) => s[1]), ...lines];
-      let lo = Math.min(...values), hi = Math.max(...values);
-      const pad = Math.max(1e-3, (hi - lo) * 0.05);
-      lo -= pad; hi += pad;
-      const y = (v) => h - 4 - ((v - lo) / (hi - lo)) * (h - 8);
-      const now = performance.now() / 1000;
-      g.strokeStyle = css.getPropertyValue("--muted");
-      g.beginPath(); g.moveTo(0, y(0)); g.lineTo(w, y(0)); g.stroke();
-      g.strokeStyle = css.getPropertyValue("--accent");
-      g.lineWidth = 2;
-      g.beginPath();
-      state.series.forEach(([t, v], i) => {
-        const x = w - ((now - t) / PLOT_SECONDS) * w;
-        if (i) g.lineTo(x, y(v)); else g.moveTo(x, y(v));
-      });
-      g.stroke();
-      g.fillStyle = css.getPropertyValue("--fg");
-      if (state.series.length) g.fillText(`${plot.topic} ${plot.field} = ${state.series.at(-1)[1].toPrecision(4)}`, 4, 10);
-      if (lines.length) {
-        g.strokeStyle = css.getPropertyValue("--bad");
-        g.setLineDash([6, 4]);
-        for (const v of lines) { g.beginPath(); g.moveTo(0, y(v)); g.lineTo(w, y(v)); g.stroke(); }
-        g.setLineDash([]);
-        g.fillStyle = css.getPropertyValue("--bad");
-        g.fillText(`${tp} = ${line}`, 4, y(line) - 3);
-      }
-      g.lineWidth = 1;
-      // what is drawn, for tests and the curious: the plotted field, its newest value and the lines' pixel rows
-      state.drawn = { topic: plot.topic, field: plot.field, points: state.series.length,
-        last: state.series.at(-1)?.[1], lines, lineRows: lines.map((v) => Math.round(y(v))) };
-    }
-    const timer = setInterval(draw, 200);
-    return { destroy() { clearInterval(timer); picker.off(); offs.forEach((off) => off()); source?.close(); } };
+/** A node's buttons (data-act) by name, each given the panel, the click and the node's path. */
+const NODE_ACTIONS = {
+  async reset(pp, e, node, path) {
+    const name = e.target.closest("tr").dataset.param.split("/")[1];
+    applyReply(pp, node, await api("POST", `${path}/reset`, { names: [name] }));
+  },
+  async "reset-node"(pp, e, node, path) { applyReply(pp, node, await api("POST", `${path}/reset`, { names: [] })); },
+  async save(pp, e, node, path) { pp.status(`saved to ${(await api("POST", `${path}/save`)).path}`); },
+  async diff(pp, e, node, path) {
+    const diff = await api("GET", `${path}/diff?model=${encodeURIComponent(pp.$('[data-role="model"]').value)}`);
+    e.target.closest("[data-node]").querySelector('[data-role="diff"]').innerHTML = diffTable(diff);
   },
 };
+
+/** A node's buttons (and a row's reset): summary buttons must not fold the node, so the click is taken. */
+async function onNodeAction(pp, e) {
+  const act = e.target.dataset?.act;
+  if (!act) return;
+  e.preventDefault();
+  const node = e.target.closest("[data-node]")?.dataset.node;
+  try {
+    if (Object.hasOwn(NODE_ACTIONS, act)) await NODE_ACTIONS[act](pp, e, node, paramsPath(pp, node));
+  } catch (err) {
+    pp.status(err.message, true);
+  }
+}
+
+/** The node's live values that differ from the robot model's YAML (or its defaults). */
+function diffTable(diff) {
+  return diff.changes.length
+    ? `<table class="grid-table"><tr><th>${esc(diff.file)}</th><th>file / default</th><th>live</th></tr>${diff.changes
+      .map((c) => `<tr data-diff="${esc(c.name)}"><td>${esc(c.name)}</td><td>${esc(JSON.stringify(c.yaml))}
+              <span class="muted">${esc(c.from)}</span></td><td><b>${esc(JSON.stringify(c.live))}</b></td></tr>`).join("")}</table>`
+    : `<div class="muted">live values match ${esc(diff.file)}</div>`;
+}
+
+// -- threshold plot -------------------------------------------------------------------------------
+
+/** The line menu: every numeric parameter; the fall checker's gyro threshold until the user picks another. */
+function refreshThresholds(pp) {
+  const select = pp.el.threshold;
+  const keep = select.value;
+  const opts = ['<option value="">(none)</option>'];
+  for (const [node, params] of Object.entries(pp.state.nodes)) {
+    for (const p of params) {
+      if (p.type !== "float" && p.type !== "int") continue;
+      opts.push(`<option value="${esc(node)}/${esc(p.name)}">${esc(node)}.${esc(p.name)}</option>`);
+    }
+  }
+  select.innerHTML = opts.join("");
+  select.value = keep || (find(pp.state, "hcm", "falling_gyro_pitch") ? "hcm/falling_gyro_pitch" : "");
+}
+
+/** The robot's topics: from the server's list of its streams (images left out) and from what has arrived. */
+function robotTopics(pp) {
+  const { ctx, state, plot } = pp;
+  const info = ctx.store.robots.find((r) => r.robot === state.robot);
+  const topics = new Set(Object.entries(info?.streams ?? {})
+    .filter(([, st]) => !/Image$/.test(st.msgtype ?? "")).map(([t]) => t));
+  for (const [t, frame] of ctx.store.latest.get(state.robot) ?? []) if (frame.type === "msg") topics.add(t);
+  if (plot.topic) topics.add(plot.topic);
+  return [...topics].sort();
+}
+
+/** The topic menu, redrawn only when it changed; the gyro is chosen once it is there. */
+function refreshTopics(pp) {
+  const { el, plot } = pp;
+  const topics = robotTopics(pp);
+  const html = topics.map((t) => `<option value="${esc(t)}">${esc(t)}</option>`).join("");
+  if (el.topic.innerHTML !== html) el.topic.innerHTML = html;
+  if (!plot.topic && topics.includes(DEFAULT_PLOT[0])) chooseTopic(pp, DEFAULT_PLOT[0], DEFAULT_PLOT[1]);
+  el.topic.value = plot.topic;
+}
+
+/** The topic's numeric fields, from the server (the one definition of a numeric field), once the robot's first
+ * message of the topic is there; asked again for another robot or topic. */
+async function refreshFields(pp) {
+  const { plot, state, el } = pp;
+  const { topic } = plot, robot = state.robot, key = `${robot}|${topic}`;
+  if (plot.fieldsOf === key) return;
+  plot.fieldsOf = key;
+  let fields;
+  try { fields = await numericFields(robot, topic); } catch {
+    if (plot.fieldsOf === key) plot.fieldsOf = ""; // no message yet: the next frame asks again
+    return;
+  }
+  if (plot.topic !== topic || state.robot !== robot) return;
+  el.field.innerHTML = '<option value="">field…</option>' +
+    fields.map((f) => `<option value="${esc(f.path)}">${esc(f.label)}</option>`).join("");
+  const offersDefault = topic === DEFAULT_PLOT[0] && fields.some((f) => f.path === DEFAULT_PLOT[1]);
+  if (!plot.field && offersDefault) plot.field = DEFAULT_PLOT[1];
+  el.field.value = plot.field;
+}
+
+/** Another topic to plot: the old subscription ends, the series starts afresh. */
+function chooseTopic(pp, topic, field = "") {
+  const { plot, state, ctx } = pp;
+  plot.off?.();
+  Object.assign(plot, { topic, field, off: null, fieldsOf: "" });
+  state.series = [];
+  pp.el.field.innerHTML = '<option value="">field…</option>';
+  if (!topic) return;
+  plot.off = ctx.subscribe(topic, PLOT_HZ, (frame) => onPlotSample(pp, frame));
+  const latest = ctx.store.get(state.robot, topic);
+  if (latest?.type === "msg") refreshFields(pp);
+}
+
+/** A message of the plotted topic: its field's number joins the series, which keeps PLOT_SECONDS. */
+function onPlotSample(pp, frame) {
+  const { plot, state } = pp;
+  if (frame.robot !== state.robot || frame.type !== "msg" || frame.topic !== plot.topic) return;
+  refreshFields(pp);
+  const v = plot.field ? pick(frame.data, plot.field) : undefined;
+  if (typeof v !== "number") return;
+  const now = performance.now() / 1000;
+  state.series.push([now, v]);
+  while (state.series.length && state.series[0][0] < now - PLOT_SECONDS) state.series.shift();
+}
+
+/** Every 200 ms while the plot is open: zero, the series, and the threshold line (at ± it if asked). */
+function draw(pp) {
+  const { body, state, plot, el } = pp;
+  if (!body.querySelector(".lab-plot").open) return;
+  const canvas = el.canvas;
+  const w = canvas.clientWidth, h = canvas.clientHeight;
+  if (canvas.width !== w) canvas.width = w;
+  const g = canvas.getContext("2d");
+  const css = getComputedStyle(body);
+  g.clearRect(0, 0, w, h);
+  const [tn, tp] = el.threshold.value ? el.threshold.value.split("/") : [];
+  const line = tn ? find(state, tn, tp)?.value : undefined;
+  const lines = line === undefined ? [] : el.bothSigns.checked ? [line, -line] : [line];
+  const values = [0, ...state.series.map((s) => s[1]), ...lines];
+  let lo = Math.min(...values), hi = Math.max(...values);
+  const pad = Math.max(1e-3, (hi - lo) * 0.05);
+  lo -= pad; hi += pad;
+  const y = (v) => h - 4 - ((v - lo) / (hi - lo)) * (h - 8);
+  drawSeries(g, css, pp, w, y);
+  if (lines.length) drawLines(g, css, lines, `${tp} = ${line}`, w, y);
+  g.lineWidth = 1;
+  // what is drawn, for tests and the curious: the plotted field, its newest value and the lines' pixel rows
+  state.drawn = { topic: plot.topic, field: plot.field, points: state.series.length,
+    last: state.series.at(-1)?.[1], lines, lineRows: lines.map((v) => Math.round(y(v))) };
+}
+
+/** The zero line, the field's series (newest at the right edge) and its newest value. */
+function drawSeries(g, css, pp, w, y) {
+  const { series } = pp.state;
+  const now = performance.now() / 1000;
+  g.strokeStyle = css.getPropertyValue("--muted");
+  g.beginPath(); g.moveTo(0, y(0)); g.lineTo(w, y(0)); g.stroke();
+  g.strokeStyle = css.getPropertyValue("--accent");
+  g.lineWidth = 2;
+  g.beginPath();
+  series.forEach(([t, v], i) => {
+    const x = w - ((now - t) / PLOT_SECONDS) * w;
+    if (i) g.lineTo(x, y(v)); else g.moveTo(x, y(v));
+  });
+  g.stroke();
+  g.fillStyle = css.getPropertyValue("--fg");
+  if (series.length) g.fillText(`${pp.plot.topic} ${pp.plot.field} = ${series.at(-1)[1].toPrecision(4)}`, 4, 10);
+}
+
+/** The threshold line(s), dashed in the warning colour, labelled at the first. */
+function drawLines(g, css, lines, label, w, y) {
+  g.strokeStyle = css.getPropertyValue("--bad");
+  g.setLineDash([6, 4]);
+  for (const v of lines) { g.beginPath(); g.moveTo(0, y(v)); g.lineTo(w, y(v)); g.stroke(); }
+  g.setLineDash([]);
+  g.fillStyle = css.getPropertyValue("--bad");
+  g.fillText(label, 4, y(lines[0]) - 3);
+}

@@ -2,8 +2,8 @@
 // cmd_vel; the command is refreshed while held and the server sends zero when refreshes stop. Plus animation and
 // penalize buttons.
 
-import { api, labToolOff, robotPicker } from "../lab_api.js";
-import { esc } from "../dom.js";
+import { api, labToolOff, robotPath, robotPicker } from "../lab_api.js";
+import { esc, statusLine } from "../dom.js";
 
 const REFRESH_MS = 150;
 const HOLD_S = 0.5;
@@ -37,9 +37,8 @@ export default {
     const $ = (sel) => body.querySelector(sel);
     const state = { robot: "", command: { x: 0, y: 0, yaw: 0 }, sent: 0, keys: new Set(), stick: null };
     window.pitchside.teleop = state;
-    const statusEl = $('[data-role="status"]');
-    const status = (t, bad = false) => { statusEl.textContent = t; statusEl.classList.toggle("bad", bad); };
-    const base = () => `api/robots/${encodeURIComponent(state.robot)}`;
+    const status = statusLine($('[data-role="status"]'));
+    const base = () => robotPath(state.robot);
     const picker = robotPicker($('[data-role="robot"]'), ctx, (robot) => {
       state.robot = robot;
       api("GET", `${base()}/animations`).then((list) => {
