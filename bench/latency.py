@@ -23,6 +23,7 @@ import zenoh
 
 import schemas
 from robot_nodes.runtime import BusConfig, Node, open_router, open_session
+from schemas.std import JointTrajectory, JointTrajectoryPoint
 from wire import keys
 
 JOINTS = ["HeadPan", "HeadTilt", "LShoulderPitch", "LShoulderRoll", "LElbow", "RShoulderPitch", "RShoulderRoll",
@@ -33,9 +34,9 @@ STAMP = struct.Struct("<iI")  # CDR: 4-byte encapsulation header, then header.st
 
 
 def trajectory() -> object:
-    point = schemas.make("trajectory_msgs/msg/JointTrajectoryPoint", positions=[0.1] * 20, velocities=[0.5] * 20,
+    point = schemas.make(JointTrajectoryPoint, positions=[0.1] * 20, velocities=[0.5] * 20,
                          effort=[1.0] * 20)
-    return schemas.make("trajectory_msgs/msg/JointTrajectory", joint_names=JOINTS, points=[point])
+    return schemas.make(JointTrajectory, joint_names=JOINTS, points=[point])
 
 
 def stamp_now(msg: object) -> None:
