@@ -33,7 +33,7 @@ TOPIC = "motor_goals"
 STAMP = struct.Struct("<iI")  # CDR: 4-byte encapsulation header, then header.stamp (sec, nanosec)
 
 
-def trajectory() -> object:
+def trajectory() -> JointTrajectory:
     point = schemas.make(JointTrajectoryPoint, positions=[0.1] * 20, velocities=[0.5] * 20,
                          effort=[1.0] * 20)
     return schemas.make(JointTrajectory, joint_names=JOINTS, points=[point])
