@@ -20,16 +20,18 @@ import numpy as np
 
 import schemas
 from robot_nodes.runtime import header
+from schemas.messages import Animation
+from schemas.std import JointTrajectory, JointTrajectoryPoint
 from wire.animation import AnimationPlayer, load_animation
 
 FILE = Path(__file__).resolve().parents[2] / "shared" / "testdata" / "animations" / "wolfgang_stand_up_back.json"
 
 
 def encode_step(names: list[str], positions: np.ndarray) -> bytes:
-    point = schemas.make("trajectory_msgs/msg/JointTrajectoryPoint", positions=positions, effort=[])
-    trajectory = schemas.make("trajectory_msgs/msg/JointTrajectory", header=header(), joint_names=names,
+    point = schemas.make(JointTrajectoryPoint, positions=positions, effort=[])
+    trajectory = schemas.make(JointTrajectory, header=header(), joint_names=names,
                               points=[point])
-    msg = schemas.make("humanoid_league_msgs/msg/Animation", header=header(), first=False, last=False, hcm=True,
+    msg = schemas.make(Animation, header=header(), first=False, last=False, hcm=True,
                        position=trajectory)
     return schemas.encode(msg)
 

@@ -58,14 +58,15 @@ import schemas
 from robot_nodes.launch import NODE_MODULES
 from robot_nodes.runtime import BusConfig, open_session
 from schemas.logs import LogError, LogReader
+from schemas.messages import RobotControlState
+from schemas.std import DiagnosticArray
 from tests.running_demo import DashboardObserver, RunningDemo, running_demo
 from tests.support import REPO
 from tests.waiting import wait_for
 from wire import keys
 
 ROUTER = re.compile(r"Zenoh router (tcp/[0-9.]+:\d+)")
-ROBOT_STATE = schemas.message_class("humanoid_league_msgs/msg/RobotControlState")
-CONTROLLABLE: int = ROBOT_STATE.CONTROLLABLE  # type: ignore[attr-defined]
+CONTROLLABLE = RobotControlState.CONTROLLABLE
 NODE_OF_MODULE = {module: name for name, module in NODE_MODULES.items()}
 # the victim's own topic on the bus; None: only its diagnostics tell it is alive
 NODE_TOPIC: dict[str, str | None] = {"hcm": "robot_state", "animation": None, "pause": "paused", "speaker": None,
@@ -99,11 +100,11 @@ class BusWatch:
         if topic in COMPARED:
             self.payloads[(robot, topic)].append((t, sample.payload.to_bytes()))
         if topic == "robot_state":
-            msg = schemas.decode(sample.payload.to_bytes(), "humanoid_league_msgs/msg/RobotControlState")
-            self.states[robot].append((t, int(msg.state)))
+            state = schemas.decode(sample.payload.to_bytes(), RobotControlState)
+            self.states[robot].append((t, int(state.state)))
         elif topic == "diagnostics":
-            msg = schemas.decode(sample.payload.to_bytes(), "diagnostic_msgs/msg/DiagnosticArray")
-            for status in msg.status:
+            diagnostics = schemas.decode(sample.payload.to_bytes(), DiagnosticArray)
+            for status in diagnostics.status:
                 values = {kv.key: kv.value for kv in status.values}
                 if "uptime_s" in values:
                     node = status.name.rsplit("/", 1)[-1]

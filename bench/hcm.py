@@ -34,6 +34,8 @@ import psutil
 
 import schemas
 from robot_nodes.runtime import BusConfig, GoalStatus, Node, header, open_router
+from schemas.messages import PlayAnimationGoal
+from schemas.std import JointTrajectory, JointTrajectoryPoint
 from tests.support import free_port
 
 REPO = Path(__file__).resolve().parents[1]
@@ -84,7 +86,7 @@ class Bench(Node):
             return
         if self.playing is not None and self.playing.status not in (None, GoalStatus.SUCCEEDED):
             self.log.warning("sway ended with %s", self.playing.status)
-        goal = schemas.make("humanoid_league_msgs/action/PlayAnimation_Goal", animation="bench_sway", hcm=False)
+        goal = schemas.make(PlayAnimationGoal, animation="bench_sway", hcm=False)
         self.playing = self.client.send_goal(goal)
 
 
@@ -151,7 +153,7 @@ def raw_hop(endpoint: str, n: int = 2000) -> list[float]:
     done = threading.Event()
 
     def on_sample(sample: Any) -> None:
-        msg = schemas.decode(sample.payload.to_bytes(), "trajectory_msgs/msg/JointTrajectory")
+        msg = schemas.decode(sample.payload.to_bytes(), JointTrajectory)
         stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
         got.append((time.time_ns() - stamp) / 1e6)
         if len(got) >= n:
@@ -161,8 +163,8 @@ def raw_hop(endpoint: str, n: int = 2000) -> list[float]:
     pub = session.declare_publisher("bench/hcm/raw")
     time.sleep(0.5)
     for _ in range(n):
-        point = schemas.make("trajectory_msgs/msg/JointTrajectoryPoint", positions=np.zeros(1))
-        pub.put(schemas.encode(schemas.make("trajectory_msgs/msg/JointTrajectory", header=header(),
+        point = schemas.make(JointTrajectoryPoint, positions=np.zeros(1))
+        pub.put(schemas.encode(schemas.make(JointTrajectory, header=header(),
                                             joint_names=["HeadPan"], points=[point])))
         time.sleep(0.002)
     done.wait(5.0)

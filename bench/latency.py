@@ -23,6 +23,7 @@ import zenoh
 
 import schemas
 from robot_nodes.runtime import BusConfig, Node, open_router, open_session
+from schemas.std import JointTrajectory, JointTrajectoryPoint
 from wire import keys
 
 JOINTS = ["HeadPan", "HeadTilt", "LShoulderPitch", "LShoulderRoll", "LElbow", "RShoulderPitch", "RShoulderRoll",
@@ -32,10 +33,10 @@ TOPIC = "motor_goals"
 STAMP = struct.Struct("<iI")  # CDR: 4-byte encapsulation header, then header.stamp (sec, nanosec)
 
 
-def trajectory() -> object:
-    point = schemas.make("trajectory_msgs/msg/JointTrajectoryPoint", positions=[0.1] * 20, velocities=[0.5] * 20,
+def trajectory() -> JointTrajectory:
+    point = schemas.make(JointTrajectoryPoint, positions=[0.1] * 20, velocities=[0.5] * 20,
                          effort=[1.0] * 20)
-    return schemas.make("trajectory_msgs/msg/JointTrajectory", joint_names=JOINTS, points=[point])
+    return schemas.make(JointTrajectory, joint_names=JOINTS, points=[point])
 
 
 def stamp_now(msg: object) -> None:

@@ -25,6 +25,7 @@ from mcap_ros2.decoder import DecoderFactory
 
 import schemas
 from schemas.logs import LogReader, LogWriter
+from schemas.std import JointState
 
 JOINTS = ["HeadPan", "HeadTilt", "LShoulderPitch", "LShoulderRoll", "LElbow", "RShoulderPitch", "RShoulderRoll",
           "RElbow", "LHipYaw", "LHipRoll", "LHipPitch", "LKnee", "LAnklePitch", "LAnkleRoll", "RHipYaw",
@@ -44,7 +45,7 @@ def main() -> None:
 
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "bench.mcap"
-        msg = schemas.make("sensor_msgs/msg/JointState", name=JOINTS, position=[0.1] * 20, velocity=[0.2] * 20,
+        msg = schemas.make(JointState, name=JOINTS, position=[0.1] * 20, velocity=[0.2] * 20,
                            effort=[0.3] * 20)
         noise = np.random.default_rng(1).normal(0.0, 1.0, (997, 20))
         start = time.perf_counter()

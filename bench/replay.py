@@ -27,6 +27,7 @@ import numpy as np
 
 import schemas
 from schemas.logs import LogWriter
+from schemas.std import CompressedImage, Imu, JointState
 from server.hub import Hub
 from server.sources.replay import ReplaySource
 
@@ -40,10 +41,10 @@ def generate(path: Path, target_bytes: int, robots: int) -> tuple[int, float]:
     """Writes the log; (messages, seconds of log)."""
     rng = np.random.default_rng(1)
     joints = [f"joint{i}" for i in range(20)]
-    joint_cdr = schemas.encode(schemas.make("sensor_msgs/msg/JointState", name=joints,
+    joint_cdr = schemas.encode(schemas.make(JointState, name=joints,
                                             position=rng.normal(size=20).tolist()))
-    imu_cdr = schemas.encode(schemas.make("sensor_msgs/msg/Imu"))
-    image = schemas.encode(schemas.make("sensor_msgs/msg/CompressedImage", format="jpeg",
+    imu_cdr = schemas.encode(schemas.make(Imu))
+    image = schemas.encode(schemas.make(CompressedImage, format="jpeg",
                                         data=np.zeros(IMAGE_BYTES, dtype=np.uint8)))
     image_head = image[:-IMAGE_BYTES]  # the pixels are the message's last field: fresh noise for every image
     names = [f"robot{r + 1}" for r in range(robots)]

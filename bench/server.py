@@ -37,6 +37,8 @@ import httpx
 
 import schemas
 from robot_nodes.runtime import BusConfig, open_router, open_session
+from schemas.messages import Position2D, RobotControlState
+from schemas.std import Header, JointState, Pose2D, Time
 from server.protocol import unbatch
 from tests.support import free_port
 from wire.keys import topic_key
@@ -120,11 +122,11 @@ STREAM_ID = 1
 
 def _stamp_now() -> Any:
     t = time.time_ns()
-    return schemas.make("std_msgs/msg/Header", stamp=schemas.make("builtin_interfaces/msg/Time", sec=t // 10**9,
+    return schemas.make(Header, stamp=schemas.make(Time, sec=t // 10**9,
                                                                   nanosec=t % 10**9))
 
 
-STATE = schemas.encode(schemas.make("humanoid_league_msgs/msg/RobotControlState", state=10))
+STATE = schemas.encode(schemas.make(RobotControlState, state=10))
 JOINTS = [f"joint{i}" for i in range(20)]
 
 
@@ -133,10 +135,10 @@ def _payload(kind: str, i: int, t: float) -> bytes:
     if kind == "robot_state":
         return STATE
     if kind == "joint_states":
-        return schemas.encode(schemas.make("sensor_msgs/msg/JointState", header=_stamp_now(), name=JOINTS,
+        return schemas.encode(schemas.make(JointState, header=_stamp_now(), name=JOINTS,
                                            position=[0.1] * 20))
-    pose = schemas.make("geometry_msgs/msg/Pose2D", x=3.5 * math.cos(t * 0.5 + i), y=2.5 * math.sin(t + i), theta=t + i)
-    return schemas.encode(schemas.make("humanoid_league_msgs/msg/Position2D", header=_stamp_now(), pose=pose,
+    pose = schemas.make(Pose2D, x=3.5 * math.cos(t * 0.5 + i), y=2.5 * math.sin(t + i), theta=t + i)
+    return schemas.encode(schemas.make(Position2D, header=_stamp_now(), pose=pose,
                                        confidence=0.8))
 
 
@@ -204,7 +206,7 @@ class Telemetry:
 # -- publishers in this process ---------------------------------------------------------------------------
 def flood(session: Any, stop: threading.Event) -> None:
     """robot_state of 11 robots as fast as Python can put them."""
-    payload = schemas.encode(schemas.make("humanoid_league_msgs/msg/RobotControlState", state=10))
+    payload = schemas.encode(schemas.make(RobotControlState, state=10))
     pubs = [session.declare_publisher(topic_key(r, "robot_state")) for r in ROBOTS]
     while not stop.is_set():
         for pub in pubs:

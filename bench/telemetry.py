@@ -20,6 +20,8 @@ from PIL import Image
 
 import schemas
 from robot_nodes.runtime import BusConfig, Node, open_router
+from schemas.messages import RobotControlState
+from schemas.std import CompressedImage, Imu, JointState
 from tests.support import free_port
 
 REPO = Path(__file__).resolve().parents[1]
@@ -65,15 +67,15 @@ class RobotTopics(Node):
         pixels = rng.integers(0, 255, (60, 80, 3), dtype=np.uint8).repeat(8, 0).repeat(8, 1)
         buf = io.BytesIO()
         Image.fromarray(pixels).save(buf, format="JPEG", quality=85)
-        image = schemas.make("sensor_msgs/msg/CompressedImage", format="jpeg",
+        image = schemas.make(CompressedImage, format="jpeg",
                              data=np.frombuffer(buf.getvalue(), np.uint8))
-        joints = schemas.make("sensor_msgs/msg/JointState", name=[f"j{i}" for i in range(20)],
+        joints = schemas.make(JointState, name=[f"j{i}" for i in range(20)],
                               position=np.zeros(20), velocity=np.zeros(20), effort=np.zeros(20))
         self.image_bytes = len(buf.getvalue())
         self.timer(self.camera_hz, lambda: cam.publish(image), "camera")
         self.timer(100, lambda: js.publish(joints), "joints")
-        self.timer(100, lambda: imu.publish(schemas.make("sensor_msgs/msg/Imu")), "imu")
-        self.timer(50, lambda: state.publish(schemas.make("humanoid_league_msgs/msg/RobotControlState")), "state")
+        self.timer(100, lambda: imu.publish(schemas.make(Imu)), "imu")
+        self.timer(50, lambda: state.publish(schemas.make(RobotControlState)), "state")
 
 
 def run_sender(endpoint: str, seconds: float, image_max_width: int) -> tuple[float, float, float]:

@@ -28,14 +28,16 @@ import schemas
 from robot_nodes.runtime import BusConfig, Node, header, open_router
 from robot_nodes.walking import WalkEngine
 from robot_nodes.walking.engine import WalkOutput
+from schemas.messages import RobotControlState
+from schemas.std import Imu, JointState, JointTrajectory, JointTrajectoryPoint, Quaternion, Twist, Vector3
 from tests.support import free_port
 
 REPO = Path(__file__).resolve().parents[1]
 
 
 def encode_goals(out: WalkOutput) -> bytes:
-    point = schemas.make("trajectory_msgs/msg/JointTrajectoryPoint", positions=np.asarray(out.positions))
-    return schemas.encode(schemas.make("trajectory_msgs/msg/JointTrajectory", header=header(),
+    point = schemas.make(JointTrajectoryPoint, positions=np.asarray(out.positions))
+    return schemas.encode(schemas.make(JointTrajectory, header=header(),
                                        joint_names=list(out.names), points=[point]))
 
 
@@ -90,17 +92,17 @@ class Feeder(Node):
         self.active = bool(msg.data)  # type: ignore[attr-defined]
 
     def command(self) -> None:
-        self.state.publish(schemas.make("humanoid_league_msgs/msg/RobotControlState", state=0))
-        self.cmd.publish(schemas.make("geometry_msgs/msg/Twist",
-                                      linear=schemas.make("geometry_msgs/msg/Vector3", x=0.1, y=0.03),
-                                      angular=schemas.make("geometry_msgs/msg/Vector3", z=0.2)))
+        self.state.publish(schemas.make(RobotControlState, state=0))
+        self.cmd.publish(schemas.make(Twist,
+                                      linear=schemas.make(Vector3, x=0.1, y=0.03),
+                                      angular=schemas.make(Vector3, z=0.2)))
 
     def sensors(self) -> None:
-        self.joints.publish(schemas.make("sensor_msgs/msg/JointState", header=header(), name=self.names,
+        self.joints.publish(schemas.make(JointState, header=header(), name=self.names,
                                          position=self.positions, velocity=np.zeros(len(self.names)),
                                          effort=np.zeros(len(self.names))))
-        self.imu.publish(schemas.make("sensor_msgs/msg/Imu", header=header("imu_frame"),
-                                      orientation=schemas.make("geometry_msgs/msg/Quaternion", w=1.0)))
+        self.imu.publish(schemas.make(Imu, header=header("imu_frame"),
+                                      orientation=schemas.make(Quaternion, w=1.0)))
 
 
 def process_cpu(endpoint: str, hz: float, seconds: float) -> tuple[float, float]:

@@ -4,73 +4,40 @@ from __future__ import annotations
 
 import functools
 import hashlib
-from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar, Protocol, TypeVar, overload
 
 import numpy as np
-from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+from rosbags.typesys import Stores, get_typestore
 from rosbags.typesys.store import Typestore
 
-SCHEMA_DIR = Path(__file__).resolve().parent
-OWN_PACKAGES = ("humanoid_league_msgs", "pitchside_msgs")
+from schemas import messages
+from schemas.definitions import OWN_PACKAGES as OWN_PACKAGES
+from schemas.definitions import SCHEMA_DIR as SCHEMA_DIR
+from schemas.definitions import sources_digest
 
+
+class Message(Protocol):
+    """An instance of any message class (schemas.std.JointState, schemas.messages.RobotControlState, ...)."""
+
+    __msgtype__: ClassVar[str]
+
+
+M = TypeVar("M", bound=Message)
 
 class SchemaError(Exception):
     """A type name is unknown or a payload does not decode as the type it claims to be."""
 
 
-def _split_sections(text: str) -> list[str]:
-    sections: list[list[str]] = [[]]
-    for line in text.splitlines():
-        if line.strip() == "---":
-            sections.append([])
-        else:
-            sections[-1].append(line)
-    return ["\n".join(s) + "\n" for s in sections]
-
-
-def _own_definitions() -> dict[str, str]:
-    """Message texts of our own packages, keyed by full type name; actions and services split."""
-    defs: dict[str, str] = {}
-    for package in OWN_PACKAGES:
-        root = SCHEMA_DIR / package
-        for path in sorted((root / "msg").glob("*.msg")):
-            defs[f"{package}/msg/{path.stem}"] = path.read_text()
-        for path in sorted((root / "action").glob("*.action")):
-            goal, result, feedback = _split_sections(path.read_text())
-            for suffix, text in (("Goal", goal), ("Result", result), ("Feedback", feedback)):
-                defs[f"{package}/action/{path.stem}_{suffix}"] = text
-        for path in sorted((root / "srv").glob("*.srv")):
-            request, response = _split_sections(path.read_text())
-            defs[f"{package}/srv/{path.stem}_Request"] = request
-            defs[f"{package}/srv/{path.stem}_Response"] = response
-    return defs
-
-
-def _qualify(text: str, package: str) -> str:
-    """Rewrites bare type references ("BallInImage") to "package/msg/BallInImage"."""
-    lines = []
-    for line in text.splitlines():
-        stripped = line.strip()
-        if stripped and not stripped.startswith("#"):
-            fieldtype, _, rest = stripped.partition(" ")
-            base = fieldtype.split("[")[0]
-            if base[:1].isupper() and "/" not in base:
-                line = f"{package}/msg/{fieldtype} {rest}"
-        lines.append(line)
-    return "\n".join(lines) + "\n"
-
-
 @functools.cache
 def typestore() -> Typestore:
-    """The one typestore of the process: ROS 2 Jazzy standard types plus our own."""
+    """The one typestore of the process: ROS 2 Jazzy standard types plus our own, as the classes of messages.py."""
+    if sources_digest() != messages.SOURCES_SHA256:
+        raise SchemaError("schemas/messages.py is older than the .msg/.action/.srv files: "
+                          "run python -m schemas.generate")
     store = get_typestore(Stores.ROS2_JAZZY)
-    types: dict[str, Any] = {}
-    for name, text in _own_definitions().items():
-        parsed = get_types_from_msg(_qualify(text, name.split("/")[0]), name)
-        (definition,) = parsed.values()
-        types[name] = definition  # keep "pkg/srv/X" as named; rosbags would file it under "pkg/srv/msg/X"
-    store.register(types)
+    # what Typestore.register would do, but with the checked-in classes instead of ones it execs for itself
+    store.fielddefs.update(messages.FIELDDEFS)
+    store.types.update({name: getattr(messages, name.replace("/", "__")) for name in messages.FIELDDEFS})
     return store
 
 
@@ -124,13 +91,23 @@ _NUMPY_TYPES = {
 }
 
 
-def make(typename: str, **fields: Any) -> Any:
-    """A message with every field at its zero value except those given.
+@overload
+def make(message: type[M], /, **fields: Any) -> M: ...
+@overload
+def make(message: str, /, **fields: Any) -> Any: ...
+def make(message: type[Message] | str, /, **fields: Any) -> Any:
+    """A message of that class (or type name) with every field at its zero value except those given.
 
     Numeric sequences given as lists are converted to the numpy arrays CDR needs.
     """
-    name = full_name(typename)
-    cls = typestore().types[name]
+    if isinstance(message, str):
+        name = full_name(message)
+        cls = typestore().types[name]
+    else:
+        name = message.__msgtype__
+        cls = message
+        if typestore().types.get(name) is not cls:
+            raise SchemaError(f"{message!r} is not the typestore's class for {name}")
     fielddefs = typestore().fielddefs[name][1]
     values: dict[str, Any] = {}
     for fieldname, fieldtype in fielddefs:
@@ -147,14 +124,18 @@ def make(typename: str, **fields: Any) -> Any:
     return cls(**values)
 
 
-def encode(msg: Any) -> bytes:
+def encode(msg: Message) -> bytes:
     """CDR (little endian) bytes of a message."""
     return bytes(typestore().serialize_cdr(msg, msg.__msgtype__))
 
 
-def decode(data: bytes | memoryview, typename: str) -> Any:
-    """A message from CDR bytes; SchemaError if the bytes are not that type."""
-    name = full_name(typename)
+@overload
+def decode(data: bytes | memoryview, message: type[M]) -> M: ...
+@overload
+def decode(data: bytes | memoryview, message: str) -> Any: ...
+def decode(data: bytes | memoryview, message: type[Message] | str) -> Any:
+    """A message of that class (or type name) from CDR bytes; SchemaError if the bytes are not that type."""
+    name = full_name(message if isinstance(message, str) else message.__msgtype__)
     try:
         return typestore().deserialize_cdr(bytes(data), name)
     except Exception as exc:  # rosbags raises several kinds on garbage input

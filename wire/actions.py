@@ -18,6 +18,7 @@ from typing import Any, Protocol
 import zenoh
 
 import schemas
+from schemas.codec import Message
 from wire import keys
 
 GOAL_ID_BYTES = 16
@@ -107,7 +108,7 @@ class ActionClient:
         else:
             fn(*args)
 
-    def send_goal(self, goal: Any, on_feedback: Callable[[Any], None] | None = None,
+    def send_goal(self, goal: Message, on_feedback: Callable[[Any], None] | None = None,
                   on_result: Callable[[GoalStatus, Any], None] | None = None,
                   on_verdict: Callable[[ClientGoal], None] | None = None, timeout: float = 5.0) -> ClientGoal:
         """Non-blocking: returns at once; wait on the handle or pass callbacks."""

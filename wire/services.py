@@ -9,6 +9,7 @@ from typing import Any
 import zenoh
 
 import schemas
+from schemas.codec import Message
 from wire import keys
 
 
@@ -21,7 +22,7 @@ def service_types(service: str) -> tuple[str, str]:
     return f"{base}_Request", f"{base}_Response"
 
 
-def call_service(session: zenoh.Session, robot: str, service: str, request: Any, timeout: float = 5.0) -> Any:
+def call_service(session: zenoh.Session, robot: str, service: str, request: Message, timeout: float = 5.0) -> Any:
     """Blocking call; ServiceError with the server's reason on failure.
 
     A server that just started may not be routed to us yet, so an empty answer is asked again until the timeout.

@@ -31,6 +31,9 @@ import robots
 import schemas
 from robot_nodes.animation.library import AnimationLibrary
 from robot_nodes.runtime import Node, ServerGoal, header, param
+from schemas import messages
+from schemas.messages import PlayAnimationFeedback, PlayAnimationGoal, PlayAnimationResult
+from schemas.std import JointState, JointTrajectory, JointTrajectoryPoint
 from wire.animation.animation_file import Animation, AnimationError, check_joints
 from wire.animation.player import INTERPOLATIONS, AnimationPlayer
 
@@ -106,7 +109,7 @@ class AnimationNode(Node):
                 self.record_error(problem)
 
     # -- inputs ----------------------------------------------------------------------------------------
-    def on_joint_states(self, msg: Any) -> None:
+    def on_joint_states(self, msg: JointState) -> None:
         positions = self.joint_positions if self.joint_positions is not None else {}
         for joint, value in zip(msg.name, msg.position, strict=False):
             if math.isfinite(value):  # a servo that did not answer must not put NaN into the curves
@@ -115,7 +118,8 @@ class AnimationNode(Node):
 
     def on_goal(self, handle: ServerGoal) -> str | None:
         """None accepts the goal (the action server then preempts the running one); a string rejects it."""
-        name, hcm = str(handle.goal.animation), bool(handle.goal.hcm)
+        goal: PlayAnimationGoal = handle.goal
+        name, hcm = str(goal.animation), bool(goal.hcm)
         running = self.playback
         if running is not None and running.hcm and not hcm and not running.handle.done:
             return (f"HCM animation {running.animation.name!r} is running; only an HCM goal may "
@@ -150,9 +154,8 @@ class AnimationNode(Node):
     def _begin(self, playback: Playback) -> None:
         playback.player = AnimationPlayer(playback.animation, self.joint_positions, self.params.interpolation)
 
-    def _result(self, successful: bool, message: str = "") -> Any:
-        return schemas.make("humanoid_league_msgs/action/PlayAnimation_Result", successful=successful,
-                            message=message)
+    def _result(self, successful: bool, message: str = "") -> PlayAnimationResult:
+        return schemas.make(PlayAnimationResult, successful=successful, message=message)
 
     def _end(self, playback: Playback) -> None:
         if self.playback is playback:
@@ -179,8 +182,7 @@ class AnimationNode(Node):
         playback.messages += 1
         if finished or now - playback.last_feedback >= 1.0 / self.params.feedback_hz:
             playback.last_feedback = now
-            playback.handle.publish_feedback(schemas.make("humanoid_league_msgs/action/PlayAnimation_Feedback",
-                                                          percent_done=player.percent_done(t)))
+            playback.handle.publish_feedback(schemas.make(PlayAnimationFeedback, percent_done=player.percent_done(t)))
         if finished:
             playback.handle.succeed(self._result(True))
             self._end(playback)
@@ -202,21 +204,19 @@ class AnimationNode(Node):
         self._begin(playback)
         return True
 
-    def _ended(self, playback: Playback) -> Any:
+    def _ended(self, playback: Playback) -> messages.Animation:
         """The last=True message of an animation stopped early: no joints, no goals."""
-        return schemas.make("humanoid_league_msgs/msg/Animation", header=header(), first=False, last=True,
-                            hcm=playback.hcm, position=schemas.make("trajectory_msgs/msg/JointTrajectory",
-                                                                    header=header()))
+        return schemas.make(messages.Animation, header=header(), first=False, last=True, hcm=playback.hcm,
+                            position=schemas.make(JointTrajectory, header=header()))
 
-    def _step(self, playback: Playback, player: AnimationPlayer, t: float, last: bool) -> Any:
+    def _step(self, playback: Playback, player: AnimationPlayer, t: float, last: bool) -> messages.Animation:
         """One Animation message: positions at t (rad) and the torque requests applying by t."""
         t = min(t, player.duration) if last else t
         torque = player.torque_at(t)
         effort = [min(max(torque[j], 0.0), 1.0) if j in torque else NO_TORQUE_REQUEST
                   for j in player.joint_names] if torque else []
-        point = schemas.make("trajectory_msgs/msg/JointTrajectoryPoint", positions=player.positions(t),
-                             effort=effort)
-        trajectory = schemas.make("trajectory_msgs/msg/JointTrajectory", header=header(),
+        point = schemas.make(JointTrajectoryPoint, positions=player.positions(t), effort=effort)
+        trajectory = schemas.make(JointTrajectory, header=header(),
                                   joint_names=list(player.joint_names), points=[point])
-        return schemas.make("humanoid_league_msgs/msg/Animation", header=header(), first=playback.messages == 0,
+        return schemas.make(messages.Animation, header=header(), first=playback.messages == 0,
                             last=last, hcm=playback.hcm, position=trajectory)

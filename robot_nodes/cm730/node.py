@@ -25,6 +25,8 @@ import schemas
 from robot_nodes.cm730.backend import AngleLimitRegisters, BusReading, ServoBackend
 from robot_nodes.cm730.joint_limits import ClampedGoals, ClampTally, GoalLimits, JointLimitsError
 from robot_nodes.runtime import Node, param
+from schemas.messages import AdditionalServoData, ServoHealth
+from schemas.std import Header, Imu, JointState, JointTrajectory, Quaternion, Temperature, Vector3
 
 OPTICAL_FRAME = "camera_optical_frame"
 FOOTPRINT_FRAME = "base_footprint"
@@ -32,7 +34,6 @@ MAP_FRAME = "map"
 LIMIT_PARAMS = ("model", "urdf", "limit_margin_deg")  # read once at start-up (section "Safety" of the README)
 CLAMP_REPORT_EVERY_S = 5.0  # at most one error line per this many seconds while goals are being clamped
 SERVO_HEALTH_PERIOD_S = 1.0  # servo_health goes out on every change and at least this often
-_BUS = schemas.constants("pitchside_msgs/msg/ServoHealth")
 
 
 @dataclass
@@ -184,7 +185,7 @@ class Cm730Node(Node):
         self.backend.close()
 
     # -- motor commands ----------------------------------------------------------------------------------
-    def _on_motor_goals(self, msg: Any) -> None:
+    def _on_motor_goals(self, msg: JointTrajectory) -> None:
         if not msg.points:
             self.record_error("motor_goals without points")
             return
@@ -218,7 +219,7 @@ class Cm730Node(Node):
         self.backend.write_goals(kept, goal_positions, goal_velocities, efforts[keep] if efforts is not None else None)
         self.goals_applied += 1
 
-    def _on_motor_torque(self, msg: Any) -> None:
+    def _on_motor_torque(self, msg: JointState) -> None:
         names = list(msg.name)
         efforts = np.asarray(msg.effort, dtype=float)
         if len(efforts) != len(names):
@@ -239,9 +240,9 @@ class Cm730Node(Node):
         reading = self.backend.read()
         self._last = reading
         stamp = schemas.stamp()
-        hdr = schemas.make("std_msgs/msg/Header", stamp=stamp, frame_id="")
+        hdr = Header(stamp=stamp, frame_id="")
         self._joint_pub.publish(schemas.make(
-            "sensor_msgs/msg/JointState", header=hdr, name=self.joint_names,
+            JointState, header=hdr, name=self.joint_names,
             position=reading.positions.astype(float), velocity=reading.velocities.astype(float),
             effort=reading.efforts.astype(float)))
         if reading.imu is not None:
@@ -249,8 +250,8 @@ class Cm730Node(Node):
             q = imu.orientation_xyzw
             cov = np.zeros(9)
             self._imu_pub.publish(schemas.make(
-                "sensor_msgs/msg/Imu", header=schemas.make("std_msgs/msg/Header", stamp=stamp, frame_id="imu_frame"),
-                orientation=schemas.make("geometry_msgs/msg/Quaternion", x=q[0], y=q[1], z=q[2], w=q[3]),
+                Imu, header=Header(stamp=stamp, frame_id="imu_frame"),
+                orientation=Quaternion(x=float(q[0]), y=float(q[1]), z=float(q[2]), w=float(q[3])),
                 orientation_covariance=cov, angular_velocity_covariance=cov, linear_acceleration_covariance=cov,
                 angular_velocity=_vector3(imu.angular_velocity),
                 linear_acceleration=_vector3(imu.linear_acceleration)))
@@ -272,16 +273,16 @@ class Cm730Node(Node):
         health = getattr(self.backend, "health", None)  # the Dynamixel bus counts more than who is missing
         report: dict[str, Any] = health() if health is not None else {}
         if report.get("port_lost"):
-            state = _BUS["BUS_LOST"]
+            state = ServoHealth.BUS_LOST
         elif missing or report.get("ok") is False:
-            state = _BUS["BUS_DEGRADED"]
+            state = ServoHealth.BUS_DEGRADED
         else:
-            state = _BUS["BUS_OK"]
+            state = ServoHealth.BUS_OK
         description = str(report.get("text") or (f"silent: {', '.join(missing)}" if missing else "ok"))
         if health is not None:
             self.set_diagnostic("bus", description)
         self._health_pub.publish(schemas.make(
-            "pitchside_msgs/msg/ServoHealth", header=schemas.make("std_msgs/msg/Header", stamp=schemas.stamp()),
+            ServoHealth, header=schemas.header(),
             missing_servos=missing, bus_state=state, description=description))
 
     def _publish_servo_data(self) -> None:
@@ -289,14 +290,12 @@ class Cm730Node(Node):
         if reading is None or reading.temperatures is None:
             return
         stamp = schemas.stamp()
-        temps = [schemas.make("sensor_msgs/msg/Temperature",
-                              header=schemas.make("std_msgs/msg/Header", stamp=stamp, frame_id=name),
-                              temperature=float(t), variance=0.0)
+        temps = [Temperature(header=Header(stamp=stamp, frame_id=name), temperature=float(t), variance=0.0)
                  for name, t in zip(self.joint_names, reading.temperatures, strict=True)]
         voltage = np.full(len(self.joint_names), reading.voltage if reading.voltage is not None else math.nan)
         self._servo_pub.publish(schemas.make(
-            "humanoid_league_msgs/msg/AdditionalServoData",
-            header=schemas.make("std_msgs/msg/Header", stamp=stamp, frame_id=""), temperature=temps, voltage=voltage))
+            AdditionalServoData,
+            header=Header(stamp=stamp, frame_id=""), temperature=temps, voltage=voltage))
 
     # -- simulation extras -------------------------------------------------------------------------------
     def _setup_sim(self) -> None:
@@ -372,5 +371,5 @@ def _optional(values: Any, n: int) -> np.ndarray | None:
     return arr if len(arr) == n else None
 
 
-def _vector3(v: np.ndarray) -> Any:
-    return schemas.make("geometry_msgs/msg/Vector3", x=float(v[0]), y=float(v[1]), z=float(v[2]))
+def _vector3(v: np.ndarray) -> Vector3:
+    return Vector3(x=float(v[0]), y=float(v[1]), z=float(v[2]))

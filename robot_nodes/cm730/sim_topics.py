@@ -5,25 +5,42 @@ from __future__ import annotations
 
 import io
 import time
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 import schemas
 from robot_nodes.cm730.sim import CameraFrame, DetectionNoise
+from schemas.messages import (
+    BallInImage,
+    BallRelative,
+    BallsInImage,
+    BarInImage,
+    GoalPartsInImage,
+    GoalRelative,
+    GroundTruth,
+    LineInformationInImage,
+    LineSegmentInImage,
+    ObstacleInImage,
+    ObstacleRelative,
+    ObstaclesInImage,
+    ObstaclesRelative,
+    Position2D,
+    PostInImage,
+)
+from schemas.std import CameraInfo, CompressedImage, Header, Point, Pose, Pose2D, Quaternion
 
 if TYPE_CHECKING:
     from robot_nodes.cm730.node import Cm730Node
 
-_HL = "humanoid_league_msgs/msg/"
 OPTICAL_FRAME = "camera_optical_frame"
 FOOTPRINT_FRAME = "base_footprint"
 MAP_FRAME = "map"
-ROBOT_UNDEFINED = 1  # ObstacleInImage/ObstacleRelative colour constant
+ROBOT_UNDEFINED = ObstacleInImage.ROBOT_UNDEFINED  # ObstacleRelative has the same colours
 
 
-def _point(x: float, y: float, z: float = 0.0) -> Any:
-    return schemas.make("geometry_msgs/msg/Point", x=float(x), y=float(y), z=float(z))
+def _point(x: float, y: float, z: float = 0.0) -> Point:
+    return Point(x=float(x), y=float(y), z=float(z))
 
 
 def jpeg(image: np.ndarray, quality: int) -> bytes:
@@ -35,7 +52,7 @@ def jpeg(image: np.ndarray, quality: int) -> bytes:
     return buf.getvalue()
 
 
-def _header(stamp: float, frame: str) -> Any:
+def _header(stamp: float, frame: str) -> Header:
     return schemas.header(frame, stamp)
 
 
@@ -75,55 +92,55 @@ class SimTopics:
         cam = _header(stamp, OPTICAL_FRAME)
         if image is not None:
             pubs["camera/image/compressed"].publish(schemas.make(
-                "sensor_msgs/msg/CompressedImage", header=cam, format="jpeg", data=np.frombuffer(image, np.uint8)))
+                CompressedImage, header=cam, format="jpeg", data=np.frombuffer(image, np.uint8)))
         pubs["camera/camera_info"].publish(self._camera_info(frame, cam))
         balls = []
         if obs.ball is not None:
-            balls.append(schemas.make(_HL + "BallInImage", center=_point(obs.ball.u, obs.ball.v),
+            balls.append(schemas.make(BallInImage, center=_point(obs.ball.u, obs.ball.v),
                                       diameter=float(obs.ball.diameter), confidence=1.0))
-        pubs["ball_in_image"].publish(schemas.make(_HL + "BallsInImage", header=cam, candidates=balls))
-        posts = [schemas.make(_HL + "PostInImage", foot_point=_point(*p.foot), top_point=_point(*p.top),
+        pubs["ball_in_image"].publish(schemas.make(BallsInImage, header=cam, candidates=balls))
+        posts = [schemas.make(PostInImage, foot_point=_point(*p.foot), top_point=_point(*p.top),
                               width=float(p.width), confidence=1.0) for p in obs.posts]
-        bars = [schemas.make(_HL + "BarInImage", left_point=_point(*a), right_point=_point(*b), width=float(w),
+        bars = [schemas.make(BarInImage, left_point=_point(*a), right_point=_point(*b), width=float(w),
                              confidence=1.0) for a, b, w in obs.bars]
-        pubs["goal_in_image"].publish(schemas.make(_HL + "GoalPartsInImage", header=cam, posts=posts, bars=bars))
-        obstacles = [schemas.make(_HL + "ObstacleInImage", color=ROBOT_UNDEFINED, player_number=o.player_number,
+        pubs["goal_in_image"].publish(schemas.make(GoalPartsInImage, header=cam, posts=posts, bars=bars))
+        obstacles = [schemas.make(ObstacleInImage, color=ROBOT_UNDEFINED, player_number=o.player_number,
                                   top_left=_point(o.u, o.v), height=round(o.height), width=round(o.width),
                                   confidence=1.0) for o in obs.obstacles]
-        pubs["obstacles_in_image"].publish(schemas.make(_HL + "ObstaclesInImage", header=cam, obstacles=obstacles))
-        segments = [schemas.make(_HL + "LineSegmentInImage", start=_point(*a), end=_point(*b), start_width=float(wa),
+        pubs["obstacles_in_image"].publish(schemas.make(ObstaclesInImage, header=cam, obstacles=obstacles))
+        segments = [schemas.make(LineSegmentInImage, start=_point(*a), end=_point(*b), start_width=float(wa),
                                  end_width=float(wb), confidence=1.0) for a, b, wa, wb in obs.lines]
-        pubs["line_information_in_image"].publish(schemas.make(_HL + "LineInformationInImage", header=cam,
+        pubs["line_information_in_image"].publish(schemas.make(LineInformationInImage, header=cam,
                                                                segments=segments))
         foot = _header(stamp, FOOTPRINT_FRAME)
         if obs.ball_relative is not None:
-            pubs["ball_relative"].publish(schemas.make(_HL + "BallRelative", header=foot,
+            pubs["ball_relative"].publish(schemas.make(BallRelative, header=foot,
                                                        ball_relative=_point(*obs.ball_relative),
                                                        confidence=obs.ball_relative_confidence))
         if obs.goal_relative is not None:
             left, right = obs.goal_relative
             centre = (left + right) / 2
-            pubs["goal_relative"].publish(schemas.make(_HL + "GoalRelative", header=foot, left_post=_point(*left),
+            pubs["goal_relative"].publish(schemas.make(GoalRelative, header=foot, left_post=_point(*left),
                                                        right_post=_point(*right), center_direction=_point(*centre),
                                                        confidence=obs.goal_relative_confidence))
-        relative = [schemas.make(_HL + "ObstacleRelative", color=ROBOT_UNDEFINED, player_number=number,
+        relative = [schemas.make(ObstacleRelative, color=ROBOT_UNDEFINED, player_number=number,
                                  position=_point(*pos), width=0.28, height=0.7, confidence=1.0)
                     for number, pos in obs.obstacles_relative]
-        pubs["obstacles_relative"].publish(schemas.make(_HL + "ObstaclesRelative", header=foot, obstacles=relative))
+        pubs["obstacles_relative"].publish(schemas.make(ObstaclesRelative, header=foot, obstacles=relative))
         if obs.position is not None:
             x, y, yaw = obs.position
             pubs["position"].publish(schemas.make(
-                _HL + "Position2D", header=_header(stamp, MAP_FRAME),
-                pose=schemas.make("geometry_msgs/msg/Pose2D", x=x, y=y, theta=yaw), confidence=1.0))
+                Position2D, header=_header(stamp, MAP_FRAME),
+                pose=Pose2D(x=float(x), y=float(y), theta=float(yaw)), confidence=1.0))
         self.frames_published += 1
 
-    def _camera_info(self, frame: CameraFrame, header: Any) -> Any:
+    def _camera_info(self, frame: CameraFrame, header: Header) -> CameraInfo:
         from robot_nodes.cm730.sim.perception import Intrinsics
 
         fovy = float(frame.robot.world.model.cam_fovy[frame.robot.camera_id])
         k = Intrinsics.from_fovy(frame.width, frame.height, fovy)
         return schemas.make(
-            "sensor_msgs/msg/CameraInfo", header=header, height=frame.height, width=frame.width,
+            CameraInfo, header=header, height=frame.height, width=frame.width,
             distortion_model="plumb_bob", d=np.zeros(5),
             k=np.array([k.fx, 0, k.cx, 0, k.fy, k.cy, 0, 0, 1], dtype=float),
             r=np.array([1, 0, 0, 0, 1, 0, 0, 0, 1], dtype=float),
@@ -137,11 +154,10 @@ class SimTopics:
             poses = [(r.robot_id, *r.torso_pose()) for r in world.robots]
             ball = world.ball_position()
         msg = schemas.make(
-            "pitchside_msgs/msg/GroundTruth", header=_header(time.time(), MAP_FRAME),
+            GroundTruth, header=_header(time.time(), MAP_FRAME),
             robot_ids=[p[0] for p in poses],
-            robot_poses=[schemas.make("geometry_msgs/msg/Pose", position=_point(*pos),
-                                      orientation=schemas.make("geometry_msgs/msg/Quaternion", x=q[0], y=q[1],
-                                                               z=q[2], w=q[3]))
+            robot_poses=[Pose(position=_point(*pos),
+                              orientation=Quaternion(x=float(q[0]), y=float(q[1]), z=float(q[2]), w=float(q[3])))
                          for _, pos, q in poses],
             ball=_point(*ball))
         self.pubs["ground_truth"].publish(msg)

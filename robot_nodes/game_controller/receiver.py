@@ -21,6 +21,7 @@ from robot_nodes.game_controller.packets import (
 )
 from robot_nodes.runtime import Node, header, param, run
 from robot_nodes.runtime.udp import UdpPort
+from schemas.messages import GameState
 
 _RECV_SIZE = 2048  # larger than any GC packet, so oversized datagrams arrive whole and are rejected by size
 
@@ -151,7 +152,7 @@ class GameControllerNode(Node):
     def _publish(self) -> None:
         if self._last_fields is None:
             return
-        self.gamestate_pub.publish(schemas.make("humanoid_league_msgs/msg/GameState", header=header(),
+        self.gamestate_pub.publish(schemas.make(GameState, header=header(),
                                                 **self._last_fields))
         self._last_publish_time = time.monotonic()
 

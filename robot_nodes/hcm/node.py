@@ -14,9 +14,17 @@ from robot_nodes.hcm.fall_checker import FallChecker, FallThresholds
 from robot_nodes.hcm.joint_mutex import GoalSource, passes
 from robot_nodes.hcm.state_machine import PUBLISHED_VALUE, Blackboard, HcmState, HcmStateMachine
 from robot_nodes.runtime import GoalStatus, Node, header, param
+from schemas.messages import (
+    AdditionalServoData,
+    Animation,
+    PlayAnimationGoal,
+    RobotControlState,
+    ServoHealth,
+    Speak,
+    StateMachineGraph,
+)
+from schemas.std import Bool, Imu, JointState, JointTrajectory
 from wire.actions import ClientGoal
-
-PLAY_GOAL = "humanoid_league_msgs/action/PlayAnimation_Goal"
 
 
 @dataclass
@@ -100,12 +108,12 @@ class HcmNode(Node):
         self.publish_state()
 
     # -- inputs -------------------------------------------------------------------------------------------
-    def on_imu(self, msg: Any) -> None:
+    def on_imu(self, msg: Imu) -> None:
         self.last_imu = time.monotonic()
         o, g = msg.orientation, msg.angular_velocity
         self.fall_checker.update(self.last_imu, np.array([o.x, o.y, o.z, o.w]), np.array([g.x, g.y, g.z]))
 
-    def on_joint_states(self, msg: Any) -> None:
+    def on_joint_states(self, msg: JointState) -> None:
         # a bus that repeats stale values is as silent as one that says nothing
         positions = np.asarray(msg.position)
         if self.last_joint_positions is None or len(positions) != len(self.last_joint_positions) or \
@@ -114,14 +122,14 @@ class HcmNode(Node):
         self.last_joint_positions = positions
         self.joint_names = list(msg.name)
 
-    def on_paused(self, msg: Any) -> None:
+    def on_paused(self, msg: Bool) -> None:
         self.bb.penalized = bool(msg.data)
         self.step()
 
-    def on_walking_active(self, msg: Any) -> None:
+    def on_walking_active(self, msg: Bool) -> None:
         self.walking_active_flag = bool(msg.data)
 
-    def on_servo_data(self, msg: Any) -> None:
+    def on_servo_data(self, msg: AdditionalServoData) -> None:
         limit = self.params.battery_low_v
         if limit <= 0 or not len(msg.voltage):
             return
@@ -130,7 +138,7 @@ class HcmNode(Node):
             self.speak(f"battery low: {float(np.min(msg.voltage)):.1f} volts", 2)
         self.battery_announced = low
 
-    def on_servo_health(self, msg: Any) -> None:
+    def on_servo_health(self, msg: ServoHealth) -> None:
         # a servo that stops answering keeps its last value in joint_states; the servo bus says which on servo_health
         missing = ",".join(msg.missing_servos)
         if missing != self.missing_servos:
@@ -138,7 +146,7 @@ class HcmNode(Node):
             self.set_diagnostic("missing_servos", missing)
             self.step()
 
-    def on_goals(self, source: GoalSource, trajectory: Any) -> None:
+    def on_goals(self, source: GoalSource, trajectory: JointTrajectory) -> None:
         self.last_motion = time.monotonic()
         if source is GoalSource.WALKING:
             self.last_walk_goal = self.last_motion
@@ -147,7 +155,7 @@ class HcmNode(Node):
         if passes(source, self.machine.state):
             self._forward(source, trajectory)
 
-    def on_animation(self, msg: Any) -> None:
+    def on_animation(self, msg: Animation) -> None:
         now = time.monotonic()
         if msg.hcm:
             if self.own_goal is not None and passes(GoalSource.HCM_ANIMATION, self.machine.state):
@@ -163,7 +171,7 @@ class HcmNode(Node):
         if passes(GoalSource.ANIMATION, self.machine.state):
             self._forward(GoalSource.ANIMATION, msg.position)
 
-    def _forward(self, source: GoalSource, trajectory: Any) -> None:
+    def _forward(self, source: GoalSource, trajectory: JointTrajectory) -> None:
         if not trajectory.points:
             return
         point = trajectory.points[0]
@@ -171,7 +179,7 @@ class HcmNode(Node):
             # efforts of animation and recorder goals are torque switches (1 on, 0 off, -1 unchanged)
             switch = [(n, e) for n, e in zip(trajectory.joint_names, point.effort, strict=True) if e >= 0.0]
             if switch:
-                self.torque_pub.publish(schemas.make("sensor_msgs/msg/JointState", header=header(),
+                self.torque_pub.publish(schemas.make(JointState, header=header(),
                                                      name=[n for n, _ in switch], effort=[e for _, e in switch]))
             point.effort = np.zeros(0)
         if len(point.positions):
@@ -216,7 +224,7 @@ class HcmNode(Node):
     def play(self, animation: str) -> None:
         if self.own_goal is not None and not self.own_goal.done:
             self.own_goal = None  # the new HCM goal preempts the old one at the animation server
-        goal = schemas.make(PLAY_GOAL, animation=animation, hcm=True)
+        goal = schemas.make(PlayAnimationGoal, animation=animation, hcm=True)
         handle: ClientGoal
 
         def on_verdict(h: ClientGoal) -> None:
@@ -225,7 +233,7 @@ class HcmNode(Node):
                 if self.own_goal is h:
                     self.own_goal = None
 
-        def on_result(status: GoalStatus, _result: Any) -> None:
+        def on_result(status: GoalStatus, _result: object) -> None:
             if self.own_goal is handle:
                 self.own_goal = None
                 if status is GoalStatus.ABORTED:
@@ -245,23 +253,22 @@ class HcmNode(Node):
         if not self.joint_names:
             return
         value = 1.0 if enabled else 0.0
-        self.torque_pub.publish(schemas.make("sensor_msgs/msg/JointState", header=header(),
+        self.torque_pub.publish(schemas.make(JointState, header=header(),
                                              name=list(self.joint_names), effort=[value] * len(self.joint_names)))
 
     def speak(self, text: str, priority: int) -> None:
-        self.speak_pub.publish(schemas.make("humanoid_league_msgs/msg/Speak", text=text, priority=priority))
+        self.speak_pub.publish(schemas.make(Speak, text=text, priority=priority))
 
     # -- outputs ------------------------------------------------------------------------------------------
     def publish_state(self) -> None:
-        self.state_pub.publish(schemas.make("humanoid_league_msgs/msg/RobotControlState",
-                                            state=PUBLISHED_VALUE[self.machine.state]))
+        self.state_pub.publish(schemas.make(RobotControlState, state=PUBLISHED_VALUE[self.machine.state]))
         self.set_diagnostic("state", self.machine.state.value)
 
     def publish_graph(self) -> None:
         states, transitions = self.machine.graph()
         history = list(self.machine.history)
         self.graph_pub.publish(schemas.make(
-            "pitchside_msgs/msg/StateMachineGraph",
+            StateMachineGraph,
             header=header(), name="hcm", states=states,
             transition_from=[t[0] for t in transitions], transition_to=[t[1] for t in transitions],
             transition_condition=[t[2] for t in transitions], current=self.machine.state.value,
@@ -308,8 +315,7 @@ class HcmNode(Node):
 
     def on_shutdown(self) -> None:
         self.torque(False)
-        self.state_pub.publish(schemas.make("humanoid_league_msgs/msg/RobotControlState",
-                                            state=PUBLISHED_VALUE[HcmState.HCM_OFF]))
+        self.state_pub.publish(schemas.make(RobotControlState, state=PUBLISHED_VALUE[HcmState.HCM_OFF]))
 
 
 

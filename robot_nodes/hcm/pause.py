@@ -7,13 +7,10 @@ A manual penalty overrides the GameController, not the reverse: paused = manual 
 
 from __future__ import annotations
 
-from typing import Any
-
 import schemas
 from robot_nodes.runtime import Node, run
-
-REQUEST = "humanoid_league_msgs/srv/ManualPenalize_Request"
-RESPONSE = "humanoid_league_msgs/srv/ManualPenalize_Response"
+from schemas.messages import GameState, ManualPenalizeRequest, ManualPenalizeResponse
+from schemas.std import Bool
 
 
 class PauseNode(Node):
@@ -34,27 +31,26 @@ class PauseNode(Node):
     def paused(self) -> bool:
         return self.manual or self.game_controller
 
-    def on_gamestate(self, msg: Any) -> None:
+    def on_gamestate(self, msg: GameState) -> None:
         before = self.paused
         self.game_controller = bool(msg.penalized)
         if self.paused != before:
             self.publish()
 
-    def on_manual_penalize(self, request: Any) -> Any:
-        consts = schemas.constants(REQUEST)
-        if request.penalize == consts["ON"]:
+    def on_manual_penalize(self, request: ManualPenalizeRequest) -> ManualPenalizeResponse:
+        if request.penalize == ManualPenalizeRequest.ON:
             self.manual = True
-        elif request.penalize == consts["OFF"]:
+        elif request.penalize == ManualPenalizeRequest.OFF:
             self.manual = False
-        elif request.penalize == consts["SWITCH"]:
+        elif request.penalize == ManualPenalizeRequest.SWITCH:
             self.manual = not self.manual
         else:
             raise ValueError(f"penalize must be OFF (0), ON (1) or SWITCH (2), not {request.penalize}")
         self.publish()
-        return schemas.make(RESPONSE, penalized=self.paused)
+        return schemas.make(ManualPenalizeResponse, penalized=self.paused)
 
     def publish(self) -> None:
-        self.paused_pub.publish(schemas.make("std_msgs/msg/Bool", data=self.paused))
+        self.paused_pub.publish(schemas.make(Bool, data=self.paused))
         self.set_diagnostic("manual", self.manual)
         self.set_diagnostic("game_controller", self.game_controller)
 

@@ -15,6 +15,9 @@ from robot_nodes.mitecom.protobuf_codec import TeamMessageError
 from robot_nodes.mitecom.report import HCM_PENALTY, NOT_TOLD, SeenRobot, TeammateReport
 from robot_nodes.runtime import Node, header, param, run
 from robot_nodes.runtime.udp import UdpPort
+from schemas.codec import Message
+from schemas.messages import Position2D, TeamData
+from schemas.std import Pose2D
 
 _RECV_SIZE = 65535
 _ROBOT_MAGENTA, _ROBOT_CYAN = 2, 3  # ObstacleRelative colours
@@ -62,7 +65,7 @@ class MitecomNode(Node):
 
     def setup(self) -> None:
         self.team_data_pub = self.publisher("team_data")
-        self.latest: dict[str, tuple[float, Any]] = {}
+        self.latest: dict[str, tuple[float, Message]] = {}
         for topic in ("position", "ball_relative", "strategy", "robot_state", "cmd_vel", "walk_odometry",
                       "obstacles_relative", "gamestate", "goal_relative"):
             self.subscribe(topic, lambda msg, t=topic: self._remember(t, msg))
@@ -79,10 +82,10 @@ class MitecomNode(Node):
         self._send_timer = self.timer(self.params.send_rate_hz, self._tick, "team_messages")
 
     # -- inputs ---------------------------------------------------------------------------------------------
-    def _remember(self, topic: str, msg: Any) -> None:
+    def _remember(self, topic: str, msg: Message) -> None:
         self.latest[topic] = (time.monotonic(), msg)
 
-    def _fresh(self, topic: str, max_age: float | None = None) -> Any:
+    def _fresh(self, topic: str, max_age: float | None = None) -> Any:  # Any: the topic's own class
         item = self.latest.get(topic)
         if item is None:
             return None
@@ -252,18 +255,17 @@ class MitecomNode(Node):
         self._close_socket()
 
 
-def _position(xy: tuple[float, ...] | None, confidence: float) -> Any:
+def _position(xy: tuple[float, ...] | None, confidence: float) -> Position2D:
     x, y, theta = (*xy, 0.0)[:3] if xy is not None else (0.0, 0.0, 0.0)
-    return schemas.make("humanoid_league_msgs/msg/Position2D",
-                        pose=schemas.make("geometry_msgs/msg/Pose2D", x=x, y=y, theta=theta),
+    return schemas.make(Position2D, pose=Pose2D(x=float(x), y=float(y), theta=float(theta)),
                         confidence=confidence if xy is not None else 0.0)
 
 
-def team_data_message(mates: list[tuple[float, TeammateReport]]) -> Any:
+def team_data_message(mates: list[tuple[float, TeammateReport]]) -> TeamData:
     """TeamData from (age s, report) pairs; 255 / NaN where a teammate did not say."""
     nan = float("nan")
     return schemas.make(
-        "humanoid_league_msgs/msg/TeamData",
+        TeamData,
         header=header(),
         robot_ids=[r.robot_id for _, r in mates],
         role=[NOT_TOLD if r.role is None else r.role for _, r in mates],

@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING, Any
 import zenoh
 
 import schemas
+from schemas.codec import Message
 from wire import keys
 from wire.actions import FEEDBACK, GOAL_ID_BYTES, RESULT, GoalStatus, action_types
 
@@ -19,27 +20,27 @@ if TYPE_CHECKING:
 class ServerGoal:
     """The server's handle on one goal: publish feedback, then end it exactly once."""
 
-    def __init__(self, server: ActionServer, goal_id: bytes, goal: Any) -> None:
+    def __init__(self, server: ActionServer, goal_id: bytes, goal: Any) -> None:  # Any: the action's own goal class
         self.id = goal_id
         self.goal = goal
         self.cancel_requested = False
         self.done = False
         self._server = server
 
-    def publish_feedback(self, feedback: Any) -> None:
+    def publish_feedback(self, feedback: Message) -> None:
         if not self.done:
             self._server._events.put(self.id + FEEDBACK + schemas.encode(feedback))
 
-    def succeed(self, result: Any) -> None:
+    def succeed(self, result: Message) -> None:
         self._end(GoalStatus.SUCCEEDED, result)
 
-    def abort(self, result: Any) -> None:
+    def abort(self, result: Message) -> None:
         self._end(GoalStatus.ABORTED, result)
 
-    def canceled(self, result: Any) -> None:
+    def canceled(self, result: Message) -> None:
         self._end(GoalStatus.CANCELED, result)
 
-    def _end(self, status: GoalStatus, result: Any) -> None:
+    def _end(self, status: GoalStatus, result: Message) -> None:
         if self.done:
             return
         self.done = True
@@ -77,7 +78,7 @@ class ActionServer:
         )
         self._robot = robot
 
-    def empty_result(self) -> Any:
+    def empty_result(self) -> Message:
         return schemas.make(self.result_type)
 
     def _reply(self, query: zenoh.Query, part: str, verdict: dict[str, Any]) -> None:

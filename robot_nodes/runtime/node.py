@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import inspect
 import json
 import logging
 import signal
 import threading
 import time
 import traceback
+import typing
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -22,7 +24,8 @@ from robot_nodes.runtime.action_server import ActionServer, ServerGoal
 from robot_nodes.runtime.loop import EventLoop, Timer
 from robot_nodes.runtime.parameters import ParameterStore
 from robot_nodes.runtime.service_server import ServiceServer
-from schemas.codec import SchemaError
+from schemas.codec import Message, SchemaError
+from schemas.std import DiagnosticArray, DiagnosticStatus, Header, KeyValue, Time
 from wire import keys
 from wire.actions import ActionClient
 from wire.bus import BusConfig, add_bus_arguments, bus_from_arguments, load_config_file, open_session
@@ -37,13 +40,28 @@ class NoParams:
     """For nodes without parameters."""
 
 
-def stamp_now() -> Any:
+def stamp_now() -> Time:
     """A builtin_interfaces/Time of the wall clock."""
     return schemas.stamp()
 
 
-def header(frame_id: str = "") -> Any:
+def header(frame_id: str = "") -> Header:
     return schemas.header(frame_id)
+
+
+def _check_handler(topic: schemas.Topic, handler: Callable[..., None], typename: str) -> None:
+    """A handler whose message parameter names a message class must name the topic's: caught at setup, not in a
+    match. Handlers without such an annotation (lambdas, partials) are not checked."""
+    try:
+        hints = typing.get_type_hints(handler)
+        parameters = list(inspect.signature(handler).parameters)
+    except Exception:  # annotations that do not resolve at run time, builtins: nothing to check
+        return
+    declared = hints.get(parameters[-1]) if parameters else None
+    msgtype = getattr(declared, "__msgtype__", None)
+    if isinstance(msgtype, str) and msgtype != typename:
+        raise SchemaError(f"{getattr(handler, '__qualname__', handler)} takes {msgtype}, but {topic.name} carries "
+                          f"{typename}")
 
 
 class Publisher:
@@ -57,7 +75,7 @@ class Publisher:
         self._typename = schemas.codec.full_name(self.topic.type)
         self.count = 0
 
-    def publish(self, msg: Any) -> None:
+    def publish(self, msg: Message) -> None:
         if msg.__msgtype__ != self._typename:
             raise SchemaError(f"{self.topic.name} carries {self._typename}, not {msg.__msgtype__}")
         self._pub.put(schemas.encode(msg))
@@ -80,6 +98,7 @@ class Publisher:
 class Subscription:
     def __init__(self, node: Node, topic: str, handler: Callable[..., None], robot: str) -> None:
         self.topic = schemas.topic(topic)
+        _check_handler(self.topic, handler, schemas.codec.full_name(self.topic.type))
         self.handler = handler
         self.any_robot = robot == keys.ANY_ROBOT
         self.count = 0
@@ -206,7 +225,7 @@ class Node:
         self._declared.append(client)
         return client
 
-    def service(self, name: str, handler: Callable[[Any], Any]) -> ServiceServer:
+    def service(self, name: str, handler: Callable[[Any], Message]) -> ServiceServer:
         server = ServiceServer(self.session, self.loop, self.robot_id, name, handler)
         self._declared.append(server)
         return server
@@ -308,15 +327,14 @@ class Node:
         values.update(self._diag_values)
         level = 1 if self.last_error else 0
         status = schemas.make(
-            "diagnostic_msgs/msg/DiagnosticStatus",
+            DiagnosticStatus,
             level=level,
             name=f"{self.robot_id}/{self.name}",
             message=self.last_error or "OK",
             hardware_id=self.robot_id,
-            values=[schemas.make("diagnostic_msgs/msg/KeyValue", key=k, value=v) for k, v in values.items()],
+            values=[schemas.make(KeyValue, key=k, value=v) for k, v in values.items()],
         )
-        self._diag_pub.publish(schemas.make("diagnostic_msgs/msg/DiagnosticArray", header=header(),
-                                            status=[status]))
+        self._diag_pub.publish(schemas.make(DiagnosticArray, header=header(), status=[status]))
 
     def _announce_parameters(self, changed: dict[str, Any]) -> None:
         """Every accepted change (set, reset, or the node's own) as a JSON event with the new revisions, so

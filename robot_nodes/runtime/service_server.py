@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING, Any
 import zenoh
 
 import schemas
+from schemas.codec import Message
 from wire import keys
 from wire.services import service_types
 
@@ -17,7 +18,7 @@ if TYPE_CHECKING:
 
 class ServiceServer:
     def __init__(self, session: zenoh.Session, loop: EventLoop, robot: str, service: str,
-                 handler: Callable[[Any], Any]) -> None:
+                 handler: Callable[[Any], Message]) -> None:
         self.request_type, self.response_type = service_types(service)
         self._key = keys.service_key(robot, service)
         self._handler = handler

@@ -12,6 +12,7 @@ from robot_nodes.runtime import Node, param
 from robot_nodes.speaker.espeak import SpeechJob, espeak_available, last_sequence, prune_wavs, resolve_output, wav_name
 from robot_nodes.speaker.sentence_queue import HIGH, LOW, MID, PRIORITY_NAMES, SpeechQueue, Utterance
 from robot_nodes.speaker.worker import SpeechResult, SpeechWorker
+from schemas.messages import Speak
 
 DEFAULT_FOLDER = "~/.cache/pitchside/speech"
 _CONTROL = re.compile(r"[\x00-\x1f\x7f]+")
@@ -55,7 +56,7 @@ class SpeakerNode(Node):
         self._update_diagnostics()
 
     # -- sentences in -----------------------------------------------------------------------------------
-    def on_speak(self, msg: Any) -> None:
+    def on_speak(self, msg: Speak) -> None:
         text = _CONTROL.sub(" ", msg.text).strip()[: self.params.max_chars]
         if not text:
             return

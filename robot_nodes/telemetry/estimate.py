@@ -11,7 +11,9 @@ import numpy as np
 import schemas
 from robot_nodes.telemetry.budget import SHARES
 from robot_nodes.telemetry.sender import IMAGE_TOPIC, TelemetryParams, parse_topics
-from schemas.codec import full_name, schema_hash
+from schemas.codec import Message, full_name, schema_hash
+from schemas.messages import BallInImage
+from schemas.std import DiagnosticStatus, Header, JointTrajectoryPoint, KeyValue, Temperature
 from schemas.topics import Priority, topic
 from wire.telemetry.datagram import HEADER_SIZE, OVERVIEW_SIZE, TAG_SIZE, StreamInfo, encode_stream_tables
 
@@ -21,7 +23,7 @@ PASS_THROUGH_IMAGE_BYTES = 60_000  # a 640x480 camera JPEG at quality ~85
 IMAGE_BYTES_PER_PIXEL = 0.12  # downscaled JPEG at quality ~60, textured field scene
 
 
-def _typical(name: str) -> Any:
+def _typical(name: str) -> Message:
     """A message of the sizes a kid-size robot sends (20 joints, a few candidates)."""
     typename = topic(name).type
     names = [f"joint_{i:02d}" for i in range(JOINTS)]
@@ -29,23 +31,21 @@ def _typical(name: str) -> Any:
         return schemas.make(typename, name=names, position=np.zeros(JOINTS), velocity=np.zeros(JOINTS),
                             effort=np.zeros(JOINTS))
     if typename.endswith("JointTrajectory"):
-        point = schemas.make("trajectory_msgs/msg/JointTrajectoryPoint", positions=np.zeros(JOINTS))
+        point = schemas.make(JointTrajectoryPoint, positions=np.zeros(JOINTS))
         return schemas.make(typename, joint_names=names, points=[point])
     if name == "servo_data":
-        temp = schemas.make("sensor_msgs/msg/Temperature", header=schemas.make("std_msgs/msg/Header",
-                                                                               frame_id="joint_00"))
+        temp = schemas.make(Temperature, header=schemas.make(Header, frame_id="joint_00"))
         return schemas.make(typename, temperature=[temp] * JOINTS, voltage=np.zeros(1))
     if name == "diagnostics":
-        kv = schemas.make("diagnostic_msgs/msg/KeyValue", key="rate_hz/some_timer", value="100.0")
-        status = schemas.make("diagnostic_msgs/msg/DiagnosticStatus", name="robot1/node", message="OK",
-                              values=[kv] * 8)
+        kv = schemas.make(KeyValue, key="rate_hz/some_timer", value="100.0")
+        status = schemas.make(DiagnosticStatus, name="robot1/node", message="OK", values=[kv] * 8)
         return schemas.make(typename, status=[status])
     if name == "hcm_graph":
         states = [f"STATE_{i}" for i in range(15)]
         return schemas.make(typename, name="hcm", states=states, transition_from=states * 2,
                             transition_to=states * 2, transition_condition=["condition"] * 30, current="WALKING")
     if name == "ball_in_image":
-        cand = schemas.make("humanoid_league_msgs/msg/BallInImage")
+        cand = schemas.make(BallInImage)
         return schemas.make(typename, candidates=[cand] * 3)
     return schemas.make(typename)
 

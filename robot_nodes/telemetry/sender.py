@@ -16,6 +16,8 @@ from robot_nodes.runtime import Node, Subscription, param
 from robot_nodes.telemetry.budget import ByteBudget, Frame, Stream
 from robot_nodes.telemetry.images import ImageError, shrink_jpeg
 from schemas.codec import schema_hash
+from schemas.messages import RobotControlState
+from schemas.std import CompressedImage
 from schemas.topics import Priority, topic
 from wire.telemetry.datagram import (
     DEFAULT_PORT,
@@ -105,11 +107,10 @@ class _OverviewState:
         self.overview = new_overview()
         self.pose_at: float | None = None
         self.ball_at: float | None = None
-        self._penalty_states = {v for k, v in schemas.constants("humanoid_league_msgs/msg/RobotControlState").items()
-                                if k in ("PENALTY", "PENALTY_ANIMATION")}
+        self._penalty_states = {RobotControlState.PENALTY, RobotControlState.PENALTY_ANIMATION}
         self._gc_penalized = False
 
-    def update(self, name: str, msg: Any) -> None:
+    def update(self, name: str, msg: Any) -> None:  # Any: the class of topic `name`
         o = self.overview
         if name == "robot_state":
             o.hcm_state = msg.state
@@ -258,7 +259,7 @@ class TelemetryNode(Node):
                 for n, hz in self._rates.items()]
 
     # -- input ----------------------------------------------------------------------------------------
-    def _on_message(self, name: str, msg: Any) -> None:
+    def _on_message(self, name: str, msg: Any) -> None:  # Any: the class of topic `name`
         if name in OVERVIEW_SOURCES:
             self._overview.update(name, msg)
         hz = self._rates.get(name)
@@ -275,7 +276,7 @@ class TelemetryNode(Node):
         self.budget.offer(key, topic(name).priority, prepare)
         self._pump()
 
-    def _prepare_image(self, msg: Any) -> bytes | None:
+    def _prepare_image(self, msg: CompressedImage) -> bytes | None:
         """Runs only when the image is about to be sent: superseded images are never re-encoded."""
         if self.params.image_max_width <= 0:
             return schemas.encode(msg)
@@ -286,7 +287,7 @@ class TelemetryNode(Node):
             self.record_error(str(exc))
             return None
         if data is not raw:
-            msg = schemas.make("sensor_msgs/msg/CompressedImage", header=msg.header, format="jpeg",
+            msg = schemas.make(CompressedImage, header=msg.header, format="jpeg",
                                data=np.frombuffer(data, dtype=np.uint8))
         return schemas.encode(msg)
 

@@ -12,9 +12,25 @@ import schemas
 from robot_nodes.runtime import Node, header
 from robot_nodes.walking.engine import WalkEngine, WalkOutput
 from robot_nodes.walking.gait import WalkParams
+from schemas.messages import RobotControlState
+from schemas.std import (
+    Bool,
+    Imu,
+    JointState,
+    JointTrajectory,
+    JointTrajectoryPoint,
+    Odometry,
+    Point,
+    Pose,
+    PoseWithCovariance,
+    Quaternion,
+    Twist,
+    TwistWithCovariance,
+    Vector3,
+)
 
-# the HCM states (RobotControlState) in which walk goals may be produced: CONTROLLABLE, WALKING
-WALKABLE_STATES = (0, 10)
+# the HCM states in which walk goals may be produced
+WALKABLE_STATES = (RobotControlState.CONTROLLABLE, RobotControlState.WALKING)
 ACTIVE_PUBLISH_HZ = 10.0
 ODOM_FRAME, BASE_FRAME = "odom", "base_footprint"
 
@@ -60,27 +76,27 @@ class WalkingNode(Node):
             self.cycle_timer.set_rate(self.params.rate_hz)
 
     # -- inputs -------------------------------------------------------------------------------------------
-    def on_cmd_vel(self, msg: Any) -> None:
+    def on_cmd_vel(self, msg: Twist) -> None:
         values = (float(msg.linear.x), float(msg.linear.y), float(msg.angular.z))
         if not all(math.isfinite(v) for v in values):
             self.record_error(f"cmd_vel with a non-finite value {values}; treated as stop")
             values = (0.0, 0.0, 0.0)
         self.engine.set_command(*values)
 
-    def on_robot_state(self, msg: Any) -> None:
+    def on_robot_state(self, msg: RobotControlState) -> None:
         self.robot_state = int(msg.state)
         self._update_stop()
 
-    def on_paused(self, msg: Any) -> None:
+    def on_paused(self, msg: Bool) -> None:
         self.paused = bool(msg.data)
         self._update_stop()
 
-    def on_imu(self, msg: Any) -> None:
+    def on_imu(self, msg: Imu) -> None:
         o, g = msg.orientation, msg.angular_velocity
         pitch, roll, yaw = tilt_of((o.x, o.y, o.z, o.w))
         self.engine.set_imu(pitch, roll, float(g.y), float(g.x), yaw)
 
-    def on_joint_states(self, msg: Any) -> None:
+    def on_joint_states(self, msg: JointState) -> None:
         self.present = dict(zip(msg.name, (float(p) for p in msg.position), strict=False))
 
     def _update_stop(self) -> None:
@@ -105,26 +121,25 @@ class WalkingNode(Node):
         self.set_diagnostic("phase", self.engine.phase.value)
 
     def publish_goals(self, out: WalkOutput) -> None:
-        point = schemas.make("trajectory_msgs/msg/JointTrajectoryPoint", positions=np.asarray(out.positions))
-        self.goals_pub.publish(schemas.make("trajectory_msgs/msg/JointTrajectory", header=header(),
-                                            joint_names=list(out.names), points=[point]))
+        point = schemas.make(JointTrajectoryPoint, positions=np.asarray(out.positions))
+        self.goals_pub.publish(schemas.make(JointTrajectory, header=header(), joint_names=list(out.names),
+                                            points=[point]))
 
     def publish_odometry(self, out: WalkOutput) -> None:
         o, v = out.odometry, out.velocity
         pose = schemas.make(
-            "geometry_msgs/msg/Pose",
-            position=schemas.make("geometry_msgs/msg/Point", x=o.x, y=o.y, z=0.0),
-            orientation=schemas.make("geometry_msgs/msg/Quaternion", x=0.0, y=0.0, z=math.sin(o.yaw / 2),
-                                     w=math.cos(o.yaw / 2)))
+            Pose,
+            position=Point(x=o.x, y=o.y, z=0.0),
+            orientation=Quaternion(x=0.0, y=0.0, z=math.sin(o.yaw / 2), w=math.cos(o.yaw / 2)))
         twist = schemas.make(
-            "geometry_msgs/msg/Twist",
-            linear=schemas.make("geometry_msgs/msg/Vector3", x=v.x, y=v.y, z=0.0),
-            angular=schemas.make("geometry_msgs/msg/Vector3", x=0.0, y=0.0, z=v.yaw))
+            Twist,
+            linear=Vector3(x=v.x, y=v.y, z=0.0),
+            angular=Vector3(x=0.0, y=0.0, z=v.yaw))
         self.odom_pub.publish(schemas.make(
-            "nav_msgs/msg/Odometry", header=header(ODOM_FRAME), child_frame_id=BASE_FRAME,
-            pose=schemas.make("geometry_msgs/msg/PoseWithCovariance", pose=pose),
-            twist=schemas.make("geometry_msgs/msg/TwistWithCovariance", twist=twist)))
+            Odometry, header=header(ODOM_FRAME), child_frame_id=BASE_FRAME,
+            pose=schemas.make(PoseWithCovariance, pose=pose),
+            twist=schemas.make(TwistWithCovariance, twist=twist)))
 
     def publish_active(self) -> None:
         self.last_active = self.engine.stepping
-        self.active_pub.publish(schemas.make("std_msgs/msg/Bool", data=self.last_active))
+        self.active_pub.publish(schemas.make(Bool, data=self.last_active))

@@ -22,6 +22,7 @@ from schemas.logs.naming import (
     next_series_index,
     rotated_path,
 )
+from schemas.std import String
 from schemas.topics import TOPICS
 
 _COMPRESSION = {"zstd": CompressionType.ZSTD, "lz4": CompressionType.LZ4, "none": CompressionType.NONE,
@@ -161,7 +162,7 @@ class LogWriter:
         self,
         robot_id: str,
         topic: str,
-        msg_or_cdr_bytes: Any,
+        msg_or_cdr_bytes: codec.Message | bytes | bytearray | memoryview,
         typename: str | None = None,
         log_time_ns: int | None = None,
         publish_time_ns: int | None = None,
@@ -219,7 +220,7 @@ class LogWriter:
             payload = json.dumps({"name": name, "log_time_ns": log_time, "data": data or {}})
         except (TypeError, ValueError) as exc:
             raise LogError(f"bookmark {name!r} data is not JSON-serializable: {exc}") from exc
-        cdr = codec.encode(codec.make(BOOKMARK_TYPE, data=payload))
+        cdr = codec.encode(String(data=payload))
         with self._lock:
             writer, _ = self._live()
             writer.add_metadata(BOOKMARK_METADATA_NAME, {"name": name, "log_time_ns": str(log_time),

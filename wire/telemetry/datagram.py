@@ -92,6 +92,7 @@ from cryptography.exceptions import InvalidTag
 from cryptography.hazmat.primitives.ciphers.aead import AESGCM
 
 import schemas
+from schemas.messages import RobotOverview
 from schemas.topics import topic
 from wire import keys
 
@@ -364,19 +365,19 @@ OVERVIEW_SIZE = _OVERVIEW.size  # 64
 OVERVIEW_HASH = int.from_bytes(hashlib.sha256(b"pitchside/telemetry/Overview:1").digest()[:4], "little")
 OVERVIEW_TOPIC = "overview"
 OVERVIEW_TYPE = topic(OVERVIEW_TOPIC).type  # pitchside_msgs/msg/RobotOverview
-UNKNOWN = schemas.constants(OVERVIEW_TYPE)["UNKNOWN"]
-NEVER_MS = schemas.constants(OVERVIEW_TYPE)["NEVER_MS"]
+UNKNOWN = RobotOverview.UNKNOWN
+NEVER_MS = RobotOverview.NEVER_MS
 _NAN = float("nan")
 _NOT_KNOWN = {"hcm_state": UNKNOWN, "game_state": UNKNOWN, "secondary_state": UNKNOWN, "battery_voltage": _NAN,
               "hottest_servo_temperature": _NAN, "pose_age_ms": NEVER_MS, "ball_age_ms": NEVER_MS}
 
 
-def new_overview(**fields: Any) -> Any:
+def new_overview(**fields: Any) -> RobotOverview:
     """A RobotOverview message that knows nothing yet (UNKNOWN, NaN, NEVER_MS) except the fields given."""
-    return schemas.make(OVERVIEW_TYPE, **{**_NOT_KNOWN, **fields})
+    return schemas.make(RobotOverview, **{**_NOT_KNOWN, **fields})
 
 
-def encode_overview(overview: Any) -> bytes:
+def encode_overview(overview: RobotOverview) -> bytes:
     """The 64-byte OVERVIEW body of a RobotOverview message (see the module docstring)."""
     o = overview
     flags = (o.penalized | o.pose_known << 1 | o.ball_known << 2 | o.gamestate_known << 3)
@@ -390,14 +391,14 @@ def encode_overview(overview: Any) -> bytes:
     )
 
 
-def decode_overview(body: bytes) -> Any:
+def decode_overview(body: bytes) -> RobotOverview:
     """The RobotOverview message of a 64-byte OVERVIEW body; TelemetryError("malformed") for another size."""
     if len(body) != OVERVIEW_SIZE:
         raise TelemetryError("malformed", f"overview of {len(body)} bytes, expected {OVERVIEW_SIZE}")
     (hcm, game, secondary, flags, px, py, pt, pc, bx, by, bc, volt, temp, name, own, rival, secs, page,
      bage) = _OVERVIEW.unpack(body)
     return schemas.make(
-        OVERVIEW_TYPE, hcm_state=hcm, game_state=game, secondary_state=secondary, penalized=bool(flags & 1),
+        RobotOverview, hcm_state=hcm, game_state=game, secondary_state=secondary, penalized=bool(flags & 1),
         pose_known=bool(flags & 2), ball_known=bool(flags & 4), gamestate_known=bool(flags & 8), pose_x=px,
         pose_y=py, pose_theta=pt, pose_confidence=pc, ball_x=bx, ball_y=by, ball_confidence=bc,
         battery_voltage=volt, hottest_servo_temperature=temp,

@@ -1,0 +1,79 @@
+"""Our own packages' .msg/.action/.srv files as rosbags type definitions: what messages.py is generated from."""
+
+from __future__ import annotations
+
+import hashlib
+from pathlib import Path
+
+from rosbags.interfaces.typing import Typesdict
+from rosbags.typesys import get_types_from_msg
+
+SCHEMA_DIR = Path(__file__).resolve().parent
+OWN_PACKAGES = ("humanoid_league_msgs", "pitchside_msgs")
+
+
+def _split_sections(text: str) -> list[str]:
+    sections: list[list[str]] = [[]]
+    for line in text.splitlines():
+        if line.strip() == "---":
+            sections.append([])
+        else:
+            sections[-1].append(line)
+    return ["\n".join(s) + "\n" for s in sections]
+
+
+def source_files() -> list[Path]:
+    """Every definition file of our own packages, in a fixed order."""
+    return [path for package in OWN_PACKAGES for kind in ("msg", "action", "srv")
+            for path in sorted((SCHEMA_DIR / package / kind).glob(f"*.{kind}"))]
+
+
+def sources_digest() -> str:
+    """SHA-256 over the definition files' names and texts: messages.py records it to tell when it is stale."""
+    digest = hashlib.sha256()
+    for path in source_files():
+        digest.update(f"{path.relative_to(SCHEMA_DIR).as_posix()}\n".encode())
+        digest.update(path.read_bytes())
+    return digest.hexdigest()
+
+
+def own_texts() -> dict[str, str]:
+    """Message texts of our own packages, keyed by full type name; actions and services split."""
+    defs: dict[str, str] = {}
+    for path in source_files():
+        package, kind = path.parent.parent.name, path.parent.name
+        if kind == "msg":
+            defs[f"{package}/msg/{path.stem}"] = path.read_text()
+        elif kind == "action":
+            goal, result, feedback = _split_sections(path.read_text())
+            for suffix, text in (("Goal", goal), ("Result", result), ("Feedback", feedback)):
+                defs[f"{package}/action/{path.stem}_{suffix}"] = text
+        else:
+            request, response = _split_sections(path.read_text())
+            defs[f"{package}/srv/{path.stem}_Request"] = request
+            defs[f"{package}/srv/{path.stem}_Response"] = response
+    return defs
+
+
+def _qualify(text: str, package: str) -> str:
+    """Rewrites bare type references ("BallInImage") to "package/msg/BallInImage"."""
+    lines = []
+    for line in text.splitlines():
+        stripped = line.strip()
+        if stripped and not stripped.startswith("#"):
+            fieldtype, _, rest = stripped.partition(" ")
+            base = fieldtype.split("[")[0]
+            if base[:1].isupper() and "/" not in base:
+                line = f"{package}/msg/{fieldtype} {rest}"
+        lines.append(line)
+    return "\n".join(lines) + "\n"
+
+
+def own_types() -> Typesdict:
+    """rosbags field definitions of our own types, by full type name."""
+    types: Typesdict = {}
+    for name, text in own_texts().items():
+        parsed = get_types_from_msg(_qualify(text, name.split("/")[0]), name)
+        (definition,) = parsed.values()
+        types[name] = definition  # keep "pkg/srv/X" as named; rosbags would file it under "pkg/srv/msg/X"
+    return types
