@@ -56,10 +56,10 @@ def test_penalize_and_animation(server: RunningServer, bus: BusConfig) -> None:
         assert reply.json()["penalized"] is False and node.penalized is False
         assert server.http.post(f"{url}/penalize", json={"penalize": "maybe"}, timeout=15).status_code == 422
 
-        reply = server.http.post(f"{url}/animation", json={"animation": "wave", "wait": True}, timeout=30)
+        reply = server.http.post(f"{url}/animation-play", json={"animation": "wave", "wait": True}, timeout=30)
         assert reply.status_code == 200, reply.text
         assert reply.json()["status"] == "SUCCEEDED" and reply.json()["result"]["successful"] is True
-        reply = server.http.post(f"{url}/animation", json={"animation": "moonwalk"}, timeout=30)
+        reply = server.http.post(f"{url}/animation-play", json={"animation": "moonwalk"}, timeout=30)
         assert reply.status_code == 409 and "moonwalk" in reply.json()["detail"]
         assert node.goals == ["wave"]
     finally:
