@@ -86,8 +86,7 @@ def numeric_fields(robot: str, topic: str, state: ServerState = Depends(get_stat
     return NumericFields(robot=robot, topic=topic, msgtype=latest.typename, fields=fields)
 
 
-@router.post("/robots/{robot}/penalize", tags=["control"],
-             dependencies=[Depends(valid_robot), Depends(robot_on_link)])
+@router.post("/robots/{robot}/penalize", dependencies=[Depends(valid_robot), Depends(robot_on_link)])
 async def penalize(robot: str, request: PenalizeRequest, state: ServerState = Depends(require_control)) -> Penalized:
     """The HCM's manual_penalize service; a robot that does not answer: 504 (server.http_errors)."""
     consts = schemas.constants("humanoid_league_msgs/srv/ManualPenalize_Request")
