@@ -66,6 +66,8 @@ def test_penalize_and_animation(server: RunningServer, bus: BusConfig) -> None:
         node.shutdown()
     reply = server.http.post(f"{server.url}/api/robots/nobody/penalize", json={"penalize": "on"}, timeout=30)
     assert reply.status_code == 504 and "no answer" in reply.json()["detail"]
+    reply = server.http.get(f"{server.url}/api/robots/nobody/params/hcm", timeout=30)
+    assert reply.status_code == 504 and "did not answer" in reply.json()["detail"]
 
 
 def test_a_command_to_a_robot_gone_silent_fails_at_once(server: RunningServer, bus: BusConfig) -> None:
