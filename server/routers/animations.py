@@ -1,4 +1,7 @@
-"""The animation editor's API: files in the robot's animation folder, edits, checks, preview, play, stop, record.
+"""A robot's animations: files in its animation folder, edits, checks, preview, play, stop, record.
+
+``POST animation-play`` is the one way to play an animation: a saved file (the editor) or a name the robot's
+animation node knows (teleop).
 
 The folder is the one the robot's animation node plays from (its ``animation_dir`` parameter, else
 ``robots/<model>/animations``), so "save, then play by name" plays exactly what was saved. Angles on this
