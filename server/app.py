@@ -12,23 +12,24 @@ from fastapi import FastAPI
 from fastapi.staticfiles import StaticFiles
 
 from server.config import ServerConfig
+from server.http_errors import install_error_statuses
 from server.hub import Hub
 from server.recording.wiring import attach_recording
 from server.routers import (
     animations,
-    control,
+    dashboard,
     message_schemas,
-    params,
-    plots_viewer,
-    robot3d_view,
+    parameters,
+    plots,
+    recordings,
+    replay,
+    robot3d,
     robots,
     session,
     sources,
     teleop,
     ws,
 )
-from server.routers.recordings import router as recordings_router
-from server.routers.replay import router as replay_router
 from server.security import AllowedHosts, Credentials, VenueGuard, VenuePolicy
 from server.security.guard import normalized_origin
 from server.sources import SourceError, SourceSet
@@ -66,9 +67,9 @@ def create_app(config: ServerConfig) -> FastAPI:
         try:
             yield
         finally:
-            for view in state.views.values():
-                with contextlib.suppress(Exception):
-                    await view.stop()
+            with contextlib.suppress(Exception):
+                await recording.stop()
+            await _stop_views(state)
             await source_set.stop_all()
             await asyncio.to_thread(link.close)
 
@@ -76,11 +77,10 @@ def create_app(config: ServerConfig) -> FastAPI:
     app = FastAPI(title="pitchside dashboard", lifespan=lifespan, docs_url=None, redoc_url=None)
     app.state.pitchside = state
     app.add_middleware(VenueGuard, policy=venue_policy(config))
-    recording = attach_recording(app, state)
-    app.include_router(recordings_router)
-    app.include_router(replay_router)
-    for module in (session, robots, message_schemas, sources, control, params, animations, teleop, ws, plots_viewer,
-                   robot3d_view):
+    recording = attach_recording(state)
+    install_error_statuses(app)
+    for module in (recordings, replay, session, dashboard, robots, message_schemas, sources, parameters, animations,
+                   teleop, ws, plots, robot3d):
         app.include_router(module.router)
     app.mount("/", StaticFiles(directory=config.web_dir, html=True), name="web")
     return app
@@ -109,15 +109,23 @@ async def _start_views(state: ServerState) -> None:
         view = Robot3DView(state.hub, config)
         try:
             await view.start()
-            state.views["robot3d"] = view
+            state.robot3d = view
         except Exception as exc:  # a broken URDF must not take the dashboard down
             log.warning("3D robot view not started: %s", exc)
     if config.plots:
         from server.plots import PlotFeed
 
-        plots = PlotFeed(state.hub, config)
+        feed = PlotFeed(state.hub, config)
         try:
-            await plots.start()
-            state.views["plots"] = plots
+            await feed.start()
+            state.plots = feed
         except Exception as exc:
             log.warning("plots not started: %s", exc)
+
+
+async def _stop_views(state: ServerState) -> None:
+    """The 3D view, the plots, then the lab's loops (they send a last zero command and cancel goals)."""
+    for view in (state.robot3d, state.plots, state.lab):
+        if view is not None:
+            with contextlib.suppress(Exception):
+                await view.stop()

@@ -1,7 +1,7 @@
 """Lab tools the control API keeps between requests: held teleop commands, the editor's animation goal, previews.
 
-One ``LabTools`` per app, made on first use and kept in ``state.views["lab"]`` (the app's lifespan stops every
-view, so the teleop loops end with a zero command and the goals are cancelled on shutdown). Everything that
+One ``LabTools`` per app, made on first use and kept in ``state.lab`` (the app's lifespan stops it with the
+views, so the teleop loops end with a zero command and the goals are cancelled on shutdown). Everything that
 sends goes through the server's one Zenoh session (``ZenohLink``), which match mode refuses.
 """
 
@@ -15,7 +15,7 @@ import time
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -24,6 +24,9 @@ from server.state import ServerState
 from wire import keys
 from wire.actions import ActionClient, ClientGoal
 from wire.animation import Animation, AnimationPlayer, mirror_signs_from_axes
+
+if TYPE_CHECKING:
+    from server.robot3d import Robot3DView
 
 TELEOP_HZ = 10.0
 TELEOP_HOLD_S = 0.5  # a command not refreshed for this long stops the robot
@@ -171,8 +174,8 @@ class LabTools:
         return handle.cancel(timeout=GOAL_TIMEOUT_S)
 
     # -- 3D preview ---------------------------------------------------------------------------------
-    def _view(self) -> Any:
-        view = self.state.views.get("robot3d")
+    def _view(self) -> Robot3DView:
+        view = self.state.robot3d
         if view is None or view.server is None:
             raise RuntimeError("the 3D view is off (start the server with --robot3d)")
         return view
@@ -283,10 +286,9 @@ def twist(x: float, y: float, yaw: float) -> Any:
 
 def lab_tools(state: ServerState) -> LabTools:
     """The app's LabTools, made on first use."""
-    lab = state.views.get("lab")
-    if lab is None:
-        lab = state.views["lab"] = LabTools(state)
-    return lab
+    if state.lab is None:
+        state.lab = LabTools(state)
+    return state.lab
 
 
 def finite(value: float, what: str) -> float:

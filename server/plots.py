@@ -2,7 +2,7 @@
 time axis, in a viewer the dashboard embeds.
 
 rerun's server (server.rerun_server, a child process on loopback) serves its web viewer from the wheel (offline)
-and the data over gRPC; the browser reaches both only through the dashboard (server.routers.plots_viewer). What
+and the data over gRPC; the browser reaches both only through the dashboard (server.routers.plots). What
 is plotted is decided in server.plot_series; here it is logged, into that server over gRPC. Every numeric stream is
 thinned by the hub to ``plots_max_hz``; the state streams are few messages a second and taken whole, so a short
 state (FALLING) is never thinned away, and only their changes are logged. rerun's gRPC server keeps at most

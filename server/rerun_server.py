@@ -4,7 +4,7 @@ The SDK's own ``rr.serve_grpc`` listens on every interface (rerun 0.41's Python 
 any Host and any localhost origin, so anyone on the venue network, and a DNS-rebinding page in the laptop's
 browser, could read the plots. The ``rerun`` CLI shipped in the same wheel takes ``--bind``: it serves the viewer's
 files and the data on 127.0.0.1, the gRPC port by default one browsers refuse (server.loopback_ports), and the
-dashboard passes both through its own origin (server.routers.plots_viewer). The SDK logs into it over gRPC.
+dashboard passes both through its own origin (server.routers.plots). The SDK logs into it over gRPC.
 
 The child dies with the dashboard (PR_SET_PDEATHSIG), so a killed dashboard leaves no server holding the plots.
 rerun's usage analytics are off in it (rerun skips them when ``CI`` is set; offline they would fail anyway).

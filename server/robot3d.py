@@ -1,7 +1,7 @@
 """The 3D robot view: a viser server showing each robot's URDF, driven by its joint_states.
 
 viser listens on loopback only, on a port browsers refuse (server.loopback_ports), and closes any WebSocket a
-browser opens to it directly: the page reaches it only through the dashboard (server.routers.robot3d_view), whose
+browser opens to it directly: the page reaches it only through the dashboard (server.routers.robot3d), whose
 checks and Content-Security-Policy then cover it. The panel embeds viser's own client (bundled in the wheel,
 works offline) in an iframe. Updating the scene costs a few ms per robot, so joint angles are applied at most
 ``robot3d_max_hz`` times a second, always with the newest joint_states.

@@ -212,3 +212,24 @@ def test_teleop_keyboard_drives_and_release_stops(browser: Any, server: RunningS
     forward = [m for _, m in cmd_vel.snapshot() if m.linear.x > 0.1]
     assert forward and all(m.linear.x == pytest.approx(0.2) for m in forward)  # the speed slider's default
     assert not page.errors, page.errors
+
+
+def test_teleop_plays_an_animation_by_name(browser: Any, server: RunningServer, bus: BusConfig) -> None:
+    """The teleop panel's play button reaches the robot's animation action server (POST .../animation-play)."""
+    from tests.test_server_control import PenaltyAndAnimationStand
+
+    stand = PenaltyAndAnimationStand("r8", bus).start()
+    try:
+        page = _page(browser, server, "r8")
+        panel = '[data-panel="teleop"]'
+        page.locator(f'{panel} [data-role="anim"]').fill("wave")
+        page.locator(f'{panel} [data-act="play"]').click()
+        wait_for(lambda: stand.goals == ["wave"], 20.0, 0.1, "the animation goal at the robot")
+        page.wait_for_selector(f'{panel} [data-role="status"]:has-text("playing wave")', timeout=TIMEOUT_MS)
+        page.locator(f'{panel} [data-role="anim"]').fill("moonwalk")
+        page.locator(f'{panel} [data-act="play"]').click()
+        page.wait_for_selector(f'{panel} [data-role="status"].bad:has-text("moonwalk")', timeout=TIMEOUT_MS)
+        assert stand.goals == ["wave"]
+        assert not page.errors, page.errors
+    finally:
+        stand.shutdown()

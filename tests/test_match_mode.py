@@ -19,7 +19,7 @@ from tests.teststand import TestStand
 from tests.waiting import wait_for
 
 DUMMY_BODIES = {"/params/{node}": {"values": {"rate_hz": 10}}, "/penalize": {"penalize": "on"},
-                "/animation": {"animation": "stand"}}
+                "/animation-play": {"animation": "stand"}}
 
 
 def control_calls(server: RunningServer) -> list[tuple[str, str, dict[str, Any] | None]]:

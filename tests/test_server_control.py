@@ -56,16 +56,18 @@ def test_penalize_and_animation(server: RunningServer, bus: BusConfig) -> None:
         assert reply.json()["penalized"] is False and node.penalized is False
         assert server.http.post(f"{url}/penalize", json={"penalize": "maybe"}, timeout=15).status_code == 422
 
-        reply = server.http.post(f"{url}/animation", json={"animation": "wave", "wait": True}, timeout=30)
+        reply = server.http.post(f"{url}/animation-play", json={"animation": "wave", "wait": True}, timeout=30)
         assert reply.status_code == 200, reply.text
         assert reply.json()["status"] == "SUCCEEDED" and reply.json()["result"]["successful"] is True
-        reply = server.http.post(f"{url}/animation", json={"animation": "moonwalk"}, timeout=30)
+        reply = server.http.post(f"{url}/animation-play", json={"animation": "moonwalk"}, timeout=30)
         assert reply.status_code == 409 and "moonwalk" in reply.json()["detail"]
         assert node.goals == ["wave"]
     finally:
         node.shutdown()
     reply = server.http.post(f"{server.url}/api/robots/nobody/penalize", json={"penalize": "on"}, timeout=30)
     assert reply.status_code == 504 and "no answer" in reply.json()["detail"]
+    reply = server.http.get(f"{server.url}/api/robots/nobody/params/hcm", timeout=30)
+    assert reply.status_code == 504 and "did not answer" in reply.json()["detail"]
 
 
 def test_a_command_to_a_robot_gone_silent_fails_at_once(server: RunningServer, bus: BusConfig) -> None:

@@ -27,7 +27,7 @@ from wire.machine import machine_addresses
 
 EVIL = "http://evil.example"
 BODIES: dict[str, Any] = {"/params/{node}": {"values": {"rate_hz": 10}}, "/penalize": {"penalize": "on"},
-                          "/animation": {"animation": "stand"}, "/teleop": {"x": 0.1}, "/open": {"path": "x.mcap"}}
+                          "/animation-play": {"animation": "stand"}, "/teleop": {"x": 0.1}, "/open": {"path": "x.mcap"}}
 
 
 @pytest.fixture(scope="module")

@@ -312,7 +312,7 @@ def test_a_slow_browser_holds_back_viser_instead_of_filling_the_proxy(testdata: 
     thread.start()
     try:
         wait_for(lambda: server.started, 30.0, 0.05, "dashboard up")
-        view = app.state.pitchside.views["robot3d"]
+        view = app.state.pitchside.robot3d
         me = psutil.Process()
         with connect(f"ws://127.0.0.1:{port}/robot3d/view", subprotocols=[viser_subprotocol()], max_size=None,
                      max_queue=1, open_timeout=10) as ws:

@@ -1,9 +1,8 @@
-"""How the recorder and the replay source join a dashboard app (routers find them in ``app.state``)."""
+"""How the recorder and the replay source join a dashboard app (routers find them in the server state)."""
 
 from __future__ import annotations
 
 import logging
-from typing import Any
 
 from server.recorder import Recorder
 from server.security import AllowedFolders
@@ -15,7 +14,8 @@ log = logging.getLogger(__name__)
 
 
 class RecordingAndReplay:
-    """Kept in ``state.views["recording"]`` so the app's lifespan stops it with the other views."""
+    """Started and stopped by the app's lifespan; the routers reach the two parts as ``state.recorder`` and
+    ``state.replay``."""
 
     def __init__(self, state: ServerState) -> None:
         config = state.config
@@ -38,9 +38,8 @@ class RecordingAndReplay:
         await self.recorder.close()
 
 
-def attach_recording(app: Any, state: ServerState) -> RecordingAndReplay:
-    lab = RecordingAndReplay(state)
-    app.state.recorder = lab.recorder
-    app.state.replay = lab.replay
-    state.views["recording"] = lab
-    return lab
+def attach_recording(state: ServerState) -> RecordingAndReplay:
+    recording = RecordingAndReplay(state)
+    state.recorder = recording.recorder
+    state.replay = recording.replay
+    return recording

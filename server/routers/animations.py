@@ -1,4 +1,7 @@
-"""The animation editor's API: files in the robot's animation folder, edits, checks, preview, play, stop, record.
+"""A robot's animations: files in its animation folder, edits, checks, preview, play, stop, record.
+
+``POST animation-play`` is the one way to play an animation: a saved file (the editor) or a name the robot's
+animation node knows (teleop).
 
 The folder is the one the robot's animation node plays from (its ``animation_dir`` parameter, else
 ``robots/<model>/animations``), so "save, then play by name" plays exactly what was saved. Angles on this
@@ -26,9 +29,9 @@ import robots
 import schemas
 from server.deps import require_control, robot_on_link, valid_robot
 from server.lab import JointLimits, lab_tools, urdf_joint_limits, urdf_mirror_signs
+from server.robot_parameters import RobotParameters
 from server.security import AllowedFolders
 from server.state import ServerState
-from wire.actions import ActionError
 from wire.animation import (
     Animation,
     AnimationError,
@@ -46,10 +49,11 @@ from wire.animation import (
     validate,
 )
 from wire.animation.animation_file import animation_to_dict
-from wire.parameters import ParameterClient, ParameterError
+from wire.parameters import ParameterError
 
 router = APIRouter(prefix="/api/robots/{robot}", tags=["animations"], dependencies=[Depends(valid_robot)])
 TIMEOUT_S = 3.0
+WAIT_RESULT_S = 60.0  # play with wait: longer than any animation
 PREVIEW_FILE = "_editor_preview"  # "play up to keyframe k" plays a cut copy saved under this name
 FOLDER_CACHE_S = 10.0
 _FILE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,99}$")
@@ -78,9 +82,11 @@ class GhostRequest(BaseModel):
 
 
 class PlayRequest(BaseModel):
-    file: str
-    upto: int | None = None  # play keyframes 0..upto only
-    retry_s: float = 5.0
+    file: str | None = None  # a file in the robot's animation folder ...
+    animation: str | None = None  # ... or an animation the robot's animation node knows by name
+    upto: int | None = None  # play keyframes 0..upto only (file)
+    retry_s: float = 5.0  # how long to try again while the HCM's own animation runs
+    wait: bool = False  # answer with the result (else once the HCM accepted or rejected the goal)
 
 
 class RecordRequest(BaseModel):
@@ -92,10 +98,129 @@ class RecordGoals(BaseModel):
     limp: list[str] = []  # joints with torque off (the animator moves them by hand)
 
 
+# -- answers ----------------------------------------------------------------------------------------------
+class Check(BaseModel):
+    """The animation against the robot's URDF: errors (joints it lacks), warnings (limits, servo speed)."""
+
+    ok: bool
+    errors: list[str]
+    warnings: list[str]
+
+
+class AnimationEntry(BaseModel):
+    file: str  # relative to the folder, without .json
+    name: str | None = None
+    keyframes: int | None = None
+    duration: float | None = None
+    author: str | None = None
+    last_edited: str | None = None
+    error: str | None = None  # a file that does not parse: why
+
+
+class AnimationList(BaseModel):
+    robot: str
+    folder: str
+    found_by: str  # how the folder was found (the animation node's parameter, or the default)
+    animations: list[AnimationEntry]
+
+
+class Joint(BaseModel):
+    name: str
+    lower: float  # deg
+    upper: float  # deg
+    velocity: float  # deg/s
+
+
+class Joints(BaseModel):
+    joints: list[Joint]
+
+
+class AnimationFile(BaseModel):
+    file: str
+    path: str | None = None  # where it was saved (PUT)
+    animation: dict[str, Any]  # Bit-Bots JSON
+    check: Check
+
+
+class EditedAnimation(BaseModel):
+    animation: dict[str, Any]
+    check: Check
+
+
+class Preview(BaseModel):
+    robot: str
+    ghost: str  # the ghost robot's name in the 3D view
+    duration: float | None = None  # POST: seconds the preview plays
+    updates: int | None = None  # GET: poses the ghost has shown
+
+
+class KeyframeGhost(BaseModel):
+    node: str
+    keyframe: int
+    selected: bool
+    opacity: float
+    exists: bool  # the scene holds the node
+    joints: dict[str, float]  # deg, read back from the scene
+
+
+class KeyframeGhosts(BaseModel):
+    robot: str
+    ghost: str
+    keyframes: list[int] | None = None  # POST: the keyframes shown
+    ghosts: list[KeyframeGhost] | None = None  # GET
+    scene_nodes: list[str] | None = None  # GET
+
+
+class GhostsRemoved(BaseModel):
+    robot: str
+    removed: int
+
+
+class PlayReply(BaseModel):
+    robot: str
+    animation: str  # the name the animation node plays
+    accepted: bool
+    keyframes: int | None = None  # a file: how many keyframes play
+    status: str | None = None  # wait: the goal's end
+    result: dict[str, Any] | None = None  # wait: PlayAnimation_Result
+
+
+class PlayStatus(BaseModel):
+    robot: str
+    playing: bool
+    status: str | None = None
+    percent_done: float | None = None
+
+
+class Stopped(BaseModel):
+    robot: str
+    canceled: bool | None = None
+    cancel_error: str | None = None
+    record_mode: bool | None = None
+    record_error: str | None = None
+
+
+class RecordMode(BaseModel):
+    robot: str
+    record_mode: bool
+
+
+class MeasuredPose(BaseModel):
+    robot: str
+    positions: dict[str, float]  # deg
+    age_s: float
+
+
+class GoalsSent(BaseModel):
+    robot: str
+    held: list[str]
+    limp: list[str]
+
+
 # -- where the files are ---------------------------------------------------------------------------------
 def _ask_folder(state: ServerState, robot: str) -> tuple[Path, str]:
     try:
-        described = ParameterClient(state.link.session(), robot, timeout=TIMEOUT_S).describe("animation")
+        described = RobotParameters(state.link.session(), robot, timeout=TIMEOUT_S).describe("animation")
     except ParameterError:
         return robots.animations_dir(), "default (the robot's animation node did not answer)"
     params = {p["name"]: p["value"] for p in described}
@@ -168,7 +293,7 @@ def _parse(body: AnimationBody, source: str) -> Animation:
 
 
 # -- files --------------------------------------------------------------------------------------------
-@router.get("/animations")
+@router.get("/animations", response_model=AnimationList, response_model_exclude_unset=True)
 async def list_animations(robot: str, state: ServerState = Depends(require_control)) -> dict[str, Any]:
     folder, how = await animation_folder(state, robot)
     files = []
@@ -186,7 +311,7 @@ async def list_animations(robot: str, state: ServerState = Depends(require_contr
     return {"robot": robot, "folder": str(folder), "found_by": how, "animations": files}
 
 
-@router.get("/animations/joints")
+@router.get("/animations/joints", response_model=Joints)
 async def robot_joints(robot: str, state: ServerState = Depends(require_control)) -> dict[str, Any]:
     """The robot's movable joints with limits (deg) and top speed (deg/s), for the editor's sliders."""
     limits = joint_limits(state, robot)
@@ -195,7 +320,7 @@ async def robot_joints(robot: str, state: ServerState = Depends(require_control)
                         "velocity": math.degrees(limits.velocity.get(n, 0.0))} for n in limits.names]}
 
 
-@router.get("/animations/{file:path}")
+@router.get("/animations/{file:path}", response_model=AnimationFile, response_model_exclude_unset=True)
 async def read_animation(robot: str, file: str, state: ServerState = Depends(require_control)) -> dict[str, Any]:
     folder, _ = await animation_folder(state, robot)
     path = file_path(folder, file)
@@ -208,7 +333,7 @@ async def read_animation(robot: str, file: str, state: ServerState = Depends(req
     return {"file": path.stem, "animation": animation_to_dict(anim), "check": check(state, robot, anim)}
 
 
-@router.put("/animations/{file:path}")
+@router.put("/animations/{file:path}", response_model=AnimationFile, response_model_exclude_unset=True)
 async def write_animation(robot: str, file: str, body: AnimationBody, state: ServerState = Depends(require_control)
                           ) -> dict[str, Any]:
     """Saves in the Bit-Bots format (author, last_edited now); an upload sends the file's text."""
@@ -227,7 +352,7 @@ async def write_animation(robot: str, file: str, body: AnimationBody, state: Ser
 
 
 # -- editing (pure: nothing is sent to the robot) ------------------------------------------------------
-@router.post("/animation-edit")
+@router.post("/animation-edit", response_model=EditedAnimation)
 async def edit_animation(robot: str, request: EditRequest, state: ServerState = Depends(require_control)
                          ) -> dict[str, Any]:
     """One editor operation of wire.animation.editing; the browser keeps the old version for undo."""
@@ -253,13 +378,13 @@ async def edit_animation(robot: str, request: EditRequest, state: ServerState = 
     return {"animation": animation_to_dict(out), "check": check(state, robot, out)}
 
 
-@router.post("/animation-check")
+@router.post("/animation-check", response_model=Check)
 async def check_animation(robot: str, body: AnimationBody, state: ServerState = Depends(require_control)
                           ) -> dict[str, Any]:
     return check(state, robot, _parse(body, "<editor>"))
 
 
-@router.post("/animation-preview")
+@router.post("/animation-preview", response_model=Preview, response_model_exclude_unset=True)
 async def preview_animation(robot: str, body: AnimationBody, state: ServerState = Depends(require_control)
                             ) -> dict[str, Any]:
     """Plays the animation on a ghost robot in the 3D view, starting at the robot's measured pose."""
@@ -273,7 +398,7 @@ async def preview_animation(robot: str, body: AnimationBody, state: ServerState 
     return {"robot": robot, "ghost": f"{robot}_preview", "duration": duration}
 
 
-@router.get("/animation-preview")
+@router.get("/animation-preview", response_model=Preview, response_model_exclude_unset=True)
 async def preview_status(robot: str, state: ServerState = Depends(require_control)) -> dict[str, Any]:
     """How many poses the ghost robot has shown (0: no preview yet)."""
     return {"robot": robot, "ghost": f"{robot}_preview", "updates": lab_tools(state).preview_updates(robot)}
@@ -288,7 +413,7 @@ def _start_pose(state: ServerState, robot: str) -> dict[str, float] | None:
     return {n: float(p) for n, p in zip(msg.name, msg.position, strict=False) if math.isfinite(p)}
 
 
-@router.post("/animation-ghosts")
+@router.post("/animation-ghosts", response_model=KeyframeGhosts, response_model_exclude_unset=True)
 async def show_keyframe_ghosts(robot: str, request: GhostRequest, state: ServerState = Depends(require_control)
                                ) -> dict[str, Any]:
     """A still, faint ghost per keyframe in the 3D view (onion skin where the preview ghost moves); replaces the
@@ -303,14 +428,14 @@ async def show_keyframe_ghosts(robot: str, request: GhostRequest, state: ServerS
     return {"robot": robot, "ghost": f"{robot}_keyframes", "keyframes": shown}
 
 
-@router.get("/animation-ghosts")
+@router.get("/animation-ghosts", response_model=KeyframeGhosts, response_model_exclude_unset=True)
 async def keyframe_ghosts_status(robot: str, state: ServerState = Depends(require_control)) -> dict[str, Any]:
     """The keyframe ghosts in the scene, with the joint angles (deg) read back from viser's scene nodes."""
     status = await asyncio.to_thread(lab_tools(state).keyframe_status, robot)
     return {"robot": robot, "ghost": f"{robot}_keyframes", **status}
 
 
-@router.delete("/animation-ghosts")
+@router.delete("/animation-ghosts", response_model=GhostsRemoved)
 async def clear_keyframe_ghosts(robot: str, state: ServerState = Depends(require_control)) -> dict[str, Any]:
     """Removes the keyframe ghosts (the editor closed, or ghosts switched off)."""
     return {"robot": robot, "removed": await lab_tools(state).clear_keyframes(robot)}
@@ -318,43 +443,54 @@ async def clear_keyframe_ghosts(robot: str, state: ServerState = Depends(require
 
 # -- on the robot ---------------------------------------------------------------------------------------
 def _set_record_mode(state: ServerState, robot: str, on: bool) -> dict[str, Any]:
-    return ParameterClient(state.link.session(), robot, timeout=TIMEOUT_S).set("hcm", {"record_mode": on})
+    return RobotParameters(state.link.session(), robot, timeout=TIMEOUT_S).set("hcm", {"record_mode": on})
 
 
-@router.post("/animation-play", dependencies=[Depends(robot_on_link)])
-async def play_animation_file(robot: str, request: PlayRequest, state: ServerState = Depends(require_control)
-                              ) -> dict[str, Any]:
-    """Leaves RECORD, then plays the saved file by name (keyframes 0..upto only, if upto is given)."""
-    folder, _ = await animation_folder(state, robot)
-    path = file_path(folder, request.file)
-    try:
-        anim = load_animation(path)
-    except AnimationError as exc:
-        raise HTTPException(404 if not path.exists() else 422, str(exc)) from exc
-    name = anim.name
-    if request.upto is not None:
-        if not 0 <= request.upto < len(anim.keyframes):
-            raise HTTPException(422, f"no keyframe {request.upto} (the animation has {len(anim.keyframes)})")
-        cut = copy.deepcopy(anim)
-        cut.name, cut.keyframes = PREVIEW_FILE, cut.keyframes[:request.upto + 1]
-        await asyncio.to_thread(save_animation, cut, folder / f"{PREVIEW_FILE}.json")
-        name = PREVIEW_FILE
+@router.post("/animation-play", dependencies=[Depends(robot_on_link)], response_model=PlayReply,
+             response_model_exclude_unset=True)
+async def play_animation(robot: str, request: PlayRequest, state: ServerState = Depends(require_control)
+                         ) -> dict[str, Any]:
+    """Plays an animation on the robot: a saved ``file`` of the robot's animation folder (the editor: leaves RECORD
+    first, and plays keyframes 0..upto only if upto is given), or an ``animation`` the animation node knows by name
+    (teleop). ``wait``: answer with the result, else once the HCM accepted or rejected the goal."""
+    if (request.file is None) == (request.animation is None):
+        raise HTTPException(422, "give either 'file' (a saved animation file) or 'animation' (a name)")
     lab = lab_tools(state)
+    if request.animation is not None:
+        name, keyframes = request.animation, None
+    else:
+        folder, _ = await animation_folder(state, robot)
+        path = file_path(folder, request.file or "")
+        try:
+            anim = load_animation(path)
+        except AnimationError as exc:
+            raise HTTPException(404 if not path.exists() else 422, str(exc)) from exc
+        name, keyframes = anim.name, len(anim.keyframes)
+        if request.upto is not None:
+            if not 0 <= request.upto < len(anim.keyframes):
+                raise HTTPException(422, f"no keyframe {request.upto} (the animation has {len(anim.keyframes)})")
+            cut = copy.deepcopy(anim)
+            cut.name, cut.keyframes = PREVIEW_FILE, cut.keyframes[:request.upto + 1]
+            await asyncio.to_thread(save_animation, cut, folder / f"{PREVIEW_FILE}.json")
+            name, keyframes = PREVIEW_FILE, request.upto + 1
 
     def send() -> Any:
-        with contextlib.suppress(ParameterError):  # a robot without HCM plays anyway
-            if "record_mode" in _set_record_mode(state, robot, False).get("changed", []):
-                _wait_controllable(state, robot, time.time(), request.retry_s)
+        if request.file is not None:
+            with contextlib.suppress(ParameterError):  # a robot without HCM plays anyway
+                if "record_mode" in _set_record_mode(state, robot, False).get("changed", []):
+                    _wait_controllable(state, robot, time.time(), request.retry_s)
         return lab.play(robot, name, request.retry_s)
 
-    try:
-        handle = await asyncio.to_thread(send)
-    except ActionError as exc:
-        raise HTTPException(504, str(exc)) from exc
+    handle = await asyncio.to_thread(send)  # ActionError: 504 (server.http_errors)
     if not handle.accepted:
         raise HTTPException(409, f"animation {name!r} rejected: {handle.reason}")
-    return {"robot": robot, "animation": name, "accepted": True, "keyframes": len(anim.keyframes)
-            if request.upto is None else request.upto + 1}
+    reply: dict[str, Any] = {"robot": robot, "animation": name, "accepted": True}
+    if keyframes is not None:
+        reply["keyframes"] = keyframes
+    if request.wait:
+        status, result = await asyncio.to_thread(handle.wait_result, WAIT_RESULT_S)
+        reply.update(status=status.name, result=schemas.to_dict(result))
+    return reply
 
 
 def _wait_controllable(state: ServerState, robot: str, since: float, timeout: float) -> bool:
@@ -371,7 +507,7 @@ def _wait_controllable(state: ServerState, robot: str, since: float, timeout: fl
     return False
 
 
-@router.get("/animation-play")
+@router.get("/animation-play", response_model=PlayStatus, response_model_exclude_unset=True)
 async def play_status(robot: str, state: ServerState = Depends(require_control)) -> dict[str, Any]:
     handle = lab_tools(state).goals.get(robot)
     if handle is None:
@@ -381,7 +517,7 @@ async def play_status(robot: str, state: ServerState = Depends(require_control))
             "percent_done": float(handle.feedback[-1].percent_done) if handle.feedback else 0.0}
 
 
-@router.post("/animation-stop")
+@router.post("/animation-stop", response_model=Stopped, response_model_exclude_unset=True)
 async def stop_animation(robot: str, state: ServerState = Depends(require_control)) -> dict[str, Any]:
     """Always tries both: cancel the editor's goal and leave RECORD; says what each did."""
     lab = lab_tools(state)
@@ -398,13 +534,10 @@ async def stop_animation(robot: str, state: ServerState = Depends(require_contro
     return out
 
 
-@router.post("/record", dependencies=[Depends(robot_on_link)])
+@router.post("/record", dependencies=[Depends(robot_on_link)], response_model=RecordMode)
 async def record_mode(robot: str, request: RecordRequest, state: ServerState = Depends(require_control)
                       ) -> dict[str, Any]:
-    try:
-        await asyncio.to_thread(_set_record_mode, state, robot, request.on)
-    except ParameterError as exc:
-        raise HTTPException(504 if "did not answer" in str(exc) else 422, str(exc)) from exc
+    await asyncio.to_thread(_set_record_mode, state, robot, request.on)  # NodeSilent: 504, a refusal: 422
     return {"robot": robot, "record_mode": request.on}
 
 
@@ -418,13 +551,13 @@ def measured_pose(state: ServerState, robot: str) -> tuple[dict[str, float], flo
             time.monotonic() - latest.received)
 
 
-@router.get("/record/pose")
+@router.get("/record/pose", response_model=MeasuredPose)
 async def record_pose(robot: str, state: ServerState = Depends(require_control)) -> dict[str, Any]:
     positions, age = measured_pose(state, robot)
     return {"robot": robot, "positions": positions, "age_s": age}
 
 
-@router.post("/record/goals", dependencies=[Depends(robot_on_link)])
+@router.post("/record/goals", dependencies=[Depends(robot_on_link)], response_model=GoalsSent)
 async def record_goals(robot: str, goals: RecordGoals, state: ServerState = Depends(require_control)
                        ) -> dict[str, Any]:
     """record_motor_goals: held joints go to their goals (torque on), limp joints get torque off at their pose."""

@@ -7,11 +7,24 @@ import functools
 from typing import Any
 
 from fastapi import APIRouter
+from pydantic import BaseModel
 
 from schemas import TOPICS, constants
 from schemas.codec import typestore
 
 router = APIRouter(prefix="/api", tags=["schemas"])
+
+
+class TopicInfo(BaseModel):
+    type: str  # the message type, e.g. sensor_msgs/msg/JointState
+    description: str
+    priority: str  # the telemetry priority's name
+    event: bool  # sent on change rather than at a rate
+
+
+class SchemaInfo(BaseModel):
+    topics: dict[str, TopicInfo]
+    constants: dict[str, dict[str, Any]]  # per message type: constant name -> value, as the .msg file says
 
 
 def carried_types() -> list[str]:
@@ -45,7 +58,7 @@ def schema_info() -> dict[str, Any]:
     }
 
 
-@router.get("/schemas")
+@router.get("/schemas", response_model=SchemaInfo)
 def message_schemas() -> dict[str, Any]:
     """The topic table and the constants of the messages its topics carry (state names, colours, levels)."""
     return schema_info()

@@ -6,8 +6,6 @@ for a page opened without it: paste the token, and the browser gets the same Htt
 
 from __future__ import annotations
 
-from typing import Any
-
 from fastapi import APIRouter, Depends, HTTPException, Response
 from pydantic import BaseModel, Field
 from starlette.requests import HTTPConnection
@@ -22,22 +20,27 @@ class SignIn(BaseModel):
     token: str = Field(max_length=200)
 
 
+class Session(BaseModel):
+    control: bool  # this browser shows the credential
+    match_mode: bool
+
+
 @router.get("")
-def session_status(conn: HTTPConnection, state: ServerState = Depends(get_state)) -> dict[str, Any]:
-    return {"control": has_credential(conn, state), "match_mode": state.config.match_mode}
+def session_status(conn: HTTPConnection, state: ServerState = Depends(get_state)) -> Session:
+    return Session(control=has_credential(conn, state), match_mode=state.config.match_mode)
 
 
 @router.post("")
 def sign_in(request: SignIn, conn: HTTPConnection, response: Response,
-            state: ServerState = Depends(get_state)) -> dict[str, Any]:
+            state: ServerState = Depends(get_state)) -> Session:
     credentials = credentials_of(state)
     if not credentials.token_matches(request.token.strip()):
         raise HTTPException(401, "that is not this server's token (it prints it at start-up)")
     response.headers["set-cookie"] = credentials.session_cookie(secure=conn.url.scheme == "https")
-    return {"control": True, "match_mode": state.config.match_mode}
+    return Session(control=True, match_mode=state.config.match_mode)
 
 
 @router.delete("")
-def sign_out(response: Response, state: ServerState = Depends(get_state)) -> dict[str, Any]:
+def sign_out(response: Response, state: ServerState = Depends(get_state)) -> Session:
     response.headers["set-cookie"] = credentials_of(state).expired_cookie()
-    return {"control": False, "match_mode": state.config.match_mode}
+    return Session(control=False, match_mode=state.config.match_mode)

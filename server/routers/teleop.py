@@ -6,8 +6,6 @@ stop (released, tab closed, network gone), the server sends zero after ``hold_s`
 
 from __future__ import annotations
 
-from typing import Any
-
 from fastapi import APIRouter, Depends
 from pydantic import BaseModel, Field
 
@@ -25,14 +23,30 @@ class DriveCommand(BaseModel):
     hold_s: float = Field(TELEOP_HOLD_S, gt=0.0, le=2.0, description="zero after this long without a refresh")
 
 
+class Driving(BaseModel):
+    robot: str
+    x: float
+    y: float
+    yaw: float
+    rate_hz: float  # cmd_vel is sent this often while held
+    sent: int  # cmd_vel messages sent for this hold so far
+
+
+class Halted(BaseModel):
+    robot: str
+    x: float
+    y: float
+    yaw: float
+
+
 @router.post("", dependencies=[Depends(robot_on_link)])
-async def drive(robot: str, command: DriveCommand, state: ServerState = Depends(require_control)) -> dict[str, Any]:
+async def drive(robot: str, command: DriveCommand, state: ServerState = Depends(require_control)) -> Driving:
     cmd = await lab_tools(state).drive(robot, command.x, command.y, command.yaw, command.hold_s)
-    return {"robot": robot, "x": cmd.x, "y": cmd.y, "yaw": cmd.yaw, "rate_hz": TELEOP_HZ, "sent": cmd.sent}
+    return Driving(robot=robot, x=cmd.x, y=cmd.y, yaw=cmd.yaw, rate_hz=TELEOP_HZ, sent=cmd.sent)
 
 
 @router.post("/stop")
-async def stop(robot: str, state: ServerState = Depends(require_control)) -> dict[str, Any]:
+async def stop(robot: str, state: ServerState = Depends(require_control)) -> Halted:
     """Zero at once (also when nothing was being sent)."""
     await lab_tools(state).halt(robot)
-    return {"robot": robot, "x": 0.0, "y": 0.0, "yaw": 0.0}
+    return Halted(robot=robot, x=0.0, y=0.0, yaw=0.0)

@@ -155,6 +155,22 @@ class ReplayRefused(SourceError):
     """A log outside the folders replay may open from."""
 
 
+class LogNotFound(SourceError):
+    """No log file of that name (in the recordings folder, or at that path)."""
+
+
+class UnreadableLog(SourceError):
+    """The file is there but is no log replay can read."""
+
+
+class NoLogOpen(SourceError):
+    """A timeline control or the log's contents asked for while no log is open."""
+
+
+class BadTimelineRequest(SourceError):
+    """A speed or a position the timeline cannot take."""
+
+
 class ReplaySource(Source):
     """Plays one log into the hub; the state the timeline shows is ``status()``."""
 
@@ -193,13 +209,13 @@ class ReplaySource(Source):
             except FolderError as exc:
                 raise ReplayRefused(str(exc)) from None
             if not path.is_file():
-                raise SourceError(f"no log file {name!r}")
+                raise LogNotFound(f"no log file {name!r}")
             return path
         path = Path(name).expanduser()
         if not path.is_absolute() and self.folder is not None and not path.exists():
             path = self.folder / path
         if not path.exists():
-            raise SourceError(f"no log file {name!r}")
+            raise LogNotFound(f"no log file {name!r}")
         return path
 
     async def open(self, name: str | Path) -> dict[str, Any]:
@@ -214,7 +230,7 @@ class ReplaySource(Source):
                 self.file = await asyncio.to_thread(ReplayFile, reader, path)
             except LogError as exc:
                 self.state, self.error = "closed", str(exc)
-                raise SourceError(str(exc)) from exc
+                raise UnreadableLog(str(exc)) from exc
             self.progress = 1.0
             self.position_ns = self._next_ns = self.file.start_ns
             self.delivered = self.skipped = 0
@@ -249,7 +265,7 @@ class ReplaySource(Source):
     # -- the timeline -----------------------------------------------------------------------------------
     def _need_file(self) -> ReplayFile:
         if self.file is None:
-            raise SourceError("no log is open (POST /api/replay/open first)")
+            raise NoLogOpen("no log is open (POST /api/replay/open first)")
         return self.file
 
     def play(self) -> None:
@@ -272,7 +288,7 @@ class ReplaySource(Source):
 
     def set_speed(self, speed: float) -> float:
         if not isinstance(speed, int | float) or not math.isfinite(speed) or not MIN_SPEED <= speed <= MAX_SPEED:
-            raise SourceError(f"speed must be between {MIN_SPEED} and {MAX_SPEED}, not {speed!r}")
+            raise BadTimelineRequest(f"speed must be between {MIN_SPEED} and {MAX_SPEED}, not {speed!r}")
         self.speed = float(speed)
         self._wake.set()  # the player re-anchors its clock
         return self.speed
@@ -281,7 +297,7 @@ class ReplaySource(Source):
         """Jumps to ``t_s`` seconds after the log's start; panels get each stream's state just before it."""
         file = self._need_file()
         if not isinstance(t_s, int | float) or not math.isfinite(t_s):
-            raise SourceError(f"seek needs a time in seconds, not {t_s!r}")
+            raise BadTimelineRequest(f"seek needs a time in seconds, not {t_s!r}")
         target = file.start_ns + int(max(0.0, min(t_s, (file.end_ns - file.start_ns) / 1e9)) * 1e9)
         was_playing = self.state == "playing"
         self._halt()

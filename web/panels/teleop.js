@@ -100,7 +100,7 @@ export default {
         if (act === "halt") { state.keys.clear(); release(); active = false; await api("POST", `${base()}/teleop/stop`); status("stopped"); }
         if (act === "play") {
           const name = $('[data-role="anim"]').value.trim();
-          await api("POST", `${base()}/animation`, { animation: name });
+          await api("POST", `${base()}/animation-play`, { animation: name });
           status(`playing ${name}`);
         }
         if (act === "penalize" || act === "unpenalize") {

@@ -1,4 +1,5 @@
-"""The plots through the dashboard's origin: rerun's web viewer (GET /plots/viewer/...) and its data stream.
+"""The plots: their status and the topics plotted (/api/plots), and, through the dashboard's origin, rerun's web
+viewer (GET /plots/viewer/...) and its data stream.
 
 rerun's server listens on loopback only (server.rerun_server); the browser reaches it only here, so the dashboard's
 checks of Host, Origin and credential cover the plots too.
@@ -27,16 +28,20 @@ from __future__ import annotations
 import re
 from functools import cache
 from importlib.metadata import version
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import httpx
 from fastapi import APIRouter, Depends, HTTPException, Request
 from fastapi.responses import Response, StreamingResponse
+from pydantic import BaseModel
 from starlette.background import BackgroundTask
 
-from server.deps import get_state
+from server.deps import get_state, require_token
 from server.loopback_ports import LOOPBACK
 from server.state import ServerState
+
+if TYPE_CHECKING:
+    from server.plots import PlotFeed
 
 router = APIRouter(tags=["plots"])
 
@@ -71,11 +76,53 @@ def content_security_policy() -> str:
     ])
 
 
-def _plots(state: ServerState) -> Any:
-    plots = state.views.get("plots")
-    if plots is None:
+class PlotTopic(BaseModel):
+    robot: str = "*"
+    topic: str
+    plotted: bool = True
+
+
+class PlottedTopic(BaseModel):
+    robot: str
+    topic: str
+
+
+class PlotsStatus(BaseModel):
+    """What the viewer is fed; with the plots off, only ``logged`` (0) and ``robots`` (empty)."""
+
+    logged: int
+    robots: list[str]
+    web_port: int | None = None  # rerun's loopback ports (a native viewer on this laptop can read the gRPC one)
+    grpc_port: int | None = None
+    server_running: bool | None = None
+    state_changes: int | None = None
+    series: int | None = None
+    topics: dict[str, list[str]] | None = None  # per robot, the topics plotted
+    chosen: list[PlottedTopic] | None = None  # chosen on the page (robot "*": every robot)
+    all_topics: bool | None = None  # --plots-all-topics: every topic is plotted
+
+
+def _plots(state: ServerState) -> PlotFeed:
+    if state.plots is None:
         raise HTTPException(404, "plots are off (start the server with --plots)")
-    return plots
+    return state.plots
+
+
+@router.get("/api/plots", response_model=PlotsStatus, response_model_exclude_unset=True)
+def plots_status(state: ServerState = Depends(get_state)) -> dict[str, Any]:
+    """Whether plots are served, and how many messages the rerun viewer has been fed."""
+    return state.plots.status() if state.plots is not None else {"logged": 0, "robots": []}
+
+
+@router.post("/api/plots/topics", response_model=PlotsStatus, response_model_exclude_unset=True)
+def plot_topic(choice: PlotTopic, state: ServerState = Depends(require_token)) -> dict[str, Any]:
+    """Plots every numeric field of a topic (of one robot or all) from now on, or stops. Only the server's own
+    viewer changes: allowed in match mode, as nothing goes to a robot."""
+    plots = _plots(state)
+    if not choice.topic.strip():
+        raise HTTPException(422, "no topic given")
+    plots.choose(choice.robot, choice.topic, choice.plotted)
+    return plots.status()
 
 
 @router.get(VIEWER + "/{path:path}")

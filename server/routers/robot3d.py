@@ -1,4 +1,5 @@
-"""/robot3d/view/: viser's client page and its WebSocket, passed through from viser on loopback.
+"""The 3D view: its status (/api/robot3d), and viser's client page and its WebSocket (/robot3d/view/), passed through
+from viser on loopback.
 
 viser listens on loopback only and refuses browsers (server.robot3d), so the dashboard's origin is the one way in,
 and the dashboard's checks of Host, Origin and credential cover the 3D view too. viser's client derives its
@@ -26,16 +27,20 @@ import hashlib
 import logging
 import re
 from functools import lru_cache
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import httpx
 import numpy as np
 from fastapi import APIRouter, Depends, HTTPException, WebSocket
 from fastapi.responses import RedirectResponse, Response
+from pydantic import BaseModel
 
 from server.deps import get_state
 from server.loopback_ports import LOOPBACK
 from server.state import ServerState
+
+if TYPE_CHECKING:
+    from server.robot3d import Robot3DView
 
 log = logging.getLogger(__name__)
 router = APIRouter(tags=["robot3d"])
@@ -128,11 +133,31 @@ def content_security_policy(scripts: tuple[str, ...]) -> str:
     ])
 
 
-def _view(state: ServerState) -> Any:
-    view = state.views.get("robot3d")
+class RobotShown(BaseModel):
+    updates: int  # joint updates applied
+    joints: list[str]
+
+
+class Robot3dStatus(BaseModel):
+    port: int | None  # viser's loopback port; None: the view is off
+    viewers: int  # browsers showing the scene
+    failed: dict[str, str]  # robots whose model did not load, with the reason
+    robots: dict[str, RobotShown]
+
+
+def _view(state: ServerState) -> Robot3DView:
+    view = state.robot3d
     if view is None or view.server is None:
         raise HTTPException(404, "the 3D view is off (start the server with --robot3d)")
     return view
+
+
+@router.get("/api/robot3d", response_model=Robot3dStatus)
+def robot3d_status(state: ServerState = Depends(get_state)) -> dict[str, Any]:
+    """Which robots the 3D view shows (joint updates applied) and which failed to load, with the reason; how many
+    browsers show it; viser's loopback port."""
+    view = state.robot3d
+    return view.status() if view is not None else {"port": None, "viewers": 0, "failed": {}, "robots": {}}
 
 
 @router.get(PREFIX, include_in_schema=False)
@@ -168,7 +193,7 @@ async def view_socket(websocket: WebSocket, state: ServerState = Depends(get_sta
     from websockets.exceptions import WebSocketException
     from websockets.typing import Subprotocol
 
-    view = state.views.get("robot3d")
+    view = state.robot3d
     if view is None or view.server is None:
         await websocket.close(1008, "the 3D view is off")
         return

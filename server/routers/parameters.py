@@ -1,0 +1,189 @@
+"""/api/robots/{robot}/params: the parameters of a robot's nodes. List, read, write (with the revision a write is
+based on), reset to default, save to YAML, diff against the YAML, and the change events of a robot's nodes as
+server-sent events (``.../params/*/events``) for the panel to follow.
+
+Everything here talks to robots over Zenoh (the server's ZenohLink), so every endpoint depends on
+``require_control``: 403 with the reason in match mode, 401 without the credential. The diff compares each live
+value with what the node would start with: the value in the robot model's ``robots/<model>/params.yaml`` (the file
+``pitchside robot`` starts the nodes with), else the declared default.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import json
+import re
+from collections.abc import AsyncIterator
+from typing import Any, Literal
+
+import zenoh
+from fastapi import APIRouter, Depends, HTTPException
+from fastapi.responses import StreamingResponse
+from pydantic import BaseModel, ConfigDict, Field
+
+import robots
+from server.deps import require_control, robot_on_link, valid_node, valid_robot
+from server.robot_parameters import RobotParameters
+from server.state import ServerState
+from wire import keys
+from wire.parameters import load_yaml_section
+
+router = APIRouter(prefix="/api/robots/{robot}/params", tags=["parameters"], dependencies=[Depends(valid_robot)])
+_NAME = re.compile(r"^[A-Za-z0-9_.-]+$")  # a robot or node name: nothing a Zenoh key expression would read as a pattern
+EVENTS_KEEPALIVE_S = 15.0  # a comment line this often, so proxies and the browser see the stream alive
+EVENTS_QUEUE = 1000  # a browser this far behind loses events and is told to read everything again
+ON_LINK = [Depends(robot_on_link), Depends(valid_node)]
+
+
+class ParameterWrite(BaseModel):
+    values: dict[str, Any]
+    revisions: dict[str, int] | None = None
+
+
+class ResetRequest(BaseModel):
+    names: list[str] = []  # empty: every parameter of the node
+
+
+class Parameter(BaseModel):
+    """One parameter as its node describes it."""
+
+    model_config = ConfigDict(extra="allow")  # the node's description, passed on whole
+    name: str
+    type: str
+    value: Any
+    default: Any
+    range: list[float] | None = None
+    choices: list[Any] | None = None
+    doc: str = ""
+    revision: int
+
+
+class NodeReply(BaseModel):
+    """A node's answer to a write, reset or save: what changed (or where it saved) and all its parameters now."""
+
+    model_config = ConfigDict(extra="allow")
+    ok: bool
+    node: str
+    robot: str
+    params: list[Parameter]
+    changed: list[str] | None = None  # write, reset
+    path: str | None = None  # save
+
+
+class Difference(BaseModel):
+    name: str
+    live: Any
+    yaml: Any
+    from_: Literal["yaml", "default"] = Field(alias="from")
+
+
+class Diff(BaseModel):
+    robot: str
+    node: str
+    file: str  # the YAML compared with, relative to the checkout
+    changes: list[Difference]
+
+
+def _client(state: ServerState, robot: str) -> RobotParameters:
+    return RobotParameters(state.link.session(), robot)
+
+
+@router.get("", dependencies=[Depends(robot_on_link)], response_model=dict[str, list[Parameter]])
+async def list_parameters(robot: str, state: ServerState = Depends(require_control)) -> dict[str, Any]:
+    """Every node of the robot that answers, with its parameters."""
+    return await asyncio.to_thread(lambda: _client(state, robot).nodes())
+
+
+@router.get("/{node}", dependencies=ON_LINK, response_model=list[Parameter])
+async def get_parameters(robot: str, node: str, state: ServerState = Depends(require_control)
+                         ) -> list[dict[str, Any]]:
+    return await asyncio.to_thread(lambda: _client(state, robot).describe(node))
+
+
+@router.post("/{node}", dependencies=ON_LINK, response_model=NodeReply, response_model_exclude_unset=True)
+async def set_parameters(robot: str, node: str, write: ParameterWrite, state: ServerState = Depends(require_control)
+                         ) -> dict[str, Any]:
+    """The node validates: out of range -> 422 with its reason, value unchanged; a write based on an old revision
+    (someone else changed the value meanwhile) -> 409."""
+    return await asyncio.to_thread(lambda: _client(state, robot).set(node, write.values, write.revisions))
+
+
+@router.post("/{node}/reset", dependencies=ON_LINK, response_model=NodeReply, response_model_exclude_unset=True)
+async def reset_parameters(robot: str, node: str, request: ResetRequest,
+                           state: ServerState = Depends(require_control)) -> dict[str, Any]:
+    """Back to the declared defaults (the named parameters, or all)."""
+    return await asyncio.to_thread(lambda: _client(state, robot).reset(node, request.names))
+
+
+@router.post("/{node}/save", dependencies=ON_LINK, response_model=NodeReply, response_model_exclude_unset=True)
+async def save_parameters(robot: str, node: str, state: ServerState = Depends(require_control)) -> dict[str, Any]:
+    """The node writes its live values into the YAML file it was started with (its own path, never ours)."""
+    return await asyncio.to_thread(lambda: _client(state, robot).save(node))
+
+
+@router.get("/{node}/diff", dependencies=ON_LINK)
+async def diff_parameters(robot: str, node: str, model: str = "minibot",
+                          state: ServerState = Depends(require_control)) -> Diff:
+    """Live values that differ from the robot model's YAML (or the default where the YAML is silent)."""
+    path = robots.params_file(model)
+    live = await asyncio.to_thread(lambda: _client(state, robot).describe(node))
+    section = load_yaml_section(path, node)
+    changes = []
+    for p in live:
+        in_yaml = p["name"] in section
+        expected = section[p["name"]] if in_yaml else p["default"]
+        if expected != p["value"]:
+            changes.append(Difference.model_validate({"name": p["name"], "live": p["value"], "yaml": expected,
+                                                      "from": "yaml" if in_yaml else "default"}))
+    return Diff(robot=robot, node=node, file=f"robots/{path.relative_to(robots.ROOT)}", changes=changes)
+
+
+@router.get("/{node}/events")
+async def parameter_events(robot: str, node: str, state: ServerState = Depends(require_control)) -> StreamingResponse:
+    """Server-sent events: one ``data:`` line (JSON ``{"node", "changed": {name: value}, "revisions": {name: n}}``)
+    per accepted change of the node's parameters (``*``: every node of the robot), whoever made it: another
+    dashboard, the command line, or the node itself. ``event: resync`` says events were lost: read again."""
+    if not _NAME.match(robot) or not (node == "*" or _NAME.match(node)):
+        raise HTTPException(422, "robot and node names are letters, digits, '_', '-' and '.' (node may be '*')")
+    session = await asyncio.to_thread(state.link.session)
+    loop = asyncio.get_running_loop()
+    queue: asyncio.Queue[str | None] = asyncio.Queue(EVENTS_QUEUE)
+
+    def put(item: str | None) -> None:
+        try:
+            queue.put_nowait(item)
+        except asyncio.QueueFull:  # the browser is far behind: drop, then tell it to read everything again
+            with contextlib.suppress(asyncio.QueueEmpty):
+                while True:
+                    queue.get_nowait()
+            queue.put_nowait(None)
+
+    def on_sample(sample: zenoh.Sample) -> None:  # a Zenoh thread: hand over to the event loop
+        with contextlib.suppress(RuntimeError):  # the loop closed with the server
+            loop.call_soon_threadsafe(put, sample.payload.to_string())
+
+    subscriber = await asyncio.to_thread(session.declare_subscriber, keys.params_changed_key(robot, node), on_sample)
+
+    async def stream() -> AsyncIterator[str]:
+        try:
+            yield ": following parameter changes\n\n"
+            while True:
+                try:
+                    item = await asyncio.wait_for(queue.get(), EVENTS_KEEPALIVE_S)
+                except TimeoutError:
+                    yield ": keepalive\n\n"
+                    continue
+                if item is None:
+                    yield "event: resync\ndata: {}\n\n"
+                    continue
+                try:
+                    json.loads(item)
+                except ValueError:
+                    continue  # not ours: never pass on what the browser cannot read
+                yield f"data: {item.replace(chr(10), ' ')}\n\n"
+        finally:
+            with contextlib.suppress(Exception):
+                subscriber.undeclare()
+
+    return StreamingResponse(stream(), media_type="text/event-stream", headers={"cache-control": "no-cache"})
