@@ -10,12 +10,11 @@ from starlette.requests import Request
 
 from robots import UnknownModel
 from server.recorder import RecorderError
-from server.robot_parameters import NodeSilent, StaleRevision
 from server.sources import SourceError
 from server.sources.replay import BadTimelineRequest, LogNotFound, NoLogOpen, ReplayRefused, UnreadableLog
 from wire.actions import ActionError
 from wire.animation import AnimationError
-from wire.parameters import ParameterError
+from wire.parameters import NodeSilent, ParameterError, StaleRevision
 from wire.services import ServiceError
 
 STATUS_BY_TYPE: dict[type[Exception], int] = {

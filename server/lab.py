@@ -20,6 +20,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 import schemas
+from schemas.messages import PlayAnimationGoal
+from schemas.std import Twist, Vector3
 from server.state import ServerState
 from wire import keys
 from wire.actions import ActionClient, ClientGoal
@@ -108,7 +110,7 @@ class LabTools:
         self.animation_folders: dict[str, tuple[float, Path, str]] = {}  # robot -> (when asked, folder, how found)
 
     # -- publishing ---------------------------------------------------------------------------------
-    def publish(self, robot: str, topic: str, msg: Any) -> None:
+    def publish(self, robot: str, topic: str, msg: schemas.Message) -> None:
         """Blocking on first use (opens the session): call from a worker thread."""
         key = (robot, topic)
         pub = self._publishers.get(key)
@@ -155,7 +157,7 @@ class LabTools:
         client = self._clients.get(robot)
         if client is None:
             client = self._clients[robot] = ActionClient(self.state.link.session(), robot, "animation")
-        goal = schemas.make("humanoid_league_msgs/action/PlayAnimation_Goal", animation=name, hcm=False)
+        goal = PlayAnimationGoal(animation=name, hcm=False)
         deadline = time.monotonic() + retry_s
         while True:
             handle = client.send_goal(goal, timeout=GOAL_TIMEOUT_S)
@@ -278,10 +280,8 @@ class LabTools:
                 pub.undeclare()
 
 
-def twist(x: float, y: float, yaw: float) -> Any:
-    vector = "geometry_msgs/msg/Vector3"
-    return schemas.make("geometry_msgs/msg/Twist", linear=schemas.make(vector, x=x, y=y, z=0.0),
-                        angular=schemas.make(vector, x=0.0, y=0.0, z=yaw))
+def twist(x: float, y: float, yaw: float) -> Twist:
+    return Twist(linear=Vector3(x=x, y=y, z=0.0), angular=Vector3(x=0.0, y=0.0, z=yaw))
 
 
 def lab_tools(state: ServerState) -> LabTools:

@@ -28,6 +28,7 @@ from robot_nodes.runtime import (
 from tests.support import REPO
 from tests.waiting import wait_for
 from wire import keys
+from wire.parameters import NodeSilent, StaleRevision
 
 
 class Listener(Node):
@@ -108,8 +109,9 @@ def test_parameters_list_get_set_save_reload(bus: BusConfig, tmp_path: Path) -> 
             wait_for(lambda: node.seen_changes, what="change callback")
             assert node.params.mode == "hard"
 
-            with pytest.raises(ParameterError, match=r"out of range \[0.0, 2.0\]"):
+            with pytest.raises(ParameterError, match=r"out of range \[0.0, 2.0\]") as refused:
                 client.set("tunable", {"gain": 7.0, "count": 4})
+            assert type(refused.value) is ParameterError  # the value itself, not a conflict
             assert client.get("tunable", "gain") == 0.25 and client.get("tunable", "count") == 3
             with pytest.raises(ParameterError, match="not one of"):
                 client.set("tunable", {"mode": "medium"})
@@ -120,9 +122,11 @@ def test_parameters_list_get_set_save_reload(bus: BusConfig, tmp_path: Path) -> 
 
             revision = {p["name"]: p["revision"] for p in client.describe("tunable")}["gain"]
             client.set("tunable", {"gain": 0.5}, revisions={"gain": revision})
-            with pytest.raises(ParameterError, match="changed meanwhile"):
+            with pytest.raises(StaleRevision, match="changed meanwhile"):
                 client.set("tunable", {"gain": 0.75}, revisions={"gain": revision})
             assert client.get("tunable", "gain") == 0.5
+            with pytest.raises(NodeSilent, match="did not answer"):
+                ParameterClient(session, "robot1", timeout=0.3).describe("no_such_node")
 
             client.save("tunable")
     finally:

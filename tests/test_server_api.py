@@ -14,11 +14,10 @@ from server.app import create_app
 from server.config import ServerConfig
 from server.http_errors import status_of
 from server.recorder import RecorderError
-from server.robot_parameters import NodeSilent, StaleRevision, stale_names
 from server.sources import SourceError
 from server.sources.replay import BadTimelineRequest, LogNotFound, NoLogOpen, ReplayRefused, UnreadableLog
 from wire.actions import ActionError
-from wire.parameters import ParameterError
+from wire.parameters import NodeSilent, ParameterError, StaleRevision
 from wire.services import ServiceError
 
 STREAMS = {"/api/robots/{robot}/params/{node}/events"}  # server-sent events, not JSON
@@ -56,12 +55,6 @@ def test_every_json_endpoint_has_a_response_model(http: TestClient) -> None:
 ])
 def test_the_status_follows_the_exception_type(exc: Exception, status: int) -> None:
     assert status_of(exc) == status
-
-
-def test_a_stale_revision_is_told_from_the_nodes_reply() -> None:
-    reply = {"ok": False, "error": "refused", "params": [{"name": "a", "revision": 3}, {"name": "b", "revision": 1}]}
-    assert stale_names(reply, {"a": 2, "b": 1}) == ["a"]
-    assert stale_names(reply, {"b": 1}) == [] and stale_names(reply, {}) == []
 
 
 def test_replay_statuses_by_type(http: TestClient) -> None:

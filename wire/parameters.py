@@ -7,7 +7,8 @@ The wire protocol (JSON over the Zenoh queryable ``pitchside/<robot>/params/<nod
               "choices", "doc", "revision"}, ...]}
     request  {"op": "set", "values": {"name": value, ...}, "revisions": {"name": revision, ...}}
              (revisions optional; a write based on an old revision is refused)
-    reply    {"ok": true, "changed": [...], "params": [...]} or {"ok": false, "error": "..."}
+    reply    {"ok": true, "changed": [...], "params": [...]} or {"ok": false, "error": "...", "reason": "..."}
+             (reason "stale": a value was changed meanwhile; "invalid": the value itself was refused)
     request  {"op": "reset", "names": [...]}          back to defaults
     request  {"op": "save", "path": optional}         write the live values to the YAML file
 
@@ -29,6 +30,20 @@ from wire import keys
 
 class ParameterError(ValueError):
     """A parameter value was refused; the message says which parameter and why."""
+
+    reason = "invalid"
+
+
+class StaleRevision(ParameterError):
+    """A write based on an older revision of a value: someone else changed it meanwhile; reload and try again."""
+
+    reason = "stale"
+
+
+class NodeSilent(ParameterError):
+    """No node of that name answered within the timeout (not running, or the link is down)."""
+
+    reason = "silent"
 
 
 def load_yaml_section(path: Path, node: str) -> dict[str, Any]:
@@ -95,8 +110,9 @@ class ParameterClient:
             time.sleep(0.05)
             replies = self._ask(node, request)
         if not replies:
-            raise ParameterError(f"node {node!r} of robot {self.robot!r} did not answer within {self.timeout} s")
+            raise NodeSilent(f"node {node!r} of robot {self.robot!r} did not answer within {self.timeout} s")
         reply = replies[0]
         if not reply.get("ok"):
-            raise ParameterError(reply.get("error", "refused"))
+            refused = StaleRevision if reply.get("reason") == StaleRevision.reason else ParameterError
+            raise refused(reply.get("error", "refused"))
         return reply

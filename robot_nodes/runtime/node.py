@@ -368,8 +368,10 @@ class Node:
                 reply = {"ok": True, "path": str(path)}
             else:
                 reply = {"ok": False, "error": f"unknown parameter operation {op!r}"}
-        except (ParameterError, ValueError, TypeError, KeyError) as exc:
-            reply = {"ok": False, "error": str(exc)}
+        except ParameterError as exc:
+            reply = {"ok": False, "error": str(exc), "reason": exc.reason}
+        except (ValueError, TypeError, KeyError) as exc:
+            reply = {"ok": False, "error": str(exc), "reason": ParameterError.reason}
         reply.update({"node": self.name, "robot": self.robot_id, "params": self.parameters.describe()})
         query.reply(keys.params_key(self.robot_id, self.name), json.dumps(reply))
 

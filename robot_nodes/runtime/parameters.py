@@ -20,7 +20,7 @@ from typing import Any, get_type_hints
 
 import yaml
 
-from wire.parameters import ParameterError, load_yaml_section
+from wire.parameters import ParameterError, StaleRevision, load_yaml_section
 
 
 def param(
@@ -156,7 +156,7 @@ class ParameterStore:
                     raise ParameterError(f"node {self.node!r} has no parameter {name!r}")
                 checked[name] = spec.validate(value)  # a bad value is named as such, whatever its revision
                 if revisions and name in revisions and revisions[name] != self.revisions[name]:
-                    raise ParameterError(
+                    raise StaleRevision(
                         f"{name} was changed meanwhile (revision {self.revisions[name]}, "
                         f"write based on {revisions[name]}); reload and try again"
                     )

@@ -10,6 +10,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
+from schemas.messages import GameState
+
 INITIAL, READY, SET, PLAYING, FINISHED = 0, 1, 2, 3, 4
 STATE_NAMES = {INITIAL: "INITIAL", READY: "READY", SET: "SET", PLAYING: "PLAYING", FINISHED: "FINISHED"}
 SECONDARY_NAMES = {0: "NORMAL", 1: "PENALTYSHOOT", 2: "OVERTIME", 3: "TIMEOUT", 4: "DIRECT_FREEKICK",
@@ -28,7 +30,7 @@ class GameView:
     rival_score: int
 
     @classmethod
-    def of(cls, msg: Any) -> GameView:
+    def of(cls, msg: GameState) -> GameView:
         return cls(int(msg.game_state), int(msg.secondary_state), bool(msg.first_half), int(msg.own_score),
                    int(msg.rival_score))
 
@@ -68,7 +70,7 @@ class GameEvents:
         (event "resume", of the part it is in now) or over ("stop", e.g. half time came while the server was down)."""
         self._resuming = part
 
-    def feed(self, robot: str, msg: Any) -> list[GameEvent]:
+    def feed(self, robot: str, msg: GameState) -> list[GameEvent]:
         view = GameView.of(msg)
         events: list[GameEvent] = []
         penalized = bool(msg.penalized)
@@ -141,7 +143,7 @@ class GameEvents:
         """True when this robot moved, but only towards a state the game was in before (it is behind)."""
         return view != game and before != game and _progress(view) < _progress(game)
 
-    def _penalty(self, robot: str, was: bool | None, now: bool, msg: Any) -> list[GameEvent]:
+    def _penalty(self, robot: str, was: bool | None, now: bool, msg: GameState) -> list[GameEvent]:
         if was is None or was == now:
             return []
         if now:

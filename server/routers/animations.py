@@ -27,9 +27,9 @@ from pydantic import BaseModel
 
 import robots
 import schemas
+from schemas.std import JointTrajectory, JointTrajectoryPoint
 from server.deps import require_control, robot_on_link, valid_robot
 from server.lab import JointLimits, lab_tools, urdf_joint_limits, urdf_mirror_signs
-from server.robot_parameters import RobotParameters
 from server.security import AllowedFolders
 from server.state import ServerState
 from wire.animation import (
@@ -49,7 +49,7 @@ from wire.animation import (
     validate,
 )
 from wire.animation.animation_file import animation_to_dict
-from wire.parameters import ParameterError
+from wire.parameters import ParameterClient, ParameterError
 
 router = APIRouter(prefix="/api/robots/{robot}", tags=["animations"], dependencies=[Depends(valid_robot)])
 TIMEOUT_S = 3.0
@@ -220,7 +220,7 @@ class GoalsSent(BaseModel):
 # -- where the files are ---------------------------------------------------------------------------------
 def _ask_folder(state: ServerState, robot: str) -> tuple[Path, str]:
     try:
-        described = RobotParameters(state.link.session(), robot, timeout=TIMEOUT_S).describe("animation")
+        described = ParameterClient(state.link.session(), robot, timeout=TIMEOUT_S).describe("animation")
     except ParameterError:
         return robots.animations_dir(), "default (the robot's animation node did not answer)"
     params = {p["name"]: p["value"] for p in described}
@@ -443,7 +443,7 @@ async def clear_keyframe_ghosts(robot: str, state: ServerState = Depends(require
 
 # -- on the robot ---------------------------------------------------------------------------------------
 def _set_record_mode(state: ServerState, robot: str, on: bool) -> dict[str, Any]:
-    return RobotParameters(state.link.session(), robot, timeout=TIMEOUT_S).set("hcm", {"record_mode": on})
+    return ParameterClient(state.link.session(), robot, timeout=TIMEOUT_S).set("hcm", {"record_mode": on})
 
 
 @router.post("/animation-play", dependencies=[Depends(robot_on_link)], response_model=PlayReply,
@@ -578,9 +578,8 @@ async def record_goals(robot: str, goals: RecordGoals, state: ServerState = Depe
         efforts += [0.0] * len(limp)
     if not names:
         raise HTTPException(422, "no joints: give positions and/or limp joints")
-    point = schemas.make("trajectory_msgs/msg/JointTrajectoryPoint", positions=np.array(positions, dtype=float),
+    point = schemas.make(JointTrajectoryPoint, positions=np.array(positions, dtype=float),
                          effort=np.array(efforts, dtype=float))
-    msg = schemas.make("trajectory_msgs/msg/JointTrajectory", header=schemas.header(), joint_names=names,
-                       points=[point])
+    msg = JointTrajectory(header=schemas.header(), joint_names=names, points=[point])
     await asyncio.to_thread(lab_tools(state).publish, robot, "record_motor_goals", msg)
     return {"robot": robot, "held": list(goals.positions), "limp": limp}

@@ -24,10 +24,9 @@ from pydantic import BaseModel, ConfigDict, Field
 
 import robots
 from server.deps import require_control, robot_on_link, valid_node, valid_robot
-from server.robot_parameters import RobotParameters
 from server.state import ServerState
 from wire import keys
-from wire.parameters import load_yaml_section
+from wire.parameters import ParameterClient, load_yaml_section
 
 router = APIRouter(prefix="/api/robots/{robot}/params", tags=["parameters"], dependencies=[Depends(valid_robot)])
 _NAME = re.compile(r"^[A-Za-z0-9_.-]+$")  # a robot or node name: nothing a Zenoh key expression would read as a pattern
@@ -85,8 +84,8 @@ class Diff(BaseModel):
     changes: list[Difference]
 
 
-def _client(state: ServerState, robot: str) -> RobotParameters:
-    return RobotParameters(state.link.session(), robot)
+def _client(state: ServerState, robot: str) -> ParameterClient:
+    return ParameterClient(state.link.session(), robot)
 
 
 @router.get("", dependencies=[Depends(robot_on_link)], response_model=dict[str, list[Parameter]])

@@ -9,8 +9,8 @@ from typing import Any, Literal
 from fastapi import APIRouter, Depends, HTTPException
 from pydantic import BaseModel, ConfigDict
 
-import schemas
 from schemas import SchemaError
+from schemas.messages import ManualPenalizeRequest
 from schemas.numeric import numeric_values
 from server.deps import get_state, require_control, robot_on_link, valid_robot
 from server.hub import BULK_TYPES
@@ -89,8 +89,7 @@ def numeric_fields(robot: str, topic: str, state: ServerState = Depends(get_stat
 @router.post("/robots/{robot}/penalize", dependencies=[Depends(valid_robot), Depends(robot_on_link)])
 async def penalize(robot: str, request: PenalizeRequest, state: ServerState = Depends(require_control)) -> Penalized:
     """The HCM's manual_penalize service; a robot that does not answer: 504 (server.http_errors)."""
-    consts = schemas.constants("humanoid_league_msgs/srv/ManualPenalize_Request")
-    msg = schemas.make("humanoid_league_msgs/srv/ManualPenalize_Request", penalize=consts[request.penalize.upper()])
+    msg = ManualPenalizeRequest(penalize=getattr(ManualPenalizeRequest, request.penalize.upper()))
     response = await asyncio.to_thread(
         lambda: call_service(state.link.session(), robot, "manual_penalize", msg, timeout=TIMEOUT_S))
     return Penalized(robot=robot, penalized=bool(response.penalized))

@@ -28,6 +28,8 @@ from rosbags.typesys import get_types_from_msg
 
 from schemas import codec
 from schemas.logs import ChannelInfo, LogError, LogMessage, LogReader, LogSeriesReader
+from schemas.messages import RobotOverview
+from schemas.std import String
 from schemas.topics import TOPICS
 from server.hub import Hub, HubMessage
 from server.security import AllowedFolders, FolderError
@@ -134,19 +136,19 @@ def _shared_schema(reader: LogReader, channel: ChannelInfo) -> bool:
     return all(shared.get(name) == definition for name, definition in parsed.items())
 
 
-def _legacy_overview(data: Any) -> Any | None:
+def _legacy_overview(data: Any) -> RobotOverview | None:
     """The RobotOverview message of an overview an earlier version recorded as JSON in a std_msgs/String (CDR
     bytes or decoded), NaN as null; None if it is not one."""
     try:
         raw = isinstance(data, bytes | bytearray | memoryview)
-        text = codec.decode(data, STRING_TYPE).data if raw else data.data
+        text = codec.decode(data, String).data if raw else data.data
         fields = json.loads(text)
         if not isinstance(fields, dict):
             return None
         known = {name: (math.nan if value is None else value) for name, value in fields.items()
                  if name in _OVERVIEW_FIELDS}
         # through CDR and back: a field of the wrong type or range is refused here, not in a panel
-        return codec.decode(codec.encode(codec.make(OVERVIEW_TYPE, **known)), OVERVIEW_TYPE)
+        return codec.decode(codec.encode(codec.make(RobotOverview, **known)), RobotOverview)
     except Exception:  # rosbags and json raise several kinds on bad input; such a message is skipped
         return None
 
