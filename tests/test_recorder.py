@@ -239,7 +239,7 @@ def test_a_killed_server_goes_on_recording_after_its_restart(router_endpoint: st
             server.process.wait(10)
         with dashboard_server(args, tmp_path) as server:
             status = wait_for(lambda: (s := _status(server.url))["match"] and s["manual"]
-                              and min(s["match"]["messages"], s["manual"]["messages"]) >= 100 and s,
+                              and min(s["match"]["messages"], s["manual"]["messages"]) >= 250 and s,
                               timeout=30, interval=0.1, what="both recordings going on")
             assert status["manual"]["resumed"] and status["match"]["resumed"]
             assert server.http.post(f"{server.url}/api/recordings/stop", timeout=20).is_success
@@ -257,7 +257,7 @@ def test_a_killed_server_goes_on_recording_after_its_restart(router_endpoint: st
         before = [t for t, _ in recorded if t < killed_at]
         after = [t for t, _ in recorded if t > killed_at]
         assert before[-1] >= killed_at - CRASH_LOSS_BOUND_S, (first.name, killed_at - before[-1])
-        assert len(after) >= 50
+        assert len(after) >= 50  # of the 250 messages waited for, most are joint_states (100 Hz against 20 Hz)
         seqs = [seq for _, seq in recorded]
         assert seqs == sorted(seqs)
 
