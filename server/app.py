@@ -12,6 +12,7 @@ from fastapi import FastAPI
 from fastapi.staticfiles import StaticFiles
 
 from server.config import ServerConfig
+from server.foxglove import start_foxglove
 from server.hub import Hub
 from server.recording.wiring import attach_recording
 from server.routers import (
@@ -63,6 +64,7 @@ def create_app(config: ServerConfig) -> FastAPI:
                     log.warning("source %s not started: %s", name, exc)
         await _start_views(state)
         await recording.start()
+        await start_foxglove(state)  # in state.views: stopped with the views
         try:
             yield
         finally:
