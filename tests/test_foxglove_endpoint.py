@@ -272,3 +272,29 @@ def test_a_client_that_never_reads_costs_bounded_memory_and_the_others_keep_up(
             feeder.join(5)
             stalled.kill()
             stalled.wait(5)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("mode", ["lab", "match"])
+def test_foxglove_decodes_the_demo_robot_live_and_over_one_way_telemetry(tmp_path: Path, mode: str) -> None:
+    """The demo's robot as Foxglove sees it: in the lab from live Zenoh (CDR as the robot sent it), in match mode
+    from telemetry (decoded by the server's receiver, encoded again as CDR for Foxglove)."""
+    from tests.running_demo import running_demo
+
+    with running_demo(tmp_path, *(["--match"] if mode == "match" else [])) as demo:
+        url = wait_for(lambda: foxglove_url(demo.output()), timeout=60, what="the foxglove banner")
+        assert url is not None
+        wanted = [channel_topic("robot1", t) for t in TOPICS]
+        wait_for(lambda: set(wanted) <= set(channels_of(url)), timeout=90, interval=0.5, what="the demo's channels")
+        got = run_client("probe", url, *[a for t in wanted for a in ("--topic", t)], "--seconds", "60",
+                         timeout=90)
+        for topic in wanted:
+            assert got["topics"][topic]["count"] >= 1 and got["topics"][topic]["errors"] == [], got["topics"][topic]
+        decoded = {t: got["topics"][channel_topic("robot1", t)]["last"] for t in TOPICS}
+        assert len(decoded["joint_states"]["name"]) == 20  # the Minibot's joints
+        assert len(decoded["joint_states"]["position"]) == 20
+        assert decoded["gamestate"]["seconds_remaining"] > 0
+        assert decoded["robot_state"]["state"] in schemas.constants("humanoid_league_msgs/msg/RobotControlState")\
+            .values()
+        image = decoded["camera/image/compressed"]
+        assert image["format"] == "jpeg" and image["data"]["head"][:2] == [0xFF, 0xD8]
