@@ -298,3 +298,25 @@ def test_foxglove_decodes_the_demo_robot_live_and_over_one_way_telemetry(tmp_pat
             .values()
         image = decoded["camera/image/compressed"]
         assert image["format"] == "jpeg" and image["data"]["head"][:2] == [0xFF, 0xD8]
+
+
+def test_nodelay_watch_sets_tcp_nodelay_on_accepted_connections_of_its_port_only() -> None:
+    """foxglove-sdk 0.30 leaves Nagle on (10 ms p50 in bench/foxglove.py); the watch switches it off."""
+    from server.foxglove.nodelay import NoDelayWatch
+
+    with socket.socket() as listening, socket.socket() as other_listening:
+        listening.bind(("127.0.0.1", 0))
+        listening.listen()
+        other_listening.bind(("127.0.0.1", 0))
+        other_listening.listen()
+        ours_client = socket.create_connection(listening.getsockname())
+        others_client = socket.create_connection(other_listening.getsockname())
+        ours, _ = listening.accept()
+        others, _ = other_listening.accept()
+        with ours_client, others_client, ours, others:
+            watch = NoDelayWatch(listening.getsockname()[1])
+            assert watch.apply() == 1
+            assert ours.getsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY)
+            assert not others.getsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY)
+            assert not ours_client.getsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY)  # the far end is not ours
+            assert watch.apply() == 0  # each connection once

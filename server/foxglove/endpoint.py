@@ -9,12 +9,14 @@ reaches it through an SSH tunnel (``ssh -L 8765:127.0.0.1:8765 laptop``).
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import logging
 from typing import TYPE_CHECKING, Any
 
 import foxglove
 
 from server.foxglove.channels import StreamChannels
+from server.foxglove.nodelay import NoDelayWatch
 from wire.machine import is_loopback
 
 if TYPE_CHECKING:
@@ -27,6 +29,7 @@ SERVER_NAME = "pitchside"
 # Per client: messages the SDK queues before it drops the oldest. At 11 robots' rates that is a fraction of a
 # second, and with images a few MB at most, so a client that never reads costs bounded memory.
 CLIENT_BACKLOG = 1024
+NODELAY_PERIOD_S = 0.25  # how soon a new client's connection gets TCP_NODELAY (server.foxglove.nodelay)
 
 
 class FoxgloveError(RuntimeError):
@@ -53,6 +56,7 @@ class FoxgloveEndpoint:
         self.channels = StreamChannels(state.hub, self.context, state.config.lost_after_s, self._source_running)
         self.server: Any = None  # foxglove.websocket.WebSocketServer once started
         self.port = 0
+        self._nodelay: asyncio.Task[None] | None = None
 
     @property
     def url(self) -> str:
@@ -69,6 +73,17 @@ class FoxgloveEndpoint:
             self.server = await asyncio.to_thread(self._serve, 0)
         self.port = int(self.server.port)
         self.channels.start()
+        self._nodelay = asyncio.get_running_loop().create_task(self._watch_nodelay(), name="foxglove nodelay")
+
+    async def _watch_nodelay(self) -> None:
+        watch = NoDelayWatch(self.port)
+        while True:
+            try:
+                await asyncio.to_thread(watch.apply)
+            except Exception as exc:  # psutil cannot read /proc: slower delivery, nothing worse
+                log.warning("foxglove: TCP_NODELAY not set on clients' connections: %r", exc)
+                return
+            await asyncio.sleep(NODELAY_PERIOD_S)
 
     def _serve(self, port: int) -> Any:
         try:
@@ -78,6 +93,10 @@ class FoxgloveEndpoint:
             raise FoxgloveError(f"Foxglove endpoint not started on {self.host}:{port}: {exc}") from None
 
     async def stop(self) -> None:
+        if self._nodelay is not None:
+            self._nodelay.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await self._nodelay
         await self.channels.stop()
         if self.server is not None:
             await asyncio.to_thread(self.server.stop)
