@@ -320,3 +320,21 @@ def test_nodelay_watch_sets_tcp_nodelay_on_accepted_connections_of_its_port_only
             assert not others.getsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY)
             assert not ours_client.getsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY)  # the far end is not ours
             assert watch.apply() == 0  # each connection once
+
+
+def test_a_replayed_log_is_served_with_the_logs_own_cdr_bytes(tmp_path: Path) -> None:
+    from tests.test_replay import _pitchside_log
+
+    log = tmp_path / "game.mcap"
+    _pitchside_log(log)
+    with dashboard_server(["--replay", str(log), "--no-live", "--no-telemetry", "--no-auto-record",
+                           "--foxglove-port", str(free_port())], tmp_path) as server:
+        url = banner_url(server)
+        wait_for(lambda: server.http.get(f"{server.url}/api/replay").json().get("state") == "paused", timeout=30,
+                 interval=0.2, what="the log open")
+        assert server.http.post(f"{server.url}/api/replay/play").status_code == 200
+        got = run_client("probe", url, "--topic", "/r1/gamestate", "--topic", "/r2/joint_states", "--min", "2",
+                         "--seconds", "30")
+        assert got["topics"]["/r2/joint_states"]["last"]["name"] == ["head_pan"]
+        written = schemas.encode(schemas.make("humanoid_league_msgs/msg/GameState", game_state=3, own_score=0))
+        assert base64.b64decode(got["topics"]["/r1/gamestate"]["lastCdr"]) == written
