@@ -55,7 +55,11 @@ class RobotFeed:
         self._thread = threading.Thread(target=self._run, daemon=True)
 
     def messages(self, i: int) -> dict[str, Any]:
+        ball = schemas.make("humanoid_league_msgs/msg/BallInImage", confidence=0.9, diameter=10.0,
+                            center=schemas.make("geometry_msgs/msg/Point", x=32.0, y=24.0))
         return {
+            "ball_in_image": schemas.make("humanoid_league_msgs/msg/BallsInImage", header=schemas.header(),
+                                          candidates=[ball]),
             "joint_states": schemas.make("sensor_msgs/msg/JointState", header=schemas.header(), name=JOINTS,
                                          position=[0.1 * k + 0.001 * (i % 100) for k in range(len(JOINTS))]),
             "gamestate": schemas.make("humanoid_league_msgs/msg/GameState", header=schemas.header(),
@@ -135,9 +139,34 @@ def test_every_stream_is_a_channel_with_its_ros2msg_schema_and_the_robots_cdr_by
         assert image["format"] == "jpeg" and image["data"]["bytes"] == len(feed.image)
         assert image["data"]["head"] == list(feed.image[:4])  # FF D8 FF E0: a JPEG, as the Image panel needs
         # passed through, not re-encoded: the very bytes the robot put on the bus (robot_state never changes)
-        assert base64.b64decode(got["topics"][channel_topic("r7", "robot_state")]["lastCdr"]) == \
+        assert base64.b64decode(got["topics"][channel_topic("r7", "robot_state")]["lastBytes"]) == \
             feed.sent["robot_state"]
         assert server.http.get(f"{server.url}/api/config").status_code == 200
+
+
+def decode_protobuf(schema_b64: str, name: str, data: bytes) -> Any:
+    """A message of a protobuf channel, decoded with the FileDescriptorSet the channel advertised."""
+    from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
+
+    pool = descriptor_pool.DescriptorPool()
+    for file in descriptor_pb2.FileDescriptorSet.FromString(base64.b64decode(schema_b64)).file:
+        pool.Add(file)
+    return message_factory.GetMessageClass(pool.FindMessageTypeByName(name)).FromString(data)
+
+
+def test_the_detections_are_image_annotations_for_foxgloves_image_panel(
+        router_endpoint: str, client: zenoh.Session, tmp_path: Path) -> None:
+    with server_with_foxglove(router_endpoint, tmp_path) as (_server, url), RobotFeed(client, "r4"):
+        wait_for(lambda: "/r4/camera/annotations" in channels_of(url), timeout=30, interval=0.2,
+                 what="the annotations channel")
+        got = run_client("probe", url, "--topic", "/r4/camera/annotations", "--min", "2", "--seconds", "20")
+        channel = next(c for c in got["channels"] if c["topic"] == "/r4/camera/annotations")
+        assert (channel["schemaName"], channel["encoding"]) == ("foxglove.ImageAnnotations", "protobuf")
+        seen = got["topics"]["/r4/camera/annotations"]
+        annotations = decode_protobuf(seen["schema"], "foxglove.ImageAnnotations", base64.b64decode(seen["lastBytes"]))
+        [circle] = annotations.circles  # the ball where the robot saw it, in the camera panel's orange
+        assert (circle.position.x, circle.position.y, circle.diameter) == (32.0, 24.0, 10.0)
+        assert circle.outline_color.r == 1.0 and circle.outline_color.b == 0.0
 
 
 def test_channels_disappear_when_their_robot_is_lost_and_come_back_with_it(
@@ -298,6 +327,7 @@ def test_foxglove_decodes_the_demo_robot_live_and_over_one_way_telemetry(tmp_pat
             .values()
         image = decoded["camera/image/compressed"]
         assert image["format"] == "jpeg" and image["data"]["head"][:2] == [0xFF, 0xD8]
+        assert "/robot1/camera/annotations" in channels_of(url)  # the detections, for the Image panel
 
 
 def test_nodelay_watch_sets_tcp_nodelay_on_accepted_connections_of_its_port_only() -> None:
@@ -337,4 +367,4 @@ def test_a_replayed_log_is_served_with_the_logs_own_cdr_bytes(tmp_path: Path) ->
                          "--seconds", "30")
         assert got["topics"]["/r2/joint_states"]["last"]["name"] == ["head_pan"]
         written = schemas.encode(schemas.make("humanoid_league_msgs/msg/GameState", game_state=3, own_score=0))
-        assert base64.b64decode(got["topics"]["/r1/gamestate"]["lastCdr"]) == written
+        assert base64.b64decode(got["topics"]["/r1/gamestate"]["lastBytes"]) == written

@@ -13,8 +13,9 @@ import asyncio
 import contextlib
 import logging
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from typing import Protocol
 
 import foxglove
 
@@ -45,6 +46,22 @@ def stream_ended(robot: RobotSeen, stats: StreamStats, now: float, lost_after_s:
     return stats.source != REPLAY_SOURCE and now - robot.last_received >= lost_after_s
 
 
+class DerivedChannels(Protocol):
+    """Channels computed from some hub streams (camera annotations now, /tf from joint_states later)."""
+
+    topics: frozenset[str]  # the hub topics it is offered
+
+    @property
+    def channels(self) -> Mapping[str, object]:
+        """Robot -> its channel(s); closed with the robot's streams."""
+
+    def offer(self, msg: HubMessage) -> None: ...
+
+    def close_robot(self, robot: str) -> None: ...
+
+    def close(self) -> None: ...
+
+
 @dataclass(slots=True)
 class StreamChannel:
     """The SDK channel of one hub stream, and what it carries."""
@@ -58,8 +75,9 @@ class StreamChannels:
     """Opens, feeds and closes one SDK channel per hub stream; runs as a task on the hub's event loop."""
 
     def __init__(self, hub: Hub, context: foxglove.Context, lost_after_s: float,
-                 source_running: Callable[[str], bool | None]) -> None:
+                 source_running: Callable[[str], bool | None], derived: list[DerivedChannels] | None = None) -> None:
         self.hub = hub
+        self.derived = derived or []
         self.context = context
         self.lost_after_s = lost_after_s
         self.source_running = source_running
@@ -84,6 +102,8 @@ class StreamChannels:
         for stream in self.channels.values():
             stream.channel.close()
         self.channels.clear()
+        for derived in self.derived:
+            derived.close()
 
     @property
     def dropped(self) -> int:
@@ -116,6 +136,13 @@ class StreamChannels:
             stream = self._open(msg)
             if stream is None:
                 return
+        for derived in self.derived:
+            if msg.topic in derived.topics:
+                try:
+                    derived.offer(msg)
+                except schemas.SchemaError as exc:  # CDR that does not decode: that message adds nothing
+                    self.encode_errors += 1
+                    log.debug("foxglove: %s/%s not decoded: %s", msg.robot, msg.topic, exc)
         if not stream.channel.has_sinks():
             return  # no client subscribed: nothing to encode or copy
         try:
@@ -157,6 +184,10 @@ class StreamChannels:
                 stream.channel.close()
                 del self.channels[key]
                 closed.append(channel_topic(*key))
+        for derived in self.derived:
+            for robot_id in list(derived.channels):
+                if not any((robot_id, topic) in self.channels for topic in derived.topics):
+                    derived.close_robot(robot_id)
         return closed
 
 

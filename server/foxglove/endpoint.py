@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any
 
 import foxglove
 
+from server.foxglove.annotations import CameraAnnotations
 from server.foxglove.channels import StreamChannels
 from server.foxglove.nodelay import NoDelayWatch
 from wire.machine import is_loopback
@@ -53,7 +54,8 @@ class FoxgloveEndpoint:
         self.state = state
         self.host = endpoint_host(state.config.host)
         self.context = foxglove.Context()  # this endpoint's channels only, apart from any other SDK user
-        self.channels = StreamChannels(state.hub, self.context, state.config.lost_after_s, self._source_running)
+        self.channels = StreamChannels(state.hub, self.context, state.config.lost_after_s, self._source_running,
+                                       derived=[CameraAnnotations(self.context)])
         self.server: Any = None  # foxglove.websocket.WebSocketServer once started
         self.port = 0
         self._nodelay: asyncio.Task[None] | None = None

@@ -3,7 +3,8 @@
 //   node client.mjs probe URL [--topic T]... [--seconds S] [--min N]
 //       lists the channels with their schemas, subscribes to the topics given (every channel if none), decodes
 //       each message with @foxglove/rosmsg2-serialization and prints one JSON object: channels, per topic the
-//       count, decode errors and the last message decoded.
+//       count, decode errors and the last message decoded (and its bytes when small); channels in another
+//       encoding (protobuf) are not decoded: their schema and bytes are printed for the test to decode.
 //   node client.mjs list URL [--seconds S]
 //       the channels the server advertises within S seconds (default 1), without subscribing.
 //   node client.mjs stall URL
@@ -84,7 +85,9 @@ async function probe(url, opts) {
       if (!wanted(channel.topic)) continue;
       const entry = (seen[channel.topic] ??= { count: 0, errors: [], last: null, schemaName: channel.schemaName });
       try {
-        const reader = new MessageReader(parse(channel.schema, { ros2: true }));
+        // ros2msg/cdr channels are decoded here; others (Foxglove's own protobuf schemas) come as bytes
+        const reader = channel.encoding === "cdr" ? new MessageReader(parse(channel.schema, { ros2: true })) : null;
+        if (!reader) entry.schema = channel.schema;
         readers.set(client.subscribe(channel.id), { topic: channel.topic, reader });
       } catch (err) {
         entry.errors.push(`schema: ${err.message}`);
@@ -97,10 +100,10 @@ async function probe(url, opts) {
     if (!sub) return;
     const entry = seen[sub.topic];
     try {
-      entry.last = plain(sub.reader.readMessage(data));
+      entry.last = sub.reader ? plain(sub.reader.readMessage(data)) : null;
       entry.count++;
       // the bytes as they came, for small messages: the tests compare them with what the robot sent
-      entry.lastCdr = data.byteLength <= 4096 ? Buffer.from(data.buffer, data.byteOffset, data.byteLength)
+      entry.lastBytes = data.byteLength <= 4096 ? Buffer.from(data.buffer, data.byteOffset, data.byteLength)
         .toString("base64") : null;
     } catch (err) {
       entry.errors.push(err.message);
