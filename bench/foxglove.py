@@ -7,8 +7,9 @@ telemetry); a feeder process publishes 11 robots with the demo's topic mix at th
 ``pitchside demo``: joint_states and imu 200 Hz, perception and state topics 10 Hz, a 7 KB JPEG at 10 Hz, ...:
 ~580 msg/s per robot); the real Foxglove client (@foxglove/ws-protocol on Node.js, tests/foxglove_client) runs as
 1 and as 5 connections subscribed to every channel. Figures:
-- fed_msgs_per_s: what the hub took in; msgs_per_s_1 / msgs_per_s_5: delivered to 1 client / to 5 in total, and
-  whether every client kept up (got >= 95 % of what the hub took in);
+- fed_msgs_per_s: what the hub took in; msgs_per_s_1 / msgs_per_s_5: delivered to 1 client / to 5 in total (the
+  hub's streams and the channels derived from them, the camera annotations); min_client_share: the slowest
+  client's share of the hub's streams, and whether every client kept up (>= 95 %);
 - latency_p50_ms / p99: joint_states stamped by the feeder when it sends -> Foxglove client (so hub -> client plus
   one Zenoh hop on loopback), with 1 client; the dashboard's own /ws client on the same stream is the baseline;
 - cpu_overhead_pct: server CPU (% of one core) with the endpoint and 1 client subscribed to everything, minus
@@ -31,8 +32,8 @@ import time
 from pathlib import Path
 from typing import Any
 
-# the checkout first: bench/ (this script's folder) holds a server.py and this foxglove.py, which must not stand in
-# for the server package or the foxglove SDK (this process never imports the SDK)
+# the checkout first. This script's folder stays on the path, so `import foxglove` here would find this file, not
+# the SDK: no code in this process imports the SDK (server.foxglove imports it only when the endpoint starts)
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import httpx
@@ -224,7 +225,7 @@ def main() -> None:
         print(f"with the endpoint, no client: server CPU {idle['cpu']:.0f} %")
         for n, run in runs.items():
             got, fed = run["client"], run["hub_msgs_per_s"]
-            kept = all(rate >= 0.95 * fed for rate in got["msgs_per_s"])
+            kept = all(rate >= 0.95 * fed for rate in got["stream_msgs_per_s"])
             print(f"{n} Foxglove client(s): server CPU {run['cpu']:.0f} %, hub {fed:.0f} msg/s, delivered "
                   f"{sum(got['msgs_per_s']):.0f} msg/s in total (per client min {min(got['msgs_per_s']):.0f}), "
                   f"every client kept up: {'yes' if kept else 'NO'}; joint_states latency p50 {got['p50_ms']:.2f} ms "
@@ -235,7 +236,7 @@ def main() -> None:
         print(f"latency against the dashboard's /ws client: {one['client']['p50_ms'] / ws_p50:.2f}x; CPU overhead "
               f"{overhead_1:.0f} (1 client) / {overhead_5:.0f} (5 clients) points of a core over "
               f"{without['cpu']:.0f} %")
-        min_ratio = min(min(r["client"]["msgs_per_s"]) / r["hub_msgs_per_s"] for r in runs.values())
+        min_ratio = min(min(r["client"]["stream_msgs_per_s"]) / r["hub_msgs_per_s"] for r in runs.values())
         print(f"RESULT foxglove msgs_per_s_1={sum(one['client']['msgs_per_s']):.0f} "
               f"msgs_per_s_5={sum(five['client']['msgs_per_s']):.0f} latency_p50_ms={one['client']['p50_ms']:.2f} "
               f"latency_p99_ms={one['client']['p99_ms']:.2f} cpu_overhead_pct={overhead_1:.1f} "

@@ -17,15 +17,21 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+import httpx
 import numpy as np
 import psutil
 import pytest
 import zenoh
 
 import schemas
+from server.config import ServerConfig
 from server.foxglove.channels import channel_topic, stream_ended
-from server.foxglove.endpoint import endpoint_host
+from server.foxglove.endpoint import urls_of
+from server.foxglove.guard import GuardPolicy, Refused
 from server.hub import RobotSeen, StreamStats
+from server.loopback_ports import BROWSER_BLOCKED_PORTS
+from server.security.credentials import Credentials
+from server.security.hosts import AllowedHosts
 from tests.dashboard_server import RunningServer, dashboard_server
 from tests.foxglove_node import foxglove_url, node_client, run_client
 from tests.support import free_port
@@ -194,12 +200,66 @@ def test_taken_port_falls_back_to_a_free_one_and_the_endpoint_can_be_switched_of
         assert foxglove_url(server.output()) is None
 
 
-def test_beyond_loopback_the_endpoint_stays_on_loopback_since_it_cannot_ask_for_the_token() -> None:
-    # foxglove-sdk 0.30 has no hook to see a client before it connects: no token check, so no open door
-    assert endpoint_host("0.0.0.0") == "127.0.0.1"
-    assert endpoint_host("192.168.1.20") == "127.0.0.1"
-    assert endpoint_host("127.0.0.1") == "127.0.0.1"
-    assert endpoint_host("::1") == "::1"
+def test_the_guard_asks_what_the_dashboard_asks() -> None:
+    """Host names it is reached by; the token opens it to anyone; without it only loopback and no foreign page."""
+    policy = GuardPolicy(AllowedHosts("127.0.0.1"), Credentials("s3cret", 8080),
+                         allowed_origins=frozenset({"http://laptop2:8080"}))
+
+    def status(target: str = "/", **headers: str) -> int:
+        try:
+            policy.check(target.encode(), {"host": "127.0.0.1:8765", **headers})
+        except Refused as refused:
+            return refused.status
+        return 101
+
+    assert status() == 101  # Foxglove desktop, a script: no Origin header
+    assert status(origin="http://laptop2:8080") == 101
+    assert status(origin="https://evil.example") == 403  # a web page the laptop's browser opened
+    assert status("/?token=s3cret", origin="https://app.foxglove.dev") == 101
+    assert status(authorization="Bearer s3cret", origin="https://app.foxglove.dev") == 101
+    assert status("/?token=guess") == 401
+    assert status(host="evil.example:8765") == 421  # DNS rebinding
+    policy.token_needed = True  # beyond loopback
+    assert status() == 401 and status("/?token=s3cret") == 101
+    config = ServerConfig(host="127.0.0.1", token="s3cret")
+    assert urls_of(config, 8765) == ["ws://127.0.0.1:8765"]
+    config = ServerConfig(host="192.168.1.20", token="s3cret")
+    assert urls_of(config, 8765) == ["ws://192.168.1.20:8765/?token=s3cret"]
+
+
+def test_foreign_pages_wrong_tokens_and_strange_hosts_are_refused_at_the_handshake(
+        router_endpoint: str, client: zenoh.Session, tmp_path: Path) -> None:
+    from websockets.exceptions import InvalidStatus
+    from websockets.sync.client import connect
+    from websockets.typing import Origin, Subprotocol
+
+    with server_with_foxglove(router_endpoint, tmp_path) as (server, url), RobotFeed(client, "r5", hz=20):
+        port = int(url.rsplit(":", 1)[1])
+
+        def handshake(target: str = "/", origin: str | None = None) -> int:
+            try:
+                with connect(f"{url}{target}", subprotocols=[Subprotocol("foxglove.sdk.v1")], open_timeout=10,
+                             origin=Origin(origin) if origin else None) as ws:
+                    json.loads(ws.recv(timeout=10))  # the SDK's serverInfo
+                    return 101
+            except InvalidStatus as exc:
+                return exc.response.status_code
+
+        assert handshake() == 101
+        assert handshake(origin="https://evil.example") == 403
+        assert handshake(f"/?token={server.token}", origin="https://evil.example") == 101
+        assert handshake("/?token=guess") == 401
+        assert httpx.get(f"http://127.0.0.1:{port}/", headers={"Host": "evil.example"}).status_code == 421
+        with socket.create_connection(("127.0.0.1", port)) as raw:  # not HTTP at all
+            raw.sendall(b"\x16\x03\x01 hello\r\n\r\n")
+            assert raw.recv(100).startswith(b"HTTP/1.1 400")
+        # the SDK itself: on loopback, on a port browsers refuse, so only the guard reaches it
+        listening = {c.laddr for c in psutil.Process(server.process.pid).net_connections(kind="tcp")
+                     if c.status == psutil.CONN_LISTEN}
+        sdk = [a for a in listening if a.port in BROWSER_BLOCKED_PORTS]
+        assert len(sdk) == 1 and sdk[0].ip == "127.0.0.1", listening
+        got = run_client("probe", f"{url}/?token={server.token}", "--topic", "/r5/joint_states", "--seconds", "20")
+        assert got["topics"]["/r5/joint_states"]["count"] >= 1
 
 
 def test_a_stream_ends_with_its_source_or_its_robot_but_a_paused_replay_keeps_its_channels() -> None:

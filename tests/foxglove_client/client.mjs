@@ -11,7 +11,8 @@
 //       subscribes to every channel and then never reads again (its TCP window fills): a client that hangs.
 //       Prints {"stalled": n} once subscribed, then waits until killed.
 //   node client.mjs latency URL --seconds S [--clients N] [--latency-of SUFFIX]
-//       N connections (default 1) subscribe to everything; prints messages/s per client and the delay from the
+//       N connections (default 1) subscribe to everything; prints messages/s per client (all, and of the hub's
+//       streams alone, without derived channels such as the annotations) and the delay from the
 //       log time (the hub message's stamp) to arrival, p50/p99 in ms, of the channels ending in SUFFIX
 //       (default /joint_states, whose stamps the bench sets when it sends).
 import wsProtocol from "@foxglove/ws-protocol";
@@ -134,20 +135,30 @@ function nowNs() {
 async function latency(url, opts) {
   const delays = [];
   const counts = [];
+  const streamCounts = [];
+  const WARMUP_MS = 1000;
+  let first = 0;
   let start = 0;
   for (let i = 0; i < opts.clients; i++) {
     const { client } = connect(url);
     const timed = new Set(); // subscription ids whose delay is measured
+    const streams = new Set(); // subscription ids of hub streams (cdr), not derived channels (annotations)
     counts.push(0);
+    streamCounts.push(0);
     client.on("advertise", (list) => {
       for (const channel of list) {
         const id = client.subscribe(channel.id);
         if (channel.topic.endsWith(opts.latencyOf)) timed.add(id);
+        if (channel.encoding === "cdr") streams.add(id);
       }
     });
     client.on("message", ({ subscriptionId, timestamp }) => {
-      if (!start) start = performance.now();
+      const now = performance.now();
+      if (!first) first = now;
+      if (now < first + WARMUP_MS) return; // the latest message of every channel comes at once on subscribe
+      if (!start) start = now;
       counts[i]++;
+      if (streams.has(subscriptionId)) streamCounts[i]++;
       if (timed.has(subscriptionId)) delays.push((nowNs() - Number(timestamp)) / 1e6);
     });
     client.on("error", (err) => { print({ error: String(err) }); process.exit(2); });
@@ -156,7 +167,8 @@ async function latency(url, opts) {
     const seconds = (performance.now() - start) / 1000;
     delays.sort((a, b) => a - b);
     const at = (q) => (delays.length ? delays[Math.min(delays.length - 1, Math.floor(q * delays.length))] : null);
-    print({ clients: opts.clients, seconds, msgs_per_s: counts.map((c) => c / seconds), timed: delays.length,
+    print({ clients: opts.clients, seconds, msgs_per_s: counts.map((c) => c / seconds),
+            stream_msgs_per_s: streamCounts.map((c) => c / seconds), timed: delays.length,
             p50_ms: at(0.5), p99_ms: at(0.99) });
     process.exit(0);
   }, opts.seconds * 1000);
