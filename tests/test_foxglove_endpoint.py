@@ -10,7 +10,10 @@ import base64
 import contextlib
 import io
 import json
+import os
 import socket
+import subprocess
+import sys
 import threading
 import time
 from collections.abc import Iterator
@@ -34,7 +37,7 @@ from server.security.credentials import Credentials
 from server.security.hosts import AllowedHosts
 from tests.dashboard_server import RunningServer, dashboard_server
 from tests.foxglove_node import foxglove_url, node_client, run_client
-from tests.support import free_port
+from tests.support import REPO, free_port
 from tests.waiting import wait_for
 from wire.keys import topic_key
 
@@ -428,3 +431,29 @@ def test_a_replayed_log_is_served_with_the_logs_own_cdr_bytes(tmp_path: Path) ->
         assert got["topics"]["/r2/joint_states"]["last"]["name"] == ["head_pan"]
         written = schemas.encode(schemas.make("humanoid_league_msgs/msg/GameState", game_state=3, own_score=0))
         assert base64.b64decode(got["topics"]["/r1/gamestate"]["lastBytes"]) == written
+
+
+def test_beyond_loopback_every_foxglove_client_needs_the_token(tmp_path: Path) -> None:
+    """Listening on every interface, as at the venue: the printed URL carries the token; without it, 401."""
+    from websockets.exceptions import InvalidStatus
+    from websockets.sync.client import connect
+    from websockets.typing import Subprotocol
+
+    token = "venue-token-123"
+    log = tmp_path / "server.log"
+    with log.open("wb") as out:
+        process = subprocess.Popen([sys.executable, "-m", "server", "--host", "0.0.0.0", "--port", str(free_port()),
+                                    "--no-live", "--no-telemetry", "--foxglove-port", str(free_port())], cwd=REPO,
+                                   stdout=out, stderr=subprocess.STDOUT,
+                                   env=dict(os.environ, PYTHONUNBUFFERED="1", PITCHSIDE_TOKEN=token))
+    try:
+        url = wait_for(lambda: foxglove_url(log.read_text()), timeout=60, interval=0.2, what="the foxglove banner")
+        assert url is not None and url.endswith(f"/?token={token}")
+        bare = url.split("/?", 1)[0]
+        with pytest.raises(InvalidStatus) as refused:
+            connect(bare, subprotocols=[Subprotocol("foxglove.sdk.v1")], open_timeout=10)
+        assert refused.value.response.status_code == 401
+        assert run_client("list", url)["channels"] == []  # with the token: the SDK answers
+    finally:
+        process.terminate()
+        process.wait(15)
