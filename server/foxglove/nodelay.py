@@ -1,9 +1,9 @@
-"""TCP_NODELAY on the Foxglove clients' connections, which foxglove-sdk 0.30 accepts without it.
+"""TCP_NODELAY on the connections the Foxglove SDK accepts (from the guard), which foxglove-sdk 0.30 leaves off.
 
-With Nagle's algorithm on, the server holds back a small write until the client acknowledges the previous one,
-and clients delay acknowledgements: bench/foxglove.py measured 10 ms p50 from hub to client with the demo's
-message mix, 0.3 ms with TCP_NODELAY. The SDK offers no option for it, so the endpoint looks for its established
-connections (by local port) a few times a second and sets the option on each new one. Socket options belong to
+With Nagle's algorithm on, the SDK holds back a small write until the other end acknowledges the previous one,
+and acknowledgements are delayed: bench/foxglove.py measured 10 ms p50 from hub to client with the demo's message
+mix, 0.6 ms with TCP_NODELAY. The SDK offers no option for it, so the endpoint looks at this process's new
+sockets a few times a second and sets the option on those accepted on the SDK's port. Socket options belong to
 the socket, not the file descriptor, so setting it through a duplicate descriptor is enough. Remove this module
 once the SDK sets the option itself.
 """
