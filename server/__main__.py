@@ -59,6 +59,8 @@ def arguments() -> argparse.ArgumentParser:
     p.add_argument("--plots-all-topics", action="store_true",
                    help="plot every numeric field of every topic (heavy on a small laptop; the panel adds topics "
                         "one by one)")
+    p.add_argument("--foxglove-port", type=int, default=8765, help="Foxglove WebSocket endpoint (a free one if taken)")
+    p.add_argument("--no-foxglove", action="store_true", help="no Foxglove WebSocket endpoint")
     p.add_argument("--recordings", default=None, metavar="DIR", help="recordings folder (default: recordings/)")
     p.add_argument("--no-auto-record", action="store_true", help="do not record matches automatically")
     p.add_argument("--replay", default=None, metavar="FILE", help="open this MCAP log in the replay source")
@@ -96,7 +98,8 @@ def config_from(args: argparse.Namespace) -> ServerConfig:
                             robot3d_port=args.robot3d_port, descriptions=descriptions, plots=args.plots,
                             plots_web_port=args.plots_port,
                             plots_grpc_port=args.plots_grpc_port, plots_max_hz=args.plots_max_hz,
-                            plots_all_topics=args.plots_all_topics)
+                            plots_all_topics=args.plots_all_topics,
+                            foxglove_port=None if args.no_foxglove else args.foxglove_port)
     except ValueError as exc:
         raise SystemExit(str(exc)) from None
 

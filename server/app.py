@@ -12,6 +12,7 @@ from fastapi import FastAPI
 from fastapi.staticfiles import StaticFiles
 
 from server.config import ServerConfig
+from server.foxglove import start_foxglove
 from server.http_errors import install_error_statuses
 from server.hub import Hub
 from server.recording.wiring import attach_recording
@@ -64,6 +65,7 @@ def create_app(config: ServerConfig) -> FastAPI:
                     log.warning("source %s not started: %s", name, exc)
         await _start_views(state)
         await recording.start()
+        state.foxglove = await start_foxglove(state)
         try:
             yield
         finally:
@@ -125,7 +127,7 @@ async def _start_views(state: ServerState) -> None:
 
 async def _stop_views(state: ServerState) -> None:
     """The 3D view, the plots, then the lab's loops (they send a last zero command and cancel goals)."""
-    for view in (state.robot3d, state.plots, state.lab):
+    for view in (state.foxglove, state.robot3d, state.plots, state.lab):
         if view is not None:
             with contextlib.suppress(Exception):
                 await view.stop()

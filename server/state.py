@@ -12,6 +12,7 @@ from server.sources import SourceSet
 from server.zenoh_link import ZenohLink
 
 if TYPE_CHECKING:  # the views import viser and rerun: heavy, and only started when the config asks for them
+    from server.foxglove.endpoint import FoxgloveEndpoint
     from server.lab import LabTools
     from server.plots import PlotFeed
     from server.recorder import Recorder
@@ -30,4 +31,5 @@ class ServerState:
     replay: ReplaySource | None = None
     robot3d: Robot3DView | None = None  # the 3D view (--robot3d), once started
     plots: PlotFeed | None = None  # the plots (--plots), once started
+    foxglove: FoxgloveEndpoint | None = None  # the Foxglove endpoint (--foxglove-port), once started
     lab: LabTools | None = None  # what lives between lab requests, made on first use (server.lab.lab_tools)
