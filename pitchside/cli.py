@@ -3,9 +3,12 @@
 from __future__ import annotations
 
 import importlib
+import importlib.metadata
 import sys
 from collections.abc import Callable
 from typing import cast
+
+from wire.command_line import EXIT_CODES
 
 # command -> ("module:function" taking argv, one line of help)
 COMMANDS: dict[str, tuple[str, str]] = {
@@ -31,11 +34,20 @@ def entry_point(command: str) -> Callable[[list[str]], None]:
     return cast(Callable[[list[str]], None], getattr(importlib.import_module(module), function))
 
 
+def version() -> str:
+    """The installed distribution's version (a checkout run without installing says so)."""
+    try:
+        return importlib.metadata.version("pitchside")
+    except importlib.metadata.PackageNotFoundError:
+        return "unknown (not installed: pip install -e .)"
+
+
 def usage() -> str:
     width = max(len(c) for c in COMMANDS)
-    lines = ["usage: pitchside <command> [options]   (pitchside <command> --help for its options)", "",
-             "commands:"]
+    lines = ["usage: pitchside <command> [options]   (pitchside <command> --help for its options)",
+             "       pitchside --version", "", "commands:"]
     lines += [f"  {name.ljust(width)}  {text}" for name, (_, text) in COMMANDS.items()]
+    lines += ["", EXIT_CODES]
     return "\n".join(lines)
 
 
@@ -43,6 +55,9 @@ def main(argv: list[str] | None = None) -> None:
     args = sys.argv[1:] if argv is None else argv
     if not args or args[0] in ("-h", "--help", "help"):
         print(usage())
+        return
+    if args[0] in ("-V", "--version"):
+        print(f"pitchside {version()}")
         return
     command, rest = args[0], args[1:]
     if command not in COMMANDS:

@@ -5,7 +5,6 @@ Everything runs on this machine: a Zenoh router inside this process, the other p
 
 from __future__ import annotations
 
-import argparse
 import logging
 import os
 import socket
@@ -18,6 +17,7 @@ from pitchside.robot import MOTION_NODES, available, robot_nodes
 from robot_nodes.launch import Launcher, NodeProcess, run_until_signal
 from server.security.credentials import ENV_TOKEN, new_token
 from wire.bus import open_router
+from wire.command_line import CommandParser
 from wire.telemetry.datagram import write_new_key
 
 log = logging.getLogger("pitchside.demo")
@@ -78,7 +78,7 @@ def demo_processes(robots: int, endpoint: str, http_port: int, telemetry_port: i
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(prog="pitchside demo", description=__doc__)
+    parser = CommandParser(prog="pitchside demo", description=__doc__)
     parser.add_argument("--robots", type=int, default=1, help="robots in the world (default 1)")
     parser.add_argument("--port", type=int, default=8080, help="dashboard port (a free one if taken)")
     parser.add_argument("--model", default="minibot")

@@ -7,7 +7,6 @@ Bookmarks become text log entries on ``bookmarks``.
 
 from __future__ import annotations
 
-import argparse
 import sys
 from collections import defaultdict
 from pathlib import Path
@@ -16,6 +15,7 @@ import numpy as np
 
 from schemas.logs import LogError, LogSeriesReader
 from schemas.numeric import numeric_fields
+from wire.command_line import CommandParser
 
 
 def export(path: Path, out: Path, topics: list[str] | None = None, robots: list[str] | None = None) -> dict[str, int]:
@@ -51,7 +51,7 @@ def export(path: Path, out: Path, topics: list[str] | None = None, robots: list[
 
 
 def main(argv: list[str] | None = None) -> None:
-    p = argparse.ArgumentParser(prog="pitchside export-rerun", description=__doc__.splitlines()[0])
+    p = CommandParser(prog="pitchside export-rerun", description=__doc__.splitlines()[0])
     p.add_argument("file", type=Path, help="an MCAP log (pitchside or a ROS 2 bag)")
     p.add_argument("-o", "--output", type=Path, default=None, help="the .rrd to write (default: FILE with .rrd)")
     p.add_argument("--topic", action="append", default=None, help="only this topic (repeatable)")

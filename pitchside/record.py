@@ -20,6 +20,7 @@ import httpx
 
 from server.security.credentials import ENV_TOKEN
 from server.security.token_file import read_token_file
+from wire.command_line import CommandParser
 
 DEFAULT_SERVER = "http://127.0.0.1:8080"
 
@@ -62,7 +63,7 @@ def _describe(status: dict[str, Any] | None) -> str:
 
 
 def main(argv: list[str] | None = None) -> None:
-    p = argparse.ArgumentParser(prog="pitchside record", description=__doc__.splitlines()[0])
+    p = CommandParser(prog="pitchside record", description=__doc__.splitlines()[0])
     p.add_argument("action", choices=["start", "stop", "status", "list", "bookmark", "follow"],
                    help="follow: start, print progress until Ctrl-C, then stop")
     p.add_argument("name", nargs="?", default="", help="recording name (start, follow) or bookmark name")

@@ -7,22 +7,23 @@ options go to the server (``pitchside serve --help``), e.g. ``--port``.
 
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
 
 def main(argv: list[str] | None = None) -> None:
-    p = argparse.ArgumentParser(prog="pitchside replay", description=__doc__.splitlines()[0])
+    from server.__main__ import arguments, run
+
+    p = arguments(prog="pitchside replay", description=__doc__.splitlines()[0])  # the server's options too
     p.add_argument("file", type=Path, help="an MCAP log: a pitchside recording or a ROS 2 bag")
     p.add_argument("--with-live", action="store_true", help="also run the live Zenoh and telemetry sources")
-    args, server_args = p.parse_known_args(sys.argv[1:] if argv is None else argv)
+    args = p.parse_args(sys.argv[1:] if argv is None else argv)
     if not args.file.exists():
-        raise SystemExit(f"pitchside replay: no such file {args.file}")
-    from server.__main__ import serve
-
-    extra = [] if args.with_live else ["--no-live", "--no-telemetry", "--no-auto-record"]
-    serve(["--replay", str(args.file.resolve()), *extra, *server_args])
+        p.error(f"no such file {args.file}")
+    args.replay = str(args.file.resolve())
+    if not args.with_live:
+        args.no_live = args.no_telemetry = args.no_auto_record = True
+    run(args)
 
 
 if __name__ == "__main__":

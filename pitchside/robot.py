@@ -18,6 +18,7 @@ from pitchside.team_access import Role
 from pitchside.team_keys import member_of
 from robot_nodes.launch import NODE_MODULES, Launcher, NodeProcess, node_command, run_until_signal
 from wire.bus import add_bus_arguments, env_endpoints, load_config_file
+from wire.command_line import CommandParser
 from wire.machine_router import MachineRouter, is_router_config, start_machine_router
 from wire.telemetry.datagram import DEFAULT_PORT
 
@@ -114,7 +115,7 @@ def telemetry_arguments(args: argparse.Namespace) -> list[str] | None:
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(prog="pitchside robot", description=__doc__,
+    parser = CommandParser(prog="pitchside robot", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--robot-id", default=None, help="robot id (default: the team config's robot, else robot1)")
     parser.add_argument("--model", default="minibot", help="robot description folder under robots/")

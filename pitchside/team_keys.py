@@ -36,6 +36,7 @@ from typing import Any
 from pitchside.team_access import Role, access_control, robot_router_access_control
 from pitchside.team_certificates import MemberCredentials, TeamAuthority, TeamCertificateError, member_credentials
 from wire.bus import DEFAULT_LISTEN, BusConfig, router_settings
+from wire.command_line import CommandParser
 from wire.telemetry.datagram import check_robot_id
 
 TEAM_FILE = "team.json"
@@ -311,7 +312,7 @@ def _names(text: str | None) -> list[str]:
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(prog="pitchside team-keys", description=__doc__,
+    parser = CommandParser(prog="pitchside team-keys", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("folder", type=Path, help="where the team's files go (made if missing)")
     parser.add_argument("--team", help="the team's name (required for a new team)")

@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from wire.bus import add_bus_arguments, bus_from_arguments
+from wire.command_line import CommandParser
 from wire.machine_router import is_router_config, remote, start_machine_router
 
 log = logging.getLogger("pitchside.launch")
@@ -155,7 +156,7 @@ def node_command(module: str, robot_id: str, connect: list[str], params: Path | 
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = CommandParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("nodes", nargs="+", help=f"nodes to start: {', '.join(NODE_MODULES)} or a module path")
     parser.add_argument("--robot-id", default="robot1")
     parser.add_argument("--params", type=Path, default=None)

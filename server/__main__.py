@@ -1,4 +1,5 @@
-"""``python -m server``: runs the dashboard and prints its URL (and the control token when one is needed)."""
+"""``pitchside serve`` (also ``python -m server``): runs the dashboard and prints its URL (and the control token when
+one is needed)."""
 
 from __future__ import annotations
 
@@ -11,11 +12,13 @@ from server.config import RobotDescription, ServerConfig
 from server.security.credentials import ENV_TOKEN
 from server.security.token_file import remove_token_file, write_token_file
 from wire.bus import add_bus_arguments, bus_from_arguments, load_config_file
+from wire.command_line import CommandParser
 from wire.machine import machine_addresses
 
 
-def arguments() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="python -m server", description="pitchside dashboard server")
+def arguments(prog: str = "pitchside serve", description: str = "the pitchside dashboard server") -> CommandParser:
+    """The server's options; ``pitchside replay`` takes the same ones (it runs this server)."""
+    p = CommandParser(prog=prog, description=description)
     p.add_argument("--host", default="127.0.0.1",
                    help="bind address (default 127.0.0.1; beyond loopback, reading data needs the token too)")
     p.add_argument("--port", type=int, default=8080)
@@ -146,11 +149,15 @@ def telemetry_key_name(config: ServerConfig) -> str:
 
 
 def serve(argv: list[str] | None = None) -> None:
+    run(arguments().parse_args(argv))
+
+
+def run(args: argparse.Namespace) -> None:
+    """Runs the dashboard with parsed options (of ``arguments``) until Ctrl-C or SIGTERM."""
     import uvicorn
 
     from server.app import create_app
 
-    args = arguments().parse_args(argv)
     logging.basicConfig(level=args.log_level, format="%(asctime)s %(levelname)s [server] %(message)s")
     config = config_from(args)
     if args.recordings:

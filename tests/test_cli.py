@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import subprocess
 import sys
 
@@ -20,10 +21,34 @@ def test_usage_lists_every_command() -> None:
 
 @pytest.mark.parametrize("command", sorted(COMMANDS))
 def test_command_help(command: str) -> None:
+    """Each command names itself as the user typed it, reads as plain text and tells its exit codes."""
     result = subprocess.run([sys.executable, "-m", "pitchside.cli", command, "--help"], cwd=REPO,
                             capture_output=True, text=True, timeout=60)
     assert result.returncode == 0, result.stderr
-    assert "usage" in result.stdout.lower()
+    assert result.stdout.startswith(f"usage: pitchside {command} "), result.stdout[:200]
+    assert "`" not in result.stdout, "reStructuredText literals in the help"
+    assert "python -m" not in result.stdout.split("\n\n")[0]
+    assert "exit status: 0 done, 2 usage error" in " ".join(result.stdout.split())
+
+
+@pytest.mark.parametrize("command", ["serve", "replay", "robot"])
+def test_a_wrong_option_is_a_usage_error_with_exit_code_2(command: str) -> None:
+    result = subprocess.run([sys.executable, "-m", "pitchside.cli", command, "--no-such-option"], cwd=REPO,
+                            capture_output=True, text=True, timeout=60)
+    assert result.returncode == 2 and f"pitchside {command}: error:" in result.stderr, result.stderr
+
+
+def test_replay_help_shows_the_server_options_it_passes_on() -> None:
+    out = subprocess.run([sys.executable, "-m", "pitchside.cli", "replay", "--help"], cwd=REPO,
+                         capture_output=True, text=True, timeout=60, check=True).stdout
+    for option in ("--port", "--host", "--allow-folder", "--foxglove-port", "--with-live"):
+        assert option in out, option
+
+
+def test_version() -> None:
+    out = subprocess.run([sys.executable, "-m", "pitchside.cli", "--version"], cwd=REPO, capture_output=True,
+                         text=True, timeout=60, check=True).stdout
+    assert re.fullmatch(r"pitchside \d+\.\d+\.\d+\S*\n", out), out
 
 
 def test_unknown_command_is_refused_with_usage() -> None:

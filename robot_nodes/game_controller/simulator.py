@@ -6,7 +6,6 @@ Run: ``python -m robot_nodes.game_controller.simulator --teams 1 2 --http-port 8
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import json
 import logging
@@ -33,6 +32,7 @@ from robot_nodes.game_controller.packets import (
     parse_return_packet,
 )
 from robot_nodes.runtime.udp import UdpPort
+from wire.command_line import CommandParser
 
 log = logging.getLogger("pitchside.gc_simulator")
 
@@ -434,7 +434,7 @@ def _address(text: str, default_port: int) -> tuple[str, int]:
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(description="Simulated RoboCup Humanoid League GameController (v12 packets)")
+    parser = CommandParser(description="Simulated RoboCup Humanoid League GameController (v12 packets)")
     parser.add_argument("--teams", type=int, nargs=2, default=[1, 2], metavar=("HOME", "AWAY"))
     parser.add_argument("--players-per-team", type=int, default=4)
     parser.add_argument("--to", action="append", default=None, metavar="HOST[:PORT]",

@@ -29,6 +29,7 @@ from schemas.std import DiagnosticArray, DiagnosticStatus, Header, KeyValue, Tim
 from wire import keys
 from wire.actions import ActionClient
 from wire.bus import BusConfig, add_bus_arguments, bus_from_arguments, load_config_file, open_session
+from wire.command_line import CommandParser
 from wire.parameters import ParameterError
 
 log = logging.getLogger(__name__)
@@ -377,7 +378,7 @@ class Node:
 
 
 def node_arguments(description: str) -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(description=description)
+    parser = CommandParser(description=description)
     parser.add_argument("--robot-id", default="robot1", help="robot id in the Zenoh keys (default robot1)")
     add_bus_arguments(parser)
     parser.add_argument("--params", type=Path, default=None, help="params.yaml of the robot")

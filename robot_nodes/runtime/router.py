@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import argparse
 import json
 import logging
 import signal
@@ -11,12 +10,13 @@ import threading
 import zenoh
 
 from wire.bus import DEFAULT_LISTEN, router_config
+from wire.command_line import CommandParser
 
 log = logging.getLogger("pitchside.router")
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__)
+    parser = CommandParser(description=__doc__)
     parser.add_argument("--listen", action="append", default=None,
                         help=f"endpoint to listen on (repeatable; default {DEFAULT_LISTEN} or the config file's, "
                              "use tcp/0.0.0.0:7447 to serve other machines)")

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
@@ -10,10 +9,11 @@ from robot_nodes.runtime import ParameterStore, run
 from robot_nodes.runtime.node import parse_overrides
 from robot_nodes.telemetry.estimate import report
 from robot_nodes.telemetry.sender import TelemetryNode, TelemetryParams
+from wire.command_line import CommandParser
 
 
 def dry_run(argv: list[str]) -> int:
-    parser = argparse.ArgumentParser(prog="python -m robot_nodes.telemetry --dry-run",
+    parser = CommandParser(prog="python -m robot_nodes.telemetry --dry-run",
                                      description="print the bytes/s a telemetry configuration would send")
     parser.add_argument("--dry-run", action="store_true")
     parser.add_argument("--params", "--config", type=Path, default=None, help="params.yaml (section 'telemetry')")

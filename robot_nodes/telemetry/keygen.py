@@ -7,15 +7,15 @@ so a mismatch is seen before kick-off.
 
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
+from wire.command_line import CommandParser
 from wire.telemetry.datagram import key_fingerprint, write_new_key
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(prog="pitchside telemetry-key", description=__doc__.splitlines()[0])
+    parser = CommandParser(prog="pitchside telemetry-key", description=__doc__.splitlines()[0])
     parser.add_argument("file", type=Path, help="where to write the key (refused if the file exists)")
     args = parser.parse_args(sys.argv[1:] if argv is None else argv)
     try:

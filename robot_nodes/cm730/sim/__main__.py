@@ -7,7 +7,6 @@ one Zenoh session; each node serves its robot's topics (pitchside/robotK/...) ex
 
 from __future__ import annotations
 
-import argparse
 import logging
 import signal
 import threading
@@ -19,6 +18,7 @@ from robot_nodes.cm730.sim_backend import MujocoBackend
 from robot_nodes.runtime import BusConfig, Node, open_session
 from robot_nodes.runtime.node import parse_overrides
 from wire.bus import add_bus_arguments, bus_from_arguments
+from wire.command_line import CommandParser
 
 
 def serve(n_robots: int, bus: BusConfig, params: Path | None = None, overrides: dict | None = None,
@@ -35,7 +35,7 @@ def serve(n_robots: int, bus: BusConfig, params: Path | None = None, overrides: 
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = CommandParser(description=__doc__.splitlines()[0])
     parser.add_argument("--robots", type=int, default=1)
     add_bus_arguments(parser)
     parser.add_argument("--params", type=Path, default=None)
