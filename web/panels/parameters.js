@@ -390,9 +390,11 @@ async function writeNow(pp, node, values, { recordUndo = true, revisions = null,
     const changed = reply.changed ?? names;
     if (recordUndo && changed.length) {
       state.undo.push({ node, values: Object.fromEntries(changed.map((n) => [n, before[n]])), what,
+        based: Object.fromEntries(changed.map((n) => [n, based[n]])),
         revisions: Object.fromEntries(changed.map((n) => [n, find(state, node, n)?.revision])) });
       showUndo(pp);
     }
+    refreshShownDiff(pp, node);
     const now = Object.fromEntries(names.map((n) => [n, find(state, node, n)?.value]));
     pp.status(`${what ? `${what}: ` : ""}${describeValues(node, now)}`);
     return true;
@@ -452,12 +454,18 @@ function showUndo(pp) {
 
 /** "undo": the values the panel's last accepted change replaced are written back exactly, based on the revisions
  * that change produced: if someone changed one of them since, the undo is refused (and dropped) rather than
- * overwriting their value. Not itself undoable. */
+ * overwriting their value. Not itself undoable; the change before it can be undone next. */
 async function undoLast(pp) {
-  const last = pp.state.undo.pop();
+  const { state } = pp;
+  const last = state.undo.pop();
   showUndo(pp);
   if (!last) return;
-  await write(pp, last.node, last.values, { recordUndo: false, revisions: last.revisions, what: "undo" });
+  if (!await write(pp, last.node, last.values, { recordUndo: false, revisions: last.revisions, what: "undo" })) return;
+  // the undo wrote the very value an earlier change produced, at a new revision: that change stays undoable
+  for (const name of Object.keys(last.values)) {
+    const earlier = state.undo.findLast((u) => u.node === last.node && name in u.values);
+    if (earlier?.revisions[name] === last.based[name]) earlier.revisions[name] = find(state, last.node, name)?.revision;
+  }
 }
 
 /** The node's values that differ from its YAML file ({name: file value}) and the file's name, from the diff. */
@@ -498,6 +506,12 @@ async function showDiff(pp, node) {
   const place = pp.el.nodes.querySelector(`[data-node="${CSS.escape(node)}"] [data-role="diff"]`);
   if (place) place.innerHTML = diffTable(diff);
   return diff;
+}
+
+/** A diff on screen is redone after the panel changed the node's values, so it never shows stale ones. */
+function refreshShownDiff(pp, node) {
+  const place = pp.el.nodes.querySelector(`[data-node="${CSS.escape(node)}"] [data-role="diff"]`);
+  if (place?.innerHTML.trim()) showDiff(pp, node).catch(() => { place.innerHTML = ""; });
 }
 
 /** A node's buttons (data-act) by name, each given the panel, the click and the node. */
