@@ -76,8 +76,8 @@ def nodes(bus: BusConfig, params_file: Path) -> Iterator[list[Any]]:
     telemetry = {"destination": f"127.0.0.1:{free_port(socket.SOCK_DGRAM)}", "allow_dev_key": True}
     started: list[Any] = []
     try:
-        for make in (HcmNode, PauseNode, lambda *a, **kw: TelemetryNode(*a, **kw, overrides=telemetry), WalkingNode):
-            started.append(make(ROBOT, bus, params_file=params_file).start())
+        for cls, overrides in ((HcmNode, None), (PauseNode, None), (TelemetryNode, telemetry), (WalkingNode, None)):
+            started.append(cls(ROBOT, bus, params_file=params_file, overrides=overrides).start())
         yield started
     finally:
         for node in started:
@@ -187,8 +187,14 @@ def test_find_change_save_revert_undo_reset(browser: Any, server: RunningServer,
     asked: list[str] = []
 
     def answer(accept: bool) -> None:
-        page.once("dialog", lambda dialog: (asked.append(dialog.message), dialog.accept() if accept
-                                            else dialog.dismiss()))
+        """The next question the page asks is noted and answered (OK or Cancel)."""
+        def on_dialog(dialog: Any) -> None:
+            asked.append(dialog.message)
+            if accept:
+                dialog.accept()
+            else:
+                dialog.dismiss()
+        page.once("dialog", on_dialog)
 
     answer(False)
     page.click(f'{PANEL} [data-node="walking"] button[data-act="reset-node"]')
