@@ -76,9 +76,12 @@ def test_parameter_panel_changes_the_node(browser: Any, server: RunningServer, b
         page.wait_for_function(f"""document.querySelector('{row} input[data-role="value"]').value === '12'""",
                                timeout=TIMEOUT_MS)
 
-        # undo writes back the value before the panel's last accepted change
+        # undo would write back the value before the panel's last accepted change (7.0), but someone else changed
+        # it since: refused (revision-checked), theirs stays
         page.click('[data-panel="parameters"] button[data-act="undo"]')
-        wait_for(lambda: params.get("hcm", "falling_gyro_pitch") == 7.0, 20.0, 0.2, "undone to 7.0")
+        page.wait_for_selector('[data-panel="parameters"] .lab-status.bad:has-text("undo refused")',
+                               timeout=TIMEOUT_MS)
+        assert params.get("hcm", "falling_gyro_pitch") == 12.0
 
         # diff against the YAML, reset to default
         params.set("hcm", {"upright_deg": 40.0})

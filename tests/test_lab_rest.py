@@ -88,18 +88,30 @@ def test_parameters_set_refuse_conflict_diff_reset_save(server: RunningServer, b
         assert reply.status_code == 409 and "changed meanwhile" in reply.json()["detail"]
         assert ParameterClient(client, "r1").get("hcm", "falling_gyro_pitch") == 9.5
 
+        # the diff compares with the file the node started with (what it saves to and reverts to)
         diff = server.http.get(f"{url}/params/hcm/diff", timeout=20).json()
         assert {"name": "falling_gyro_pitch", "live": 9.5, "yaml": 7.0, "from": "default"} in diff["changes"]
-        assert diff["file"] == "robots/minibot/params.yaml"
-        assert server.http.get(f"{url}/params/hcm/diff?model=../etc", timeout=20).status_code == 404
+        assert diff["file"] == str(params_file)
+        assert ParameterClient(client, "r1").file("hcm") == (str(params_file), {})
 
         saved = server.http.post(f"{url}/params/hcm/save", timeout=20).json()
         assert Path(saved["path"]) == params_file
         assert yaml.safe_load(params_file.read_text())["hcm"]["falling_gyro_pitch"] == 9.5
+        assert params_file.read_text().startswith((MINIBOT / "params.yaml").read_text()), "comments and order kept"
+        diff = server.http.get(f"{url}/params/hcm/diff", timeout=20).json()
+        assert "falling_gyro_pitch" not in [c["name"] for c in diff["changes"]]
 
         reply = server.http.post(f"{url}/params/hcm/reset", json={"names": ["falling_gyro_pitch"]}, timeout=20)
         assert reply.status_code == 200 and reply.json()["changed"] == ["falling_gyro_pitch"]
         assert ParameterClient(client, "r1").get("hcm", "falling_gyro_pitch") == 7.0
+    finally:
+        hcm.shutdown()
+    # a node started without a file is compared with the robot model's
+    hcm = HcmNode("r1", bus).start()
+    try:
+        diff = server.http.get(f"{url}/params/hcm/diff", timeout=20).json()
+        assert diff["file"] == "robots/minibot/params.yaml" and diff["changes"] == []
+        assert server.http.get(f"{url}/params/hcm/diff?model=../etc", timeout=20).status_code == 404
     finally:
         hcm.shutdown()
 

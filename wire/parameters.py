@@ -10,7 +10,11 @@ The wire protocol (JSON over the Zenoh queryable ``pitchside/<robot>/params/<nod
     reply    {"ok": true, "changed": [...], "params": [...]} or {"ok": false, "error": "...", "reason": "..."}
              (reason "stale": a value was changed meanwhile; "invalid": the value itself was refused)
     request  {"op": "reset", "names": [...]}          back to defaults
-    request  {"op": "save", "path": optional}         write the live values to the YAML file
+    request  {"op": "save", "path": optional}         write the live values to the YAML file (only the values that
+                                                      differ from it: its comments and order stay)
+    request  {"op": "file"}                           the file the node started with, as it is now
+    reply    {"ok": true, "path": "/.../params.yaml" or null, "values": {"name": value, ...}, "params": [...]}
+             (values: the node's section of the file; a parameter it does not mention starts at its default)
 
 A robot's parameter files (``robots/<model>/params.yaml``) hold one section per node.
 """
@@ -50,14 +54,16 @@ def load_yaml_section(path: Path, node: str) -> dict[str, Any]:
     """The parameters of one node in a robot's params.yaml (top-level key = node name)."""
     if not path.exists():
         return {}
-    data = yaml.safe_load(path.read_text()) or {}
+    try:
+        data = yaml.safe_load(path.read_text()) or {}
+    except yaml.YAMLError as exc:
+        raise ParameterError(f"{path}: not valid YAML ({exc})") from exc
     if not isinstance(data, dict):
         raise ParameterError(f"{path}: expected a mapping of node names to parameters")
     section = data.get(node) or {}
     if not isinstance(section, dict):
         raise ParameterError(f"{path}: section {node!r} must be a mapping")
     return section
-
 
 
 class ParameterClient:
@@ -101,6 +107,11 @@ class ParameterClient:
 
     def save(self, node: str, path: str | None = None) -> dict[str, Any]:
         return self._one(node, {"op": "save", "path": path})
+
+    def file(self, node: str) -> tuple[str | None, dict[str, Any]]:
+        """The YAML file the node started with (None: none) and its section of it as it is now."""
+        reply = self._one(node, {"op": "file"})
+        return reply.get("path"), reply.get("values") or {}
 
     def _one(self, node: str, request: dict[str, Any]) -> dict[str, Any]:
         # a node that just started may not be routed to us yet: ask again until the timeout

@@ -367,6 +367,9 @@ class Node:
             elif op == "save":
                 path = self.parameters.save(Path(request["path"]) if request.get("path") else None)
                 reply = {"ok": True, "path": str(path)}
+            elif op == "file":
+                file, values = self.parameters.file_values()
+                reply = {"ok": True, "path": str(file) if file else None, "values": values}
             else:
                 reply = {"ok": False, "error": f"unknown parameter operation {op!r}"}
         except ParameterError as exc:

@@ -18,8 +18,7 @@ from dataclasses import MISSING, dataclass, field
 from pathlib import Path
 from typing import Any, get_type_hints
 
-import yaml
-
+from robot_nodes.runtime.params_yaml import save_section
 from wire.parameters import ParameterError, StaleRevision, load_yaml_section
 
 
@@ -174,15 +173,18 @@ class ParameterStore:
         return self.set({n: self.specs[n].default for n in names if n in self.specs})
 
     def save(self, path: Path | None = None) -> Path:
-        """Writes this node's live values into its section of the YAML file, keeping other sections."""
+        """Writes this node's live values into its section of the YAML file, keeping the file's comments, order and
+        other sections (robot_nodes.runtime.params_yaml)."""
         target = path or self.yaml_path
         if target is None:
             raise ParameterError(f"node {self.node!r} has no parameter file to save to")
-        data: dict[str, Any] = {}
-        if target.exists():
-            data = yaml.safe_load(target.read_text()) or {}
-        data[self.node] = dataclasses.asdict(self.values)
-        tmp = target.with_suffix(target.suffix + ".tmp")
-        tmp.write_text(yaml.safe_dump(data, sort_keys=True))
-        tmp.replace(target)
+        with self._lock:
+            live = dataclasses.asdict(self.values)
+        save_section(target, self.node, live, {name: spec.default for name, spec in self.specs.items()})
         return target
+
+    def file_values(self) -> tuple[Path | None, dict[str, Any]]:
+        """The file the node started with and its section as the file says now (what "revert to file" restores)."""
+        if self.yaml_path is None:
+            return None, {}
+        return self.yaml_path, load_yaml_section(self.yaml_path, self.node)

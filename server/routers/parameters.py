@@ -4,8 +4,9 @@ server-sent events (``.../params/*/events``) for the panel to follow.
 
 Everything here talks to robots over Zenoh (the server's ZenohLink), so every endpoint depends on
 ``require_control``: 403 with the reason in match mode, 401 without the credential. The diff compares each live
-value with what the node would start with: the value in the robot model's ``robots/<model>/params.yaml`` (the file
-``pitchside robot`` starts the nodes with), else the declared default.
+value with what the node would start with: the value in the YAML file the node started with (``pitchside robot``
+starts the nodes with ``robots/<model>/params.yaml``), else the declared default; it is also where the panel's
+"revert to file" takes its values from.
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ import robots
 from server.deps import require_control, robot_on_link, valid_node, valid_robot
 from server.state import ServerState
 from wire import keys
-from wire.parameters import ParameterClient, load_yaml_section
+from wire.parameters import NodeSilent, ParameterClient, ParameterError, load_yaml_section
 
 router = APIRouter(prefix="/api/robots/{robot}/params", tags=["parameters"], dependencies=[Depends(valid_robot)])
 _NAME = re.compile(r"^[A-Za-z0-9_.-]+$")  # a robot or node name: nothing a Zenoh key expression would read as a pattern
@@ -80,7 +81,7 @@ class Difference(BaseModel):
 class Diff(BaseModel):
     robot: str
     node: str
-    file: str  # the YAML compared with, relative to the checkout
+    file: str  # the YAML compared with: the node's own file as the node names it, else robots/<model>/params.yaml
     changes: list[Difference]
 
 
@@ -124,10 +125,24 @@ async def save_parameters(robot: str, node: str, state: ServerState = Depends(re
 @router.get("/{node}/diff", dependencies=ON_LINK)
 async def diff_parameters(robot: str, node: str, model: str = "minibot",
                           state: ServerState = Depends(require_control)) -> Diff:
-    """Live values that differ from the robot model's YAML (or the default where the YAML is silent)."""
-    path = robots.params_file(model)
-    live = await asyncio.to_thread(lambda: _client(state, robot).describe(node))
-    section = load_yaml_section(path, node)
+    """Live values that differ from the node's YAML file as it is now (or the default where the file is silent): the
+    file the node started with and saves to, which the node reads itself (it may be on the robot); a node started
+    without one (or too old to say) is compared with the robot model's file. Each difference's ``yaml`` value is
+    what "revert to file" writes back."""
+    client = _client(state, robot)
+    live = await asyncio.to_thread(client.describe, node)
+    try:
+        node_file, section = await asyncio.to_thread(client.file, node)
+    except NodeSilent:
+        raise
+    except ParameterError:  # a node from before the "file" operation
+        node_file, section = None, {}
+    if node_file is None:
+        path = robots.params_file(model)
+        section = load_yaml_section(path, node)
+        shown = f"robots/{path.relative_to(robots.ROOT)}"
+    else:
+        shown = node_file
     changes = []
     for p in live:
         in_yaml = p["name"] in section
@@ -135,7 +150,7 @@ async def diff_parameters(robot: str, node: str, model: str = "minibot",
         if expected != p["value"]:
             changes.append(Difference.model_validate({"name": p["name"], "live": p["value"], "yaml": expected,
                                                       "from": "yaml" if in_yaml else "default"}))
-    return Diff(robot=robot, node=node, file=f"robots/{path.relative_to(robots.ROOT)}", changes=changes)
+    return Diff(robot=robot, node=node, file=shown, changes=changes)
 
 
 @router.get("/{node}/events")

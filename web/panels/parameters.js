@@ -1,7 +1,9 @@
-// Parameters: every node of a robot with its parameters, edited live (the node validates), undo, diff, save, reset,
-// and a small plot of a numeric field (the server lists them) against time with a parameter drawn as a threshold
-// line. The panel follows changes made elsewhere (another dashboard, the command line, the node itself) through the
-// server's stream of the nodes' parameter events; an input being typed into is never overwritten.
+// Parameters: every node of a robot with its parameters, found by a search across nodes, edited live (the node
+// validates), reset to the default or reverted to the YAML file, saved into that file (its comments stay), undone
+// exactly, compared with the file (diff); and a small plot of a numeric field (the server lists them) against time
+// with a parameter drawn as a threshold line. The panel follows changes made elsewhere (another dashboard, the
+// command line, the node itself) through the server's stream of the nodes' parameter events; an input being typed
+// into is never overwritten, and the panel's own writes are never taken for changes made elsewhere.
 // One panel object holds the state; each function below renders one part or handles one user action.
 
 import { api, labToolOff, numericFields, robotPath, robotPicker } from "../lab_api.js";
@@ -15,6 +17,9 @@ const DEFAULT_PLOT = ["imu/data", "angular_velocity/y"]; // the fall checker's g
 function pick(obj, path) {
   return path.split("/").reduce((o, k) => (o == null ? undefined : o[k]), obj);
 }
+
+/** Two parameter values are the same (lists compared by content). */
+function same(a, b) { return JSON.stringify(a) === JSON.stringify(b); }
 
 /** The input that fits a parameter's type: a toggle, a menu of its choices, a number (with a slider in a range). */
 function controlFor(p) {
@@ -47,10 +52,14 @@ function readControl(p, row) {
 
 // The panel's markup; the nodes' tables are rendered into data-role="nodes".
 const LAYOUT = `<div class="lab-bar">
+        <input type="search" data-role="search" placeholder="find a parameter…" size="18"
+          title="words of a parameter's node, name or description; Enter goes to the first one found, Esc clears">
+        <span class="muted" data-role="found"></span>
         <label>robot <select data-role="robot"></select></label>
         <button data-act="reload" title="read every node's parameters again">reload</button>
-        <button data-act="undo" title="write back the value before your last change" disabled>undo</button>
-        <label>model <input data-role="model" value="minibot" size="8" title="robots/&lt;model&gt;/params.yaml for the diff"></label>
+        <button data-act="undo" title="nothing to undo" disabled>undo</button>
+        <label>model <input data-role="model" value="minibot" size="8"
+          title="robots/&lt;model&gt;/params.yaml: the file compared with for a node started without one"></label>
         <span class="lab-status" data-role="status"></span>
       </div>
       <details class="lab-plot"><summary>threshold plot</summary>
@@ -79,6 +88,8 @@ export default {
     el.nodes.addEventListener("change", (e) => onValueChange(pp, e));
     el.nodes.addEventListener("input", onSliderInput);
     el.nodes.addEventListener("click", (e) => onNodeAction(pp, e));
+    el.search.addEventListener("input", () => applyFilter(pp));
+    el.search.addEventListener("keydown", (e) => onSearchKey(pp, e));
     el.undo.addEventListener("click", () => undoLast(pp));
     pp.$('[data-act="reload"]').addEventListener("click", () => load(pp));
     el.topic.addEventListener("change", () => chooseTopic(pp, el.topic.value));
@@ -93,14 +104,17 @@ export default {
 /** The panel: its state (window.pitchside.params, for tests), its elements, the event stream and the write queue. */
 function newPanel(body, ctx) {
   const $ = (sel) => body.querySelector(sel);
-  const state = { robot: "", nodes: {}, undo: [], writes: 0, errors: 0, series: [], events: 0, deferred: new Map() };
+  // undo: what the panel's accepted changes replaced, newest last; inflight: "node/name" -> the value a write of
+  // the panel is sending (its event may come before its reply, and is not a change made elsewhere)
+  const state = { robot: "", nodes: {}, undo: [], writes: 0, errors: 0, series: [], events: 0, deferred: new Map(),
+    inflight: new Map(), ownEvents: 0 };
   // the threshold plot: any numeric field of any topic of the robot
   state.plot = { topic: "", field: "", off: null, fieldsOf: "" };
   return {
     body, ctx, $, state, plot: state.plot, picker: null,
     el: { nodes: $('[data-role="nodes"]'), undo: $('[data-act="undo"]'), topic: $('[data-role="topic"]'),
-      field: $('[data-role="field"]'), threshold: $('[data-role="threshold"]'),
-      bothSigns: $('[data-role="both-signs"]'), canvas: $('[data-role="plot"]') },
+      field: $('[data-role="field"]'), threshold: $('[data-role="threshold"]'), search: $('[data-role="search"]'),
+      found: $('[data-role="found"]'), bothSigns: $('[data-role="both-signs"]'), canvas: $('[data-role="plot"]') },
     status: statusLine($('[data-role="status"]')),
     source: null, // EventSource of the robot's parameter events, see follow()
     writeQueue: Promise.resolve(), // see write()
@@ -113,10 +127,11 @@ function paramsPath(pp, node) {
   return node === undefined ? path : `${path}/${encodeURIComponent(node)}`;
 }
 
-/** Another robot chosen: its parameters are read and followed, the plot starts afresh. */
+/** Another robot chosen: its parameters are read and followed, the plot starts afresh, undo forgets the other's. */
 function chooseRobot(pp, robot) {
   const { state } = pp;
-  state.robot = robot; state.series = []; state.deferred.clear(); load(pp); follow(pp);
+  state.robot = robot; state.series = []; state.deferred.clear(); state.undo = []; showUndo(pp);
+  load(pp); follow(pp);
 }
 
 /** Every node's parameters, read and shown anew. */
@@ -135,27 +150,41 @@ async function load(pp) {
 
 // -- rendering ------------------------------------------------------------------------------------
 
-/** One section per node, sorted by name; the threshold menu follows the numeric parameters. */
+/** One section per node, sorted by name, filtered by the search; the threshold menu follows the numeric ones. */
 function render(pp) {
   const { state, el } = pp;
   const names = Object.keys(state.nodes).sort();
   if (!names.length) { el.nodes.innerHTML = '<div class="empty">no node answered</div>'; return; }
   el.nodes.innerHTML = names.map((node) => nodeSection(node, state.nodes[node])).join("");
+  applyFilter(pp);
   refreshThresholds(pp);
 }
 
-/** A node's section: its buttons (diff, save, reset), the place for the diff, and its parameters' table. */
+// what a node's buttons do, as their tooltips say
+const TIPS = {
+  diff: "the live values that differ from the node's YAML file",
+  save: "write the live values into the node's YAML file (only the changed ones: its comments and order stay)",
+  revert: "every parameter back to its value in the node's YAML file (asks first; undo takes it back)",
+  reset: "every parameter back to its default (asks first; undo takes it back)",
+};
+
+/** A node's section: its buttons (diff, save, revert, reset), the place for the diff, and its parameters' table. */
 function nodeSection(node, params) {
   return `<details class="param-node" data-node="${esc(node)}" open>
-        <summary>${esc(node)} <button data-act="diff">diff vs YAML</button> <button data-act="save">save</button>
-          <button data-act="reset-node">reset all to default</button></summary>
+        <summary>${esc(node)} <button data-act="diff" title="${esc(TIPS.diff)}">diff vs file</button>
+          <button data-act="save" title="${esc(TIPS.save)}">save</button>
+          <button data-act="revert-node" title="${esc(TIPS.revert)}">revert all to file</button>
+          <button data-act="reset-node" title="${esc(TIPS.reset)}">reset all to default</button></summary>
         <div class="param-diff" data-role="diff"></div>
-        <table class="grid-table params"><thead><tr><th>name</th><th>value</th><th>default</th><th>range / choices</th>
-          <th></th></tr></thead><tbody>${params.map((p) => paramRow(node, p)).join("")}</tbody></table>
+        <table class="grid-table params"><colgroup><col class="c-name"><col class="c-value"><col class="c-default">
+          <col class="c-range"><col class="c-acts"></colgroup>
+          <thead><tr><th>name</th><th>value</th><th>default</th><th>range / choices</th><th>back to</th></tr></thead>
+          <tbody>${params.map((p) => paramRow(node, p)).join("")}</tbody></table>
         </details>`;
 }
 
-/** A parameter's row: name, type and doc, its input with revision and notes, default, range or choices, reset. */
+/** A parameter's row: name, type and doc, its input with revision and notes, default, range or choices, and the
+ * two ways back: to the YAML file's value and to the default. */
 function paramRow(node, p) {
   return `
           <tr data-param="${esc(node)}/${esc(p.name)}" title="${esc(p.doc)}">
@@ -165,7 +194,8 @@ function paramRow(node, p) {
               <div class="param-elsewhere" data-role="elsewhere"></div><div class="param-error" data-role="error"></div></td>
             <td>${esc(JSON.stringify(p.default))}</td>
             <td>${p.range ? `[${esc(p.range[0])}, ${esc(p.range[1])}]` : p.choices ? esc(p.choices.join(", ")) : ""}</td>
-            <td><button data-act="reset" title="reset to default">↺</button></td></tr>`;
+            <td class="param-acts"><button data-act="revert" title="revert to the value in the YAML file">file</button>
+              <button data-act="reset" title="reset to default">default</button></td></tr>`;
 }
 
 /** A parameter as the panel holds it. */
@@ -192,10 +222,46 @@ function showValue(pp, node, p, force = false) {
   if (slider) slider.value = p.value;
 }
 
-/** A node's reply (its parameters after a write or reset) into the panel and the rows. */
+/** A node's reply (its parameters after a write) into the panel and the rows. */
 function applyReply(pp, node, reply) {
   if (reply?.params) pp.state.nodes[node] = reply.params;
   for (const p of pp.state.nodes[node] || []) showValue(pp, node, p);
+}
+
+// -- search ---------------------------------------------------------------------------------------
+
+/** Only the parameters whose node, name or description hold every word of the search; nodes without one fold
+ * away, the others open. */
+function applyFilter(pp) {
+  const { el } = pp;
+  const words = el.search.value.toLowerCase().split(/\s+/).filter(Boolean);
+  let shown = 0, total = 0;
+  for (const section of el.nodes.querySelectorAll("[data-node]")) {
+    let inNode = 0;
+    for (const row of section.querySelectorAll("tr[data-param]")) {
+      const text = `${row.dataset.param.replace("/", " ")} ${row.title}`.toLowerCase();
+      const hit = words.every((w) => text.includes(w));
+      row.hidden = !hit;
+      inNode += hit; total++;
+    }
+    section.hidden = !inNode;
+    if (words.length && inNode) section.open = true;
+    shown += inNode;
+  }
+  el.found.textContent = words.length ? `${shown} of ${total}` : "";
+}
+
+/** Enter in the search goes to the first parameter found (its text selected, ready to be typed over); Esc clears. */
+function onSearchKey(pp, e) {
+  if (e.key === "Escape") { pp.el.search.value = ""; applyFilter(pp); return; }
+  if (e.key !== "Enter") return;
+  e.preventDefault();
+  const first = pp.el.nodes.querySelector("tr[data-param]:not([hidden])");
+  const input = first?.querySelector('[data-role="value"]');
+  if (!input) { pp.status(`no parameter matches "${pp.el.search.value}"`, true); return; }
+  first.scrollIntoView({ block: "nearest" });
+  input.focus();
+  input.select?.();
 }
 
 // -- following changes made elsewhere ----------------------------------------------------------
@@ -221,7 +287,8 @@ function editing(pp, node, name) {
 
 /** A change made elsewhere: shown at once, unless the user is editing that parameter. Then the panel keeps
  * the revision the user's edit is based on (so writing it is refused as a conflict, as it should be) and shows
- * the other value beside the input until the user leaves it. */
+ * the other value beside the input until the user leaves it. The event of the panel's own write (it may come
+ * before the write's reply) is taken as the reply. */
 function applyEvent(pp, event, { authoritative = false } = {}) {
   const { state } = pp;
   const params = state.nodes[event.node];
@@ -229,11 +296,18 @@ function applyEvent(pp, event, { authoritative = false } = {}) {
   for (const [name, value] of Object.entries(event.changed || {})) {
     const p = params.find((x) => x.name === name);
     const revision = event.revisions?.[name];
+    const key = `${event.node}/${name}`;
     if (!p || revision === undefined) { refreshValues(pp); continue; }
     // we already show this or newer (e.g. our own write's reply); a full read is taken as it is (a node that
     // restarted counts its revisions from 0 again)
     if (authoritative ? revision === p.revision && value === p.value : revision <= p.revision) continue;
-    if (editing(pp, event.node, name)) { defer(pp, `${event.node}/${name}`, value, revision); continue; }
+    if (state.inflight.has(key) && same(state.inflight.get(key), value)) {
+      Object.assign(p, { value, revision }); // our own write: the input shows it already
+      showValue(pp, event.node, p);
+      state.ownEvents++;
+      continue;
+    }
+    if (editing(pp, event.node, name)) { defer(pp, key, value, revision); continue; }
     Object.assign(p, { value, revision });
     showValue(pp, event.node, p);
   }
@@ -260,7 +334,7 @@ function onLeaveInput(pp, e) {
     row.querySelector('[data-role="elsewhere"]').textContent = "";
     const [node, name] = key.split("/");
     const p = find(pp.state, node, name);
-    if (p && fresh.revision !== p.revision) { Object.assign(p, fresh); showValue(pp, node, p); }
+    if (p && fresh.revision > p.revision) { Object.assign(p, fresh); showValue(pp, node, p); }
   });
 }
 
@@ -284,38 +358,68 @@ async function refreshValues(pp) {
 
 // -- writing --------------------------------------------------------------------------------------
 
-/** Queues a write: writes go one after another, so each is based on the revision the previous one's reply brought. */
-function write(pp, node, name, value, options = {}) {
-  pp.writeQueue = pp.writeQueue.then(() => writeNow(pp, node, name, value, options));
-  return pp.writeQueue;
+/** Queues a write: writes go one after another, so each is based on the revision the previous one's reply brought.
+ * Resolves to whether the node took it. */
+function write(pp, node, values, options = {}) {
+  const done = pp.writeQueue.then(() => writeNow(pp, node, values, options));
+  pp.writeQueue = done.catch(() => false);
+  return done;
 }
 
-/** Writes one value based on the revision we showed; a refusal is shown at the row and the value reverts. */
-async function writeNow(pp, node, name, value, { recordUndo = true } = {}) {
+/** "node.name = value, ..." for the status line and the confirmations. */
+function describeValues(node, values) {
+  return Object.entries(values).map(([name, v]) => `${node}.${name} = ${JSON.stringify(v)}`).join(", ");
+}
+
+/** Writes values of one node in one request based on the revisions we showed (or those given: an undo is based
+ * on the revisions its change produced), so the node takes all or none. Accepted: the values the write replaced
+ * go onto the undo stack (unless it is an undo), old refusal notes go. Refused: the reason at the row (or in the
+ * status line for several), the values shown revert. */
+async function writeNow(pp, node, values, { recordUndo = true, revisions = null, what = "" } = {}) {
   const { state } = pp;
-  const p = find(state, node, name);
-  const row = rowOf(pp, `${node}/${name}`);
-  const errEl = row?.querySelector('[data-role="error"]');
-  if (errEl) errEl.textContent = "";
-  row?.classList.remove("refused");
-  const old = p.value;
+  const names = Object.keys(values);
+  const before = Object.fromEntries(names.map((n) => [n, find(state, node, n)?.value]));
+  const based = revisions ?? Object.fromEntries(names.map((n) => [n, find(state, node, n)?.revision]));
+  const rows = names.map((n) => rowOf(pp, `${node}/${n}`)).filter(Boolean);
+  for (const n of names) state.inflight.set(`${node}/${n}`, values[n]);
   try {
-    const reply = await api("POST", paramsPath(pp, node),
-      { values: { [name]: value }, revisions: { [name]: p.revision } });
+    const reply = await api("POST", paramsPath(pp, node), { values, revisions: based });
     applyReply(pp, node, reply);
     state.writes++;
-    if (recordUndo && old !== value) { state.undo.push({ node, name, value: old }); pp.el.undo.disabled = false; }
-    pp.status(`${node}.${name} = ${JSON.stringify(find(state, node, name)?.value)}`);
+    clearRefusals(pp);
+    const changed = reply.changed ?? names;
+    if (recordUndo && changed.length) {
+      state.undo.push({ node, values: Object.fromEntries(changed.map((n) => [n, before[n]])), what,
+        based: Object.fromEntries(changed.map((n) => [n, based[n]])),
+        revisions: Object.fromEntries(changed.map((n) => [n, find(state, node, n)?.revision])) });
+      showUndo(pp);
+    }
+    refreshShownDiff(pp, node);
+    const now = Object.fromEntries(names.map((n) => [n, find(state, node, n)?.value]));
+    pp.status(`${what ? `${what}: ` : ""}${describeValues(node, now)}`);
+    return true;
   } catch (err) {
     state.errors++;
-    if (errEl) errEl.textContent = err.message;
-    row?.classList.add("refused");
-    showValue(pp, node, p, true);
+    for (const row of rows) row.classList.add("refused");
+    if (rows.length === 1) rows[0].querySelector('[data-role="error"]').textContent = err.message;
+    pp.status(`${what ? `${what} refused: ` : ""}${err.message}`, true);
+    for (const n of names) { const p = find(state, node, n); if (p) showValue(pp, node, p, true); }
     if (err.status === 409) { // someone else changed it meanwhile: show theirs, keep the message
       try {
         applyReply(pp, node, { params: await api("GET", paramsPath(pp, node)) });
       } catch { /* the message above is what matters */ }
     }
+    return false;
+  } finally {
+    for (const n of names) state.inflight.delete(`${node}/${n}`);
+  }
+}
+
+/** The notes of earlier refusals go once a later change is accepted: they no longer describe the panel. */
+function clearRefusals(pp) {
+  for (const row of pp.el.nodes.querySelectorAll("tr.refused")) {
+    row.classList.remove("refused");
+    row.querySelector('[data-role="error"]').textContent = "";
   }
 }
 
@@ -331,7 +435,7 @@ function onValueChange(pp, e) {
     row.querySelector('[data-role="error"]').textContent = `not valid: ${err.message}`;
     return;
   }
-  write(pp, node, name, value);
+  write(pp, node, { [name]: value });
 }
 
 /** The slider shows its number while dragged. */
@@ -340,47 +444,125 @@ function onSliderInput(e) {
   e.target.closest("tr").querySelector('[data-role="value"]').value = e.target.value;
 }
 
-/** "undo": the value before the user's last change is written back (not itself undoable). */
-async function undoLast(pp) {
-  const last = pp.state.undo.pop();
-  pp.el.undo.disabled = !pp.state.undo.length;
-  if (last) await write(pp, last.node, last.name, last.value, { recordUndo: false });
+/** The undo button says what it would write back. */
+function showUndo(pp) {
+  const last = pp.state.undo.at(-1);
+  pp.el.undo.disabled = !last;
+  pp.el.undo.title = last ? `undo${last.what ? ` ${last.what}` : ""}: back to ${describeValues(last.node, last.values)}`
+    : "nothing to undo";
 }
 
-/** A node's buttons (data-act) by name, each given the panel, the click and the node's path. */
+/** "undo": the values the panel's last accepted change replaced are written back exactly, based on the revisions
+ * that change produced: if someone changed one of them since, the undo is refused (and dropped) rather than
+ * overwriting their value. Not itself undoable; the change before it can be undone next. */
+async function undoLast(pp) {
+  const { state } = pp;
+  const last = state.undo.pop();
+  showUndo(pp);
+  if (!last) return;
+  if (!await write(pp, last.node, last.values, { recordUndo: false, revisions: last.revisions, what: "undo" })) return;
+  // the undo wrote the very value an earlier change produced, at a new revision: that change stays undoable
+  for (const name of Object.keys(last.values)) {
+    const earlier = state.undo.findLast((u) => u.node === last.node && name in u.values);
+    if (earlier?.revisions[name] === last.based[name]) earlier.revisions[name] = find(state, last.node, name)?.revision;
+  }
+}
+
+/** The node's values that differ from its YAML file ({name: file value}) and the file's name, from the diff. */
+async function fileValues(pp, node) {
+  const model = encodeURIComponent(pp.$('[data-role="model"]').value);
+  const diff = await api("GET", `${paramsPath(pp, node)}/diff?model=${model}`);
+  return { file: diff.file, values: Object.fromEntries(diff.changes.map((c) => [c.name, c.yaml])), diff };
+}
+
+/** The values of a node that differ from those given ({name: value}), for a reset or revert to write. */
+function differing(pp, node, targets) {
+  return Object.fromEntries(Object.entries(targets).filter(([n, v]) => !same(find(pp.state, node, n)?.value, v)));
+}
+
+/** A node's defaults ({name: default}), all or of the named parameter. */
+function defaults(pp, node, name) {
+  return Object.fromEntries((pp.state.nodes[node] ?? []).filter((p) => !name || p.name === name)
+    .map((p) => [p.name, p.default]));
+}
+
+/** Writes a node's values back (a reset or a revert) as one undoable write; for more than one, asks first. */
+async function writeBack(pp, node, values, what, askFirst) {
+  const count = Object.keys(values).length;
+  if (!count) { pp.status(`${what}: nothing to change`); return; }
+  const list = Object.entries(values)
+    .map(([n, v]) => `  ${n}: ${JSON.stringify(find(pp.state, node, n)?.value)} → ${JSON.stringify(v)}`);
+  const question = `${what}: change ${count} parameter${count > 1 ? "s" : ""} of ${node}?\n${list.join("\n")}`;
+  if (askFirst && !window.confirm(question)) {
+    pp.status(`${what}: cancelled, nothing changed`);
+    return;
+  }
+  await write(pp, node, values, { what });
+}
+
+/** Shows the node's diff (its live values against its YAML file) under its buttons. */
+async function showDiff(pp, node) {
+  const { diff } = await fileValues(pp, node);
+  const place = pp.el.nodes.querySelector(`[data-node="${CSS.escape(node)}"] [data-role="diff"]`);
+  if (place) place.innerHTML = diffTable(diff);
+  return diff;
+}
+
+/** A diff on screen is redone after the panel changed the node's values, so it never shows stale ones. */
+function refreshShownDiff(pp, node) {
+  const place = pp.el.nodes.querySelector(`[data-node="${CSS.escape(node)}"] [data-role="diff"]`);
+  if (place?.innerHTML.trim()) showDiff(pp, node).catch(() => { place.innerHTML = ""; });
+}
+
+/** A node's buttons (data-act) by name, each given the panel, the click and the node. */
 const NODE_ACTIONS = {
-  async reset(pp, e, node, path) {
+  async reset(pp, e, node) {
     const name = e.target.closest("tr").dataset.param.split("/")[1];
-    applyReply(pp, node, await api("POST", `${path}/reset`, { names: [name] }));
+    const values = differing(pp, node, defaults(pp, node, name));
+    await writeBack(pp, node, values, `${node}.${name} reset to default`, false);
   },
-  async "reset-node"(pp, e, node, path) { applyReply(pp, node, await api("POST", `${path}/reset`, { names: [] })); },
-  async save(pp, e, node, path) { pp.status(`saved to ${(await api("POST", `${path}/save`)).path}`); },
-  async diff(pp, e, node, path) {
-    const diff = await api("GET", `${path}/diff?model=${encodeURIComponent(pp.$('[data-role="model"]').value)}`);
-    e.target.closest("[data-node]").querySelector('[data-role="diff"]').innerHTML = diffTable(diff);
+  async revert(pp, e, node) {
+    const name = e.target.closest("tr").dataset.param.split("/")[1];
+    const { file, values } = await fileValues(pp, node);
+    if (!(name in values)) { pp.status(`${node}.${name} is as in ${file}`); return; }
+    await writeBack(pp, node, { [name]: values[name] }, `${node}.${name} reverted to ${file}`, false);
   },
+  async "reset-node"(pp, e, node) {
+    await writeBack(pp, node, differing(pp, node, defaults(pp, node)), `reset ${node} to defaults`, true);
+  },
+  async "revert-node"(pp, e, node) {
+    const { file, values } = await fileValues(pp, node);
+    await writeBack(pp, node, values, `revert ${node} to ${file}`, true);
+  },
+  async save(pp, e, node) {
+    const saved = await api("POST", `${paramsPath(pp, node)}/save`);
+    const diff = await showDiff(pp, node);
+    const left = diff.changes.length ? `; ${diff.changes.length} still differ` : "";
+    pp.status(`saved ${node} to ${saved.path} at ${new Date().toLocaleTimeString()}${left}`);
+  },
+  async diff(pp, e, node) { await showDiff(pp, node); },
 };
 
-/** A node's buttons (and a row's reset): summary buttons must not fold the node, so the click is taken. */
+/** A node's buttons (and a row's): summary buttons must not fold the node, so the click is taken. */
 async function onNodeAction(pp, e) {
   const act = e.target.dataset?.act;
   if (!act) return;
   e.preventDefault();
   const node = e.target.closest("[data-node]")?.dataset.node;
   try {
-    if (Object.hasOwn(NODE_ACTIONS, act)) await NODE_ACTIONS[act](pp, e, node, paramsPath(pp, node));
+    if (Object.hasOwn(NODE_ACTIONS, act)) await NODE_ACTIONS[act](pp, e, node);
   } catch (err) {
     pp.status(err.message, true);
   }
 }
 
-/** The node's live values that differ from the robot model's YAML (or its defaults). */
+/** The node's live values that differ from its YAML file (or its defaults). */
 function diffTable(diff) {
   return diff.changes.length
     ? `<table class="grid-table"><tr><th>${esc(diff.file)}</th><th>file / default</th><th>live</th></tr>${diff.changes
       .map((c) => `<tr data-diff="${esc(c.name)}"><td>${esc(c.name)}</td><td>${esc(JSON.stringify(c.yaml))}
               <span class="muted">${esc(c.from)}</span></td><td><b>${esc(JSON.stringify(c.live))}</b></td></tr>`).join("")}</table>`
-    : `<div class="muted">live values match ${esc(diff.file)}</div>`;
+    : `<div class="muted" data-role="matches">live values match ${esc(diff.file)}</div>`;
 }
 
 // -- threshold plot -------------------------------------------------------------------------------
