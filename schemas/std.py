@@ -23,6 +23,7 @@ CompressedImage = _jazzy.sensor_msgs__msg__CompressedImage
 Image = _jazzy.sensor_msgs__msg__Image
 Imu = _jazzy.sensor_msgs__msg__Imu
 JointState = _jazzy.sensor_msgs__msg__JointState
+Log = _jazzy.rcl_interfaces__msg__Log
 Temperature = _jazzy.sensor_msgs__msg__Temperature
 Bool = _jazzy.std_msgs__msg__Bool
 Header = _jazzy.std_msgs__msg__Header

@@ -168,6 +168,8 @@ def sample(name: str) -> Any:
         return schemas.make(typename, temperature=temps, voltage=[12.0, 12.5])
     if name == IMAGE:
         return image(jpeg(640, 480, 1))
+    if name == "rosout":  # in a match only warnings and errors go to the team PC
+        return schemas.make(typename, level=40, name="hcm", msg="servo 7 not answering")
     return schemas.make(typename)
 
 
@@ -193,6 +195,7 @@ def test_every_default_topic_arrives_and_decodes(bus: BusConfig, collector: Coll
         for name, m in got.items():
             assert m.error == "" and m.msg is not None and m.robot_id == "robot3", name
         assert list(got["joint_states"].msg.name) == [f"joint{i}" for i in range(20)]
+        assert got["rosout"].msg.msg == "servo 7 not answering"
         with Image.open(io.BytesIO(bytes(got[IMAGE].msg.data))) as img:
             assert img.size == (160, 120)  # downscaled on the robot
         overview = wait_for(lambda: next((m.msg for m in reversed(collector.snapshot()) if m.topic == "overview"
@@ -345,3 +348,21 @@ def test_without_a_team_key_nothing_is_sent_unless_the_dev_key_is_asked_for(bus:
     finally:
         node.shutdown()
         listener.close()
+
+
+def test_in_a_match_only_warnings_and_errors_of_the_logs_go_to_the_team_pc(bus: BusConfig,
+                                                                              collector: Collector) -> None:
+    node = telemetry(bus, collector.port, topics="rosout:50")
+    pub = OtherRobotNodes(robot_id="robot3", bus=bus).start()
+    try:
+        def sent(level: int, text: str) -> bool:
+            for chatter in (10, 20):  # each time just before the warning, on the same route
+                pub.publish("rosout", schemas.make(topic("rosout").type, level=chatter, name="walking", msg="chatter"))
+            pub.publish("rosout", schemas.make(topic("rosout").type, level=level, name="walking", msg=text))
+            return any(m.topic == "rosout" and m.msg.msg == text for m in collector.snapshot())
+
+        wait_for(lambda: sent(30, "step too long"), timeout=20, interval=0.3, what="the warning")
+        assert not any(m.topic == "rosout" and m.msg.msg == "chatter" for m in collector.snapshot())
+    finally:
+        pub.shutdown()
+        node.shutdown()

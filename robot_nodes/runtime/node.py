@@ -23,6 +23,7 @@ import schemas
 from robot_nodes.runtime.action_server import ActionServer, ServerGoal
 from robot_nodes.runtime.loop import EventLoop, Timer
 from robot_nodes.runtime.parameters import ParameterStore
+from robot_nodes.runtime.rosout import RosoutHandler
 from robot_nodes.runtime.service_server import ServiceServer
 from schemas.codec import Message, SchemaError
 from schemas.std import DiagnosticArray, DiagnosticStatus, Header, KeyValue, Time
@@ -156,7 +157,8 @@ class Node:
         overrides: dict[str, Any] | None = None,
     ) -> None:
         self.robot_id = robot_id
-        self.log = logging.getLogger(f"pitchside.{self.name}")
+        # one logger per node instance (two robots' HCMs in one process log apart); its records also go on rosout
+        self.log = logging.getLogger(f"pitchside.{robot_id}.{self.name}")
         self._own_session = not isinstance(bus, zenoh.Session)
         self.session: zenoh.Session = bus if isinstance(bus, zenoh.Session) else open_session(bus)
         self.loop = EventLoop(self._on_callback_error)
@@ -174,6 +176,8 @@ class Node:
         self._started = time.monotonic()
         self._closed = False
         self._diag_pub = self.publisher("diagnostics")
+        self._rosout = RosoutHandler(self.publisher("rosout").publish, self.name)
+        self.log.addHandler(self._rosout)
         self._declared.append(self.session.declare_queryable(keys.params_key(robot_id, self.name),
                                                              self._on_params_query))
         self._params_changed = self.session.declare_publisher(keys.params_changed_key(robot_id, self.name))
@@ -299,6 +303,7 @@ class Node:
         if self._closed:
             return
         self._closed = True
+        self.log.removeHandler(self._rosout)
         entities: list[Publisher | Subscription] = [*self._subscriptions, *self._publishers]
         for entity in entities:
             with contextlib.suppress(Exception):  # already gone with the session
@@ -321,6 +326,7 @@ class Node:
             "errors": str(self.errors),
             "last_error": self.last_error,
             "decode_errors": str(sum(s.decode_errors for s in self._subscriptions)),
+            "rosout_dropped": str(self._rosout.dropped),
         }
         for t in self._timers:
             if t.callback != self._publish_diagnostics:

@@ -17,7 +17,7 @@ from robot_nodes.telemetry.budget import ByteBudget, Frame, Stream
 from robot_nodes.telemetry.images import ImageError, shrink_jpeg
 from schemas.codec import schema_hash
 from schemas.messages import RobotControlState
-from schemas.std import CompressedImage
+from schemas.std import CompressedImage, Log
 from schemas.topics import Priority, topic
 from wire.telemetry.datagram import (
     DEFAULT_PORT,
@@ -47,8 +47,9 @@ DEFAULT_TOPICS = ",".join((
     "ball_relative:10", "obstacles_relative:5", "goal_relative:5", "team_data:2", "strategy:2",
     "walk_odometry:5", "cmd_vel:5", "diagnostics:1", "servo_data:1", "hcm_graph:1",
     "camera/image/compressed:2", "camera/camera_info:0.2", "ball_in_image:5", "goal_in_image:2",
-    "obstacles_in_image:2", "line_information_in_image:1",
+    "obstacles_in_image:2", "line_information_in_image:1", "rosout:2",
 ))
+ROSOUT_MIN_LEVEL = Log.WARN  # in a match the team PC gets the nodes' warnings and errors, not their chatter
 
 
 def parse_topics(spec: str) -> dict[str, float]:
@@ -263,9 +264,10 @@ class TelemetryNode(Node):
         if name in OVERVIEW_SOURCES:
             self._overview.update(name, msg)
         hz = self._rates.get(name)
-        if hz is None:
+        if hz is None or (name == "rosout" and msg.level < ROSOUT_MIN_LEVEL):
             return
-        sub = msg.status[0].name if name == "diagnostics" and msg.status else ""  # one limit per node's status
+        # one limit per node: its diagnostics status, its log records
+        sub = msg.status[0].name if name == "diagnostics" and msg.status else msg.name if name == "rosout" else ""
         key = (self._stream_ids[name], sub)
         now = time.monotonic()
         if now - self._last_taken.get(key, -math.inf) < 0.9 / hz:  # 10% slack: a 10 Hz publisher's jitter
