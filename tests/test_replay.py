@@ -181,3 +181,18 @@ def test_replay_and_recording_allowed_in_match_mode(testdata: Path, tmp_path: Pa
         assert server.http.post(f"{server.url}/api/recordings/start", json={}).status_code == 200
         assert server.http.post(f"{server.url}/api/recordings/stop").status_code == 200
         assert server.http.post(f"{server.url}/api/robots/r1/penalize", json={"penalize": True}).status_code == 403
+
+
+def test_seek_while_playing_keeps_playing(server: RunningServer, tmp_path: Path) -> None:
+    """Seeking on the timeline during playback goes on playing from the new point (it used to freeze there)."""
+    folder = tmp_path / "rec"
+    folder.mkdir(exist_ok=True)
+    _pitchside_log(folder / "game.mcap")
+    _post(server, "open", {"path": "game.mcap"})
+    assert _post(server, "play")["state"] == "playing"
+    sought = _post(server, "seek", {"t_s": 5.0})
+    assert sought["state"] == "playing" and abs(sought["position_s"] - 5.0) < 1e-6
+    wait_for(lambda: server.http.get(f"{server.url}/api/replay").json()["position_s"] > 5.5, timeout=20,
+             what="position advances after a seek while playing")
+    status = server.http.get(f"{server.url}/api/replay").json()
+    assert status["state"] == "playing"

@@ -303,13 +303,13 @@ class ReplaySource(Source):
         target = file.start_ns + int(max(0.0, min(t_s, (file.end_ns - file.start_ns) / 1e9)) * 1e9)
         was_playing = self.state == "playing"
         self._halt()
+        # the player is stopped now: say so, or play() below would see "playing" and not start it again
+        self.state = "paused"
         self.position_ns = self._next_ns = target
         preview = await asyncio.to_thread(self._preview, file, target)
         self.hub.publish_many(preview)
         if was_playing:
             self.play()
-        elif self.state == "ended":
-            self.state = "paused"
         return self.status()
 
     def _preview(self, file: ReplayFile, target: int) -> list[HubMessage]:
