@@ -41,6 +41,7 @@ class RobotHealth(BaseModel):
     age_s: float
     status: Literal["ok", "stale", "lost"]
     streams: dict[str, StreamHealth]
+    replayed: bool = False  # a robot of the open replay (wire.keys.replayed_robot_id), not a live one
 
 
 class NumericField(BaseModel):
