@@ -47,6 +47,7 @@ class RobotHealth(BaseModel):
 class NumericField(BaseModel):
     path: str  # where the number is in the message's JSON view
     label: str  # array elements named after the message's own name list
+    name: str  # the path with array elements by name where they have one ("position/RKnee"): a joint's name
 
 
 class NumericFields(BaseModel):
@@ -82,7 +83,7 @@ def numeric_fields(robot: str, topic: str, state: ServerState = Depends(get_stat
         message = latest.message
     except SchemaError as exc:
         raise HTTPException(422, str(exc)) from None
-    fields = [] if latest.typename in BULK_TYPES else [NumericField(path=f.path, label=f.label)
+    fields = [] if latest.typename in BULK_TYPES else [NumericField(path=f.path, label=f.label, name=f.name)
                                                         for f in numeric_values(message)]
     return NumericFields(robot=robot, topic=topic, msgtype=latest.typename, fields=fields)
 
