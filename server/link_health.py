@@ -45,4 +45,6 @@ def robots_info(state: ServerState) -> list[dict[str, Any]]:
             "streams": streams,
             "replayed": keys.is_replayed(robot.robot),  # a robot of the open replay, never a live one
         })
+        if keys.is_replayed(robot.robot):
+            out[-1]["log_robot"] = keys.robot_in_log(robot.robot)  # as the log's messages name it
     return out

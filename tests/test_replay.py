@@ -142,6 +142,7 @@ def test_pitchside_log_seek_speed_step(server: RunningServer, tmp_path: Path) ->
     robots = server.http.get(f"{server.url}/api/robots").json()
     assert {r["robot"] for r in robots} == {"replay.r1", "replay.r2"}
     assert robots[0]["streams"]["joint_states"]["source"] == "replay" and robots[0]["replayed"] is True
+    assert robots[0]["log_robot"] == "r1"  # as the log's messages (ground truth's robot_ids) name it
     _post(server, "close")  # the replayed robots leave with their log
     assert server.http.get(f"{server.url}/api/robots").json() == []
 

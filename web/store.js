@@ -87,6 +87,11 @@ export class Store {
     return this.replayed.has(robot);
   }
 
+  /** The page's id of the replayed robot the log calls `logRobot` (messages name robots as the log does). */
+  replayedId(logRobot) {
+    return this.robots.find((r) => r.replayed && r.log_robot === logRobot)?.robot;
+  }
+
   /** A replayed robot the server no longer lists left with its log (replay closed): the page forgets it too. */
   forgetClosedReplay(robots) {
     const listed = new Set(robots.filter((r) => r.replayed).map((r) => r.robot));

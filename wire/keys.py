@@ -51,6 +51,11 @@ def is_replayed(robot: str) -> bool:
     return robot.startswith(REPLAY_NAMESPACE)
 
 
+def robot_in_log(robot: str) -> str:
+    """The id a replayed robot has in its log (and in the log's messages, e.g. ground truth's robot_ids)."""
+    return robot[len(REPLAY_NAMESPACE):] if is_replayed(robot) else robot
+
+
 def check_robot_id(robot: str) -> str:
     """The robot id, or ValueError saying the rule."""
     if not isinstance(robot, str) or not is_valid_name(robot):

@@ -42,6 +42,7 @@ class RobotHealth(BaseModel):
     status: Literal["ok", "stale", "lost"]
     streams: dict[str, StreamHealth]
     replayed: bool = False  # a robot of the open replay (wire.keys.replayed_robot_id), not a live one
+    log_robot: str | None = None  # a replayed robot's id in the log (and in its messages' robot lists)
 
 
 class NumericField(BaseModel):

@@ -150,8 +150,8 @@ function track(fv, key, frame, p, now) {
 function poses(fv, now) {
   const { store } = fv;
   const out = new Map();
-  for (const [id, frame] of truthFrames(store)) {
-    const p = frame.data.robot_poses[frame.data.robot_ids.indexOf(id)];
+  for (const [id, { frame, index }] of truthFrames(store)) {
+    const p = frame.data.robot_poses[index];
     out.set(id, { truth: track(fv, `truth|${id}`, frame,
       { x: p.position.x, y: p.position.y, theta: yaw(p.orientation) }, now) });
   }
@@ -172,13 +172,18 @@ function poses(fv, now) {
   return out;
 }
 
-/** Per robot id, the newest ground truth frame that has it (several simulators may report the same robot). */
+/** Per robot id, the newest ground truth frame that has it (several simulators may report the same robot) and the
+ * robot's index in it. A replayed frame names the log's robots: they are the replayed ones, never the live ones. */
 function truthFrames(store) {
   const truths = new Map();
   for (const robot of store.latest.keys()) {
     const frame = store.get(robot, "ground_truth");
     if (!frame) continue;
-    for (const id of frame.data.robot_ids) if (!(truths.get(id)?.stamp >= frame.stamp)) truths.set(id, frame);
+    const replayed = store.isReplayed(robot);
+    frame.data.robot_ids.forEach((named, index) => {
+      const id = replayed ? store.replayedId(named) : named;
+      if (id !== undefined && !(truths.get(id)?.frame.stamp >= frame.stamp)) truths.set(id, { frame, index });
+    });
   }
   return truths;
 }
