@@ -284,5 +284,11 @@ class Hub:
             raise RuntimeError("hub is not bound to an event loop yet (Hub.bind)")
         self.loop.call_soon_threadsafe(self.publish_many, msgs)
 
+    def forget(self, robot: str) -> None:
+        """A robot that is gone for good (a closed replay): out of the robots list and the latest messages."""
+        self.robots.pop(robot, None)
+        for key in [k for k in self.latest if k[0] == robot]:
+            del self.latest[key]
+
     def latest_matching(self, sub: Subscription) -> list[HubMessage]:
         return [m for m in self.latest.values() if sub.matches(m)]

@@ -6,6 +6,7 @@ import time
 from typing import Any
 
 from server.state import ServerState
+from wire import keys
 
 
 def robot_status(age_s: float, stale_after_s: float, lost_after_s: float) -> str:
@@ -42,5 +43,8 @@ def robots_info(state: ServerState) -> list[dict[str, Any]]:
             "age_s": round(age, 3),
             "status": robot_status(age, config.stale_after_s, config.lost_after_s),
             "streams": streams,
+            "replayed": keys.is_replayed(robot.robot),  # a robot of the open replay, never a live one
         })
+        if keys.is_replayed(robot.robot):
+            out[-1]["log_robot"] = keys.robot_in_log(robot.robot)  # as the log's messages name it
     return out

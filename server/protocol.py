@@ -31,7 +31,8 @@ Server -> client, binary frames (images, never JSON-encoded):
     payload = the compressed image exactly as the robot sent it (JPEG)
 
 RobotInfo = {"robot": id, "first_seen": <s>, "age_s": <s since last message>, "status": "ok"|"stale"|"lost",
-             "streams": {topic: {"msgtype", "source", "count", "rate_hz", "age_s", "loss_pct"?, "budget_share"?}}}
+             "streams": {topic: {"msgtype", "source", "count", "rate_hz", "age_s", "loss_pct"?, "budget_share"?}},
+             "replayed": bool, "log_robot"?: id in the log}      a robot of the open replay, apart from live ones
 """
 
 from __future__ import annotations

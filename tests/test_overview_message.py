@@ -92,15 +92,16 @@ def test_replay_shows_overviews_of_earlier_and_this_version(tmp_path: Path) -> N
     with dashboard_server(["--no-live", "--no-telemetry", "--recordings", str(folder)], tmp_path) as server:
         _post(server, "open", {"path": "overviews.mcap"})
         frames = asyncio.run(_collect(server.ws_url, [{"robot": "*", "topic": "overview"}],
-                                      lambda fs: {f["robot"] for f in fs} >= {"r1", "r2"} and len(fs) >= 6,
+                                      lambda fs: {f["robot"] for f in fs} >= {"replay.r1", "replay.r2"}
+                                      and len(fs) >= 6,
                                       action=lambda: _post(server, "play")))
         wait_for(lambda: server.http.get(f"{server.url}/api/replay").json()["state"] == "ended", timeout=20,
                  what="replay ended")
         status = server.http.get(f"{server.url}/api/replay").json()
     assert {f["msgtype"] for f in frames} == {OVERVIEW_TYPE}
-    assert "r3" not in {f["robot"] for f in frames} and status["skipped"] == 3  # not an overview: left out
-    old = next(f["data"] for f in frames if f["robot"] == "r1")
+    assert "replay.r3" not in {f["robot"] for f in frames} and status["skipped"] == 3  # not an overview: left out
+    old = next(f["data"] for f in frames if f["robot"] == "replay.r1")
     assert old == LEGACY
-    new = next(f["data"] for f in frames if f["robot"] == "r2")
+    new = next(f["data"] for f in frames if f["robot"] == "replay.r2")
     assert new == schemas.to_dict(current) and new["pose_x"] == -2.0 and new["hottest_servo"] == "RKnee"
     assert math.isnan(current.battery_voltage) and new["battery_voltage"] is None

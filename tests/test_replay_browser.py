@@ -1,59 +1,185 @@
-"""Replay and recordings panels in Debian's chromium against a real server with a log opened (slow)."""
+"""The replay task as a team member does it, in Debian's chromium at 1920x1080 beside a live robot (slow): open a
+half from the recordings list, play, seek while playing, jump to a GameController event, plot a joint by name, close.
+Asserts what the user must see at each step and counts the user's actions (issue 21)."""
 
 from __future__ import annotations
 
+import re
+import threading
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import pytest
+import zenoh
 
+import schemas
+from schemas.logs import LogWriter
 from tests.dashboard_server import RunningServer, dashboard_server
 from tests.test_browser_panels import OUTPUT
-from tests.test_replay import _pitchside_log
+from tests.waiting import wait_for
+from wire.keys import topic_key
 
 pytestmark = [pytest.mark.slow, pytest.mark.browser]
+T0 = 1_700_000_000_000_000_000  # ns
+JOINTS = ["HeadPan", "HeadTilt"]
+LIVE_READY, LOG_PLAYING, STALE_FINISHED = 1, 3, 4  # GameState.game_state
+
+
+def _half_log(path: Path, seconds: float = 20.0) -> None:
+    """A half as the recorder of an earlier version wrote it: a stale FINISHED from 9 minutes before, then r1 and r2
+    with joint states (50 Hz), r1's game state (PLAYING) and position, GameController events as bookmarks."""
+    game = schemas.make("humanoid_league_msgs/msg/GameState", game_state=LOG_PLAYING)
+    with LogWriter(path, chunk_size=64 * 1024) as writer:
+        writer.write("r1", "gamestate", schemas.make("humanoid_league_msgs/msg/GameState", game_state=STALE_FINISHED),
+                     log_time_ns=T0 - 540 * 10**9)
+        for k in range(int(seconds * 50)):
+            t = T0 + k * 20_000_000
+            for robot in ("r1", "r2"):
+                joints = schemas.make("sensor_msgs/msg/JointState", name=JOINTS, position=[k * 0.02, -k * 0.01])
+                writer.write(robot, "joint_states", joints, log_time_ns=t)
+            if k % 5 == 0:
+                pose = schemas.make("geometry_msgs/msg/Pose2D", x=2.0, y=-1.0, theta=0.0)
+                writer.write("r1", "position", schemas.make("humanoid_league_msgs/msg/Position2D", pose=pose,
+                                                              confidence=0.9), log_time_ns=t)
+            if k % 50 == 0:
+                writer.write("r1", "gamestate", game, log_time_ns=t)
+        writer.add_bookmark("PLAYING", log_time_ns=T0, data={"game_state": LOG_PLAYING})
+        writer.add_bookmark("goal own 1:0", log_time_ns=T0 + 10 * 10**9, data={"own_score": 1})
+        writer.add_bookmark("penalty r2", log_time_ns=T0 + 15 * 10**9, data={"robot": "r2"})
+
+
+def _live_robot(client: zenoh.Session, stop: threading.Event) -> None:
+    """Robot r1 on the bus, live: READY, standing at (-2, 1)."""
+    game = schemas.encode(schemas.make("humanoid_league_msgs/msg/GameState", game_state=LIVE_READY))
+    pose = schemas.make("geometry_msgs/msg/Pose2D", x=-2.0, y=1.0, theta=0.0)
+    position = schemas.encode(schemas.make("humanoid_league_msgs/msg/Position2D", pose=pose, confidence=1.0))
+    while not stop.wait(0.1):
+        client.put(topic_key("r1", "gamestate"), game)
+        client.put(topic_key("r1", "position"), position)
 
 
 @pytest.fixture
-def replaying(tmp_path: Path) -> Iterator[RunningServer]:
+def live_and_recorded(router_endpoint: str, client: zenoh.Session, tmp_path: Path) -> Iterator[RunningServer]:
     folder = tmp_path / "rec"
     folder.mkdir()
-    _pitchside_log(folder / "game.mcap", seconds=20.0)
-    with dashboard_server(["--no-live", "--no-telemetry", "--recordings", str(folder), "--replay",
-                           str(folder / "game.mcap")], tmp_path) as server:
-        yield server
+    _half_log(folder / "half.mcap")
+    stop = threading.Event()
+    publisher = threading.Thread(target=_live_robot, args=(client, stop), daemon=True)
+    publisher.start()
+    try:
+        with dashboard_server(["--connect", router_endpoint, "--no-telemetry", "--recordings", str(folder)],
+                              tmp_path) as server:
+            yield server
+    finally:
+        stop.set()
+        publisher.join(5)
 
 
-def test_replay_and_recordings_panels(browser: Any, replaying: RunningServer) -> None:
+def _position_s(page: Any) -> float:
+    """The playback bar's time label "m:ss.s / m:ss.s", as the user reads it: the position in seconds."""
+    minutes, seconds = re.match(r"(\d+):([\d.]+) /", page.locator(".playback-time").inner_text()).groups()
+    return int(minutes) * 60 + float(seconds)
+
+
+def test_replay_task(browser: Any, live_and_recorded: RunningServer) -> None:
+    server = live_and_recorded
     OUTPUT.mkdir(exist_ok=True)
-    page = browser.new_page(bypass_csp=True, viewport={"width": 1600, "height": 2400})
+    page = browser.new_page(bypass_csp=True, viewport={"width": 1920, "height": 1080})
     errors: list[str] = []
     page.on("pageerror", lambda exc: errors.append(str(exc)))
-    page.goto(replaying.login_url)
+    page.goto(server.login_url)
     page.evaluate("localStorage.clear()")
     page.reload()
-    panel = page.locator(".replay")
-    panel.locator(".replay-state", has_text="paused").wait_for(timeout=20_000)
-    assert panel.locator('.replay-mark[data-name="goal own 1:0"]').count() == 1
-    assert panel.locator(".replay-topics tbody tr").count() == 3  # r1, r2 joint_states; r1 gamestate
-    panel.locator(".replay-plot-topic").select_option("r1|joint_states")
-    panel.locator(".replay-speed").select_option("10")
-    panel.locator(".replay-play").click()
-    page.wait_for_function("document.querySelectorAll('.replay-plot-field option').length > 1", timeout=20_000)
-    panel.locator(".replay-plot-field").select_option("position/0")
-    page.wait_for_function("window.pitchside.store.robotIds().includes('r2')", timeout=20_000)
-    panel.locator(".replay-state", has_text="ended").wait_for(timeout=30_000)
-    assert panel.locator(".replay-time").inner_text() == "0:20.0 / 0:20.0"  # played to the end of 19.98 s
-    panel.locator(".replay-timeline").click(position={"x": 5, "y": 5})  # seek near the start
-    panel.locator(".replay-state", has_text="paused").wait_for(timeout=10_000)
+    actions = 0
+    live_card = page.locator('.card[data-robot="r1"]')
+    live_card.locator(".game-state", has_text="READY").wait_for(timeout=30_000)
+    bar = page.locator(".playback-bar")
+    assert bar.is_hidden()  # nothing replayed yet: no bar, no REPLAY anywhere
 
+    # 1. the half in the recordings list: 20 s long (not 9 minutes: its stale opening message is skipped)
+    row = page.locator('.rec-files tr[data-file="half.mcap"]')
+    row.wait_for(timeout=20_000)
+    assert "0:19" in row.inner_text()
+    row.locator("button[data-open]").click()
+    actions += 1
+    bar.wait_for(state="visible", timeout=20_000)
+    assert bar.locator(".playback-banner").inner_text() == "▶ REPLAY"
+    assert bar.locator(".playback-file").inner_text() == "half.mcap"
+    assert bar.locator(".playback-time").inner_text() == "0:00.0 / 0:20.0"
+    wait_for(lambda: page.locator('[data-panel="replay"]').evaluate(
+        "el => { const r = el.getBoundingClientRect(); return r.top >= 0 && r.top < innerHeight; }"), 10.0, 0.1,
+        "the replay panel scrolled into sight")
+    labels = bar.locator(".playback-mark").all_inner_texts()
+    assert labels == ["PLAYING", "goal own 1:0", "penalty r2"]  # bookmarks by name
+    ticks = bar.locator(".playback-tick").all_inner_texts()
+    assert ticks == [f"0:{s:02d}" for s in range(0, 20, 2)]  # time labels at a round step
+
+    # 2. play: the log's robots appear as robots of their own, marked; the live r1 stays as it is
+    bar.locator(".playback-play").click()
+    actions += 1
+    bar.locator(".playback-state", has_text="playing").wait_for(timeout=10_000)
+    replay_card = page.locator('.card[data-robot="replay.r1"]')
+    replay_card.locator(".game-state", has_text="PLAYING").wait_for(timeout=20_000)
+    assert replay_card.locator(".badge.replay").inner_text() == "REPLAY"
+    assert live_card.locator(".badge.replay").count() == 0
+    assert live_card.locator(".game-state").inner_text() == "READY"  # not the log's PLAYING
+    page.locator('[data-panel="field"]').scroll_into_view_if_needed()  # a scroll: the field view draws when seen
+    page.wait_for_function("window.pitchside.fieldView.drawn.length === 2", timeout=20_000)
+    drawn = {r["id"]: (r["x"], r["y"], r["replayed"]) for r in page.evaluate("window.pitchside.fieldView.drawn")}
+    assert drawn == {"r1": (-2.0, 1.0, False), "replay.r1": (2.0, -1.0, True)}
+    assert not page.evaluate("window.pitchside.fieldView.gameBar").startswith("REPLAY")  # focus: the live r1
+
+    # 3. seek while playing: click at a quarter of the timeline; playback goes on from there
+    track = bar.locator(".playback-track")
+    box = track.bounding_box()
+    track.click(position={"x": box["width"] * 0.25, "y": box["height"] / 2})
+    actions += 1
+    wait_for(lambda: 5.5 < _position_s(page) < 15, 15.0, 0.1, "the position advancing after a seek while playing")
+    assert bar.locator(".playback-state").inner_text() == "playing"
+
+    # 4. a GameController event by name: the goal
+    bar.locator('.playback-mark[data-name="goal own 1:0"]').click()
+    actions += 1
+    wait_for(lambda: 10.3 < _position_s(page) < 19, 15.0, 0.1, "playing on from the goal")
+    assert bar.locator(".playback-state").inner_text() == "playing"
+
+    # 5. speed
+    bar.locator(".playback-speed").select_option("0.5")
+    actions += 1
+    wait_for(lambda: server.http.get(f"{server.url}/api/replay").json()["speed"] == 0.5, 10.0, 0.1, "half speed")
+
+    # 6. plot a joint, offered by its name
+    replay_panel = page.locator('[data-panel="replay"]')
+    replay_panel.locator(".replay-plot-topic").select_option("replay.r1|joint_states")
+    actions += 1
+    page.wait_for_function("document.querySelectorAll('.replay-plot-field option').length > 1", timeout=20_000)
+    offered = replay_panel.locator(".replay-plot-field option").all_inner_texts()
+    assert "position/HeadTilt" in offered and "position/1" not in offered
+    replay_panel.locator(".replay-plot-field").select_option(label="position/HeadTilt")
+    actions += 1
+    plot_box = replay_panel.locator(".replay-plot").bounding_box()
+    panel_box = replay_panel.bounding_box()
+    assert plot_box["y"] + plot_box["height"] <= panel_box["y"] + panel_box["height"] + 1  # not cut off
+    page.screenshot(path=str(OUTPUT / "replay_task.png"))
+
+    # 7. pause, close: the bar and the replayed robots go, the live one stays as it was
+    bar.locator(".playback-play").click()
+    actions += 1
+    bar.locator(".playback-state", has_text="paused").wait_for(timeout=10_000)
+    bar.locator(".playback-close").click()
+    actions += 1
+    bar.wait_for(state="hidden", timeout=10_000)
+    replay_card.wait_for(state="detached", timeout=10_000)
+    assert live_card.locator(".game-state").inner_text() == "READY"
+    assert not page.evaluate("window.pitchside.store.robotIds().some((id) => id.startsWith('replay.'))")
+    print(f"TASK replay actions={actions}")
+
+    # recording from the same list (not part of the task): start, stop, the new file is listed
     recordings = page.locator(".rec-controls").locator("..")
     recordings.locator(".rec-name").fill("browser")
     recordings.locator(".rec-start").click()
     recordings.locator(".rec-running").wait_for(timeout=10_000)
     recordings.locator(".rec-stop").click()
     recordings.locator('tr[data-file$="_browser.mcap"]').wait_for(timeout=10_000)
-    assert recordings.locator('tr[data-file="game.mcap"]').inner_text().count("0:19") == 1
-    page.screenshot(path=str(OUTPUT / "replay_panels.png"), full_page=True)
     assert not errors, errors

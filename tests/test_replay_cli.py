@@ -39,7 +39,7 @@ def test_pitchside_replay_and_record(tmp_path: Path) -> None:
     try:
         wait_for(opened, timeout=60, interval=0.2, what="replay server with the file open")
         info = httpx.get(f"{url}/api/replay/info").json()
-        assert info["robots"] == ["r1", "r2"] and info["path"] == str(log)
+        assert info["robots"] == ["replay.r1", "replay.r2"] and info["path"] == str(log)
         assert httpx.get(f"{url}/api/sources").json()[0]["running"] is False  # no live source next to a replay
         started = _cli("record", "start", "cli test", "--server", url)
         assert started.returncode == 0, started.stderr

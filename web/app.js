@@ -4,6 +4,7 @@ import { Connection } from "./connection.js";
 import { setOptions } from "./dom.js";
 import { SessionBar } from "./session.js";
 import { Layout } from "./layout.js";
+import { PlaybackBar } from "./playback_bar.js";
 import { eventTopics, learnSchemas } from "./msgtypes.js";
 import { Store } from "./store.js";
 import teamOverview from "./panels/team_overview.js";
@@ -52,6 +53,11 @@ async function main() {
   };
   const layout = new Layout(document.getElementById("grid"), PANELS, ctx);
   window.pitchside = { store, conn, layout, config, schemas };
+  new PlaybackBar(document.body, store);
+  store.on("replay-opened", () => { // a log opened (from the recordings list): bring the replay view into sight
+    layout.show("replay");
+    layout.live.get("replay")?.section.scrollIntoView({ behavior: "smooth", block: "nearest" });
+  });
 
   const addMenu = document.getElementById("add-panel");
   function refreshAddMenu(state) {

@@ -16,6 +16,8 @@ export class Store {
     this.listeners = new Map(); // event -> Set(fn)
     this.matchMode = false;
     this.periodic = new Set(); // "robot|topic" of streams seen arriving at PERIODIC_HZ or more
+    this.replayed = new Set(); // robots of the open replay (the server says so): shown apart, marked REPLAY
+    this.replayListed = new Set(); // the replayed robots of the last "robots" frame
   }
 
   on(event, fn) {
@@ -37,11 +39,13 @@ export class Store {
       const now = performance.now();
       this.arrivals.set(`${frame.robot}|${frame.topic}`, now);
       this.arrivals.set(frame.robot, now);
+      if (frame.source === "replay") this.replayed.add(frame.robot);
       this.emit(`topic:${frame.topic}`, frame);
       if (!this.focus) this.setFocus(frame.robot);
     } else if (frame.type === "robots") {
       this.robots = frame.robots;
       this.robotsAt = performance.now();
+      this.forgetClosedReplay(frame.robots);
       for (const info of frame.robots) {
         for (const [topic, s] of Object.entries(info.streams)) {
           if (s.rate_hz >= PERIODIC_HZ) this.periodic.add(`${info.robot}|${topic}`);
@@ -76,6 +80,29 @@ export class Store {
     if (this.eventTopics.has(topic) || !this.periodic.has(`${info.robot}|${topic}`)) return "event";
     const age = this.robotAge(info, topic);
     return age >= lostAfter ? "lost" : age >= staleAfter ? "stale" : "ok";
+  }
+
+  /** True for a robot of the open replay (never a live one; the server names it apart, "replay.<id>"). */
+  isReplayed(robot) {
+    return this.replayed.has(robot);
+  }
+
+  /** The page's id of the replayed robot the log calls `logRobot` (messages name robots as the log does). */
+  replayedId(logRobot) {
+    return this.robots.find((r) => r.replayed && r.log_robot === logRobot)?.robot;
+  }
+
+  /** A replayed robot the server no longer lists left with its log (replay closed): the page forgets it too. */
+  forgetClosedReplay(robots) {
+    const listed = new Set(robots.filter((r) => r.replayed).map((r) => r.robot));
+    for (const robot of this.replayListed) { // listed before: a frame in flight cannot race this
+      if (listed.has(robot)) continue;
+      this.replayed.delete(robot);
+      this.latest.delete(robot);
+      if (this.focus === robot) this.setFocus(robots.find((r) => !r.replayed)?.robot ?? "");
+    }
+    for (const robot of listed) this.replayed.add(robot);
+    this.replayListed = listed;
   }
 
   robotIds() {

@@ -35,6 +35,27 @@ def is_valid_name(robot: str) -> bool:
     return bool(_ROBOT_ID.match(robot))
 
 
+# A replayed robot is a robot of its own in the server's hub and the page: "replay." + its id in the log. The '.'
+# is one no live id may have, so a replayed robot never merges with (or is commanded as) a live one of that id.
+REPLAY_NAMESPACE = "replay."
+UNNAMED_IN_LOG = "log"  # the robot of a log's channels that name none (a ROS 2 bag's /rosout)
+
+
+def replayed_robot_id(robot: str) -> str:
+    """The hub's id of a robot seen in a replayed log ("" for channels that name no robot)."""
+    return REPLAY_NAMESPACE + (robot or UNNAMED_IN_LOG)
+
+
+def is_replayed(robot: str) -> bool:
+    """True for a hub robot id that a replay made (replayed_robot_id)."""
+    return robot.startswith(REPLAY_NAMESPACE)
+
+
+def robot_in_log(robot: str) -> str:
+    """The id a replayed robot has in its log (and in the log's messages, e.g. ground truth's robot_ids)."""
+    return robot[len(REPLAY_NAMESPACE):] if is_replayed(robot) else robot
+
+
 def check_robot_id(robot: str) -> str:
     """The robot id, or ValueError saying the rule."""
     if not isinstance(robot, str) or not is_valid_name(robot):

@@ -4,6 +4,7 @@ from schemas.logs.naming import BOOKMARK_TOPIC, LogError, channel_topic, log_ser
 from schemas.logs.reader import Bookmark, ChannelInfo, LogMessage, LogReader
 from schemas.logs.series import LogSeriesReader
 from schemas.logs.source import LogSource
+from schemas.logs.timeline import data_start_ns
 from schemas.logs.writer import LogWriter
 
 __all__ = [
@@ -17,6 +18,7 @@ __all__ = [
     "LogSource",
     "LogWriter",
     "channel_topic",
+    "data_start_ns",
     "log_series",
     "rotated_path",
 ]

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from schemas.logs import LogError, LogReader
+from schemas.logs import LogError, LogReader, data_start_ns
 
 _SAFE = re.compile(r"[^A-Za-z0-9_.-]+")
 
@@ -70,7 +70,9 @@ class RecordingsFolder:
             return cached.info
         try:
             with LogReader(path) as reader:
-                info: dict[str, Any] = {"duration_s": round(reader.duration, 3), "messages": reader.message_count,
+                # as long as replay's timeline: from the real data on, not from stale opening messages
+                duration = (reader.end_ns - data_start_ns(reader)) / 1e9 if reader.message_count else 0.0
+                info: dict[str, Any] = {"duration_s": round(duration, 3), "messages": reader.message_count,
                                         "robots": [r for r in reader.robots if r], "indexed": reader.indexed,
                                         "bookmarks": len(reader.bookmarks)}
         except LogError as exc:

@@ -24,6 +24,9 @@ WAKE_S = 0.25
 # promise (README, Recording), with room for a busy machine's scheduling above the flush interval.
 IDLE_FLUSH_S = 0.5
 CRASH_LOSS_BOUND_S = 1.0
+# A recording opens with each stream's newest message (the state a replay starts from) if it is at most this old:
+# an older one is stale news (a robot gone minutes ago, the last half's game state) and would stretch the timeline.
+OPENING_FRESH_S = 2.0
 
 
 @dataclass(slots=True)
@@ -94,7 +97,11 @@ class HubRecording:
         self.status.files = [str(p) for p in self._writer.paths]
         self._sub = RecorderSubscriber(hub, f"recorder:{path.stem}", QUEUE_MAXLEN)
         hub.subscribers.append(self._sub)
-        self._sub.subscribe("*", "*", replay_latest=True)
+        self._sub.subscribe("*", "*", replay_latest=False)
+        fresh_since = time.monotonic() - OPENING_FRESH_S
+        for msg in sorted(hub.latest.values(), key=lambda m: m.received):
+            if msg.received >= fresh_since:
+                self._sub.offer(msg)
         self._unflushed = 0
         self._stopping = False
         self._task: asyncio.Task[None] | None = asyncio.get_running_loop().create_task(self._run())

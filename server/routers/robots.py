@@ -41,11 +41,14 @@ class RobotHealth(BaseModel):
     age_s: float
     status: Literal["ok", "stale", "lost"]
     streams: dict[str, StreamHealth]
+    replayed: bool = False  # a robot of the open replay (wire.keys.replayed_robot_id), not a live one
+    log_robot: str | None = None  # a replayed robot's id in the log (and in its messages' robot lists)
 
 
 class NumericField(BaseModel):
     path: str  # where the number is in the message's JSON view
     label: str  # array elements named after the message's own name list
+    name: str  # the path with array elements by name where they have one ("position/RKnee"): a joint's name
 
 
 class NumericFields(BaseModel):
@@ -81,7 +84,7 @@ def numeric_fields(robot: str, topic: str, state: ServerState = Depends(get_stat
         message = latest.message
     except SchemaError as exc:
         raise HTTPException(422, str(exc)) from None
-    fields = [] if latest.typename in BULK_TYPES else [NumericField(path=f.path, label=f.label)
+    fields = [] if latest.typename in BULK_TYPES else [NumericField(path=f.path, label=f.label, name=f.name)
                                                         for f in numeric_values(message)]
     return NumericFields(robot=robot, topic=topic, msgtype=latest.typename, fields=fields)
 

@@ -1,8 +1,14 @@
 """The replay source: feeds the hub from an MCAP log (a pitchside recording or another team's ROS 2 bag).
 
-Panels see replayed messages exactly as live ones (same hub, source "replay"). Channels without a robot
-(a ROS 2 bag's ``/rosout``, ``/joint_states``) appear as robot ``replay``; topics the topic table knows
-reach their panels, others arrive as ordinary msg frames whose numeric fields the replay panel can plot.
+Panels see replayed messages as they see live ones (same hub, source "replay"), but under robots of their own:
+robot ``r1`` of the log is ``replay.r1`` in the hub (wire.keys.replayed_robot_id), so a replay never merges with a
+live robot of the same id, live data goes on beside it, and no command can reach a robot through a replayed id
+(the control API takes robot ids by the naming rule only). Channels without a robot (a ROS 2 bag's ``/rosout``)
+are robot ``replay.log``; topics the topic table knows reach their panels, others arrive as ordinary msg frames
+whose numeric fields the replay panel can plot. Closing the log takes its robots out of the hub.
+
+The timeline starts at the log's real data (schemas.logs.data_start_ns): stale messages a recording opened with
+are skipped, not played minutes before the half.
 
 A player thread reads the log in time order and paces it against the wall clock at ``speed`` (0.1x-10x);
 play, pause, step, seek and speed changes come from the event loop. At most ``MAX_IN_FLIGHT`` batches wait
@@ -27,7 +33,7 @@ from typing import Any
 from rosbags.typesys import get_types_from_msg
 
 from schemas import codec
-from schemas.logs import ChannelInfo, LogError, LogMessage, LogReader, LogSeriesReader
+from schemas.logs import ChannelInfo, LogError, LogMessage, LogReader, LogSeriesReader, data_start_ns
 from schemas.messages import RobotOverview
 from schemas.std import String
 from schemas.topics import TOPICS
@@ -38,7 +44,6 @@ from wire import keys
 
 log = logging.getLogger(__name__)
 
-REPLAY_ROBOT = "replay"  # robot id of channels that name no robot (ROS 2 bags)
 SOURCE = "replay"
 MIN_SPEED, MAX_SPEED = 0.1, 10.0
 MAX_IN_FLIGHT = 8  # batches handed to the loop and not yet published
@@ -63,8 +68,8 @@ class ReplayFile:
     def __init__(self, reader: LogSeriesReader, path: Path) -> None:
         self.reader = reader
         self.path = path
-        self.start_ns = reader.start_ns
-        self.end_ns = reader.end_ns
+        self.start_ns = data_start_ns(reader)  # after any stale opening messages
+        self.end_ns = max(reader.end_ns, self.start_ns)
         self.channels = reader.channels
         self.bookmarks = reader.bookmarks
         # Channels whose type the process typestore decodes the same way travel as CDR bytes (decoded only
@@ -75,7 +80,7 @@ class ReplayFile:
         self.decoded_topics = sorted(foreign)
 
     def info(self) -> dict[str, Any]:
-        topics = [{"robot": c.robot_id or REPLAY_ROBOT, "topic": c.topic, "msgtype": c.typename,
+        topics = [{"robot": keys.replayed_robot_id(c.robot_id), "topic": c.topic, "msgtype": c.typename,
                    "count": c.message_count, "known": c.topic in TOPICS,
                    "decodable": c.decodable and _well_named(c.robot_id, c.topic),
                    "problem": c.problem or ("" if _well_named(c.robot_id, c.topic) else BAD_NAME)}
@@ -85,12 +90,13 @@ class ReplayFile:
                 "messages": self.reader.message_count, "topics": topics,
                 "robots": sorted({t["robot"] for t in topics}),
                 "bookmarks": [{"name": b.name, "t_s": (b.log_time_ns - self.start_ns) / 1e9, "log_time_ns":
-                               b.log_time_ns, "data": b.data} for b in self.bookmarks],
+                               b.log_time_ns, "data": b.data} for b in self.bookmarks
+                              if b.log_time_ns >= self.start_ns],
                 "warnings": self.reader.warnings[-20:]}
 
     def hub_message(self, item: LogMessage) -> HubMessage | None:
         """None for a message that did not decode (its channel is still listed, with the problem)."""
-        robot = item.robot_id or REPLAY_ROBOT
+        robot = keys.replayed_robot_id(item.robot_id)
         if not _well_named(item.robot_id, item.topic):
             return None  # a name from a foreign file that breaks the rules never reaches the hub (or a page)
         typename, data = item.typename, item.msg
@@ -250,6 +256,8 @@ class ReplaySource(Source):
         file, self.file = self.file, None
         if file is not None:
             await asyncio.to_thread(file.close)
+        for robot in [r for r in self.hub.robots if keys.is_replayed(r)]:
+            self.hub.forget(robot)  # the page drops a replayed robot the server no longer lists
         self.state = "closed"
         self.running = False
 
@@ -303,13 +311,13 @@ class ReplaySource(Source):
         target = file.start_ns + int(max(0.0, min(t_s, (file.end_ns - file.start_ns) / 1e9)) * 1e9)
         was_playing = self.state == "playing"
         self._halt()
+        # the player is stopped now: say so, or play() below would see "playing" and not start it again
+        self.state = "paused"
         self.position_ns = self._next_ns = target
         preview = await asyncio.to_thread(self._preview, file, target)
         self.hub.publish_many(preview)
         if was_playing:
             self.play()
-        elif self.state == "ended":
-            self.state = "paused"
         return self.status()
 
     def _preview(self, file: ReplayFile, target: int) -> list[HubMessage]:

@@ -18,6 +18,7 @@ export const MOTION = {
   maxTurn: 8,      // rad/s
 };
 const HEADER = 28; // px: the game state bar
+const REPLAY_COLOUR = "#9b2fd1"; // replayed robots (the page's --replay)
 
 /** A point relative to a robot (its x forward) on the field, given the robot's pose. */
 function transform(pose, p) {
@@ -149,8 +150,8 @@ function track(fv, key, frame, p, now) {
 function poses(fv, now) {
   const { store } = fv;
   const out = new Map();
-  for (const [id, frame] of truthFrames(store)) {
-    const p = frame.data.robot_poses[frame.data.robot_ids.indexOf(id)];
+  for (const [id, { frame, index }] of truthFrames(store)) {
+    const p = frame.data.robot_poses[index];
     out.set(id, { truth: track(fv, `truth|${id}`, frame,
       { x: p.position.x, y: p.position.y, theta: yaw(p.orientation) }, now) });
   }
@@ -171,13 +172,18 @@ function poses(fv, now) {
   return out;
 }
 
-/** Per robot id, the newest ground truth frame that has it (several simulators may report the same robot). */
+/** Per robot id, the newest ground truth frame that has it (several simulators may report the same robot) and the
+ * robot's index in it. A replayed frame names the log's robots: they are the replayed ones, never the live ones. */
 function truthFrames(store) {
   const truths = new Map();
   for (const robot of store.latest.keys()) {
     const frame = store.get(robot, "ground_truth");
     if (!frame) continue;
-    for (const id of frame.data.robot_ids) if (!(truths.get(id)?.stamp >= frame.stamp)) truths.set(id, frame);
+    const replayed = store.isReplayed(robot);
+    frame.data.robot_ids.forEach((named, index) => {
+      const id = replayed ? store.replayedId(named) : named;
+      if (id !== undefined && !(truths.get(id)?.frame.stamp >= frame.stamp)) truths.set(id, { frame, index });
+    });
   }
   return truths;
 }
@@ -282,7 +288,8 @@ function drawRobot(fv, g, { X, Y, scale }, id, entry, silent) {
   if (entry.truth) robotShape(g, X, Y, scale, entry.truth, "#ffffff", 0, focused);
   if (entry.estimate) {
     const c = Math.max(0, Math.min(1, entry.estimate.confidence ?? 1));
-    robotShape(g, X, Y, scale, entry.estimate, focused ? "#ff2d95" : "#1f3cff", 0.35 + 0.65 * c, focused);
+    const colour = focused ? "#ff2d95" : fv.store.isReplayed(id) ? REPLAY_COLOUR : "#1f3cff"; // the log's robots apart
+    robotShape(g, X, Y, scale, entry.estimate, colour, 0.35 + 0.65 * c, focused);
     g.strokeStyle = "#000"; g.lineWidth = 1; g.setLineDash([4, 3]);
     g.beginPath(); g.arc(X(entry.estimate.x), Y(entry.estimate.y), (0.25 + (1 - c) * 0.6) * scale, 0, 2 * Math.PI);
     g.stroke(); g.setLineDash([]);
@@ -292,7 +299,7 @@ function drawRobot(fv, g, { X, Y, scale }, id, entry, silent) {
   g.globalAlpha = 1;
   g.fillStyle = "#ffffff"; g.strokeStyle = "#000"; g.lineWidth = 3; g.font = "bold 14px sans-serif";
   g.strokeText(name, X(pose.x) + 12, Y(pose.y) + 18); g.fillText(name, X(pose.x) + 12, Y(pose.y) + 18);
-  return { id, x: pose.x, y: pose.y, silent };
+  return { id, x: pose.x, y: pose.y, silent, replayed: fv.store.isReplayed(id) };
 }
 
 /** The ball a robot sees, placed by its estimated pose, faded by confidence; true if one was drawn. */
@@ -336,17 +343,22 @@ function drawGameState(fv, g, w) {
   g.fillStyle = "#000000";
   g.fillRect(0, 0, w, HEADER);
   const ids = [store.focus, ...store.latest.keys()];
-  const game = ids.map((id) => store.get(id, "gamestate")?.data).find(Boolean);
+  const from = ids.find((id) => store.get(id, "gamestate")?.data);
+  const game = from === undefined ? undefined : store.get(from, "gamestate").data;
   g.fillStyle = "#ffffff";
   g.font = "bold 18px sans-serif";
   if (!game) { g.fillText("no game state", 8, 20); return; }
   const secondary = game.secondary_state ? ` ${secondaryName(game.secondary_state)}` : "";
   const penalized = [];
-  for (const id of store.latest.keys()) if (store.get(id, "gamestate")?.data?.penalized) penalized.push(id);
-  const text = `${gameName(game.game_state)}${secondary}   ${game.own_score} : ${game.rival_score}   ` +
+  for (const id of store.latest.keys()) {
+    if (store.isReplayed(id) === store.isReplayed(from) && store.get(id, "gamestate")?.data?.penalized) penalized.push(id);
+  }
+  const replay = store.isReplayed(from) ? "REPLAY   " : ""; // the game of the open log, not the live one
+  const text = `${replay}${gameName(game.game_state)}${secondary}   ${game.own_score} : ${game.rival_score}   ` +
     `${fmtClock(game.seconds_remaining)}${game.first_half ? " 1st" : " 2nd"}` +
     (penalized.length ? `   penalized: ${penalized.join(", ")}` : "");
   g.fillText(text, 8, 20);
+  fv.stats.gameBar = text;
 }
 
 // -- the animation loop ---------------------------------------------------------------------------

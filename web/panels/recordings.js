@@ -52,8 +52,17 @@ export default {
     });
     $(".rec-files").addEventListener("click", (e) => {
       const name = e.target.closest("button[data-open]")?.dataset.open;
-      if (name) act("POST", "api/replay/open", { path: name }).then(() => ctx.store.emit("replay-opened", name));
+      if (name) openInReplay(name);
     });
+
+    /** Opens the file in replay; the page then brings the replay view and the playback bar into sight. */
+    async function openInReplay(name) {
+      errorEl.hidden = true;
+      try {
+        await api("POST", "api/replay/open", { path: name });
+        ctx.store.emit("replay-opened", name);
+      } catch (err) { fail(err); }
+    }
 
     async function refresh() {
       let listing;

@@ -1,17 +1,13 @@
-// Replay timeline: open a log, play / pause / step, speed 0.1x-10x, seek by clicking the timeline, bookmarks on it,
-// a progress bar while an unindexed log is scanned, and a small plot of any numeric field of any replayed topic
-// (topics panels do not know, e.g. from another team's ROS 2 bag). Replay feeds the same hub as live data.
+// Replay: open a log, see what is in it (robots, topics, counts), and plot any numeric field of any replayed topic
+// (joints by name; topics panels do not know, e.g. from another team's ROS 2 bag). The timeline, play/pause/seek,
+// speed and close are the playback bar's (web/playback_bar.js), fixed at the window's bottom while a log is open.
+// Replayed robots are robots of their own (replay.<id>), so live robots go on beside them unchanged.
 
 import { api, numericFields } from "../lab_api.js";
 import { esc } from "../dom.js";
+import { clock } from "../playback_bar.js";
 
-const SPEEDS = [0.1, 0.25, 0.5, 1, 2, 5, 10];
 const PLOT_POINTS = 400;
-
-function clock(seconds) {
-  const m = Math.floor(seconds / 60);
-  return `${m}:${(seconds % 60).toFixed(1).padStart(4, "0")}`;
-}
 
 function valueAt(data, path) {
   return path.split("/").reduce((v, key) => (v === undefined || v === null ? undefined : v[key]), data);
@@ -20,64 +16,52 @@ function valueAt(data, path) {
 export default {
   id: "replay",
   title: "Replay",
-  size: [2, 1],
+  size: [2, 2], // two rows: the plot fits below the controls (one row cut it off)
   create(body, ctx) {
     body.innerHTML = `<div class="replay">
       <div class="replay-controls">
         <input class="replay-path" placeholder="recording name or path of an .mcap" size="28" aria-label="log file">
         <button class="replay-open" type="button">open</button>
-        <button class="replay-play" type="button" disabled>▶ play</button>
-        <button class="replay-step" type="button" disabled title="next message">step</button>
-        <label>speed <select class="replay-speed">${SPEEDS.map((s) => `<option value="${s}" ${s === 1 ? "selected" : ""}>${s}x</option>`).join("")}</select></label>
         <span class="replay-state badge">closed</span>
-        <span class="replay-time"></span>
+        <span class="replay-summary"></span>
       </div>
       <progress class="replay-progress" max="1" value="0" hidden></progress>
-      <div class="replay-timeline" title="click to seek"><div class="replay-cursor"></div></div>
       <div class="replay-error bad" hidden></div>
       <details class="replay-topics"><summary>topics</summary><table class="grid-table"><thead><tr><th>robot</th>
         <th>topic</th><th>type</th><th>messages</th></tr></thead><tbody></tbody></table></details>
       <div class="replay-plot-controls"><label>plot <select class="replay-plot-topic"><option value="">topic…</option></select></label>
-        <select class="replay-plot-field"><option value="">field…</option></select></div>
-      <canvas class="replay-plot" height="90"></canvas>
+        <select class="replay-plot-field" aria-label="field"><option value="">field…</option></select></div>
+      <canvas class="replay-plot" height="120"></canvas>
     </div>`;
     const $ = (sel) => body.querySelector(sel);
     const errorEl = $(".replay-error");
     let info = null;
     let status = { state: "closed" };
-    let plot = { topic: "", robot: "", field: "", off: null, points: [], lastFrame: null };
+    let plot = { topic: "", robot: "", field: "", label: "", off: null, points: [], lastFrame: null };
 
     function fail(err) { errorEl.hidden = false; errorEl.textContent = err.message; }
-    async function call(path, payload) {
-      errorEl.hidden = true;
-      try { status = await api("POST", `api/replay/${path}`, payload); render(); } catch (err) { fail(err); }
-    }
 
     $(".replay-open").addEventListener("click", async () => {
       errorEl.hidden = true;
       const poll = setInterval(refresh, 200); // the progress bar while the server scans the file
-      try { await api("POST", "api/replay/open", { path: $(".replay-path").value.trim() }); await loadInfo(); }
+      const name = $(".replay-path").value.trim();
+      try { await api("POST", "api/replay/open", { path: name }); await loadInfo(); ctx.store.emit("replay-opened", name); }
       catch (err) { fail(err); }
       clearInterval(poll);
       refresh();
     });
-    $(".replay-play").addEventListener("click", () => call(status.state === "playing" ? "pause" : "play"));
-    $(".replay-step").addEventListener("click", () => call("step", { count: 1 }));
-    $(".replay-speed").addEventListener("change", (e) => call("speed", { speed: +e.target.value }));
-    $(".replay-timeline").addEventListener("click", (e) => {
-      if (!info) return;
-      const box = e.currentTarget.getBoundingClientRect();
-      call("seek", { t_s: ((e.clientX - box.left) / box.width) * info.duration_s });
+    $(".replay-plot-topic").addEventListener("change", (e) => choosePlot(e.target.value));
+    $(".replay-plot-field").addEventListener("change", (e) => {
+      plot.field = e.target.value;
+      plot.label = e.target.selectedOptions[0]?.textContent ?? plot.field;
       plot.points = [];
     });
-    $(".replay-plot-topic").addEventListener("change", (e) => choosePlot(e.target.value));
-    $(".replay-plot-field").addEventListener("change", (e) => { plot.field = e.target.value; plot.points = []; });
     const offOpened = ctx.store.on("replay-opened", async (name) => { $(".replay-path").value = name; await loadInfo(); refresh(); });
 
     function choosePlot(key) {
       plot.off?.();
       const [robot, topic] = key.split("|");
-      plot = { topic, robot, field: "", off: null, points: [], lastFrame: null };
+      plot = { topic, robot, field: "", label: "", off: null, points: [], lastFrame: null };
       $(".replay-plot-field").innerHTML = '<option value="">field…</option>';
       if (!topic) return;
       ctx.conn.subscribe(robot, topic, 30);
@@ -87,20 +71,21 @@ export default {
         plot.lastFrame = frame;
         if (!plot.field) return;
         const v = valueAt(frame.data, plot.field);
-        if (typeof v === "number") {
-          plot.points.push([frame.stamp, v]);
-          if (plot.points.length > PLOT_POINTS) plot.points.shift();
-        }
+        if (typeof v !== "number") return;
+        if (plot.points.length && frame.stamp < plot.points[plot.points.length - 1][0]) plot.points = []; // a seek back
+        plot.points.push([frame.stamp, v]);
+        if (plot.points.length > PLOT_POINTS) plot.points.shift();
       });
     }
 
-    /** The numeric fields the server lists for the plotted topic (asked once its first message is there). */
+    /** The numeric fields the server lists for the plotted topic (asked once its first message is there), by name:
+     * a joint's position reads "position/RKnee", not "position/2". */
     async function showFields(chosen) {
       let fields = [];
       try { fields = await numericFields(chosen.robot, chosen.topic); } catch (err) { fail(err); }
       if (plot !== chosen) return; // another topic was chosen meanwhile
       $(".replay-plot-field").innerHTML = '<option value="">field…</option>' +
-        fields.map((f) => `<option value="${esc(f.path)}">${esc(f.label)}</option>`).join("");
+        fields.map((f) => `<option value="${esc(f.path)}" title="${esc(f.path)}">${esc(f.name ?? f.label)}</option>`).join("");
       $(".replay-plot-field").value = plot.field;
     }
 
@@ -112,37 +97,17 @@ export default {
         <td>${esc(t.count)}</td></tr>`).join("") : "";
       $(".replay-plot-topic").innerHTML = '<option value="">topic…</option>' + (info ? info.topics
         .filter((t) => t.decodable && t.count).map((t) => `<option value="${esc(t.robot)}|${esc(t.topic)}">${esc(t.robot)} ${esc(t.topic)}</option>`).join("") : "");
-      const line = $(".replay-timeline");
-      line.querySelectorAll(".replay-mark").forEach((m) => m.remove());
-      for (const mark of info?.bookmarks ?? []) {
-        const el = document.createElement("div");
-        el.className = "replay-mark";
-        el.style.left = `${(100 * mark.t_s) / Math.max(info.duration_s, 1e-9)}%`;
-        el.title = `${mark.name} (${clock(mark.t_s)})`;
-        el.dataset.name = mark.name;
-        el.addEventListener("click", (e) => { e.stopPropagation(); call("seek", { t_s: mark.t_s }); });
-        line.appendChild(el);
-      }
+      $(".replay-summary").textContent = info ? `${info.robots.join(", ")}: ${clock(info.duration_s)}, ` +
+        `${info.messages} messages, ${info.bookmarks.length} bookmarks` : "";
     }
 
     function render() {
-      const open = status.state !== "closed" && status.state !== "loading";
       $(".replay-state").textContent = status.state;
-      $(".replay-state").className = `replay-state badge ${status.state === "playing" ? "ok" : open ? "warn" : ""}`;
-      $(".replay-play").disabled = !open;
-      $(".replay-step").disabled = !open;
-      $(".replay-play").textContent = status.state === "playing" ? "❚❚ pause" : "▶ play";
+      $(".replay-state").className = `replay-state badge ${status.state === "playing" ? "ok" : status.state === "closed" ? "" : "warn"}`;
       const progress = $(".replay-progress");
       progress.hidden = status.state !== "loading";
       progress.value = status.progress ?? 0;
-      if (open && status.duration_s !== undefined) {
-        $(".replay-time").textContent = `${clock(status.position_s)} / ${clock(status.duration_s)}`;
-        $(".replay-cursor").style.left = `${(100 * status.position_s) / Math.max(status.duration_s, 1e-9)}%`;
-      } else {
-        $(".replay-time").textContent = "";
-      }
-      if (status.speed) $(".replay-speed").value = String(status.speed);
-      if (status.error) fail(new Error(status.error));
+      if (status.state === "closed") { info = null; $(".replay-summary").textContent = ""; }
     }
 
     function drawPlot() {
@@ -160,12 +125,12 @@ export default {
       g.lineWidth = 2;
       g.beginPath();
       pts.forEach(([t, v], i) => {
-        const x = ((t - t0) / Math.max(t1 - t0, 1e-9)) * (w - 4) + 2, y = h - 4 - ((v - lo) / (hi - lo)) * (h - 8);
+        const x = ((t - t0) / Math.max(t1 - t0, 1e-9)) * (w - 4) + 2, y = h - 4 - ((v - lo) / (hi - lo)) * (h - 18) - 2;
         if (i) g.lineTo(x, y); else g.moveTo(x, y);
       });
       g.stroke();
       g.fillStyle = getComputedStyle(body).color;
-      g.fillText(`${plot.field}: ${pts[pts.length - 1][1].toPrecision(4)} [${lo.toPrecision(3)}, ${hi.toPrecision(3)}]`, 4, 10);
+      g.fillText(`${plot.robot} ${plot.label}: ${pts[pts.length - 1][1].toPrecision(4)} [${lo.toPrecision(3)}, ${hi.toPrecision(3)}]`, 4, 10);
     }
 
     async function refresh() {
@@ -174,7 +139,7 @@ export default {
       render();
     }
     refresh();
-    const timer = setInterval(refresh, 500);
+    const timer = setInterval(refresh, 1000);
     const drawTimer = setInterval(drawPlot, 200);
     return {
       destroy() { clearInterval(timer); clearInterval(drawTimer); offOpened(); plot.off?.(); },

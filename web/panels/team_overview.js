@@ -71,9 +71,11 @@ export default {
           <td>${s.rate_hz.toFixed(1)}</td><td>${share}</td></tr>`;
       }).join("");
       const label = status === "ok" ? "OK" : status === "stale" ? `STALE ${age.toFixed(1)} s` : "LOST";
-      return `<div class="card ${status} ${id === store.focus ? "focused" : ""}" data-robot="${esc(id)}"
-          data-status="${status}">
-        <h3>${esc(id)} <span class="badge ${status === "ok" ? "ok" : status === "stale" ? "warn" : "bad"}">${label}</span></h3>
+      const replayed = store.isReplayed(id); // a robot of the open log, never a live one: said on the card
+      return `<div class="card ${status} ${id === store.focus ? "focused" : ""} ${replayed ? "replayed" : ""}"
+          data-robot="${esc(id)}" data-status="${status}">
+        <h3>${replayed ? '<span class="badge replay" title="from the open log, not live">REPLAY</span> ' : ""}${esc(id)}
+          <span class="badge ${status === "ok" ? "ok" : status === "stale" ? "warn" : "bad"}">${label}</span></h3>
         <dl class="facts">
           <dt>HCM</dt><dd class="hcm-state ${stateClass}">${esc(hcmName(f.state))}</dd>
           <dt>penalized</dt><dd class="penalized ${f.penalized ? "bad" : ""}">${f.penalized ? "PENALIZED" : "no"}</dd>
