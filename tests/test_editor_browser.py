@@ -272,14 +272,15 @@ def test_joint_limit_and_servo_speed_warnings_and_preview(browser: Any, server: 
     warnings = f'{EDITOR} [data-role="warnings"] li'
     assert page.locator(warnings).count() == 0  # the file is within limits and servo speeds
 
-    # keyframe 1: the elbow past its limit (URDF: [-90.0, 44.7] deg)
+    # keyframe 1: the elbow past its limit (URDF: [-90.0, 44.7] deg) is clamped, and the status line says so
     page.click(f'{EDITOR} tr[data-kf="1"] td:first-child')
     goal = page.locator(f'{EDITOR} [data-role="detail"] tr[data-joint="LElbow"] input[data-goal]')
     goal.fill("80")
     goal.press("Tab")
-    page.wait_for_selector(f'{warnings}.warn:has-text("goal 80 deg for joint \'LElbow\' is outside its limits")',
-                           timeout=TIMEOUT_MS)
-    assert "[-90.0, 44.7]" in page.locator(warnings).first.text_content()
+    page.wait_for_selector(f'{EDITOR} .lab-status.bad:has-text("LElbow: 80 deg is outside its limits [-90.0, 44.7] '
+                           'deg: set to 44.7")', timeout=TIMEOUT_MS)
+    assert keyframes(page)[1]["goals"]["LElbow"] == pytest.approx(44.69, abs=0.01)
+    assert page.locator(warnings).count() == 0
     goal = page.locator(f'{EDITOR} [data-role="detail"] tr[data-joint="LElbow"] input[data-goal]')
     goal.fill("-30")
     goal.press("Tab")
@@ -309,4 +310,32 @@ def test_joint_limit_and_servo_speed_warnings_and_preview(browser: Any, server: 
     url = f"{server.url}/api/robots/{ROBOT}/animation-preview"
     wait_for(lambda: server.http.get(url, timeout=20).json()["updates"] >= 5, 30.0, 0.2, "the preview ghost moved")
     assert server.http.get(f"{server.url}/api/robot3d", timeout=20).json()["robots"] == {}
+    assert not page.errors, page.errors
+
+
+def test_out_of_limit_keyframe_refused_unless_overridden(browser: Any, server: RunningServer, folder: Path) -> None:
+    """A file from elsewhere with a goal past the joint's limit: listed as refused, neither played nor saved, until
+    the lab ticks "override limits"."""
+    wild = {"name": "wild", "keyframes": [{"duration": 0.5, "goals": {"LElbow": -150.0, "HeadPan": 5.0}}]}
+    (folder / "wild.json").write_text(json.dumps(wild))
+    page = editor_page(browser, server)
+    page.select_option(f'{EDITOR} [data-role="files"]', "wild")
+    click(page, "open")
+    limit = f'{EDITOR} [data-role="warnings"] li.bad.limit'
+    page.wait_for_selector(f'{limit}:has-text("goal -150 deg for joint \'LElbow\' is outside its limits")',
+                           timeout=TIMEOUT_MS)
+    before = (folder / "wild.json").read_text()
+
+    click(page, "play")
+    page.wait_for_selector(f'{EDITOR} .lab-status.bad:has-text("not played on {ROBOT}")', timeout=TIMEOUT_MS)
+    assert server.http.get(f"{server.url}/api/robots/{ROBOT}/animation-play", timeout=20).json()["playing"] is False
+    click(page, "save")
+    page.wait_for_selector(f'{EDITOR} .lab-status.bad:has-text("not saved as wild")', timeout=TIMEOUT_MS)
+    assert (folder / "wild.json").read_text() == before
+
+    # the lab's explicit override: saved as it is
+    page.check(f'{EDITOR} [data-role="override"]')
+    click(page, "save")
+    page.wait_for_selector(f'{EDITOR} .lab-status:has-text("(limits overridden)")', timeout=TIMEOUT_MS)
+    assert json.loads((folder / "wild.json").read_text())["keyframes"][0]["goals"]["LElbow"] == -150.0
     assert not page.errors, page.errors

@@ -144,7 +144,6 @@ def test_record_save_reload_and_play_on_the_simulated_robot(browser: Any, server
                                timeout=TIMEOUT_MS)
         page.fill(f'{editor} [data-role="new-name"]', "lab_wave")
         page.click(f'{editor} button[data-act="new"]')
-        page.locator(f"{editor} details.record summary").click()
         page.click(f'{editor} button[data-act="record-on"]')
         page.wait_for_function(f"window.pitchside.store.get('r1', 'robot_state')?.data.state === {RECORD_STATE}",
                                timeout=60_000)
