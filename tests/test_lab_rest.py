@@ -226,7 +226,8 @@ def test_animation_files_edits_record_and_play(server: RunningServer, bus: BusCo
         # goals outside the URDF limits (LElbow: [-90, 44.7] deg): refused on save and play unless overridden
         wild = {"name": "wild", "keyframes": [{"duration": 0.5, "goals": {"LElbow": -150.0}}]}
         refused = server.http.put(f"{url}/animations/wild", json={"animation": wild}, timeout=20)
-        assert refused.status_code == 422 and "LElbow" in refused.json()["detail"] and not (folder / "wild.json").exists()
+        assert refused.status_code == 422 and "LElbow" in refused.json()["detail"]
+        assert not (folder / "wild.json").exists()
         refused = server.http.post(f"{url}/animation-play", json={"draft": wild, "retry_s": 0}, timeout=30)
         assert refused.status_code == 422 and "outside its limits" in refused.json()["detail"]
         saved = server.http.put(f"{url}/animations/wild", json={"animation": wild, "override_limits": True},

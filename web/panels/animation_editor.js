@@ -208,7 +208,7 @@ function markSaved(ed) {
 /** The unsaved animation into localStorage (per robot), so neither a reload nor a closed panel loses it. */
 function keepDraft(ed) {
   const { state } = ed;
-  if (!state.robot) return;
+  if (!state.robot || !state.anim) return; // nothing shown yet: a kept draft waits for restoreDraft
   try {
     if (isDirty(state)) {
       localStorage.setItem(DRAFT_KEY + state.robot, JSON.stringify({ file: state.file, anim: state.anim,
