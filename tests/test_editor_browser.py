@@ -339,3 +339,25 @@ def test_out_of_limit_keyframe_refused_unless_overridden(browser: Any, server: R
     page.wait_for_selector(f'{EDITOR} .lab-status:has-text("(limits overridden)")', timeout=TIMEOUT_MS)
     assert json.loads((folder / "wild.json").read_text())["keyframes"][0]["goals"]["LElbow"] == -150.0
     assert not page.errors, page.errors
+
+
+def test_timeline_shows_time_and_drags_to_reorder(browser: Any, server: RunningServer) -> None:
+    page = editor_page(browser, server)
+    blocks = f'{EDITOR} [data-role="timeline"] [data-tl]'
+    assert page.locator(blocks).count() == 3
+    widths = [page.locator(f'{EDITOR} [data-tl="{i}"]').bounding_box()["width"] for i in range(3)]
+    # duration + pause: 0.5, 0.7, 0.8 s
+    assert widths[1] / widths[0] == pytest.approx(0.7 / 0.5, rel=0.1)
+    assert widths[2] / widths[0] == pytest.approx(0.8 / 0.5, rel=0.1)
+
+    # click selects; dragging "down" onto the first block puts it first, the selection with it
+    page.click(f'{EDITOR} [data-tl="1"]')
+    page.wait_for_function("window.pitchside.animEditor.selected === 1", timeout=TIMEOUT_MS)
+    page.drag_and_drop(f'{EDITOR} [data-tl="2"]', f'{EDITOR} [data-tl="0"]')
+    kfs = wait_keyframes(page, "kfs[0].name === 'down'", "down dragged to the front")
+    assert [kf["name"] for kf in kfs] == ["down", "up", "out"]
+    assert page.evaluate("window.pitchside.animEditor.selected") == 0
+    page.wait_for_selector(f'{EDITOR} .lab-status:has-text("moved keyframe 2 to 0")', timeout=TIMEOUT_MS)
+    assert page.locator(f'{EDITOR} [data-tl="0"]').get_attribute("class") == "kf-block selected"
+    assert page.locator(f'{EDITOR} [data-role="dirty"]').text_content() == "● unsaved"
+    assert not page.errors, page.errors

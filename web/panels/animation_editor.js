@@ -49,6 +49,8 @@ const LAYOUT = `<div class="lab-bar">
         <span class="lab-status" data-role="status"></span>
       </div>
       <ul class="anim-warnings" data-role="warnings"></ul>
+      <div class="kf-timeline" data-role="timeline" title="keyframes in time (duration, then pause hatched): click to
+        select, drag to reorder"></div>
       <table class="grid-table keyframes"><thead><tr><th>#</th><th>name</th><th>duration s</th><th>pause s</th>
         <th>joints</th><th></th></tr></thead><tbody data-role="keyframes"></tbody></table>
       <div data-role="detail" class="kf-detail"></div>
@@ -79,6 +81,9 @@ export default {
     body.addEventListener("click", (e) => onClick(ed, e));
     body.addEventListener("change", (e) => onChange(ed, e));
     body.addEventListener("input", (e) => onSliderInput(ed, e));
+    body.addEventListener("dragstart", (e) => onTimelineDrag(ed, e));
+    body.addEventListener("dragover", (e) => { if (e.target.closest("[data-tl]")) e.preventDefault(); });
+    body.addEventListener("drop", (e) => onTimelineDrop(ed, e));
     ed.resend = setInterval(() => { if (ed.state.recordOn && ed.state.robot) sendGoals(ed); }, RESEND_MS);
     ed.leave = () => clearGhosts(ed, { leaving: true });
     window.addEventListener("pagehide", ed.leave);
@@ -505,6 +510,7 @@ function render(ed) {
   inRobotOrder(ed, ed.state.anim);
   keepDraft(ed);
   renderFileBar(ed);
+  renderTimeline(ed);
   renderKeyframes(ed);
   renderDetail(ed);
   renderWarnings(ed);
@@ -524,6 +530,26 @@ function renderFileBar(ed) {
   $('[data-role="dirty"]').textContent = dirty ? "● unsaved" : anim ? "saved" : "";
   $('[data-role="dirty"]').classList.toggle("unsaved", dirty);
   $('[data-act="save"]').classList.toggle("unsaved", dirty);
+}
+
+/** The timeline: a block per keyframe, as wide as its share of the animation's time (its pause hatched at its end),
+ * the selected one marked; blocks are dragged to reorder (Bit-Bots' RecordUI habit). */
+function renderTimeline(ed) {
+  const { state } = ed;
+  const kfs = state.anim?.keyframes ?? [];
+  const total = kfs.reduce((t, kf) => t + kf.duration + kf.pause, 0);
+  const el = ed.$('[data-role="timeline"]');
+  el.innerHTML = kfs.map((kf, i) => `<div class="kf-block${i === state.selected ? " selected" : ""}" data-tl="${i}"
+      draggable="true" title="keyframe ${i}${kf.name ? ` (${esc(kf.name)})` : ""}: ${kf.duration} s${
+      kf.pause ? ` + ${kf.pause} s pause` : ""}"><span>${i}${kf.name ? ` ${esc(kf.name)}` : ""}</span>
+      <i class="kf-pause"></i></div>`).join("");
+  // widths through the CSSOM: the page's Content-Security-Policy need not allow inline styles
+  el.querySelectorAll("[data-tl]").forEach((block, i) => {
+    const kf = kfs[i];
+    const time = kf.duration + kf.pause;
+    block.style.flexGrow = String(total > 0 ? time / total : 1);
+    block.querySelector(".kf-pause").style.width = `${time > 0 ? (100 * kf.pause) / time : 0}%`;
+  });
 }
 
 /** The keyframe list, the selected row marked; a hint while there is no animation. */
@@ -732,12 +758,34 @@ function onClick(ed, e) {
   const kact = e.target.dataset?.kact;
   const row = e.target.closest("tr[data-kf]");
   if (row && !kact && e.target.tagName !== "INPUT") { ed.state.selected = +row.dataset.kf; render(ed); }
+  const block = e.target.closest("[data-tl]");
+  if (block) { ed.state.selected = +block.dataset.tl; render(ed); }
   if (kact) { guarded(ed, () => keyframeAction(ed, kact, +row.dataset.kf)); return; }
   if (e.target.dataset?.remove !== undefined && e.target.closest("[data-role=detail]")) {
     removeGoal(ed, e.target.closest("tr").dataset.joint);
     return;
   }
   if (act && Object.hasOwn(ACTIONS, act)) guarded(ed, () => ACTIONS[act](ed));
+}
+
+/** A timeline block picked up: which keyframe is being dragged. */
+function onTimelineDrag(ed, e) {
+  const block = e.target.closest?.("[data-tl]");
+  if (!block) return;
+  ed.dragged = +block.dataset.tl;
+  e.dataTransfer.effectAllowed = "move";
+  e.dataTransfer.setData("text/plain", block.dataset.tl);
+}
+
+/** A timeline block dropped on another: the dragged keyframe takes that one's place. */
+function onTimelineDrop(ed, e) {
+  const block = e.target.closest("[data-tl]");
+  if (!block || ed.dragged === undefined) return;
+  e.preventDefault();
+  const from = ed.dragged;
+  const to = +block.dataset.tl;
+  ed.dragged = undefined;
+  if (from !== to) guarded(ed, () => moveKeyframe(ed, from, to));
 }
 
 /** A keyframe row's buttons: move up or down, duplicate, delete; the selection stays on its keyframe. */
