@@ -1,5 +1,6 @@
 """The animation editor in chromium, clicked through: keyframe ghosts in 3D, edits, mirror, invert, undo/redo,
-warnings. Real server (subprocess), real animation node on Zenoh, real viser; nothing is mocked."""
+warnings, joint limits, the timeline, play's progress. Real server (subprocess), real animation node on Zenoh, real
+viser; nothing is mocked."""
 
 from __future__ import annotations
 
@@ -10,12 +11,16 @@ from typing import Any
 
 import numpy as np
 import pytest
+import zenoh
 
+import schemas
 from robot_nodes.animation.node import AnimationNode
 from robot_nodes.runtime import BusConfig
 from tests.dashboard_server import RunningServer, dashboard_server
 from tests.support import REPO, free_port
 from tests.waiting import wait_for
+from wire.keys import topic_key
+from wire.parameters import ParameterClient
 
 pytestmark = [pytest.mark.slow, pytest.mark.browser]
 TIMEOUT_MS = 30_000
@@ -360,4 +365,24 @@ def test_timeline_shows_time_and_drags_to_reorder(browser: Any, server: RunningS
     page.wait_for_selector(f'{EDITOR} .lab-status:has-text("moved keyframe 2 to 0")', timeout=TIMEOUT_MS)
     assert page.locator(f'{EDITOR} [data-tl="0"]').get_attribute("class") == "kf-block selected"
     assert page.locator(f'{EDITOR} [data-role="dirty"]').text_content() == "● unsaved"
+    assert not page.errors, page.errors
+
+
+def test_play_shows_progress_then_done_or_failed(browser: Any, server: RunningServer, client: zenoh.Session) -> None:
+    """Play follows the goal to its end: "done" when the animation node finishes, "failed" with the node's reason
+    when it aborts (here: joint_states arrive without the joints the animation moves). Nothing is saved."""
+    page = editor_page(browser, server)
+    click(page, "play")  # no joint_states: the node starts from the first keyframe after its wait
+    page.wait_for_selector(f'{EDITOR} .lab-status:has-text("played wave: done")', timeout=TIMEOUT_MS)
+
+    ParameterClient(client, ROBOT).set("animation", {"joint_states_wait_s": 30.0})
+    states = client.declare_publisher(topic_key(ROBOT, "joint_states"))
+    only_head = schemas.encode(schemas.make("sensor_msgs/msg/JointState", name=["HeadPan"], position=np.zeros(1),
+                                            velocity=np.zeros(1), effort=np.zeros(1)))
+    click(page, "play")
+    page.wait_for_selector(f'{EDITOR} .lab-status:has-text("playing wave")', timeout=TIMEOUT_MS)
+    states.put(only_head)
+    page.wait_for_selector(f'{EDITOR} .lab-status.bad:has-text("wave: failed (aborted: ")', timeout=TIMEOUT_MS)
+    assert "unknown joint" in page.locator(f'{EDITOR} [data-role="status"]').text_content()
+    assert page.locator(f'{EDITOR} [data-role="dirty"]').text_content() == "saved"
     assert not page.errors, page.errors
