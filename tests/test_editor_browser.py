@@ -1,5 +1,6 @@
 """The animation editor in chromium, clicked through: keyframe ghosts in 3D, edits, mirror, invert, undo/redo,
-warnings. Real server (subprocess), real animation node on Zenoh, real viser; nothing is mocked."""
+warnings, joint limits, the timeline, play's progress. Real server (subprocess), real animation node on Zenoh, real
+viser; nothing is mocked."""
 
 from __future__ import annotations
 
@@ -10,12 +11,16 @@ from typing import Any
 
 import numpy as np
 import pytest
+import zenoh
 
+import schemas
 from robot_nodes.animation.node import AnimationNode
 from robot_nodes.runtime import BusConfig
 from tests.dashboard_server import RunningServer, dashboard_server
 from tests.support import REPO, free_port
 from tests.waiting import wait_for
+from wire.keys import topic_key
+from wire.parameters import ParameterClient
 
 pytestmark = [pytest.mark.slow, pytest.mark.browser]
 TIMEOUT_MS = 30_000
@@ -272,14 +277,15 @@ def test_joint_limit_and_servo_speed_warnings_and_preview(browser: Any, server: 
     warnings = f'{EDITOR} [data-role="warnings"] li'
     assert page.locator(warnings).count() == 0  # the file is within limits and servo speeds
 
-    # keyframe 1: the elbow past its limit (URDF: [-90.0, 44.7] deg)
+    # keyframe 1: the elbow past its limit (URDF: [-90.0, 44.7] deg) is clamped, and the status line says so
     page.click(f'{EDITOR} tr[data-kf="1"] td:first-child')
     goal = page.locator(f'{EDITOR} [data-role="detail"] tr[data-joint="LElbow"] input[data-goal]')
     goal.fill("80")
     goal.press("Tab")
-    page.wait_for_selector(f'{warnings}.warn:has-text("goal 80 deg for joint \'LElbow\' is outside its limits")',
-                           timeout=TIMEOUT_MS)
-    assert "[-90.0, 44.7]" in page.locator(warnings).first.text_content()
+    page.wait_for_selector(f'{EDITOR} .lab-status.bad:has-text("LElbow: 80 deg is outside its limits [-90.0, 44.7] '
+                           'deg: set to 44.7")', timeout=TIMEOUT_MS)
+    assert keyframes(page)[1]["goals"]["LElbow"] == pytest.approx(44.69, abs=0.01)
+    assert page.locator(warnings).count() == 0
     goal = page.locator(f'{EDITOR} [data-role="detail"] tr[data-joint="LElbow"] input[data-goal]')
     goal.fill("-30")
     goal.press("Tab")
@@ -309,4 +315,74 @@ def test_joint_limit_and_servo_speed_warnings_and_preview(browser: Any, server: 
     url = f"{server.url}/api/robots/{ROBOT}/animation-preview"
     wait_for(lambda: server.http.get(url, timeout=20).json()["updates"] >= 5, 30.0, 0.2, "the preview ghost moved")
     assert server.http.get(f"{server.url}/api/robot3d", timeout=20).json()["robots"] == {}
+    assert not page.errors, page.errors
+
+
+def test_out_of_limit_keyframe_refused_unless_overridden(browser: Any, server: RunningServer, folder: Path) -> None:
+    """A file from elsewhere with a goal past the joint's limit: listed as refused, neither played nor saved, until
+    the lab ticks "override limits"."""
+    wild = {"name": "wild", "keyframes": [{"duration": 0.5, "goals": {"LElbow": -150.0, "HeadPan": 5.0}}]}
+    (folder / "wild.json").write_text(json.dumps(wild))
+    page = editor_page(browser, server)
+    page.select_option(f'{EDITOR} [data-role="files"]', "wild")
+    click(page, "open")
+    limit = f'{EDITOR} [data-role="warnings"] li.bad.limit'
+    page.wait_for_selector(f'{limit}:has-text("goal -150 deg for joint \'LElbow\' is outside its limits")',
+                           timeout=TIMEOUT_MS)
+    before = (folder / "wild.json").read_text()
+
+    click(page, "play")
+    page.wait_for_selector(f'{EDITOR} .lab-status.bad:has-text("not played on {ROBOT}")', timeout=TIMEOUT_MS)
+    assert server.http.get(f"{server.url}/api/robots/{ROBOT}/animation-play", timeout=20).json()["playing"] is False
+    click(page, "save")
+    page.wait_for_selector(f'{EDITOR} .lab-status.bad:has-text("not saved as wild")', timeout=TIMEOUT_MS)
+    assert (folder / "wild.json").read_text() == before
+
+    # the lab's explicit override: saved as it is
+    page.check(f'{EDITOR} [data-role="override"]')
+    click(page, "save")
+    page.wait_for_selector(f'{EDITOR} .lab-status:has-text("(limits overridden)")', timeout=TIMEOUT_MS)
+    assert json.loads((folder / "wild.json").read_text())["keyframes"][0]["goals"]["LElbow"] == -150.0
+    assert not page.errors, page.errors
+
+
+def test_timeline_shows_time_and_drags_to_reorder(browser: Any, server: RunningServer) -> None:
+    page = editor_page(browser, server)
+    blocks = f'{EDITOR} [data-role="timeline"] [data-tl]'
+    assert page.locator(blocks).count() == 3
+    widths = [page.locator(f'{EDITOR} [data-tl="{i}"]').bounding_box()["width"] for i in range(3)]
+    # duration + pause: 0.5, 0.7, 0.8 s
+    assert widths[1] / widths[0] == pytest.approx(0.7 / 0.5, rel=0.1)
+    assert widths[2] / widths[0] == pytest.approx(0.8 / 0.5, rel=0.1)
+
+    # click selects; dragging "down" onto the first block puts it first, the selection with it
+    page.click(f'{EDITOR} [data-tl="1"]')
+    page.wait_for_function("window.pitchside.animEditor.selected === 1", timeout=TIMEOUT_MS)
+    page.drag_and_drop(f'{EDITOR} [data-tl="2"]', f'{EDITOR} [data-tl="0"]')
+    kfs = wait_keyframes(page, "kfs[0].name === 'down'", "down dragged to the front")
+    assert [kf["name"] for kf in kfs] == ["down", "up", "out"]
+    assert page.evaluate("window.pitchside.animEditor.selected") == 0
+    page.wait_for_selector(f'{EDITOR} .lab-status:has-text("moved keyframe 2 to 0")', timeout=TIMEOUT_MS)
+    assert page.locator(f'{EDITOR} [data-tl="0"]').get_attribute("class") == "kf-block selected"
+    assert page.locator(f'{EDITOR} [data-role="dirty"]').text_content() == "● unsaved"
+    assert not page.errors, page.errors
+
+
+def test_play_shows_progress_then_done_or_failed(browser: Any, server: RunningServer, client: zenoh.Session) -> None:
+    """Play follows the goal to its end: "done" when the animation node finishes, "failed" with the node's reason
+    when it aborts (here: joint_states arrive without the joints the animation moves). Nothing is saved."""
+    page = editor_page(browser, server)
+    click(page, "play")  # no joint_states: the node starts from the first keyframe after its wait
+    page.wait_for_selector(f'{EDITOR} .lab-status:has-text("played wave: done")', timeout=TIMEOUT_MS)
+
+    ParameterClient(client, ROBOT).set("animation", {"joint_states_wait_s": 30.0})
+    states = client.declare_publisher(topic_key(ROBOT, "joint_states"))
+    only_head = schemas.encode(schemas.make("sensor_msgs/msg/JointState", name=["HeadPan"], position=np.zeros(1),
+                                            velocity=np.zeros(1), effort=np.zeros(1)))
+    click(page, "play")
+    page.wait_for_selector(f'{EDITOR} .lab-status:has-text("playing wave")', timeout=TIMEOUT_MS)
+    states.put(only_head)
+    page.wait_for_selector(f'{EDITOR} .lab-status.bad:has-text("wave: failed (aborted: ")', timeout=TIMEOUT_MS)
+    assert "unknown joint" in page.locator(f'{EDITOR} [data-role="status"]').text_content()
+    assert page.locator(f'{EDITOR} [data-role="dirty"]').text_content() == "saved"
     assert not page.errors, page.errors

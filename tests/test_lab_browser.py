@@ -147,7 +147,6 @@ def test_record_save_reload_and_play_on_the_simulated_robot(browser: Any, server
                                timeout=TIMEOUT_MS)
         page.fill(f'{editor} [data-role="new-name"]', "lab_wave")
         page.click(f'{editor} button[data-act="new"]')
-        page.locator(f"{editor} details.record summary").click()
         page.click(f'{editor} button[data-act="record-on"]')
         page.wait_for_function(f"window.pitchside.store.get('r1', 'robot_state')?.data.state === {RECORD_STATE}",
                                timeout=60_000)
@@ -163,16 +162,16 @@ def test_record_save_reload_and_play_on_the_simulated_robot(browser: Any, server
             # servos under gravity settle a little short of their goal: the keyframe records where they are
             _wait_pose(server, "r1", pose, 2.5, 30.0, f"the robot in pose {k}", page)
             page.click(f'{editor} button[data-act="record-kf"]')
-            page.wait_for_function(f"window.pitchside.animEditor.anim.keyframes.length === {k + 1}",
+            page.wait_for_function(f"window.pitchside.animEditor.anim.keyframes.length === {k + 2}",
                                    timeout=TIMEOUT_MS)
-        assert page.locator(f"{editor} tr[data-kf]").count() == 3
+        assert page.locator(f"{editor} tr[data-kf]").count() == 4  # "new" made keyframe 0 of the robot's pose
 
         page.fill(f'{editor} [data-role="author"]', "lab test")
         page.click(f'{editor} button[data-act="save"]')
         wait_for(lambda: (folder / "lab_wave.json").exists(), 20.0, 0.2, "the saved file")
         saved = load_animation(folder / "lab_wave.json")
-        assert saved.author == "lab test" and saved.last_edited and len(saved.keyframes) == 3
-        assert set(saved.keyframes[2].goals) == set(POSES[2])
+        assert saved.author == "lab test" and saved.last_edited and len(saved.keyframes) == 4
+        assert set(saved.keyframes[3].goals) == set(POSES[2]) and len(saved.keyframes[0].goals) == 20
 
         # reload the page, open the file again, play it: the joints reach the last keyframe
         page.reload()
@@ -180,8 +179,8 @@ def test_record_save_reload_and_play_on_the_simulated_robot(browser: Any, server
                                timeout=TIMEOUT_MS)
         page.select_option(f'{editor} [data-role="files"]', "lab_wave")
         page.click(f'{editor} button[data-act="open"]')
-        page.wait_for_function("window.pitchside.animEditor.anim?.keyframes.length === 3", timeout=TIMEOUT_MS)
-        last = saved.keyframes[2].goals
+        page.wait_for_function("window.pitchside.animEditor.anim?.keyframes.length === 4", timeout=TIMEOUT_MS)
+        last = saved.keyframes[3].goals
         page.click(f'{editor} button[data-act="play"]')
         page.wait_for_selector(f'{editor} .lab-status:has-text("playing lab_wave")', timeout=60_000)
 

@@ -173,11 +173,11 @@ def test_animation_files_edits_record_and_play(server: RunningServer, bus: BusCo
         assert bad.status_code == 422 and "keyframe 0" in bad.json()["detail"] and not (folder / "broken.json").exists()
 
         # edits run server-side through wire.animation.editing
-        anim = {"name": "wave", "keyframes": [{"duration": 0.5, "goals": {"LShoulderRoll": 30.0}},
+        anim = {"name": "wave", "keyframes": [{"duration": 0.5, "goals": {"LShoulderRoll": -30.0}},
                                               {"duration": 0.5, "goals": {"LShoulderRoll": 0.0}}]}
         mirrored = server.http.post(f"{url}/animation-edit", json={"animation": anim, "op": "mirror"},
                                     timeout=20).json()
-        assert mirrored["animation"]["keyframes"][0]["goals"] == {"RShoulderRoll": -30.0}
+        assert mirrored["animation"]["keyframes"][0]["goals"] == {"RShoulderRoll": 30.0}
         dup = server.http.post(f"{url}/animation-edit", json={"animation": anim, "op": "duplicate", "index": 0},
                          timeout=20).json()["animation"]
         assert len(dup["keyframes"]) == 3
@@ -223,6 +223,38 @@ def test_animation_files_edits_record_and_play(server: RunningServer, bus: BusCo
 
         wait_for(finished, 20.0, 0.2, "the cut animation played to its end")
         assert server.http.post(f"{url}/animation-play", json={"file": "nothing"}, timeout=30).status_code == 404
+        assert "_editor_preview" not in [a["file"] for a in server.http.get(f"{url}/animations", timeout=30).json()[
+            "animations"]]  # the scratch file is not the user's
+
+        # the editor's unsaved draft plays without touching its file
+        before = (folder / "wave.json").read_text()
+        draft = {**anim, "keyframes": [*anim["keyframes"], {"duration": 0.3, "goals": {"HeadPan": 5.0}}]}
+        played = server.http.post(f"{url}/animation-play", json={"draft": draft, "retry_s": 0}, timeout=30)
+        assert played.status_code == 200, played.text
+        assert played.json()["keyframes"] == 3 and (folder / "wave.json").read_text() == before
+        wait_for(finished, 20.0, 0.2, "the draft played to its end")
+        assert server.http.get(f"{url}/animation-play", timeout=20).json()["percent_done"] == pytest.approx(100.0)
+
+        # goals outside the URDF limits (LElbow: [-90, 44.7] deg): refused on save and play unless overridden
+        wild = {"name": "wild", "keyframes": [{"duration": 0.5, "goals": {"LElbow": -150.0}}]}
+        refused = server.http.put(f"{url}/animations/wild", json={"animation": wild}, timeout=20)
+        assert refused.status_code == 422 and "LElbow" in refused.json()["detail"]
+        assert not (folder / "wild.json").exists()
+        refused = server.http.post(f"{url}/animation-play", json={"draft": wild, "retry_s": 0}, timeout=30)
+        assert refused.status_code == 422 and "outside its limits" in refused.json()["detail"]
+        saved = server.http.put(f"{url}/animations/wild", json={"animation": wild, "override_limits": True},
+                                timeout=20)
+        assert saved.status_code == 200 and saved.json()["check"]["out_of_limits"]
+        assert server.http.post(f"{url}/animation-play", json={"file": "wild", "retry_s": 0},
+                                timeout=30).status_code == 422
+        assert server.http.post(f"{url}/animation-play", json={"file": "wild", "draft": wild},
+                                timeout=30).status_code == 422  # one of draft, file, animation
+
+        # record goals outside the limits go out clamped, and the reply says which
+        clamped = server.http.post(f"{url}/record/goals", json={"positions": {"LElbow": -150.0}}, timeout=20).json()
+        assert clamped["clamped"] == {"LElbow": pytest.approx(-90.0, abs=0.1)}
+        wait_for(lambda: list(record_goals.snapshot()[-1][1].joint_names) == ["LElbow"], 10.0, what="clamped goal")
+        assert np.degrees(record_goals.snapshot()[-1][1].points[0].positions[0]) == pytest.approx(-90.0, abs=0.1)
         stopped = server.http.post(f"{url}/animation-stop", timeout=30).json()
         assert stopped["canceled"] is False and "record_error" in stopped  # no HCM here: said, not failed
     finally:

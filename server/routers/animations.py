@@ -1,7 +1,9 @@
 """A robot's animations: files in its animation folder, edits, checks, preview, play, stop, record.
 
-``POST animation-play`` is the one way to play an animation: a saved file (the editor) or a name the robot's
-animation node knows (teleop).
+``POST animation-play`` is the one way to play an animation: the editor's animation as it is, saved or not (a
+``draft``, written to a scratch file the user never sees, so play never saves the user's file), a saved file, or a
+name the robot's animation node knows (teleop). Goals outside the URDF's joint limits are refused, on save and on
+play, unless the request says ``override_limits`` (the cm730 node clamps every goal to the limits anyway).
 
 The folder is the one the robot's animation node plays from (its ``animation_dir`` parameter, else
 ``robots/<model>/animations``), so "save, then play by name" plays exactly what was saved. Angles on this
@@ -54,15 +56,16 @@ from wire.parameters import ParameterClient, ParameterError
 router = APIRouter(prefix="/api/robots/{robot}", tags=["animations"], dependencies=[Depends(valid_robot)])
 TIMEOUT_S = 3.0
 WAIT_RESULT_S = 60.0  # play with wait: longer than any animation
-PREVIEW_FILE = "_editor_preview"  # "play up to keyframe k" plays a cut copy saved under this name
+PREVIEW_FILE = "_editor_preview"  # the editor's draft (or a file cut at "play up to keyframe k") plays from this file
 FOLDER_CACHE_S = 10.0
 _FILE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,99}$")
 
 
 class AnimationBody(BaseModel):
     animation: dict[str, Any] | None = None  # Bit-Bots JSON as an object ...
-    text: str | None = None  # ... or as the text of an uploaded file
+    text: str | None = None  # ... or as the text of an uploaded file (stored as it is; its check says what is wrong)
     author: str | None = None
+    override_limits: bool = False  # save an animation with goals outside the joint limits all the same
 
 
 class EditRequest(BaseModel):
@@ -82,9 +85,11 @@ class GhostRequest(BaseModel):
 
 
 class PlayRequest(BaseModel):
-    file: str | None = None  # a file in the robot's animation folder ...
+    draft: dict[str, Any] | None = None  # the editor's animation as it is (Bit-Bots JSON), saved or not ...
+    file: str | None = None  # ... or a file in the robot's animation folder ...
     animation: str | None = None  # ... or an animation the robot's animation node knows by name
-    upto: int | None = None  # play keyframes 0..upto only (file)
+    upto: int | None = None  # play keyframes 0..upto only (draft, file)
+    override_limits: bool = False  # play goals outside the joint limits all the same (draft, file)
     retry_s: float = 5.0  # how long to try again while the HCM's own animation runs
     wait: bool = False  # answer with the result (else once the HCM accepted or rejected the goal)
 
@@ -105,6 +110,7 @@ class Check(BaseModel):
     ok: bool
     errors: list[str]
     warnings: list[str]
+    out_of_limits: list[str] = []  # the warnings about goals outside the joint limits: no save or play without override
 
 
 class AnimationEntry(BaseModel):
@@ -188,8 +194,9 @@ class PlayReply(BaseModel):
 class PlayStatus(BaseModel):
     robot: str
     playing: bool
-    status: str | None = None
+    status: str | None = None  # the goal's end: SUCCEEDED, CANCELED, PREEMPTED, ABORTED
     percent_done: float | None = None
+    message: str | None = None  # the animation node's word on the end (why it failed)
 
 
 class Stopped(BaseModel):
@@ -215,6 +222,7 @@ class GoalsSent(BaseModel):
     robot: str
     held: list[str]
     limp: list[str]
+    clamped: dict[str, float] = {}  # held joints whose goal was outside the URDF limits: the goal sent (deg)
 
 
 # -- where the files are ---------------------------------------------------------------------------------
@@ -278,7 +286,17 @@ def check(state: ServerState, robot: str, anim: Animation) -> dict[str, Any]:
     """Errors (joints the robot lacks) and warnings (joint limits, servo speed) against the robot's URDF."""
     limits = joint_limits(state, robot)
     report = validate(anim, limits.limits, limits.names or None, limits.velocity or None)
-    return {"ok": report.ok, "errors": report.errors, "warnings": report.warnings}
+    return {"ok": report.ok, "errors": report.errors, "warnings": report.warnings,
+            "out_of_limits": report.out_of_limits}
+
+
+def refuse_out_of_limits(report: dict[str, Any], doing: str) -> None:
+    """422 for an animation with goals outside the joint limits: the lab saves or plays it only when told to."""
+    problems = report["out_of_limits"]
+    if problems:
+        more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
+        raise HTTPException(422, f"not {doing}: {problems[0]}{more}; bring the goals inside the limits, or "
+                                 "override the limits")
 
 
 def _parse(body: AnimationBody, source: str) -> Animation:
@@ -298,7 +316,7 @@ async def list_animations(robot: str, state: ServerState = Depends(require_contr
     folder, how = await animation_folder(state, robot)
     files = []
     for path in sorted(folder.rglob("*.json")) if folder.is_dir() else []:
-        if path.name.startswith("."):
+        if path.name.startswith(".") or path.stem == PREVIEW_FILE:  # the draft's scratch file is not the user's
             continue
         entry: dict[str, Any] = {"file": str(path.relative_to(folder).with_suffix(""))}
         try:
@@ -342,13 +360,15 @@ async def write_animation(robot: str, file: str, body: AnimationBody, state: Ser
     anim = _parse(body, path.name)
     if body.author is not None:
         anim.author = body.author
+    report = check(state, robot, anim)
+    if body.animation is not None and not body.override_limits:
+        refuse_out_of_limits(report, f"saved as {path.stem}")
     try:
         folder.mkdir(parents=True, exist_ok=True)
         save_animation(anim, path)
     except OSError as exc:
         raise HTTPException(500, f"cannot write {path}: {exc}") from exc
-    return {"file": path.stem, "path": str(path), "animation": animation_to_dict(anim),
-            "check": check(state, robot, anim)}
+    return {"file": path.stem, "path": str(path), "animation": animation_to_dict(anim), "check": report}
 
 
 # -- editing (pure: nothing is sent to the robot) ------------------------------------------------------
@@ -450,32 +470,49 @@ def _set_record_mode(state: ServerState, robot: str, on: bool) -> dict[str, Any]
              response_model_exclude_unset=True)
 async def play_animation(robot: str, request: PlayRequest, state: ServerState = Depends(require_control)
                          ) -> dict[str, Any]:
-    """Plays an animation on the robot: a saved ``file`` of the robot's animation folder (the editor: leaves RECORD
-    first, and plays keyframes 0..upto only if upto is given), or an ``animation`` the animation node knows by name
-    (teleop). ``wait``: answer with the result, else once the HCM accepted or rejected the goal."""
-    if (request.file is None) == (request.animation is None):
-        raise HTTPException(422, "give either 'file' (a saved animation file) or 'animation' (a name)")
+    """Plays an animation on the robot: the editor's ``draft`` (as it is, saved or not) or a saved ``file`` of the
+    robot's animation folder (both leave RECORD first, are refused with goals outside the joint limits unless
+    ``override_limits``, and play keyframes 0..upto only if upto is given), or an ``animation`` the animation node
+    knows by name (teleop). ``wait``: answer with the result, else once the HCM accepted or rejected the goal."""
+    if sum(x is not None for x in (request.draft, request.file, request.animation)) != 1:
+        raise HTTPException(422, "give one of 'draft' (the editor's animation), 'file' (a saved animation file) or "
+                                 "'animation' (a name)")
     lab = lab_tools(state)
+    keyframes: int | None = None
     if request.animation is not None:
-        name, keyframes = request.animation, None
+        name = request.animation
     else:
         folder, _ = await animation_folder(state, robot)
-        path = file_path(folder, request.file or "")
-        try:
-            anim = load_animation(path)
-        except AnimationError as exc:
-            raise HTTPException(404 if not path.exists() else 422, str(exc)) from exc
+        if request.draft is not None:
+            anim = _parse(AnimationBody(animation=request.draft), "<editor>")
+        else:
+            path = file_path(folder, request.file or "")
+            try:
+                anim = load_animation(path)
+            except AnimationError as exc:
+                raise HTTPException(404 if not path.exists() else 422, str(exc)) from exc
+        if not request.override_limits:
+            refuse_out_of_limits(check(state, robot, anim), f"played on {robot}")
         name, keyframes = anim.name, len(anim.keyframes)
-        if request.upto is not None:
-            if not 0 <= request.upto < len(anim.keyframes):
-                raise HTTPException(422, f"no keyframe {request.upto} (the animation has {len(anim.keyframes)})")
-            cut = copy.deepcopy(anim)
-            cut.name, cut.keyframes = PREVIEW_FILE, cut.keyframes[:request.upto + 1]
-            await asyncio.to_thread(save_animation, cut, folder / f"{PREVIEW_FILE}.json")
-            name, keyframes = PREVIEW_FILE, request.upto + 1
+        if request.upto is not None and not 0 <= request.upto < len(anim.keyframes):
+            raise HTTPException(422, f"no keyframe {request.upto} (the animation has {len(anim.keyframes)})")
+        if request.draft is not None or request.upto is not None:
+            # the animation node plays files by name: the draft (or the cut) goes to a scratch file of its own
+            scratch = copy.deepcopy(anim)
+            scratch.name = PREVIEW_FILE
+            if request.upto is not None:
+                scratch.keyframes = scratch.keyframes[:request.upto + 1]
+            if not scratch.keyframes:
+                raise HTTPException(422, "the animation has no keyframes")
+            try:
+                folder.mkdir(parents=True, exist_ok=True)
+                await asyncio.to_thread(save_animation, scratch, folder / f"{PREVIEW_FILE}.json")
+            except OSError as exc:
+                raise HTTPException(500, f"cannot write the scratch file in {folder}: {exc}") from exc
+            name, keyframes = PREVIEW_FILE, len(scratch.keyframes)
 
     def send() -> Any:
-        if request.file is not None:
+        if request.animation is None:
             with contextlib.suppress(ParameterError):  # a robot without HCM plays anyway
                 if "record_mode" in _set_record_mode(state, robot, False).get("changed", []):
                     _wait_controllable(state, robot, time.time(), request.retry_s)
@@ -513,8 +550,12 @@ async def play_status(robot: str, state: ServerState = Depends(require_control))
     if handle is None:
         return {"robot": robot, "playing": False}
     status = handle.status.name if handle.status is not None else None
-    return {"robot": robot, "playing": not handle.done, "status": status,
-            "percent_done": float(handle.feedback[-1].percent_done) if handle.feedback else 0.0}
+    out = {"robot": robot, "playing": not handle.done, "status": status,
+           "percent_done": float(handle.feedback[-1].percent_done) if handle.feedback else 0.0}
+    message = getattr(handle.result, "message", None)
+    if message:
+        out["message"] = str(message)
+    return out
 
 
 @router.post("/animation-stop", response_model=Stopped, response_model_exclude_unset=True)
@@ -564,8 +605,9 @@ async def record_goals(robot: str, goals: RecordGoals, state: ServerState = Depe
     bad = [j for j, v in goals.positions.items() if not math.isfinite(v)]
     if bad:
         raise HTTPException(422, f"goals must be finite numbers (deg): {bad}")
-    names = list(goals.positions)
-    positions = [math.radians(v) for v in goals.positions.values()]
+    held, clamped = clamp_to_limits(goals.positions, joint_limits(state, robot))
+    names = list(held)
+    positions = [math.radians(v) for v in held.values()]
     efforts = [1.0] * len(names)
     limp = [j for j in goals.limp if j not in goals.positions]
     if limp:
@@ -582,4 +624,15 @@ async def record_goals(robot: str, goals: RecordGoals, state: ServerState = Depe
                          effort=np.array(efforts, dtype=float))
     msg = JointTrajectory(header=schemas.header(), joint_names=names, points=[point])
     await asyncio.to_thread(lab_tools(state).publish, robot, "record_motor_goals", msg)
-    return {"robot": robot, "held": list(goals.positions), "limp": limp}
+    return {"robot": robot, "held": list(goals.positions), "limp": limp, "clamped": clamped}
+
+
+def clamp_to_limits(goals: dict[str, float], limits: JointLimits) -> tuple[dict[str, float], dict[str, float]]:
+    """Goals (deg) inside the URDF limits, and the ones that had to be moved there (the goal sent instead)."""
+    inside, clamped = {}, {}
+    for joint, deg in goals.items():
+        lo, hi = limits.limits.get(joint, (-math.inf, math.inf))
+        inside[joint] = min(max(deg, math.degrees(lo)), math.degrees(hi))
+        if inside[joint] != deg:
+            clamped[joint] = inside[joint]
+    return inside, clamped

@@ -1,5 +1,8 @@
-// Animation editor and recorder: open/upload a Bit-Bots animation, edit keyframes (structure edits run server-side
-// through robot_nodes.animation.editing), record poses from the robot in RECORD, preview in 3D, play, stop, save.
+// Animation editor and recorder: open/upload a Bit-Bots animation or start one from the robot's pose, edit keyframes
+// (structure edits run server-side through wire.animation.editing), record poses from the robot in RECORD, send the
+// robot to a keyframe, preview in 3D, play (the version shown, saved or not), stop, save (only when asked).
+// Work is never lost silently: a dirty marker, a warning before the page goes, and the unsaved animation kept in
+// localStorage until it is saved. Goals stay inside the URDF's joint limits unless the lab overrides them.
 // One editor object holds the panel's state; each function below renders one part or handles one user action.
 
 import { api, labToolOff, robotPath, robotPicker } from "../lab_api.js";
@@ -8,6 +11,8 @@ import { esc, statusLine } from "../dom.js";
 const SEND_EVERY_MS = 100; // record goals while a slider is dragged
 const RESEND_MS = 300; // in RECORD the held pose is sent again and again: a lost message costs nothing
 const GHOSTS_AFTER_MS = 150; // keyframe ghosts follow edits and the selection, at most this often
+const PLAY_POLL_MS = 250; // how often a play's progress is asked for
+const DRAFT_KEY = "pitchside.animDraft."; // + robot: the unsaved animation, kept until saved or discarded
 
 // The panel's markup; rows and the keyframe detail are rendered into its tbody and div below.
 const LAYOUT = `<div class="lab-bar">
@@ -15,13 +20,14 @@ const LAYOUT = `<div class="lab-bar">
         <select data-role="files" title="animation files in the robot's animation folder"></select>
         <button data-act="open">open</button>
         <label title="upload a Bit-Bots JSON file">upload <input type="file" data-role="upload" accept=".json,application/json"></label>
-        <input data-role="new-name" placeholder="new name" size="10"><button data-act="new">new</button>
+        <input data-role="new-name" placeholder="new name" size="10"><button data-act="new"
+          title="a new animation whose first keyframe is the robot's current pose">new from robot pose</button>
       </div>
       <div class="lab-bar">
         <label>file <input data-role="file" size="12"></label>
         <label>name <input data-role="name" size="12"></label>
         <label>author <input data-role="author" size="8"></label>
-        <button data-act="save">save</button>
+        <button data-act="save">save</button><span class="anim-dirty" data-role="dirty"></span>
         <button data-act="undo" disabled>undo</button><button data-act="redo" disabled>redo</button>
         <button data-act="insert" title="a new keyframe after the selected one, posed where that one ends">+ keyframe</button>
         <button data-act="mirror" title="swap left and right in the selected keyframe">mirror kf</button>
@@ -33,19 +39,26 @@ const LAYOUT = `<div class="lab-bar">
         <label title="still, faint ghosts of the keyframes in the 3D view (the selected one stronger)">ghosts
           <select data-role="ghosts"><option value="off">off</option><option value="near">selected ±1</option>
             <option value="all">all keyframes</option></select></label>
-        <button data-act="play" title="save, then play on the robot">▶ play</button>
-        <button data-act="play-upto" title="save, then play up to the selected keyframe">▶ to selected</button>
+        <button data-act="goto" title="RECORD, and the robot moves to the selected keyframe's pose (then edit it with
+          the sliders and record)">go to keyframe</button>
+        <button data-act="play" title="play on the robot as shown here (saved or not; nothing is saved)">▶ play</button>
+        <button data-act="play-upto" title="play up to the selected keyframe (nothing is saved)">▶ to selected</button>
         <button data-act="stop" class="stop" title="cancel the animation and leave RECORD">■ STOP</button>
+        <label title="lab only: save and play goals outside the URDF joint limits all the same (the robot's servo
+          node still clamps them)"><input type="checkbox" data-role="override"> override limits</label>
         <span class="lab-status" data-role="status"></span>
       </div>
       <ul class="anim-warnings" data-role="warnings"></ul>
+      <div class="kf-timeline" data-role="timeline" title="keyframes in time (duration, then pause hatched): click to
+        select, drag to reorder"></div>
       <table class="grid-table keyframes"><thead><tr><th>#</th><th>name</th><th>duration s</th><th>pause s</th>
         <th>joints</th><th></th></tr></thead><tbody data-role="keyframes"></tbody></table>
       <div data-role="detail" class="kf-detail"></div>
-      <details class="record" data-role="record-box"><summary>record from the robot</summary>
+      <details class="record" data-role="record-box" open><summary>record from the robot</summary>
         <div class="lab-bar">
           <button data-act="record-on">RECORD on</button><button data-act="record-off">RECORD off</button>
           <button data-act="record-kf" title="insert the robot's current pose after the selected keyframe">record keyframe</button>
+          <button data-act="record-update" title="the robot's current pose into the selected keyframe">update keyframe</button>
           <button data-act="rec-all">record all joints</button><button data-act="rec-none">none</button>
         </div>
         <table class="grid-table"><thead><tr><th>joint</th><th>rec</th><th>limp</th><th>goal (deg)</th></tr></thead>
@@ -68,9 +81,14 @@ export default {
     body.addEventListener("click", (e) => onClick(ed, e));
     body.addEventListener("change", (e) => onChange(ed, e));
     body.addEventListener("input", (e) => onSliderInput(ed, e));
+    body.addEventListener("dragstart", (e) => onTimelineDrag(ed, e));
+    body.addEventListener("dragover", (e) => { if (e.target.closest("[data-tl]")) e.preventDefault(); });
+    body.addEventListener("drop", (e) => onTimelineDrop(ed, e));
     ed.resend = setInterval(() => { if (ed.state.recordOn && ed.state.robot) sendGoals(ed); }, RESEND_MS);
     ed.leave = () => clearGhosts(ed, { leaving: true });
     window.addEventListener("pagehide", ed.leave);
+    ed.warnLeaving = (e) => { if (isDirty(ed.state)) { e.preventDefault(); e.returnValue = ""; } };
+    window.addEventListener("beforeunload", ed.warnLeaving);
     render(ed);
     return { destroy() { closeEditor(ed); } };
   },
@@ -83,12 +101,15 @@ function newEditor(body, ctx) {
     robot: "", file: "", anim: null, selected: -1, undo: [], redo: [], check: null, joints: [],
     held: {}, limp: new Set(), recordJoints: new Set(), recordOn: false, lastError: "", saved: 0,
     ghosts: "off", ghostsShown: 0, ghostsFor: "",
+    savedText: null, // the animation as last opened or saved (JSON): anything else is unsaved
+    play: null, // the play under way or last ended: {name, status, percent, message}
   };
   return {
     body, ctx, $, state, picker: null, resend: 0, leave: null,
     status: statusLine($('[data-role="status"]'), (text) => { state.lastError = text; }),
     ghost: { timer: null, busy: false, again: false }, // keyframe ghosts, see sendGhosts
     goals: { lastSent: 0, pending: null, inFlight: false, again: false }, // record goals, see sendGoals
+    playRun: 0, // each play counts up: an older play's progress stops being followed
   };
 }
 
@@ -97,6 +118,7 @@ function closeEditor(ed) {
   ed.picker.off(); clearInterval(ed.resend); if (ed.goals.pending) clearTimeout(ed.goals.pending);
   if (ed.ghost.timer) clearTimeout(ed.ghost.timer);
   ed.state.ghosts = "off"; window.removeEventListener("pagehide", ed.leave); clearGhosts(ed);
+  window.removeEventListener("beforeunload", ed.warnLeaving); ed.playRun++;
 }
 
 /** The robot's part of every request path. */
@@ -107,11 +129,12 @@ async function guarded(ed, fn) {
   try { await fn(); } catch (err) { ed.status(err.message, true); }
 }
 
-/** Another robot chosen: the old one's ghosts go, the new one's files and joints are read. */
+/** Another robot chosen: the old one's ghosts go, the new one's files and joints are read, and an animation left
+ * unsaved on this robot (the page reloaded, the panel closed) comes back. */
 function chooseRobot(ed, robot) {
   clearGhosts(ed);
   ed.state.robot = robot;
-  guarded(ed, async () => { await listFiles(ed); await loadJoints(ed); });
+  guarded(ed, async () => { await loadJoints(ed); restoreDraft(ed); await listFiles(ed); });
   scheduleGhosts(ed);
 }
 
@@ -132,7 +155,91 @@ async function loadJoints(ed) {
   if (!state.robot) return;
   state.joints = (await api("GET", `${base(ed)}/animations/joints`)).joints;
   if (!state.recordJoints.size) state.joints.forEach((j) => state.recordJoints.add(j.name));
+  try { holdMeasuredPose(ed, await measuredPose(ed)); } catch { /* no joint_states yet: the sliders start at 0 */ }
   renderJoints(ed);
+}
+
+/** The robot's measured pose (deg per joint), from the hub's newest joint_states. */
+async function measuredPose(ed) { return (await api("GET", `${base(ed)}/record/pose`)).positions; }
+
+/** The record table starts where the robot is, not at 0, so RECORD on holds the robot still. */
+function holdMeasuredPose(ed, pose) {
+  const { state } = ed;
+  state.held = {};
+  for (const j of state.joints) if (j.name in pose) state.held[j.name] = inLimits(ed, j.name, pose[j.name]).value;
+}
+
+// -- joint limits and order ------------------------------------------------------------------------
+
+/** A goal (deg) rounded to 0.01 and inside the joint's URDF limits; clamped says it had to be moved. */
+function inLimits(ed, joint, deg) {
+  const j = ed.state.joints.find((x) => x.name === joint);
+  const rounded = Math.round(deg * 100) / 100;
+  if (!j) return { value: rounded, clamped: false };
+  const value = Math.min(Math.max(rounded, j.lower), j.upper);
+  return { value, clamped: Math.abs(value - rounded) > 1e-9 && (deg < j.lower || deg > j.upper), j };
+}
+
+/** The status line's word on a clamped goal: what was typed, the limits, what was set instead. */
+function clampedText(joint, typed, limit) {
+  return `${joint}: ${typed} deg is outside its limits [${limit.j.lower.toFixed(1)}, ${limit.j.upper.toFixed(1)}] ` +
+    `deg: set to ${limit.value.toFixed(1)}`;
+}
+
+/** Goals and torques of every keyframe in the robot's joint order (the URDF's), whatever the file or an edit did;
+ * joints the robot lacks come last. Only the key order changes, so nothing becomes unsaved by it. */
+function inRobotOrder(ed, anim) {
+  const rank = new Map(ed.state.joints.map((j, i) => [j.name, i]));
+  if (!anim || !rank.size) return;
+  const order = (table) => Object.fromEntries(Object.entries(table).sort(([a], [b]) =>
+    (rank.get(a) ?? rank.size) - (rank.get(b) ?? rank.size)));
+  for (const kf of anim.keyframes) {
+    kf.goals = order(kf.goals);
+    if (kf.torque) kf.torque = order(kf.torque);
+  }
+}
+
+// -- unsaved work ----------------------------------------------------------------------------------
+
+/** The animation differs from the one last opened or saved (a new one is unsaved until saved). */
+function isDirty(state) { return Boolean(state.anim) && JSON.stringify(state.anim) !== state.savedText; }
+
+/** The animation as it is now counts as saved. */
+function markSaved(ed) {
+  inRobotOrder(ed, ed.state.anim);
+  ed.state.savedText = JSON.stringify(ed.state.anim);
+}
+
+/** The unsaved animation into localStorage (per robot), so neither a reload nor a closed panel loses it. */
+function keepDraft(ed) {
+  const { state } = ed;
+  if (!state.robot || !state.anim) return; // nothing shown yet: a kept draft waits for restoreDraft
+  try {
+    if (isDirty(state)) {
+      localStorage.setItem(DRAFT_KEY + state.robot, JSON.stringify({ file: state.file, anim: state.anim,
+        savedText: state.savedText }));
+    } else localStorage.removeItem(DRAFT_KEY + state.robot);
+  } catch { /* storage full or off: the beforeunload warning still guards the work */ }
+}
+
+/** The draft kept for this robot, back in the editor (only when the editor holds nothing yet). */
+function restoreDraft(ed) {
+  const { state } = ed;
+  if (state.anim) return;
+  let draft = null;
+  try { draft = JSON.parse(localStorage.getItem(DRAFT_KEY + state.robot) ?? "null"); } catch { draft = null; }
+  if (!draft?.anim?.keyframes) return;
+  state.file = draft.file ?? ""; state.savedText = draft.savedText ?? null;
+  state.undo = []; state.redo = []; state.selected = draft.anim.keyframes.length ? 0 : -1;
+  setAnimation(ed, draft.anim, null, { history: false });
+  ed.status(`restored unsaved changes to ${state.file || draft.anim.name}: save them, or open another file`);
+}
+
+/** Before the animation shown is replaced: true if it is saved, or the user agrees to lose its changes. */
+function mayDiscard(ed, doing) {
+  const { state } = ed;
+  if (!isDirty(state)) return true;
+  return window.confirm(`${state.file || state.anim.name} has unsaved changes. Discard them and ${doing}?`);
 }
 
 // -- the animation and its history -----------------------------------------------------------------
@@ -174,10 +281,11 @@ function restore(ed, text) {
 }
 
 /** Undo (or redo): the animation now goes onto the other stack, the one from this stack is shown and checked. */
-async function stepHistory(ed, from, to) {
+async function stepHistory(ed, from, to, what) {
   if (!from.length) return;
   to.push(JSON.stringify(ed.state.anim));
   restore(ed, from.pop());
+  ed.status(`${what} (${from.length} more)${isDirty(ed.state) ? "" : ": as saved"}`);
   await runCheck(ed);
 }
 
@@ -197,7 +305,7 @@ async function insertKeyframe(ed) {
     torque: {} } });
   state.selected = index;
   render(ed);
-  ed.status(`inserted keyframe ${index}`);
+  ed.status(`inserted keyframe ${index} (posed where keyframe ${index - 1} ends)`);
 }
 
 /** A structure edit, done server-side (the one implementation of editing); its reply is the new animation. */
@@ -208,46 +316,73 @@ async function edit(ed, op, extra = {}) {
 }
 
 /** Opens a file of the robot's folder: a fresh history, the first keyframe selected. */
-async function openFile(ed, file) {
+async function openFile(ed, file, { asked = false } = {}) {
   const { state } = ed;
+  if (!file) throw new Error("no animation file chosen");
+  if (!asked && !mayDiscard(ed, `open ${file}`)) { ed.status(`kept the unsaved changes (${file} not opened)`); return; }
   const reply = await api("GET", `${base(ed)}/animations/${encodeURIComponent(file)}`);
   state.file = reply.file;
   state.undo = []; state.redo = []; state.selected = reply.animation.keyframes.length ? 0 : -1;
+  state.anim = null;
+  inRobotOrder(ed, reply.animation);
+  state.savedText = JSON.stringify(reply.animation);
   setAnimation(ed, reply.animation, reply.check, { history: false });
   ed.status(`opened ${reply.file}`);
 }
 
-/** "new": an empty animation named from the new-name box, not yet saved. */
-function startNew(ed) {
+/** "new from robot pose": an animation named from the new-name box whose first keyframe is the robot's measured pose
+ * (every joint, inside its limits), the sliders holding it too; unsaved until saved. Without joint_states: empty. */
+async function startNew(ed) {
   const { state } = ed;
   const name = ed.$('[data-role="new-name"]').value.trim() || "new_animation";
-  state.file = name; state.undo = []; state.redo = []; state.selected = -1;
-  setAnimation(ed, { name, version: "1", author: "", description: "", keyframes: [] }, null, { history: false });
+  if (!mayDiscard(ed, `start ${name}`)) { ed.status(`kept the unsaved changes (${name} not started)`); return; }
+  let pose = null;
+  let why = "";
+  try { pose = await measuredPose(ed); } catch (err) { why = err.message; }
+  const keyframes = [];
+  if (pose) {
+    holdMeasuredPose(ed, pose);
+    renderJoints(ed);
+    keyframes.push({ name: "start", duration: 1.0, pause: 0.0, goals: { ...state.held }, torque: {} });
+  }
+  state.file = name; state.undo = []; state.redo = []; state.selected = keyframes.length - 1;
+  state.anim = null; state.savedText = null;
+  setAnimation(ed, { name, version: "1", author: "", description: "", keyframes }, null, { history: false });
+  ed.status(pose ? `new ${name}: keyframe 0 is the robot's pose (${Object.keys(keyframes[0].goals).length} joints), ` +
+    "not saved yet" : `new ${name}, empty: no pose from the robot (${why})`, !pose);
 }
 
 /** Uploads a Bit-Bots JSON file into the robot's folder (under a safe name) and opens it. */
 async function upload(ed, f) {
   const name = f.name.replace(/\.json$/, "").replace(/[^A-Za-z0-9_.-]/g, "_");
+  if (!mayDiscard(ed, `upload ${name}`)) { ed.status(`kept the unsaved changes (${name} not uploaded)`); return; }
   await api("PUT", `${base(ed)}/animations/${encodeURIComponent(name)}`, { text: await f.text() });
   await listFiles(ed);
-  await openFile(ed, name);
+  await openFile(ed, name, { asked: true });
 }
 
-/** Saves under the file box's name (the animation's name if empty); the server's normalised copy is shown. */
+/** "save" (the only thing that writes the user's file): under the file box's name (the animation's name if empty);
+ * goals outside the joint limits are refused unless "override limits" is ticked. The server's copy is shown. */
 async function saveFile(ed) {
   const { state, $ } = ed;
+  if (!state.anim) throw new Error("nothing to save: open, upload or start a new animation first");
   syncMeta(ed);
   const file = $('[data-role="file"]').value.trim() || state.anim.name;
   const reply = await api("PUT", `${base(ed)}/animations/${encodeURIComponent(file)}`,
-    { animation: state.anim, author: $('[data-role="author"]').value || state.anim.author || "" });
+    { animation: state.anim, author: $('[data-role="author"]').value || state.anim.author || "",
+      override_limits: overridden(ed) });
   state.file = reply.file;
   state.anim = reply.animation;
   state.check = reply.check;
   state.saved++;
+  markSaved(ed);
   render(ed);
-  ed.status(`saved ${reply.path}`);
+  ed.status(`saved ${reply.path}${reply.check.out_of_limits?.length ? " (limits overridden)" : ""}`);
   await listFiles(ed);
 }
+
+/** "override limits" ticked: save and play goals outside the joint limits all the same. */
+function overridden(ed) { return ed.$('[data-role="override"]').checked; }
 
 /** The name box into the animation, in case it was typed but not yet committed by a change event. */
 function syncMeta(ed) {
@@ -264,17 +399,46 @@ async function preview(ed) {
   ed.status(`preview on ${r.ghost} in the 3D view (${r.duration.toFixed(1)} s)`);
 }
 
-/** "▶ play" (all, or up to the selected keyframe): the robot plays the saved file, so it is saved first. */
+/** "▶ play" (all, or up to the selected keyframe): the robot plays the animation as shown here, saved or not;
+ * nothing is saved. Its progress follows in the status line until done or failed. */
 async function play(ed, toSelected) {
-  await saveFile(ed);
-  const upto = toSelected ? ed.state.selected : null;
-  const r = await api("POST", `${base(ed)}/animation-play`, { file: ed.state.file, upto, retry_s: 15 });
-  ed.state.recordOn = false;
-  ed.status(`playing ${r.animation} (${r.keyframes} keyframes)`);
+  const { state } = ed;
+  if (!state.anim?.keyframes.length) throw new Error("nothing to play: the animation has no keyframes");
+  syncMeta(ed);
+  const upto = toSelected ? state.selected : null;
+  const name = state.anim.name + (isDirty(state) ? " (unsaved version)" : "");
+  const run = ++ed.playRun;
+  const r = await api("POST", `${base(ed)}/animation-play`, { draft: state.anim, upto, retry_s: 15,
+    override_limits: overridden(ed) });
+  state.recordOn = false;
+  state.play = { name, status: null, percent: 0, message: "" };
+  ed.status(`playing ${name}: ${r.keyframes} keyframes`);
+  followPlay(ed, run);
+}
+
+/** A play's progress in the status line (percent done), then how it ended: done, or failed and why. */
+async function followPlay(ed, run) {
+  const { state } = ed;
+  while (run === ed.playRun) {
+    await new Promise((resolve) => setTimeout(resolve, PLAY_POLL_MS));
+    if (run !== ed.playRun) return;
+    let s;
+    try { s = await api("GET", `${base(ed)}/animation-play`); } catch (err) {
+      ed.status(`${state.play.name}: no word on the play (${err.message})`, true);
+      return;
+    }
+    Object.assign(state.play, { status: s.status ?? null, percent: s.percent_done ?? 0, message: s.message ?? "" });
+    if (s.playing) { ed.status(`playing ${state.play.name}: ${Math.round(state.play.percent)} %`); continue; }
+    if (s.status === "SUCCEEDED") ed.status(`played ${state.play.name}: done`);
+    else ed.status(`${state.play.name}: failed (${(s.status ?? "no result").toLowerCase()}${
+      s.message ? `: ${s.message}` : ""})`, true);
+    return;
+  }
 }
 
 /** "■ STOP": the animation is canceled and RECORD left; a failure to leave RECORD is shown as one. */
 async function stopOnRobot(ed) {
+  ed.playRun++; // the stop's word replaces the play's progress
   const r = await api("POST", `${base(ed)}/animation-stop`);
   ed.state.recordOn = false;
   ed.status(`stopped${r.canceled ? " (animation canceled)" : ""}${r.record_error ? `; ${r.record_error}` : ", RECORD off"}`,
@@ -343,7 +507,10 @@ function clearGhosts(ed, { leaving = false } = {}) {
 
 /** Everything that shows the animation: the file bar, the keyframe list, the selected keyframe, the warnings. */
 function render(ed) {
+  inRobotOrder(ed, ed.state.anim);
+  keepDraft(ed);
   renderFileBar(ed);
+  renderTimeline(ed);
   renderKeyframes(ed);
   renderDetail(ed);
   renderWarnings(ed);
@@ -359,6 +526,30 @@ function renderFileBar(ed) {
   if (anim && document.activeElement !== $('[data-role="author"]')) $('[data-role="author"]').value = anim.author ?? "";
   $('[data-act="undo"]').disabled = !state.undo.length;
   $('[data-act="redo"]').disabled = !state.redo.length;
+  const dirty = isDirty(state);
+  $('[data-role="dirty"]').textContent = dirty ? "● unsaved" : anim ? "saved" : "";
+  $('[data-role="dirty"]').classList.toggle("unsaved", dirty);
+  $('[data-act="save"]').classList.toggle("unsaved", dirty);
+}
+
+/** The timeline: a block per keyframe, as wide as its share of the animation's time (its pause hatched at its end),
+ * the selected one marked; blocks are dragged to reorder (Bit-Bots' RecordUI habit). */
+function renderTimeline(ed) {
+  const { state } = ed;
+  const kfs = state.anim?.keyframes ?? [];
+  const total = kfs.reduce((t, kf) => t + kf.duration + kf.pause, 0);
+  const el = ed.$('[data-role="timeline"]');
+  el.innerHTML = kfs.map((kf, i) => `<div class="kf-block${i === state.selected ? " selected" : ""}" data-tl="${i}"
+      draggable="true" title="keyframe ${i}${kf.name ? ` (${esc(kf.name)})` : ""}: ${kf.duration} s${
+      kf.pause ? ` + ${kf.pause} s pause` : ""}"><span>${i}${kf.name ? ` ${esc(kf.name)}` : ""}</span>
+      <i class="kf-pause"></i></div>`).join("");
+  // widths through the CSSOM: the page's Content-Security-Policy need not allow inline styles
+  el.querySelectorAll("[data-tl]").forEach((block, i) => {
+    const kf = kfs[i];
+    const time = kf.duration + kf.pause;
+    block.style.flexGrow = String(total > 0 ? time / total : 1);
+    block.querySelector(".kf-pause").style.width = `${time > 0 ? (100 * kf.pause) / time : 0}%`;
+  });
 }
 
 /** The keyframe list, the selected row marked; a hint while there is no animation. */
@@ -381,11 +572,14 @@ function keyframeRow(kf, i, selected) {
         </tr>`;
 }
 
-/** The server's errors and warnings about the animation, errors first. */
+/** The server's errors and warnings about the animation: errors first, then goals outside the joint limits (no save
+ * or play without "override limits"), then the other warnings. */
 function renderWarnings(ed) {
   const c = ed.state.check;
+  const limits = new Set(c?.out_of_limits ?? []);
   ed.$('[data-role="warnings"]').innerHTML = c ? [...c.errors.map((e) => `<li class="bad">${esc(e)}</li>`),
-    ...c.warnings.map((w) => `<li class="warn">${esc(w)}</li>`)].join("") : "";
+    ...[...limits].map((w) => `<li class="bad limit">${esc(w)} (no save or play unless "override limits")</li>`),
+    ...c.warnings.filter((w) => !limits.has(w)).map((w) => `<li class="warn">${esc(w)}</li>`)].join("") : "";
 }
 
 /** The selected keyframe's goals and torques, and a menu to add a joint it does not move yet. */
@@ -453,9 +647,7 @@ async function recordMode(ed, on) {
   const { state } = ed;
   state.recordOn = false;
   if (on) {
-    const pose = (await api("GET", `${base(ed)}/record/pose`)).positions;
-    state.held = {};
-    for (const j of state.joints) if (j.name in pose) state.held[j.name] = pose[j.name];
+    holdMeasuredPose(ed, await measuredPose(ed));
     renderJoints(ed);
   }
   await api("POST", `${base(ed)}/record`, { on });
@@ -463,20 +655,63 @@ async function recordMode(ed, on) {
   ed.status(on ? "RECORD: move the sliders (or the limp joints by hand), then record keyframes" : "RECORD off");
 }
 
+/** The robot's pose now, the recorded joints only, inside their limits (deg). */
+async function recordedPose(ed) {
+  const { state } = ed;
+  const pose = await measuredPose(ed);
+  const goals = {};
+  for (const j of state.joints) {
+    if (state.recordJoints.has(j.name) && j.name in pose) goals[j.name] = inLimits(ed, j.name, pose[j.name]).value;
+  }
+  return goals;
+}
+
 /** "record keyframe": the robot's pose now (the recorded joints) as a new keyframe after the selected one. */
 async function recordKeyframe(ed) {
   const { state } = ed;
-  const pose = (await api("GET", `${base(ed)}/record/pose`)).positions;
-  const goals = {};
-  for (const j of state.joints) {
-    if (state.recordJoints.has(j.name) && j.name in pose) goals[j.name] = Math.round(pose[j.name] * 100) / 100;
+  const goals = await recordedPose(ed);
+  if (!state.anim) {
+    state.anim = { name: ed.$('[data-role="new-name"]').value || "recorded", keyframes: [] };
+    state.savedText = null;
   }
-  if (!state.anim) state.anim = { name: ed.$('[data-role="new-name"]').value || "recorded", keyframes: [] };
   const index = state.selected + 1;
   await edit(ed, "insert", { index, keyframe: { duration: 1.0, pause: 0.0, goals, torque: {} } });
   state.selected = index;
   render(ed);
   ed.status(`recorded keyframe ${index} (${Object.keys(goals).length} joints)`);
+}
+
+/** "update keyframe": the robot's pose now (the recorded joints) into the selected keyframe, as RecordUI does after
+ * "go to keyframe" and a few slider moves. */
+async function updateKeyframe(ed) {
+  const { state } = ed;
+  const kf = state.anim?.keyframes[state.selected];
+  if (!kf) throw new Error("select a keyframe to update");
+  const goals = await recordedPose(ed);
+  snapshot(ed);
+  Object.assign(kf.goals, goals);
+  edited(ed);
+  ed.status(`updated keyframe ${state.selected} from the robot (${Object.keys(goals).length} joints)`);
+}
+
+/** "go to keyframe": RECORD on (through the HCM) and the robot held at the pose the selected keyframe ends in, the
+ * sliders showing it; edit with the sliders, then "update keyframe" or "record keyframe". */
+async function goToKeyframe(ed) {
+  const { state } = ed;
+  const k = state.selected;
+  if (!state.anim?.keyframes[k]) throw new Error("select a keyframe to go to");
+  if (!state.recordOn) await recordMode(ed, true);
+  const clamped = [];
+  for (const [j, deg] of Object.entries(poseAfter(state.anim, k))) {
+    const limit = inLimits(ed, j, deg);
+    if (limit.clamped) clamped.push(j);
+    state.held[j] = limit.value;
+    state.limp.delete(j); // a limp joint would not move there
+  }
+  renderJoints(ed);
+  sendGoals(ed, true);
+  ed.status(`robot going to keyframe ${k} (RECORD)${clamped.length ? `; held inside the limits: ${clamped.join(", ")}`
+    : ""}: move the sliders, then "update keyframe" or "record keyframe"`);
 }
 
 /** "record all joints" / "none". */
@@ -492,19 +727,26 @@ const ACTIONS = {
   open: (ed) => openFile(ed, ed.$('[data-role="files"]').value),
   new: startNew,
   save: saveFile,
-  undo: (ed) => stepHistory(ed, ed.state.undo, ed.state.redo),
-  redo: (ed) => stepHistory(ed, ed.state.redo, ed.state.undo),
+  undo: (ed) => stepHistory(ed, ed.state.undo, ed.state.redo, "undone"),
+  redo: (ed) => stepHistory(ed, ed.state.redo, ed.state.undo, "redone"),
   insert: insertKeyframe,
-  mirror: async (ed) => { if (ed.state.selected >= 0) await edit(ed, "mirror", { keyframes: [ed.state.selected] }); },
-  "mirror-all": (ed) => edit(ed, "mirror"),
-  invert: (ed) => edit(ed, "invert"),
+  mirror: async (ed) => {
+    const k = ed.state.selected;
+    if (k < 0) throw new Error("select a keyframe to mirror");
+    await edit(ed, "mirror", { keyframes: [k] });
+    ed.status(`mirrored keyframe ${k} (left and right swapped)`);
+  },
+  "mirror-all": async (ed) => { await edit(ed, "mirror"); ed.status("mirrored every keyframe"); },
+  invert: async (ed) => { await edit(ed, "invert"); ed.status("inverted: the animation plays backwards"); },
   preview,
+  goto: goToKeyframe,
   play: (ed) => play(ed, false),
   "play-upto": (ed) => play(ed, true),
   stop: stopOnRobot,
   "record-on": (ed) => recordMode(ed, true),
   "record-off": (ed) => recordMode(ed, false),
   "record-kf": recordKeyframe,
+  "record-update": updateKeyframe,
   "rec-all": (ed) => chooseRecordJoints(ed, true),
   "rec-none": (ed) => chooseRecordJoints(ed, false),
   "add-joint": addGoal,
@@ -516,6 +758,8 @@ function onClick(ed, e) {
   const kact = e.target.dataset?.kact;
   const row = e.target.closest("tr[data-kf]");
   if (row && !kact && e.target.tagName !== "INPUT") { ed.state.selected = +row.dataset.kf; render(ed); }
+  const block = e.target.closest("[data-tl]");
+  if (block) { ed.state.selected = +block.dataset.tl; render(ed); }
   if (kact) { guarded(ed, () => keyframeAction(ed, kact, +row.dataset.kf)); return; }
   if (e.target.dataset?.remove !== undefined && e.target.closest("[data-role=detail]")) {
     removeGoal(ed, e.target.closest("tr").dataset.joint);
@@ -524,19 +768,49 @@ function onClick(ed, e) {
   if (act && Object.hasOwn(ACTIONS, act)) guarded(ed, () => ACTIONS[act](ed));
 }
 
+/** A timeline block picked up: which keyframe is being dragged. */
+function onTimelineDrag(ed, e) {
+  const block = e.target.closest?.("[data-tl]");
+  if (!block) return;
+  ed.dragged = +block.dataset.tl;
+  e.dataTransfer.effectAllowed = "move";
+  e.dataTransfer.setData("text/plain", block.dataset.tl);
+}
+
+/** A timeline block dropped on another: the dragged keyframe takes that one's place. */
+function onTimelineDrop(ed, e) {
+  const block = e.target.closest("[data-tl]");
+  if (!block || ed.dragged === undefined) return;
+  e.preventDefault();
+  const from = ed.dragged;
+  const to = +block.dataset.tl;
+  ed.dragged = undefined;
+  if (from !== to) guarded(ed, () => moveKeyframe(ed, from, to));
+}
+
 /** A keyframe row's buttons: move up or down, duplicate, delete; the selection stays on its keyframe. */
 async function keyframeAction(ed, kact, i) {
   const { state } = ed;
-  if (kact === "up" && i > 0) { await edit(ed, "move", { index: i, new_index: i - 1 }); state.selected = i - 1; }
-  if (kact === "down" && i < state.anim.keyframes.length - 1) {
-    await edit(ed, "move", { index: i, new_index: i + 1 }); state.selected = i + 1;
+  if (kact === "up" && i > 0) await moveKeyframe(ed, i, i - 1);
+  if (kact === "down" && i < state.anim.keyframes.length - 1) await moveKeyframe(ed, i, i + 1);
+  if (kact === "duplicate") {
+    await edit(ed, "duplicate", { index: i }); state.selected = i + 1;
+    ed.status(`duplicated keyframe ${i}`);
   }
-  if (kact === "duplicate") { await edit(ed, "duplicate", { index: i }); state.selected = i + 1; }
   if (kact === "delete") {
     await edit(ed, "delete", { index: i });
     if (i < state.selected) state.selected--;
+    ed.status(`deleted keyframe ${i}`);
   }
   render(ed);
+}
+
+/** A keyframe to another place (its row's arrows, or dragged on the timeline); the selection goes with it. */
+async function moveKeyframe(ed, from, to) {
+  await edit(ed, "move", { index: from, new_index: to });
+  ed.state.selected = to;
+  render(ed);
+  ed.status(`moved keyframe ${from} to ${to}`);
 }
 
 /** A goal's ✕: the joint leaves the selected keyframe (goal and torque). */
@@ -546,6 +820,7 @@ function removeGoal(ed, j) {
   delete kf.goals[j];
   if (kf.torque) delete kf.torque[j];
   edited(ed);
+  ed.status(`keyframe ${ed.state.selected}: ${j} removed`);
 }
 
 /** "add joint": the chosen joint joins the selected keyframe at the goal it is held at in the record table. */
@@ -553,8 +828,10 @@ function addGoal(ed) {
   const { state } = ed;
   snapshot(ed);
   const j = ed.$('[data-role="add-joint"]').value;
-  state.anim.keyframes[state.selected].goals[j] = Math.round((state.held[j] ?? 0) * 100) / 100;
+  const limit = inLimits(ed, j, state.held[j] ?? 0);
+  state.anim.keyframes[state.selected].goals[j] = limit.value;
   edited(ed);
+  ed.status(`keyframe ${state.selected}: ${j} added at ${limit.value} deg (its goal in the record table)`);
 }
 
 /** Changes: the ghosts menu, an upload, a keyframe's field, a goal or torque, the record table, the name box. */
@@ -572,7 +849,13 @@ function onChange(ed, e) {
   if (detailRow) { editGoal(ed, t, detailRow.dataset.joint); return; }
   const jointRow = t.closest("[data-role=joints] tr[data-joint]");
   if (jointRow) editRecordJoint(ed, t, jointRow);
-  if (t.dataset.role === "name" && ed.state.anim) { snapshot(ed); ed.state.anim.name = t.value; edited(ed); }
+  if (t.dataset.role === "name" && ed.state.anim) {
+    snapshot(ed); ed.state.anim.name = t.value; edited(ed); ed.status(`renamed to ${t.value}`);
+  }
+  if (t.dataset.role === "override") {
+    ed.status(t.checked ? "limits overridden: goals outside them may be saved and played (lab only)"
+      : "limits enforced again");
+  }
 }
 
 /** A keyframe's name, duration or pause edited in its row (times never below zero). */
@@ -582,6 +865,7 @@ function editKeyframeField(ed, t, index) {
   if (t.dataset.field === "name") kf.name = t.value || undefined;
   else kf[t.dataset.field] = Math.max(0, Number(t.value) || 0);
   edited(ed);
+  ed.status(`keyframe ${index}: ${t.dataset.field} ${kf[t.dataset.field] ?? "none"}`);
 }
 
 /** A goal or torque of the selected keyframe edited; a goal that is not a number is refused and put back. */
@@ -595,13 +879,19 @@ function editGoal(ed, t, j) {
       state.undo.pop(); t.value = kf.goals[j]; ed.status(`${j}: a goal is a number of degrees`, true);
       return;
     }
-    kf.goals[j] = v;
+    const limit = inLimits(ed, j, v);
+    kf.goals[j] = limit.value;
+    edited(ed);
+    ed.status(limit.clamped ? clampedText(j, v, limit) : `keyframe ${state.selected}: ${j} ${limit.value} deg`,
+      limit.clamped);
+    return;
   }
   if (t.dataset.torque !== undefined) {
     kf.torque = kf.torque || {};
     if (t.value === "") delete kf.torque[j]; else kf.torque[j] = Number(t.value);
   }
   edited(ed);
+  ed.status(`keyframe ${state.selected}: ${j} torque ${t.value === "" ? "unchanged" : torqueLabel(Number(t.value))}`);
 }
 
 /** The record table: recorded or not, limp or not (sent at once), a typed goal (sent at once, slider follows). */
@@ -614,9 +904,17 @@ function editRecordJoint(ed, t, row) {
     sendGoals(ed, true);
   }
   if (t.dataset.held !== undefined) {
-    state.held[j] = Number(t.value);
-    row.querySelector("[data-slider]").value = t.value;
+    const typed = t.value.trim() === "" ? NaN : Number(t.value);
+    if (!Number.isFinite(typed)) {
+      t.value = (state.held[j] ?? 0).toFixed(1); ed.status(`${j}: a goal is a number of degrees`, true);
+      return;
+    }
+    const limit = inLimits(ed, j, typed);
+    state.held[j] = limit.value;
+    t.value = limit.value.toFixed(1);
+    row.querySelector("[data-slider]").value = limit.value;
     sendGoals(ed, true);
+    if (limit.clamped) ed.status(clampedText(j, typed, limit), true);
   }
 }
 

@@ -250,10 +250,12 @@ def check_joints(anim: Animation, joint_names: Iterable[str], source: str | None
 
 @dataclass
 class ValidationReport:
-    """Errors make the animation unplayable on this robot; warnings are worth a look in the editor."""
+    """Errors make the animation unplayable on this robot; warnings are worth a look in the editor; goals outside
+    the joint limits are warnings here and listed again in out_of_limits, which the lab refuses to save or play."""
 
     errors: list[str] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
+    out_of_limits: list[str] = field(default_factory=list)
 
     @property
     def ok(self) -> bool:
@@ -293,9 +295,10 @@ def validate(
             if joint_limits is not None and joint in joint_limits:
                 lo, hi = joint_limits[joint]
                 if not lo - 1e-9 <= rad <= hi + 1e-9:
-                    report.warnings.append(
-                        f"{where(i, kf)}: goal {deg:g} deg for joint {joint!r} is outside its limits "
-                        f"[{math.degrees(lo):.1f}, {math.degrees(hi):.1f}] deg")
+                    problem = (f"{where(i, kf)}: goal {deg:g} deg for joint {joint!r} is outside its limits "
+                               f"[{math.degrees(lo):.1f}, {math.degrees(hi):.1f}] deg")
+                    report.warnings.append(problem)
+                    report.out_of_limits.append(problem)
             vmax = max_velocity.get(joint) if isinstance(max_velocity, Mapping) else max_velocity
             if vmax is not None and joint in last:
                 change, span = abs(rad - last[joint][0]), t - last[joint][1]
