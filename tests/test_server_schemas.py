@@ -123,11 +123,13 @@ def test_numeric_fields_of_a_stream(server: RunningServer, folder: Path) -> None
         reply = http.get(f"{server.url}/api/fields/{robot}/{topic}")
         return reply.json() if reply.status_code == 200 else None
 
-    joints = wait_for(lambda: fields("r1", "joint_states"), 10.0, 0.1, "fields of joint_states")
+    robot = "replay.r1"  # the log's r1, kept apart from a live r1
+    joints = wait_for(lambda: fields(robot, "joint_states"), 10.0, 0.1, "fields of joint_states")
     assert joints["msgtype"] == "sensor_msgs/msg/JointState"
-    assert joints["fields"] == [{"path": "position/0", "label": "position/0 (HeadPan)"},
-                                {"path": "position/1", "label": "position/1 (LKnee)"}]  # no header, no empty arrays
-    assert fields("r1", "robot_state")["fields"] == [{"path": "state", "label": "state"}]
+    assert joints["fields"] == [  # no header, no empty arrays
+        {"path": "position/0", "label": "position/0 (HeadPan)", "name": "position/HeadPan"},
+        {"path": "position/1", "label": "position/1 (LKnee)", "name": "position/LKnee"}]
+    assert fields(robot, "robot_state")["fields"] == [{"path": "state", "label": "state", "name": "state"}]
     assert http.get(f"{server.url}/api/fields/r1/no/such/topic").status_code == 404
     http.post(f"{server.url}/api/replay/close")
 

@@ -20,9 +20,10 @@ import animationEditor from "./panels/animation_editor.js";
 import teleop from "./panels/teleop.js";
 import replay from "./panels/replay.js";
 import recordings from "./panels/recordings.js";
+import nodeLog from "./panels/node_log.js";
 
 const PANELS = [teamOverview, fieldView, relativeView, hcmGraph, camera, diagnostics, robot3d, plots, parameters,
-  animationEditor, teleop, replay, recordings];
+  animationEditor, teleop, replay, recordings, nodeLog];
 
 async function main() {
   // the message constants and the topic table come from the server (the .msg files), before any panel starts

@@ -34,6 +34,7 @@ from server.deps import require_control, robot_on_link, valid_robot
 from server.lab import JointLimits, lab_tools, urdf_joint_limits, urdf_mirror_signs
 from server.security import AllowedFolders
 from server.state import ServerState
+from wire.actions import GoalStatus
 from wire.animation import (
     Animation,
     AnimationError,
@@ -195,6 +196,7 @@ class PlayStatus(BaseModel):
     robot: str
     playing: bool
     status: str | None = None  # the goal's end: SUCCEEDED, CANCELED, PREEMPTED, ABORTED
+    succeeded: bool | None = None  # the play ended and played to its end (what the editor says "done" to)
     percent_done: float | None = None
     message: str | None = None  # the animation node's word on the end (why it failed)
 
@@ -551,6 +553,7 @@ async def play_status(robot: str, state: ServerState = Depends(require_control))
         return {"robot": robot, "playing": False}
     status = handle.status.name if handle.status is not None else None
     out = {"robot": robot, "playing": not handle.done, "status": status,
+           "succeeded": handle.done and handle.status == GoalStatus.SUCCEEDED,
            "percent_done": float(handle.feedback[-1].percent_done) if handle.feedback else 0.0}
     message = getattr(handle.result, "message", None)
     if message:

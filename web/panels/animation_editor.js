@@ -429,7 +429,7 @@ async function followPlay(ed, run) {
     }
     Object.assign(state.play, { status: s.status ?? null, percent: s.percent_done ?? 0, message: s.message ?? "" });
     if (s.playing) { ed.status(`playing ${state.play.name}: ${Math.round(state.play.percent)} %`); continue; }
-    if (s.status === "SUCCEEDED") ed.status(`played ${state.play.name}: done`);
+    if (s.succeeded) ed.status(`played ${state.play.name}: done`);
     else ed.status(`${state.play.name}: failed (${(s.status ?? "no result").toLowerCase()}${
       s.message ? `: ${s.message}` : ""})`, true);
     return;
