@@ -97,11 +97,16 @@ def test_bad_motor_goals_are_reported_not_fatal(node: Cm730Node, client: zenoh.S
     goals = client.declare_publisher(topic_key("robot1", "motor_goals"))
     try:
         errors0 = node.errors
-        goals.put(schemas.encode(_goals(["NoSuchJoint", "HeadPan"], [1.0, -0.5])))  # unknown one skipped
-        goals.put(schemas.encode(schemas.make("trajectory_msgs/msg/JointTrajectory", joint_names=["HeadPan"])))
-        goals.put(schemas.encode(_goals(["HeadTilt", "HeadPan"], [0.1])))  # length mismatch
-        goals.put(b"\x00\x01garbage")  # not CDR at all
-        wait_for(lambda: node.errors >= errors0 + 3, timeout=10, what="errors recorded")
+
+        def bad_goals_counted() -> bool:
+            # sent again while waiting: a put right after declaring the publisher may not be routed yet
+            goals.put(schemas.encode(_goals(["NoSuchJoint", "HeadPan"], [1.0, -0.5])))  # unknown one skipped
+            goals.put(schemas.encode(schemas.make("trajectory_msgs/msg/JointTrajectory", joint_names=["HeadPan"])))
+            goals.put(schemas.encode(_goals(["HeadTilt", "HeadPan"], [0.1])))  # length mismatch
+            goals.put(b"\x00\x01garbage")  # not CDR at all
+            return node.errors >= errors0 + 3
+
+        wait_for(bad_goals_counted, timeout=10, interval=0.2, what="errors recorded")
         assert "NoSuchJoint" in node.last_error or node.errors >= errors0 + 3
         partly_bad = schemas.encode(_goals(["NoSuchJoint", "HeadPan"], [1.0, -0.5]))
 

@@ -426,11 +426,12 @@ def test_a_replayed_log_is_served_with_the_logs_own_cdr_bytes(tmp_path: Path) ->
         wait_for(lambda: server.http.get(f"{server.url}/api/replay").json().get("state") == "paused", timeout=30,
                  interval=0.2, what="the log open")
         assert server.http.post(f"{server.url}/api/replay/play").status_code == 200
-        got = run_client("probe", url, "--topic", "/r1/gamestate", "--topic", "/r2/joint_states", "--min", "2",
-                         "--seconds", "30")
-        assert got["topics"]["/r2/joint_states"]["last"]["name"] == ["head_pan"]
+        # the log's robots as the dashboard shows them: apart from live ones (replay.<id>)
+        got = run_client("probe", url, "--topic", "/replay.r1/gamestate", "--topic", "/replay.r2/joint_states",
+                         "--min", "2", "--seconds", "30")
+        assert got["topics"]["/replay.r2/joint_states"]["last"]["name"] == ["head_pan"]
         written = schemas.encode(schemas.make("humanoid_league_msgs/msg/GameState", game_state=3, own_score=0))
-        assert base64.b64decode(got["topics"]["/r1/gamestate"]["lastBytes"]) == written
+        assert base64.b64decode(got["topics"]["/replay.r1/gamestate"]["lastBytes"]) == written
 
 
 def test_beyond_loopback_every_foxglove_client_needs_the_token(tmp_path: Path) -> None:
