@@ -161,7 +161,14 @@ def test_rest_recording_of_live_messages(router_endpoint: str, stand: TestStand,
         stopped = server.http.post(f"{server.url}/api/recordings/stop", timeout=20).json()
         assert stopped["running"] is False and stopped["messages"] >= 100
         listing = server.http.get(f"{server.url}/api/recordings", timeout=10).json()
+        # the file downloads as it is on disk; nothing else of the machine does
+        got = server.http.get(f"{server.url}/api/recordings/files/{listing['files'][0]['name']}", timeout=20)
+        assert got.status_code == 200 and "attachment" in got.headers["content-disposition"]
+        (folder / "notes.txt").write_text("not a recording")
+        for name in ("nothing.mcap", "notes.txt", "..%2F..%2Fetc%2Fpasswd", "%2Fetc%2Fpasswd"):
+            assert server.http.get(f"{server.url}/api/recordings/files/{name}", timeout=10).status_code == 404, name
     (entry,) = listing["files"]
+    assert got.content == (folder / entry["name"]).read_bytes()
     assert entry["name"].endswith("_lab_test.mcap") and entry["size_bytes"] > 1000
     assert entry["duration_s"] > 0.5 and entry["messages"] == stopped["messages"]
     with LogReader(folder / entry["name"]) as log:

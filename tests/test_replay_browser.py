@@ -101,6 +101,9 @@ def test_replay_task(browser: Any, live_and_recorded: RunningServer) -> None:
     row = page.locator('.rec-files tr[data-file="half.mcap"]')
     row.wait_for(timeout=20_000)
     assert "0:19" in row.inner_text()
+    with page.expect_download() as download:  # a recording also leaves the laptop as its MCAP file
+        row.locator("a[data-download]").click()
+    assert download.value.suggested_filename == "half.mcap"
     row.locator("button[data-open]").click()
     actions += 1
     bar.wait_for(state="visible", timeout=20_000)

@@ -20,7 +20,8 @@ from wire.actions import ActionError
 from wire.parameters import NodeSilent, ParameterError, StaleRevision
 from wire.services import ServiceError
 
-STREAMS = {"/api/robots/{robot}/params/{node}/events"}  # server-sent events, not JSON
+STREAMS = {"/api/robots/{robot}/params/{node}/events",  # server-sent events, not JSON
+           "/api/recordings/files/{name}"}  # a recording's MCAP bytes, as a download
 PROXIES = ("/plots/viewer/", "/robot3d/view/", "/rerun.")  # the views' own files and data, passed through
 
 

@@ -8,8 +8,10 @@ from __future__ import annotations
 from typing import Any
 
 from fastapi import APIRouter, Depends, HTTPException
+from fastapi.responses import FileResponse
 from pydantic import BaseModel
 
+from schemas.logs import LogError
 from server.deps import get_state, require_token
 from server.recorder import Recorder
 from server.state import ServerState
@@ -87,6 +89,16 @@ def get_recorder(state: ServerState = Depends(get_state)) -> Recorder:
 def list_recordings(recorder: Recorder = Depends(get_recorder)) -> dict[str, Any]:
     """The files (newest first, with size_bytes, duration_s, messages) and what is being recorded now."""
     return {"files": recorder.listing(), **recorder.status()}
+
+
+@router.get("/files/{name}", response_class=FileResponse)
+def download_recording(name: str, recorder: Recorder = Depends(get_recorder)) -> FileResponse:
+    """One MCAP file of the recordings folder as a download (by its bare name: nothing outside the folder)."""
+    try:
+        path = recorder.files.resolve(name)
+    except LogError as exc:
+        raise HTTPException(404, str(exc)) from None
+    return FileResponse(path, media_type="application/octet-stream", filename=path.name)
 
 
 @router.get("/status", response_model=RecorderStatus)

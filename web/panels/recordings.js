@@ -75,7 +75,9 @@ export default {
       $(".rec-files tbody").innerHTML = listing.files.map((f) => `<tr data-file="${esc(f.name)}">
         <td>${esc(f.name)}</td><td>${size(f.size_bytes)}</td>
         <td>${f.recording ? "recording…" : f.error ? `<span class="bad">${esc(f.error)}</span>` : clock(f.duration_s)}</td>
-        <td>${f.recording ? "" : `<button type="button" data-open="${esc(f.name)}">replay</button>`}</td></tr>`)
+        <td>${f.recording ? "" : `<button type="button" data-open="${esc(f.name)}">replay</button>
+          <a class="button" data-download="${esc(f.name)}" href="api/recordings/files/${esc(encodeURIComponent(f.name))}"
+            download="${esc(f.name)}">download</a>`}</td></tr>`)
         .join("") || `<tr><td colspan="4" class="empty">no recordings yet</td></tr>`;
     }
     refresh();
