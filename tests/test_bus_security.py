@@ -67,6 +67,10 @@ def member_session(team: Path, member: str, mode: str = "peer", access_control: 
     their file."""
     conf = load_config_file(team / f"{member}.json5")
     conf.insert_json5("mode", json.dumps(mode))
+    # a robot's file listens where its machine's router does (7447): in a test the member only joins, so it
+    # listens on a free port of the same kind and never takes the port from a demo running beside it
+    listen = json.loads(conf.get_json("listen/endpoints"))
+    conf.insert_json5("listen/endpoints", json.dumps([e.rsplit(":", 1)[0] + ":0" for e in listen]))
     if not access_control:
         conf.insert_json5("access_control/enabled", "false")
     session = zenoh.open(conf)
