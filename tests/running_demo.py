@@ -70,13 +70,17 @@ def _up(process: subprocess.Popen[bytes], log: Path) -> tuple[str, str] | None:
 
 
 @contextlib.contextmanager
-def running_demo(log_dir: Path, *args: str) -> Iterator[RunningDemo]:
-    """`python -m pitchside.cli demo --port <free> *args`, stopped with SIGTERM (its launcher stops the rest)."""
+def running_demo(log_dir: Path, *args: str, program: list[str] | None = None, cwd: Path = REPO
+                 ) -> Iterator[RunningDemo]:
+    """`pitchside demo --port <free> *args` (by default `python -m pitchside.cli` of this checkout; an installed
+    program and another folder for the wheel), stopped with SIGTERM (its launcher stops the rest)."""
     log = log_dir / "demo.log"
-    env = dict(os.environ, PYTHONUNBUFFERED="1", MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl"))
+    env = {k: v for k, v in os.environ.items() if program is None or k != "PYTHONPATH"}
+    env.update(PYTHONUNBUFFERED="1", MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl"))
+    command = program or [sys.executable, "-m", "pitchside.cli"]
     with log.open("wb") as out:
-        process = subprocess.Popen([sys.executable, "-m", "pitchside.cli", "demo", "--port", str(free_port()), *args],
-                                   cwd=REPO, stdout=out, stderr=subprocess.STDOUT, env=env, start_new_session=True)
+        process = subprocess.Popen([*command, "demo", "--port", str(free_port()), *args],
+                                   cwd=cwd, stdout=out, stderr=subprocess.STDOUT, env=env, start_new_session=True)
     try:
         found = wait_for(lambda: _up(process, log), timeout=90.0, interval=0.2, what="demo dashboard up")
         assert found is not None  # wait_for returns only a truthy value

@@ -3,10 +3,6 @@ robot descriptions and web page come from the installed package (importlib.resou
 
 from __future__ import annotations
 
-import contextlib
-import os
-import re
-import signal
 import subprocess
 import sys
 import sysconfig
@@ -15,7 +11,8 @@ from pathlib import Path
 import httpx
 import pytest
 
-from tests.support import REPO, free_port
+from tests.running_demo import running_demo
+from tests.support import REPO
 from tests.waiting import wait_for
 
 pytestmark = pytest.mark.slow
@@ -50,34 +47,16 @@ def test_the_wheel_runs_the_demo_outside_the_checkout(tmp_path: Path) -> None:
     assert imported.returncode == 0, imported.stderr[-3000:]
     where = imported.stdout.split()
     assert all(p.startswith(str(venv)) for p in where), where  # the installed package, not the checkout
-    log = tmp_path / "demo.log"
-    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH",)}
-    env.update(PYTHONUNBUFFERED="1", MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl"))
-    with log.open("wb") as out:
-        demo = subprocess.Popen([str(venv / "bin" / "pitchside"), "demo", "--port", str(free_port())], cwd=elsewhere,
-                                stdout=out, stderr=subprocess.STDOUT, env=env, start_new_session=True)
-    try:
-        found = wait_for(lambda: re.search(r"open (http://127\.0\.0\.1:\d+)/\?token=(\S+)", log.read_text()),
-                         90.0, 0.2, "the demo's link")
-        url, token = found.group(1), found.group(2)
-        page = wait_for(lambda: _get(f"{url}/"), 60.0, 0.2, "the page")
-        assert "pitchside" in page.text and _get(f"{url}/app.js") is not None
-        heard = wait_for(lambda: (r := _get(f"{url}/api/robots")) and any(
+    with running_demo(tmp_path, program=[str(venv / "bin" / "pitchside")], cwd=elsewhere) as demo:
+        page = wait_for(lambda: _get(f"{demo.url}/"), 60.0, 0.2, "the page")
+        assert "pitchside" in page.text and _get(f"{demo.url}/app.js") is not None
+        heard = wait_for(lambda: (r := _get(f"{demo.url}/api/robots")) and any(
             x["robot"] == "robot1" and "joint_states" in x["streams"] for x in r.json()), 90.0, 0.5,
             "robot1's joint states from the installed simulation")
         assert heard
-        params = httpx.get(f"{url}/api/robots/robot1/params", headers={"Authorization": f"Bearer {token}"},
-                           timeout=30)
+        params = httpx.get(f"{demo.url}/api/robots/robot1/params", headers=demo.auth, timeout=30)
         assert params.status_code == 200 and "walking" in params.json(), params.text[:500]
-        assert "Traceback" not in log.read_text(), log.read_text()[-3000:]
-    finally:
-        demo.send_signal(signal.SIGTERM)
-        try:
-            demo.wait(30)
-        except subprocess.TimeoutExpired:
-            with contextlib.suppress(ProcessLookupError):
-                os.killpg(demo.pid, signal.SIGKILL)
-            demo.wait(5)
+        assert "Traceback" not in demo.output(), demo.output()[-3000:]
 
 
 def _get(url: str) -> httpx.Response | None:

@@ -40,9 +40,10 @@ class RosoutHandler(logging.Handler):
         self.dropped = 0
 
     def emit(self, record: logging.LogRecord) -> None:
-        if getattr(self._inside, "active", False) or not self._take_token():
-            if not getattr(self._inside, "active", False):
-                self.dropped += 1
+        if getattr(self._inside, "active", False):
+            return
+        if not self._take_token():
+            self.dropped += 1
             return
         self._inside.active = True
         try:
