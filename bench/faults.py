@@ -55,7 +55,7 @@ import httpx
 import psutil
 
 import schemas
-from robot_nodes.launch import NODE_MODULES
+from robot_nodes.catalog import NODE_MODULES
 from robot_nodes.runtime import BusConfig, open_session
 from schemas.logs import LogError, LogReader
 from schemas.messages import RobotControlState
@@ -414,7 +414,7 @@ def bare_node_start(bus: BusWatch, endpoint: str) -> float:
 def running_stack(tmp: Path, robots: int, token: str) -> Iterator[Stack]:
     os.environ["PITCHSIDE_TOKEN"] = token  # the demo's launcher hands its environment to the server
     os.environ["PITCHSIDE_RECORDINGS"] = str(tmp / "recordings")
-    with running_demo(tmp, "--robots", str(robots)) as demo:
+    with running_demo(tmp, "--robots", str(robots), "--compose", "none") as demo:  # each node killed alone
         match = ROUTER.search(demo.output())
         if match is None:
             raise SystemExit("the demo did not say where its Zenoh router is")

@@ -1,9 +1,12 @@
-"""One-way latency of a 20-joint JointTrajectory between two processes, through the runtime and raw Zenoh.
+"""One-way latency of a 20-joint JointTrajectory between two processes, through the runtime and raw Zenoh, and
+between two nodes composed in one process.
 
     python bench/latency.py [--seconds 5]
 
 The receiver (this process) and the publisher (a child process) share the machine clock; the publisher puts
-its send time into header.stamp. Raw Zenoh sends the very same CDR bytes without the runtime around them.
+its send time into header.stamp. Raw Zenoh sends the very same CDR bytes without the runtime around them. The
+composed hop is the in-process delivery of robot_nodes/runtime/local_bus.py: the message object handed to the
+receiving node's loop, no CDR, no Zenoh.
 """
 
 from __future__ import annotations
@@ -44,6 +47,12 @@ def stamp_now(msg: object) -> None:
     msg.header.stamp.sec, msg.header.stamp.nanosec = t // 1_000_000_000, t % 1_000_000_000  # type: ignore[attr-defined]
 
 
+def stamped(template: JointTrajectory) -> JointTrajectory:
+    """A new message with the send time (a published one is frozen: never stamped again), sharing the point."""
+    return schemas.make(JointTrajectory, header=schemas.header(), joint_names=template.joint_names,
+                        points=template.points)
+
+
 class Sender(Node):
     """Publishes a fresh-stamped trajectory at the benchmark rate (the runtime path: encode + put)."""
 
@@ -62,8 +71,7 @@ class Sender(Node):
         if self.sent >= self.count:
             self.loop.call_soon(self.shutdown)
             return
-        stamp_now(self.msg)
-        self.pub.publish(self.msg)
+        self.pub.publish(stamped(self.msg))
         self.sent += 1
 
 
@@ -100,7 +108,21 @@ class Receiver(Node):
         self.latencies.append((time.time_ns() - (stamp.sec * 1_000_000_000 + stamp.nanosec)) / 1e6)
 
 
+def measure_composed(hz: float, seconds: float, endpoint: str) -> list[float]:
+    """Sender and receiver as two nodes of this process (one session): the in-process hop."""
+    count = int(hz * seconds)
+    with open_session(BusConfig(connect=[endpoint])) as session:
+        receiver = Receiver(robot_id="bench", bus=session).start()
+        sender = Sender(hz, count, robot_id="bench", bus=session)
+        sender.spin()  # until it has sent count messages
+        time.sleep(0.3)
+        receiver.shutdown()
+    return receiver.latencies[count // 10:] or receiver.latencies
+
+
 def measure(mode: str, hz: float, seconds: float, endpoint: str) -> list[float]:
+    if mode == "composed":
+        return measure_composed(hz, seconds, endpoint)
     count = int(hz * seconds)
     bus = BusConfig(connect=[endpoint])
     if mode == "runtime":
@@ -152,7 +174,7 @@ def main() -> None:
     payload = len(schemas.encode(trajectory()))
     print(f"payload: JointTrajectory with 20 joints, {payload} bytes CDR; {args.seconds:.0f} s per run")
     results: dict[tuple[str, float], list[float]] = {}
-    for mode in ("raw", "runtime"):
+    for mode in ("raw", "runtime", "composed"):
         for hz in (100.0, 1000.0):
             lat = measure(mode, hz, args.seconds, endpoint)
             results[(mode, hz)] = lat
@@ -160,9 +182,11 @@ def main() -> None:
                   f"p99={percentile(lat, 0.99):.3f} ms  max={max(lat):.3f} ms")
     router.close()
     run_1k, raw_1k = results[("runtime", 1000.0)], results[("raw", 1000.0)]
+    composed_1k = results[("composed", 1000.0)]
     p50, raw_p50 = statistics.median(run_1k), statistics.median(raw_1k)
     print(f"RESULT latency p50_ms={p50:.3f} p99_ms={percentile(run_1k, 0.99):.3f} raw_p50_ms={raw_p50:.3f} "
-          f"ratio_p50={p50 / raw_p50:.2f}")
+          f"ratio_p50={p50 / raw_p50:.2f} composed_p50_ms={statistics.median(composed_1k):.3f} "
+          f"composed_p99_ms={percentile(composed_1k, 0.99):.3f}")
 
 
 if __name__ == "__main__":

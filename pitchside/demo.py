@@ -14,13 +14,14 @@ from pathlib import Path
 
 import robots as descriptions
 from pitchside.robot import MOTION_NODES, available, robot_nodes
-from robot_nodes.launch import Launcher, NodeProcess, run_until_signal
+from robot_nodes.launch import COMPOSE_HELP, Launcher, NodeProcess, process_groups, run_until_signal
 from server.security.credentials import ENV_TOKEN, new_token
 from wire.bus import open_router
 from wire.command_line import CommandParser
 from wire.telemetry.datagram import write_new_key
 
 log = logging.getLogger("pitchside.demo")
+DEMO_ROBOT_NODES = [*MOTION_NODES, "walking", "game_controller", "telemetry"]  # cm730: in the world's process
 
 
 def port_is_free(port: int, kind: int = socket.SOCK_STREAM) -> bool:
@@ -43,7 +44,7 @@ def free_port(preferred: int, kind: int = socket.SOCK_STREAM) -> int:
 def demo_processes(robots: int, endpoint: str, http_port: int, telemetry_port: int, model: str,
                    match: bool, gc_ports: list[int], gc_return_port: int,
                    token: str = "",
-                   telemetry_key: Path | None = None) -> list[NodeProcess]:
+                   telemetry_key: Path | None = None, compose: str = "all", cameras: int = 1) -> list[NodeProcess]:
     """Every process of the demo.
 
     token: the dashboard's control token (handed over in the environment, not on the command line where other
@@ -51,8 +52,9 @@ def demo_processes(robots: int, endpoint: str, http_port: int, telemetry_port: i
     py = sys.executable
     connect = ["--connect", endpoint]
     processes = [NodeProcess("world", [py, "-m", "robot_nodes.cm730.sim", "--robots", str(robots),
-                                       *connect, "--params", str(descriptions.params_file(model))])]
-    per_robot = available([*MOTION_NODES, "walking", "game_controller", "telemetry"])
+                                       "--cameras", str(cameras), *connect,
+                                       "--params", str(descriptions.params_file(model))])]
+    per_robot = available(DEMO_ROBOT_NODES)
     for i in range(1, robots + 1):
         robot_id = f"robot{i}"
         extra = {
@@ -62,7 +64,7 @@ def demo_processes(robots: int, endpoint: str, http_port: int, telemetry_port: i
                           *(["--set", f"team_key={telemetry_key}"] if telemetry_key else
                             ["--set", "allow_dev_key=true"])],
         }
-        processes += robot_nodes(robot_id, [endpoint], model, per_robot, extra)
+        processes += robot_nodes(robot_id, [endpoint], model, per_robot, extra, compose=compose)
     gc = [py, "-m", "robot_nodes.game_controller.simulator", "--players-per-team", str(max(robots, 4)),
           "--return-address", f"127.0.0.1:{gc_return_port}"]
     for port in gc_ports:
@@ -83,7 +85,17 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--port", type=int, default=8080, help="dashboard port (a free one if taken)")
     parser.add_argument("--model", default="minibot")
     parser.add_argument("--match", action="store_true", help="dashboard in match mode (telemetry only)")
+    parser.add_argument("--cameras", type=int, default=1,
+                        help="how many robots render head camera images (default 1: robot1's; the others still "
+                             "see the ball, goals and robots through the perception stand-ins)")
+    parser.add_argument("--compose", default="all",
+                        help=COMPOSE_HELP + " (default all: each robot's nodes in one process; the simulated "
+                             "servo buses of all robots run in the world's process)")
     args = parser.parse_args(argv)
+    try:
+        process_groups(DEMO_ROBOT_NODES, args.compose)
+    except ValueError as exc:
+        parser.error(str(exc))
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s [demo] %(message)s")
     endpoint = f"tcp/127.0.0.1:{free_port(7447)}"
     http_port = free_port(args.port)
@@ -97,7 +109,7 @@ def main(argv: list[str] | None = None) -> None:
         write_new_key(key_file)
         router = open_router([endpoint])
         launcher = Launcher(demo_processes(args.robots, endpoint, http_port, telemetry_port, args.model, args.match,
-                                           gc_ports, gc_return_port, token, key_file))
+                                           gc_ports, gc_return_port, token, key_file, args.compose, args.cameras))
         print(f"\n  pitchside demo: open http://127.0.0.1:{http_port}/?token={token}  (the link signs the browser "
               f"in; Zenoh router {endpoint}; Ctrl-C stops)\n", flush=True)
         try:

@@ -16,7 +16,8 @@ from pathlib import Path
 import robots
 from pitchside.team_access import Role
 from pitchside.team_keys import member_of
-from robot_nodes.launch import NODE_MODULES, Launcher, NodeProcess, node_command, run_until_signal
+from robot_nodes.catalog import NODE_MODULES
+from robot_nodes.launch import COMPOSE_HELP, Launcher, NodeProcess, process_groups, robot_processes, run_until_signal
 from wire.bus import add_bus_arguments, env_endpoints, load_config_file
 from wire.command_line import CommandParser
 from wire.machine_router import MachineRouter, is_router_config, start_machine_router
@@ -33,16 +34,14 @@ def params_file(model: str) -> Path:
 
 def robot_nodes(robot_id: str, connect: list[str], model: str, names: list[str],
                 extra: dict[str, list[str]] | None = None, zenoh_config: str | Path | None = None,
-                params: Path | None = None, mode: str = "auto") -> list[NodeProcess]:
-    """The supervised processes of one robot; extra[name] adds arguments to that node."""
+                params: Path | None = None, mode: str = "auto", compose: str = "all",
+                alone: list[str] | None = None) -> list[NodeProcess]:
+    """The supervised processes of one robot (which nodes share one: launch.process_groups); extra[name] adds
+    arguments to that node."""
     params = params or params_file(model)
-    processes = []
-    for name in names:
-        module = NODE_MODULES[name]
-        args = list((extra or {}).get(name, []))
-        processes.append(NodeProcess(f"{robot_id}/{name}", node_command(
-            module, robot_id, connect, params if params.exists() else None, args, zenoh_config, mode)))
-    return processes
+    groups = process_groups(names, compose, alone)
+    return robot_processes(robot_id, groups, connect, params if params.exists() else None, extra, zenoh_config,
+                           mode)
 
 
 def robot_id_for(robot_id: str | None, zenoh_config: str | None) -> str:
@@ -123,6 +122,10 @@ def main(argv: list[str] | None = None) -> None:
                         help="the robot's params.yaml (default robots/<model>/params.yaml)")
     parser.add_argument("--nodes", default=",".join(ROBOT_NODES),
                         help="comma-separated nodes to start (telemetry only with --telemetry-to)")
+    parser.add_argument("--compose", default="all", help=COMPOSE_HELP + " (default all, but cm730 alone)")
+    parser.add_argument("--alone", action="append", default=None, metavar="NODE",
+                        help="with --compose all: this node runs in a process of its own (repeatable; default "
+                             "cm730, whose bus timing must not wait on other nodes' callbacks)")
     add_bus_arguments(parser, connect_help="the team laptop's Zenoh router, in the lab (repeatable; the robot's "
                                            "own router connects to it); none in a match",
                       config_help="the robot's file from `pitchside team-keys`: its router's config (mutual TLS, "
@@ -152,10 +155,16 @@ def main(argv: list[str] | None = None) -> None:
         wanted.remove("telemetry")
         logging.info("no telemetry (no --telemetry-to): in the lab the dashboard reads the bus")
     names = available(wanted)
+    alone = ["cm730"] if args.alone is None else args.alone
+    try:
+        process_groups(names, args.compose, alone)
+    except ValueError as exc:
+        parser.error(str(exc))
     router = robot_router(args)
     # the nodes join the robot's router on loopback; a team file (the robot's key) stays with the router
     launcher = Launcher(robot_nodes(robot_id, [router.local_endpoint], args.model, names,
-                                    {"telemetry": telemetry or []}, params=args.params, mode=args.mode))
+                                    {"telemetry": telemetry or []}, params=args.params, mode=args.mode,
+                                    compose=args.compose, alone=alone))
     try:
         run_until_signal(launcher)
     finally:

@@ -1,8 +1,9 @@
-"""Starts a robot's nodes as supervised processes: a node that dies is restarted, and why is logged.
+"""Starts a robot's nodes as supervised processes: a process that dies is restarted, and why is logged.
 
-    python -m robot_nodes.launch --robot-id robot1 cm730 hcm animation
+    python -m robot_nodes.launch --robot-id robot1 cm730 hcm animation walking --compose all --alone cm730
 
-Each node runs as ``python -m <module> --robot-id ... --connect ...``; Ctrl-C (SIGINT) or SIGTERM stops all.
+Each node runs alone as ``python -m <module> --robot-id ... --connect ...``, or with others of its robot in one
+process (``--compose``: robot_nodes/compose.py); Ctrl-C (SIGINT) or SIGTERM stops all.
 """
 
 from __future__ import annotations
@@ -18,25 +19,13 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from robot_nodes.catalog import NODE_MODULES, NODES, node_label
+from robot_nodes.compose import FAILED_NODE_EXIT
 from wire.bus import add_bus_arguments, bus_from_arguments
 from wire.command_line import CommandParser
 from wire.machine_router import is_router_config, remote, start_machine_router
 
 log = logging.getLogger("pitchside.launch")
-
-# node name -> python module run with -m; the set a robot is made of
-NODE_MODULES: dict[str, str] = {
-    "cm730": "robot_nodes.cm730",
-    "hcm": "robot_nodes.hcm",
-    "animation": "robot_nodes.animation",
-    "walking": "robot_nodes.walking",
-    "pause": "robot_nodes.hcm.pause",
-    "speaker": "robot_nodes.speaker",
-    "game_controller": "robot_nodes.game_controller",
-    "mitecom": "robot_nodes.mitecom",
-    "telemetry": "robot_nodes.telemetry",
-}
-
 
 @dataclass
 class NodeProcess:
@@ -52,6 +41,7 @@ class NodeProcess:
     env: dict[str, str] = field(default_factory=dict)
     restart_at: float | None = None  # dead, to be started again at this time (monotonic)
     given_up: bool = False  # dead and not to be restarted
+    members: list[str] = field(default_factory=list)  # the nodes of a composed process, in its order
 
     def start(self) -> None:
         env = {**os.environ, **self.env}
@@ -64,7 +54,10 @@ class NodeProcess:
         return self.process.pid if self.process is not None else None
 
 
-def describe_exit(code: int) -> str:
+def describe_exit(code: int, members: list[str] | None = None) -> str:
+    """How a process ended; for a composed one, which of its nodes failed when it said so."""
+    if members and FAILED_NODE_EXIT <= code < FAILED_NODE_EXIT + len(members):
+        return f"exited because its node {members[code - FAILED_NODE_EXIT]} failed"
     if code < 0:
         try:
             return f"killed by {signal.Signals(-code).name}"
@@ -112,7 +105,7 @@ class Launcher:
         code = node.process.poll()
         if code is None:
             return
-        node.last_exit = describe_exit(code)
+        node.last_exit = describe_exit(code, node.members)
         if not node.restart:
             node.given_up = True
             log.warning("%s %s; not restarting", node.name, node.last_exit)
@@ -155,11 +148,65 @@ def node_command(module: str, robot_id: str, connect: list[str], params: Path | 
     return argv + (extra or [])
 
 
+COMPOSE_HELP = ("which nodes share a process: 'none' (each alone), 'all' (one process), or groups like "
+                "'hcm+animation+walking,speaker+pause' (nodes in no group run alone)")
+
+
+def process_groups(names: list[str], compose: str = "all", alone: list[str] | None = None) -> list[list[str]]:
+    """The nodes of each process, in the order given; ValueError for a group naming a node not started."""
+    alone = alone or []
+    if compose == "none":
+        return [[n] for n in names]
+    if compose == "all":
+        together = [n for n in names if n not in alone]
+        return ([together] if together else []) + [[n] for n in names if n in alone]
+    groups = [[n.strip() for n in group.split("+") if n.strip()] for group in compose.split(",") if group.strip()]
+    grouped = [n for group in groups for n in group]
+    unknown = [n for n in grouped if n not in names]
+    if unknown or len(set(grouped)) != len(grouped):
+        raise ValueError(f"--compose {compose!r}: every node of a group must be started, and in one group only "
+                         f"(started: {', '.join(names)})")
+    return [g for g in groups if g] + [[n] for n in names if n not in grouped]
+
+
+def _composed_sets(name: str, extra: list[str]) -> list[str]:
+    """A node's own ``--set NAME=VALUE`` arguments as the composed process takes them (``--set NODE.NAME=VALUE``)."""
+    if len(extra) % 2 or any(flag != "--set" for flag in extra[::2]):
+        raise ValueError(f"{name}: only --set NAME=VALUE can be passed to a composed node, got {extra}")
+    return [a for value in extra[1::2] for a in ("--set", f"{name}.{value}")]
+
+
+def robot_processes(robot_id: str, groups: list[list[str]], connect: list[str], params: Path | None = None,
+                    extra: dict[str, list[str]] | None = None, zenoh_config: str | Path | None = None,
+                    mode: str = "auto") -> list[NodeProcess]:
+    """One supervised process per group: a node alone as ``python -m <module>``, several as robot_nodes.compose;
+    extra[name] adds arguments to that node."""
+    extra = extra or {}
+    processes = []
+    for group in groups:
+        if len(group) == 1:
+            name = group[0]
+            argv = node_command(NODE_MODULES.get(name, name), robot_id, connect, params, extra.get(name),
+                                zenoh_config, mode)
+            processes.append(NodeProcess(f"{robot_id}/{node_label(name)}", argv))
+            continue
+        sets = [a for name in group for a in _composed_sets(name, extra.get(name, []))]
+        argv = node_command("robot_nodes.compose", robot_id, connect, params, [*group, *sets], zenoh_config, mode)
+        labels = [node_label(n) for n in group]
+        processes.append(NodeProcess(f"{robot_id}/{'+'.join(labels)}", argv, members=labels))
+    return processes
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = CommandParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("nodes", nargs="+", help=f"nodes to start: {', '.join(NODE_MODULES)} or a module path")
+    parser.add_argument("nodes", nargs="+", help=f"nodes to start: {', '.join(NODES)}, or a team's own as "
+                                                 "package.module (alone) or package.module:NodeClass")
     parser.add_argument("--robot-id", default="robot1")
     parser.add_argument("--params", type=Path, default=None)
+    parser.add_argument("--compose", default="none", help=COMPOSE_HELP + " (default none)")
+    parser.add_argument("--alone", action="append", default=[], metavar="NODE",
+                        help="with --compose all: this node runs in a process of its own (repeatable), e.g. cm730 "
+                             "on a real robot")
     add_bus_arguments(parser, connect_help="the Zenoh router to join (repeatable; default this machine's, "
                                            "tcp/127.0.0.1:7447); a router on another machine is joined through "
                                            "a router of this machine that this command starts",
@@ -168,6 +215,10 @@ def main(argv: list[str] | None = None) -> None:
                                   "every node")
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s [launch] %(message)s")
+    try:
+        groups = process_groups(args.nodes, args.compose, args.alone)
+    except ValueError as exc:
+        parser.error(str(exc))
     connect = args.connect or bus_from_arguments(args).connect
     router = None
     zenoh_config = args.zenoh_config
@@ -182,11 +233,8 @@ def main(argv: list[str] | None = None) -> None:
             connect = [router.local_endpoint]
     except ValueError as exc:
         raise SystemExit(f"launch: {exc}") from None
-    launcher = Launcher([
-        NodeProcess(name, node_command(NODE_MODULES.get(name, name), args.robot_id, connect, args.params,
-                                       zenoh_config=zenoh_config, mode=args.mode))
-        for name in args.nodes
-    ])
+    launcher = Launcher(robot_processes(args.robot_id, groups, connect, args.params, zenoh_config=zenoh_config,
+                                        mode=args.mode))
     try:
         run_until_signal(launcher)
     finally:

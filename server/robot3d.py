@@ -230,6 +230,8 @@ class Robot3DView:
         self.failed: dict[str, str] = {}
         self._task: asyncio.Task[None] | None = None
         self._sub: Subscriber | None = None
+        self._unshown: dict[str, HubMessage] = {}  # robot -> its newest joint_states not yet applied
+        self._posing = asyncio.Lock()
 
     async def start(self) -> None:
         import viser
@@ -251,6 +253,9 @@ class Robot3DView:
         self.server.gui.configure_theme(control_width="small", show_logo=False, show_share_button=False)
         self.server.gui.main_panel.dock_right()
         self.server.gui.main_panel.minimize()
+        loop = asyncio.get_running_loop()  # viser calls back on its own thread and loop
+        self.server._websock_server.on_client_connect(
+            lambda _connection: asyncio.run_coroutine_threadsafe(self._show_unshown(), loop) and None)
         self._sub = self.hub.subscribe("robot3d", maxlen=64)
         self._sub.subscribe("*", "joint_states", max_hz=self.config.robot3d_max_hz)
         self._task = asyncio.create_task(self._run())
@@ -262,26 +267,44 @@ class Robot3DView:
             newest: dict[str, HubMessage] = {}
             for msg in self._sub.drain():
                 newest[msg.robot] = msg
-            for robot, msg in newest.items():
-                try:
-                    await asyncio.to_thread(self._update, robot, msg)
-                except Exception as exc:  # a bad URDF or message must not stop the view of the others
-                    if robot not in self.failed:
-                        log.warning("3D view of %s: %s", robot, exc)
-                    self.failed[robot] = str(exc)
+            for robot in newest:
+                if robot not in self.robots and robot not in self.failed:
+                    await self._guarded(robot, self._add_model, robot)  # loaded at once: a bad URDF is said at once
+            self._unshown.update(newest)
+            if self._viewers():  # nobody looks: posing the URDFs would cost the server most of its CPU
+                await self._show_unshown()
+
+    def _viewers(self) -> int:
+        """Connections to viser (the dashboard's proxy, one per page showing the 3D view), counted from the moment
+        they connect: viser's own client list waits for the page's first camera message."""
+        return len(self.server._websock_server._live_connections)  # checked to be a dict by refuse_browsers
+
+    async def _guarded(self, robot: str, work: Any, *args: Any) -> None:
+        """Runs work in a thread; a bad URDF or message must not stop the view of the others."""
+        try:
+            await asyncio.to_thread(work, *args)
+        except Exception as exc:
+            if robot not in self.failed:
+                log.warning("3D view of %s: %s", robot, exc)
+            self.failed[robot] = str(exc)
+
+    def _add_model(self, robot: str) -> None:
+        self.robots[robot] = RobotModel(self.server, robot, self.config.description_for(robot), len(self.robots))
+
+    async def _show_unshown(self) -> None:
+        """Poses each robot as its newest joint_states say (also what a viewer that just connected sees first)."""
+        async with self._posing:  # the models share URDFs, which pose one robot at a time
+            unshown, self._unshown = self._unshown, {}
+            for robot, msg in unshown.items():
+                await self._guarded(robot, self._update, robot, msg)
 
     def _update(self, robot: str, msg: HubMessage) -> None:
-        if robot in self.failed:
-            return
         model = self.robots.get(robot)
-        if model is None:
-            model = RobotModel(self.server, robot, self.config.description_for(robot), len(self.robots))
-            self.robots[robot] = model
-        joints = msg.message
-        model.apply(list(joints.name), joints.position)
+        if model is not None and robot not in self.failed:
+            model.apply(list(msg.message.name), msg.message.position)
 
     def status(self) -> dict[str, Any]:
-        viewers = len(self.server.get_clients()) if self.server is not None else 0  # browsers showing the scene
+        viewers = self._viewers() if self.server is not None else 0  # pages showing the scene
         return {"port": self.port, "viewers": viewers, "failed": dict(self.failed),
                 "robots": {r: {"updates": m.updates, "joints": m.joint_names} for r, m in self.robots.items()}}
 

@@ -12,7 +12,19 @@ import pytest
 import zenoh
 
 from robot_nodes.runtime import BusConfig, open_router, open_session
+from robot_nodes.runtime.local_bus import CHECK_FROZEN_ENV, THAWED
 from tests.support import TESTDATA, free_port, launch_chromium
+
+# every test checks the in-process bus's rule, in this process and in the nodes it starts: a published message is
+# never changed afterwards (robot_nodes/runtime/local_bus.py)
+os.environ[CHECK_FROZEN_ENV] = "1"
+
+
+@pytest.fixture(autouse=True)
+def published_messages_stay_frozen() -> Iterator[None]:
+    THAWED.clear()
+    yield
+    assert not THAWED, f"nodes changed messages after publishing them: {THAWED[:3]}"
 
 
 @pytest.fixture(scope="session", autouse=True)

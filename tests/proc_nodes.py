@@ -36,7 +36,33 @@ class Talker(Node):
                                       name=["seq"], position=[float(self.seq)]))
 
 
-NODES = {"talker": Talker}
+class Echo(Node):
+    """Answers every joint_states with a robot_state whose state is the sequence number (mod 256): a subscriber
+    that publishes, so a composed process shows both directions."""
+
+    name = "echo"
+
+    def setup(self) -> None:
+        self.received = 0
+        self.pub = self.publisher("robot_state")
+        self.subscribe("joint_states", self.on_joint_states)
+
+    def on_joint_states(self, msg: object) -> None:
+        self.received += 1
+        seq = int(msg.position[0])  # type: ignore[attr-defined]
+        self.pub.publish(schemas.make("humanoid_league_msgs/msg/RobotControlState", state=seq % 256))
+
+
+class BrokenAtStart(Node):
+    """A node whose setup fails: what the supervisor must name when it restarts a composed process."""
+
+    name = "broken"
+
+    def setup(self) -> None:
+        raise RuntimeError("this node never starts")
+
+
+NODES = {"talker": Talker, "echo": Echo}
 
 if __name__ == "__main__":
     run(NODES[sys.argv[1]], sys.argv[2:])

@@ -12,6 +12,7 @@ from typing import Any
 import httpx
 import numpy as np
 import pytest
+import websockets.sync.client as ws_client
 
 import schemas
 from server.config import RobotDescription, ServerConfig
@@ -52,7 +53,17 @@ def test_robot3d_moves_the_urdf_joints(testdata: Path) -> None:
             page = await asyncio.to_thread(httpx.get, f"http://127.0.0.1:{view.port}/", timeout=10)
             assert page.status_code == 200 and "<html" in page.text.lower()  # viser's bundled client
             hub.publish(joint_states([*WOLFGANG_JOINTS, "not_a_joint"], [0.5, -0.3, 1.0, 1.1, 0.2, 0.4, 9.0]))
-            await _until(lambda: "r1" in view.robots and view.robots["r1"].updates > 0, 60.0)
+            await _until(lambda: "r1" in view.robots, 60.0)  # its URDF is loaded at once...
+            assert view.robots["r1"].updates == 0 and "r1" in view._unshown  # ...but nobody looks: not posed
+            # a viewer (the dashboard's proxy: a WebSocket without Origin) gets the newest pose at once
+            import viser
+
+            viewer = await asyncio.to_thread(ws_client.connect, f"ws://127.0.0.1:{view.port}", open_timeout=10,
+                                             subprotocols=[f"viser-v{viser.__version__}"])
+            try:
+                await _until(lambda: "r1" in view.robots and view.robots["r1"].updates > 0, 60.0)
+            finally:
+                viewer.close()
             model = view.robots["r1"]
             assert len(model.joint_names) == 20
             got = dict(zip(model.joint_names, model.cfg, strict=True))

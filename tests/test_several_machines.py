@@ -85,6 +85,9 @@ def test_in_a_match_the_laptop_sends_nothing_to_the_robot(net: Network, tmp_path
     assert laptop.python(["pitchside.cli", "telemetry-key", str(key)], tmp_path / "key.log").wait(60) == 0
     laptop.python(["pitchside.cli", "serve", "--match", "--telemetry-key", str(key)], tmp_path / "serve.log",
                   env={"PITCHSIDE_TOKEN": TOKEN})
+    # the documented order: the dashboard listens before the robots send (until then the laptop's kernel answers
+    # each datagram with an ICMP port unreachable; the README says how to keep it quiet even then)
+    wait_for(lambda: api(laptop, "GET", "/api/robots")["status"] == 200, 90.0, 1.0, "the match dashboard up")
     robot.python(["pitchside.cli", "robot", "--robot-id", "robot1", "--match", "--nodes", "hcm,pause,telemetry",
                   "--telemetry-to", "10.88.0.1", "--telemetry-key", str(key)], tmp_path / "robot.log")
     wait_for(lambda: "overview" in robots(laptop).get("robot1", {}).get("streams", {}), 90.0, 1.0,

@@ -76,12 +76,14 @@ class AnimationNode(Node):
 
     def setup(self) -> None:
         self.library = AnimationLibrary(self.folders())
-        self.joint_positions: dict[str, float] | None = None
+        self._positions: dict[str, float] | None = None
+        self._newest_joints: JointState | None = None  # merged into _positions when read, not 200 times a second
         self.playback: Playback | None = None
         self.pub = self.publisher("animation")
         self.subscribe("joint_states", self.on_joint_states)
         self.server = self.action_server("animation", self.on_goal, self.on_cancel)
         self.tick_timer = self.timer(self.params.rate_hz, self.tick)
+        self.tick_timer.pause()  # ticks only while an animation plays
         self._refresh_library()
 
     # -- configuration ---------------------------------------------------------------------------------
@@ -110,11 +112,19 @@ class AnimationNode(Node):
 
     # -- inputs ----------------------------------------------------------------------------------------
     def on_joint_states(self, msg: JointState) -> None:
-        positions = self.joint_positions if self.joint_positions is not None else {}
-        for joint, value in zip(msg.name, msg.position, strict=False):
-            if math.isfinite(value):  # a servo that did not answer must not put NaN into the curves
-                positions[joint] = float(value)
-        self.joint_positions = positions
+        self._newest_joints = msg
+
+    @property
+    def joint_positions(self) -> dict[str, float] | None:
+        """Every joint's last measured position (None before the first joint_states)."""
+        msg, self._newest_joints = self._newest_joints, None
+        if msg is not None:
+            positions = self._positions if self._positions is not None else {}
+            for joint, value in zip(msg.name, msg.position, strict=False):
+                if math.isfinite(value):  # a servo that did not answer must not put NaN into the curves
+                    positions[joint] = float(value)
+            self._positions = positions
+        return self._positions
 
     def on_goal(self, handle: ServerGoal) -> str | None:
         """None accepts the goal (the action server then preempts the running one); a string rejects it."""
@@ -139,6 +149,7 @@ class AnimationNode(Node):
         if self.joint_positions is not None:
             self._begin(playback)
         self.playback = playback
+        self.tick_timer.resume()
         self.set_diagnostic("playing", anim.name)
         self.log.info("playing %s (%s)%s", anim.name, source, " for the HCM" if hcm else "")
         return None
@@ -165,6 +176,7 @@ class AnimationNode(Node):
     def tick(self) -> None:
         playback = self.playback
         if playback is None:
+            self.tick_timer.pause()
             return
         if playback.handle.done:  # ended by the action server (preempted) or by cancel
             self._end(playback)

@@ -39,7 +39,8 @@ SERVO_HEALTH_PERIOD_S = 1.0  # servo_health goes out on every change and at leas
 @dataclass
 class Cm730Params:
     backend: str = param("mujoco", choices=["mujoco", "dynamixel"], doc="servo bus: simulated or real Dynamixel")
-    publish_rate: float = param(200.0, range=(1.0, 1000.0), doc="Hz of joint_states and imu/data")
+    publish_rate: float = param(100.0, range=(1.0, 1000.0),
+                                doc="Hz of joint_states and imu/data (the motion chain runs at 100 Hz)")
     servo_data_rate: float = param(5.0, range=(0.1, 50.0), doc="Hz of servo_data (temperatures, voltage)")
     device: str = param("/dev/ttyUSB0", doc="dynamixel: serial port of the servo bus")
     baudrate: int = param(1000000, range=(9600, 4500000), doc="dynamixel: bus baud rate")
@@ -63,7 +64,9 @@ class Cm730Params:
     position_noise: float = param(0.0, range=(0.0, 2.0), doc="mujoco: std dev of the own position, m")
     yaw_noise: float = param(0.0, range=(0.0, 1.0), doc="mujoco: std dev of the own heading, rad")
     detection_dropout: float = param(0.0, range=(0.0, 1.0), doc="mujoco: probability a detection is missed")
-    ground_truth_rate: float = param(20.0, range=(0.1, 200.0), doc="mujoco: Hz of ground_truth")
+    ground_truth_rate: float = param(20.0, range=(0.0, 200.0),
+                                     doc="mujoco: Hz of ground_truth (every robot's pose: one node of a world sends "
+                                         "it, the others have 0)")
 
 
 class Cm730Node(Node):
@@ -306,7 +309,10 @@ class Cm730Node(Node):
         self._camera = self._sim.runner.add_camera(
             self._sim.robot, self._sim_topics.on_frame, self.params.camera_width, self.params.camera_height,
             self.params.camera_rate, want_image=self._sim_topics.wants_image, noise=self._sim_topics.noise)
-        self.timer(self.params.ground_truth_rate, self._sim_topics.publish_ground_truth, name="ground_truth")
+        self._ground_truth_timer = self.timer(max(self.params.ground_truth_rate, 0.1),
+                                              self._sim_topics.publish_ground_truth, name="ground_truth")
+        if self.params.ground_truth_rate <= 0:
+            self._ground_truth_timer.pause()
         self._rtf_mark = (self._sim.world.time, time.monotonic())
         self.timer(1.0, self._measure_real_time_factor, name="real_time_factor")
 
@@ -341,6 +347,10 @@ class Cm730Node(Node):
         if self._sim is not None:
             self._apply_sim_params()
             self._sim_topics.apply_params()
+            if "ground_truth_rate" in changed:
+                rate = self.params.ground_truth_rate
+                self._ground_truth_timer.set_rate(max(rate, 0.1))
+                self._ground_truth_timer.resume() if rate > 0 else self._ground_truth_timer.pause()
             if self._camera is not None:
                 self._camera.rate_hz = self.params.camera_rate
                 if {"camera_width", "camera_height"} & set(changed):

@@ -107,7 +107,8 @@ class GameControllerNode(Node):
         self._udp: UdpPort | None = None
         self._open_socket()
         self._return_timer = self.timer(self.params.return_rate_hz, self._send_alive, "return_packets")
-        self.timer(10.0, self._keepalive, "keepalive")
+        self._keepalive_timer = self.timer(10.0, self._keepalive, "keepalive")
+        self._idle()  # both timers wait for the first packet of a GameController
         self._update_diagnostics()
 
     # -- socket ---------------------------------------------------------------------------------------------
@@ -144,6 +145,8 @@ class GameControllerNode(Node):
         self.gc_address = sender
         self.last_data = packet
         self._last_packet_time = time.monotonic()
+        self._keepalive_timer.resume(at_once=False)
+        self._return_timer.resume(at_once=False)
         if fields != self._last_fields:
             self._last_fields = fields
             self._publish()
@@ -160,9 +163,15 @@ class GameControllerNode(Node):
         """Republish an unchanged state so late joiners learn it; stop once the GC is lost."""
         now = time.monotonic()
         if self._last_fields is None or now - self._last_packet_time > self.params.gc_timeout_s:
+            self._idle()
             return
         if now - self._last_publish_time >= 1.0 / self.params.keepalive_hz:
             self._publish()
+
+    def _idle(self) -> None:
+        """No GameController heard (yet, or for gc_timeout_s): nothing to republish or answer until one is."""
+        self._keepalive_timer.pause()
+        self._return_timer.pause()
 
     def _send_alive(self) -> None:
         if self.gc_address is None or self._udp is None:

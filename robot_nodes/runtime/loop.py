@@ -15,7 +15,10 @@ log = logging.getLogger(__name__)
 
 
 class Timer:
-    """A periodic callback; its measured rate goes into the node's diagnostics."""
+    """A periodic callback; its measured rate goes into the node's diagnostics.
+
+    A node with nothing to do pauses its timer and resumes it when work comes (a walk command, an animation
+    goal): a paused timer costs nothing, the loop does not wake for it."""
 
     def __init__(self, loop: EventLoop, period: float, callback: Callable[[], None], name: str) -> None:
         self.period = period
@@ -23,7 +26,9 @@ class Timer:
         self.name = name
         self.next_due = time.monotonic() + period
         self.cancelled = False
+        self.active = True
         self.ticks = 0
+        self.entry: int | None = None  # its current place in the loop's heap (older entries are stale)
         self._loop = loop
 
     def cancel(self) -> None:
@@ -31,6 +36,18 @@ class Timer:
 
     def set_rate(self, hz: float) -> None:
         self.period = 1.0 / hz
+
+    def pause(self) -> None:
+        """Stops ticking until resume (on the node's loop thread, like all node code)."""
+        self.active = False
+
+    def resume(self, at_once: bool = True) -> None:
+        """Ticks again: at once, or a period from now (on the node's loop thread)."""
+        if self.active or self.cancelled:
+            return
+        self.active = True
+        self.next_due = time.monotonic() + (0.0 if at_once else self.period)
+        self._loop.add_timer(self)
 
 
 class EventLoop:
@@ -50,7 +67,8 @@ class EventLoop:
 
     def add_timer(self, timer: Timer) -> None:
         """Only from the loop thread or before the loop runs."""
-        heapq.heappush(self._timers, (timer.next_due, next(self._counter), timer))
+        timer.entry = next(self._counter)
+        heapq.heappush(self._timers, (timer.next_due, timer.entry, timer))
 
     def stop(self) -> None:
         self._stop.set()
@@ -84,12 +102,15 @@ class EventLoop:
         except Exception as exc:  # a failing callback must not take the node down
             self._on_error(getattr(fn, "__qualname__", repr(fn)), exc)
 
-    def _run_due_timers(self) -> float:
-        """Fires due timers; returns seconds until the next one (capped so stop() is noticed)."""
+    def _run_due_timers(self) -> float | None:
+        """Fires due timers; returns seconds until the next one (None: no timer, wait for work or stop())."""
         now = time.monotonic()
         while self._timers and self._timers[0][0] <= now:
-            _, _, timer = heapq.heappop(self._timers)
-            if timer.cancelled:
+            _, entry, timer = heapq.heappop(self._timers)
+            if entry != timer.entry:
+                continue  # queued again since (resumed): this place is stale
+            if timer.cancelled or not timer.active:
+                timer.entry = None  # paused timers leave the heap; resume puts them back
                 continue
             self._call(timer.callback, ())
             timer.ticks += 1
@@ -97,7 +118,8 @@ class EventLoop:
             now = time.monotonic()
             if timer.next_due < now - timer.period:  # fell behind by more than a period: skip, don't burst
                 timer.next_due = now + timer.period
-            heapq.heappush(self._timers, (timer.next_due, next(self._counter), timer))
+            if timer.active and not timer.cancelled:  # the callback may have paused or cancelled it
+                self.add_timer(timer)
         if not self._timers:
-            return 0.5
-        return max(0.0, min(0.5, self._timers[0][0] - time.monotonic()))
+            return None
+        return max(0.0, self._timers[0][0] - time.monotonic())

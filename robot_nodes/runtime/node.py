@@ -21,6 +21,7 @@ import zenoh
 
 import schemas
 from robot_nodes.runtime.action_server import ActionServer, ServerGoal
+from robot_nodes.runtime.local_bus import LocalBus, RemoteInterest, freeze, thawed
 from robot_nodes.runtime.loop import EventLoop, Timer
 from robot_nodes.runtime.parameters import ParameterStore
 from robot_nodes.runtime.rosout import RosoutHandler
@@ -67,59 +68,91 @@ def _check_handler(topic: schemas.Topic, handler: Callable[..., None], typename:
 
 
 class Publisher:
-    """Publishes one topic of the table; the type comes from the table, never from the caller."""
+    """Publishes one topic of the table; the type comes from the table, never from the caller.
+
+    Nodes of this process get the message object at once (the local bus); Zenoh gets its CDR only while a
+    subscriber outside the process matches."""
 
     def __init__(self, node: Node, topic: str, robot: str) -> None:
         self.topic = schemas.topic(topic)
+        self.robot = robot
         self.key = keys.topic_key(robot, topic)
         encoding = zenoh.Encoding("application/cdr").with_schema(self.topic.type)
-        self._pub = node.session.declare_publisher(self.key, encoding=encoding)
+        self._pub = node.session.declare_publisher(self.key, encoding=encoding,
+                                                   allowed_destination=zenoh.Locality.REMOTE)
+        self._remote = RemoteInterest(self._pub)
+        self._local = node.local_bus
         self._typename = schemas.codec.full_name(self.topic.type)
         self.count = 0
+        self.encoded = 0  # messages encoded for subscribers outside the process
 
     def publish(self, msg: Message) -> None:
         if msg.__msgtype__ != self._typename:
             raise SchemaError(f"{self.topic.name} carries {self._typename}, not {msg.__msgtype__}")
-        self._pub.put(schemas.encode(msg))
+        freeze(msg)
+        cdr = None
+        local = self._local.local_subscribers(self.robot, self.topic.name)
+        if local:
+            cdr = schemas.encode(msg) if self._local.check_frozen else None
+            for subscription in local:
+                subscription.hand_over_local(self.robot, msg, cdr)
+        if self._remote.matching:
+            self._pub.put(cdr if cdr is not None else schemas.encode(msg))
+            self.encoded += 1
         self.count += 1
 
     def publish_bytes(self, payload: bytes) -> None:
-        """Already-encoded CDR (relays, replay)."""
-        self._pub.put(payload)
+        """Already-encoded CDR (relays, replay): decoded only for subscribers in this process."""
+        local = self._local.local_subscribers(self.robot, self.topic.name)
+        if local:
+            msg = schemas.decode(payload, self.topic.type)
+            freeze(msg)
+            for subscription in local:
+                subscription.hand_over_local(self.robot, msg, payload if self._local.check_frozen else None)
+        if self._remote.matching:
+            self._pub.put(payload)
         self.count += 1
 
     @property
     def has_subscribers(self) -> bool:
-        # zenoh's stub says bool, the object is a MatchingStatus with .matching
-        return bool(self._pub.matching_status.matching)  # type: ignore[attr-defined]
+        """Someone listens: a node of this process or a subscriber elsewhere."""
+        return self._remote.matching or bool(self._local.local_subscribers(self.robot, self.topic.name))
 
     def close(self) -> None:
+        self._remote.close()
         self._pub.undeclare()
 
 
 class Subscription:
+    """One topic of the table into a node's loop: from nodes of this process as objects, from elsewhere decoded
+    once per process (robot_nodes/runtime/local_bus.py)."""
+
     def __init__(self, node: Node, topic: str, handler: Callable[..., None], robot: str) -> None:
         self.topic = schemas.topic(topic)
         _check_handler(self.topic, handler, schemas.codec.full_name(self.topic.type))
         self.handler = handler
+        self.robot = robot
         self.any_robot = robot == keys.ANY_ROBOT
         self.count = 0
         self.decode_errors = 0
         self._node = node
-        call_soon = node.loop.call_soon
-        dispatch = self._dispatch
-        self._sub = node.session.declare_subscriber(
-            keys.topic_key(robot, topic),
-            lambda sample: call_soon(dispatch, str(sample.key_expr), sample.payload.to_bytes()),
-        )
+        self._call_soon = node.loop.call_soon
+        node.local_bus.add(self)
 
-    def _dispatch(self, key: str, payload: bytes) -> None:
-        try:
-            msg = schemas.decode(payload, self.topic.type)
-        except SchemaError as exc:
+    def hand_over(self, key: str, msg: Message | SchemaError) -> None:
+        """A sample from outside the process (any thread)."""
+        self._call_soon(self._deliver_remote, key, msg)
+
+    def hand_over_local(self, robot: str, msg: Message, cdr: bytes | None) -> None:
+        """A message a node of this process published (its thread); cdr: its encoding, to check it stays frozen."""
+        self._call_soon(self._deliver, robot, msg, cdr)
+
+    def _deliver_remote(self, key: str, msg: Message | SchemaError) -> None:
+        if isinstance(msg, SchemaError):
             self.decode_errors += 1
-            self._node.record_error(f"{self.topic.name}: {exc}")
+            self._node.record_error(f"{self.topic.name}: {msg}")
             return
+        robot = self.robot
         if self.any_robot:
             try:
                 robot = keys.split_topic_key(key)[0]
@@ -127,14 +160,22 @@ class Subscription:
                 self.decode_errors += 1
                 self._node.record_error(str(exc))
                 return
-            self.count += 1
+        self._deliver(robot, msg, None)
+
+    def _deliver(self, robot: str, msg: Message, cdr: bytes | None) -> None:
+        self.count += 1
+        # the frozen check (tests): blame this handler only if the message was intact when it got it
+        intact = cdr is not None and schemas.encode(msg) == cdr
+        if self.any_robot:
             self.handler(robot, msg)
         else:
-            self.count += 1
             self.handler(msg)
+        if intact and schemas.encode(msg) != cdr:
+            raise thawed(f"{self.topic.name}: a {msg.__msgtype__} changed after it was published (found after "
+                         f"{getattr(self.handler, '__qualname__', self.handler)} of {self._node.name})")
 
     def close(self) -> None:
-        self._sub.undeclare()
+        self._node.local_bus.remove(self)
 
 
 class Node:
@@ -162,6 +203,7 @@ class Node:
         self._own_session = not isinstance(bus, zenoh.Session)
         self.session: zenoh.Session = bus if isinstance(bus, zenoh.Session) else open_session(bus)
         self.loop = EventLoop(self._on_callback_error)
+        self.local_bus = LocalBus.join(self.session)  # nodes of this process hand messages over as objects
         self.parameters = ParameterStore(self.name, self.Params, params_file, overrides)
         self.params = self.parameters.values
         self.parameters.on_change(lambda changed: self.loop.call_soon(self.on_parameters_changed, changed))
@@ -311,6 +353,7 @@ class Node:
         for declared in self._declared:
             with contextlib.suppress(Exception):
                 declared.close() if hasattr(declared, "close") else declared.undeclare()
+        self.local_bus.leave()
         if self._own_session:
             self.session.close()
 

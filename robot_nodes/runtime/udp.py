@@ -1,7 +1,8 @@
 """A UDP port for what speaks to the world outside Zenoh (GameController and its simulator, team communication).
 
 A reader thread only receives; with a node's loop it hands each datagram to the loop, where it is decoded, otherwise
-it calls the handler itself. Sending happens on the caller's thread.
+it calls the handler itself. Sending happens on the caller's thread. The reader blocks until a datagram comes (an
+idle port costs nothing); ``close`` wakes it by shutting the socket down.
 """
 
 from __future__ import annotations
@@ -35,7 +36,6 @@ class UdpPort:
         except OSError:
             sock.close()
             raise
-        sock.settimeout(0.2)
         self._sock = sock
         self._loop = loop
         self._on_datagram = on_datagram
@@ -54,6 +54,8 @@ class UdpPort:
 
     def close(self) -> None:
         self._stop.set()
+        with contextlib.suppress(OSError):  # an unconnected UDP socket says ENOTCONN, but its reader wakes
+            self._sock.shutdown(socket.SHUT_RDWR)
         if self._reader is not threading.current_thread():
             self._reader.join(2.0)
         self._sock.close()
@@ -62,13 +64,13 @@ class UdpPort:
         while not self._stop.is_set():
             try:
                 data, addr = self._sock.recvfrom(self._recv_size)
-            except TimeoutError:
-                continue
             except OSError:
                 if self._stop.is_set():
                     return
-                time.sleep(0.05)
+                time.sleep(0.05)  # an ICMP error of an earlier send, a full buffer: read on
                 continue
+            if self._stop.is_set():
+                return
             if self._loop is not None:
                 self._loop.call_soon(self._on_datagram, data, addr)
             else:

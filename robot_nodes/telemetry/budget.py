@@ -175,6 +175,10 @@ class ByteBudget:
         self._turn = (self._turn + 1) % len(self._order)
         self._visiting = False
 
+    def pending(self) -> bool:
+        """Something waits to be sent (a message offered, or the rest of a started frame)."""
+        return any(s.current is not None or s.waiting is not None for s in self.streams.values())
+
     def backlog(self) -> int:
         """Datagrams still to send of frames already started (for diagnostics)."""
         return sum(len(s.current.fragments) - s.current.sent for s in self.streams.values() if s.current)

@@ -163,6 +163,7 @@ class TelemetryNode(Node):
         self._address: tuple[str, int] | None = None
         self._resolve_destination()
         self.budget = ByteBudget(self.params.budget_bytes_per_s)
+        self._pump_timer = self.timer(PUMP_HZ, self._pump, "pump")  # only while the budget holds datagrams back
         self._rates: dict[str, float] = {}
         self._last_taken: dict[Any, float] = {}
         self._stream_ids: dict[str, int] = {}
@@ -180,7 +181,6 @@ class TelemetryNode(Node):
         self._announce_table()
         self._overview_timer = self.timer(self.params.overview_hz, self._send_overview, "overview")
         self._table_timer = self.timer(1.0 / self.params.table_period_s, self._announce_table, "stream_table")
-        self.timer(PUMP_HZ, self._pump, "pump")
         self.timer(1.0, self._report, "report")
 
     # -- configuration --------------------------------------------------------------------------------
@@ -305,6 +305,10 @@ class TelemetryNode(Node):
 
     def _pump(self) -> None:
         self.budget.pump(self._send_fragment)
+        if self.budget.pending():
+            self._pump_timer.resume(at_once=False)
+        else:
+            self._pump_timer.pause()
 
     def _send_fragment(self, stream: Stream, frame: Frame, index: int) -> int:
         sid = stream.key[0]

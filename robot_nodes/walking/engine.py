@@ -107,6 +107,11 @@ class WalkEngine:
     def stepping(self) -> bool:
         return self.phase is not Phase.IDLE
 
+    @property
+    def busy(self) -> bool:
+        """Stepping, or asked to step: the cycle has work."""
+        return self.stepping or self._wants_motion()
+
     def stance_goals(self) -> dict[str, float]:
         """Joint values of the walk stance (feet home, no sway)."""
         self._g = self._snapshot()

@@ -54,7 +54,8 @@ class WalkingNode(Node):
         self.engine = WalkEngine(self.params)
         self.robot_state: int | None = None
         self.paused = False
-        self.present: dict[str, float] = {}
+        self._imu: Imu | None = None  # the newest, read by the cycle (not turned into angles 200 times a second)
+        self._joints: JointState | None = None
         self.last_active: bool | None = None
         self.last_tick = time.monotonic()
         self.last_odometry = -math.inf
@@ -68,7 +69,7 @@ class WalkingNode(Node):
         self.subscribe("imu/data", self.on_imu)
         self.subscribe("joint_states", self.on_joint_states)
         self.cycle_timer = self.timer(self.params.rate_hz, self.tick, name="walk")
-        self.timer(ACTIVE_PUBLISH_HZ, self.publish_active)
+        self.timer(ACTIVE_PUBLISH_HZ, self.standing_tick, name="standing")
         self._update_stop()  # no robot_state yet: the HCM has not allowed walking
 
     def on_parameters_changed(self, changed: dict[str, Any]) -> None:
@@ -82,6 +83,7 @@ class WalkingNode(Node):
             self.record_error(f"cmd_vel with a non-finite value {values}; treated as stop")
             values = (0.0, 0.0, 0.0)
         self.engine.set_command(*values)
+        self._wake()
 
     def on_robot_state(self, msg: RobotControlState) -> None:
         self.robot_state = int(msg.state)
@@ -92,33 +94,55 @@ class WalkingNode(Node):
         self._update_stop()
 
     def on_imu(self, msg: Imu) -> None:
-        o, g = msg.orientation, msg.angular_velocity
-        pitch, roll, yaw = tilt_of((o.x, o.y, o.z, o.w))
-        self.engine.set_imu(pitch, roll, float(g.y), float(g.x), yaw)
+        self._imu = msg
 
     def on_joint_states(self, msg: JointState) -> None:
-        self.present = dict(zip(msg.name, (float(p) for p in msg.position), strict=False))
+        self._joints = msg
 
     def _update_stop(self) -> None:
         self.engine.request_stop(self.paused or self.robot_state not in WALKABLE_STATES)
+        self._wake()
+
+    def _wake(self) -> None:
+        """The cycle runs while the engine steps or is asked to; standing, the node ticks at ACTIVE_PUBLISH_HZ."""
+        if self.engine.busy:
+            self.cycle_timer.resume()
+
+    @property
+    def present(self) -> dict[str, float]:
+        """The measured joint positions of the newest joint_states."""
+        msg = self._joints
+        return {} if msg is None else dict(zip(msg.name, (float(p) for p in msg.position), strict=False))
 
     # -- the cycle ----------------------------------------------------------------------------------------
+    def standing_tick(self) -> None:
+        """While the cycle rests: odometry (the robot may be pushed or carried) and walking_active."""
+        if not self.cycle_timer.active:
+            self.tick()
+        self.publish_active()
+
     def tick(self) -> None:
         now = time.monotonic()
         dt, self.last_tick = now - self.last_tick, now
         started = time.perf_counter()
         was_stepping = self.engine.stepping
+        if self._imu is not None:
+            o, g = self._imu.orientation, self._imu.angular_velocity
+            pitch, roll, yaw = tilt_of((o.x, o.y, o.z, o.w))
+            self.engine.set_imu(pitch, roll, float(g.y), float(g.x), yaw)
         out = self.engine.update(dt, self.present or None)
         self.cycle_s = time.perf_counter() - started
         if out.stepping or was_stepping:
             self.publish_goals(out)
         # odometry every cycle while stepping; standing still, ACTIVE_PUBLISH_HZ is enough
-        if out.stepping or was_stepping or now - self.last_odometry >= 1.0 / ACTIVE_PUBLISH_HZ:
+        if out.stepping or was_stepping or now - self.last_odometry >= 0.9 / ACTIVE_PUBLISH_HZ:
             self.publish_odometry(out)
             self.last_odometry = now
         if out.stepping != self.last_active:
             self.publish_active()
         self.set_diagnostic("phase", self.engine.phase.value)
+        if not self.engine.busy:
+            self.cycle_timer.pause()
 
     def publish_goals(self, out: WalkOutput) -> None:
         point = schemas.make(JointTrajectoryPoint, positions=np.asarray(out.positions))

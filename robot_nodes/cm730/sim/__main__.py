@@ -11,6 +11,7 @@ import logging
 import signal
 import threading
 from pathlib import Path
+from typing import Any
 
 from robot_nodes.cm730.node import Cm730Node
 from robot_nodes.cm730.sim import SimRunner, SimWorld
@@ -21,16 +22,31 @@ from wire.bus import add_bus_arguments, bus_from_arguments
 from wire.command_line import CommandParser
 
 
+def robot_overrides(index: int, overrides: dict[str, Any], cameras: int) -> dict[str, Any]:
+    """A robot's cm730 settings in a shared world: the first robot's node alone sends the ground truth (every
+    robot's pose is in it), and only the first ``cameras`` robots render their head camera (perception, the
+    detections and relative positions, runs for all)."""
+    own = dict(overrides)
+    if index > 0:
+        own["ground_truth_rate"] = 0.0
+    if index >= cameras:
+        own["render_camera"] = False
+    return own
+
+
 def serve(n_robots: int, bus: BusConfig, params: Path | None = None, overrides: dict | None = None,
-          real_time_factor: float = 1.0) -> tuple[SimRunner, list[Node], object]:
-    """Starts the world and its nodes; returns (runner, nodes, session) for the caller to stop."""
+          real_time_factor: float = 1.0, cameras: int | None = None) -> tuple[SimRunner, list[Node], object]:
+    """Starts the world and its nodes; returns (runner, nodes, session) for the caller to stop.
+    cameras: how many robots render images (default all)."""
     world = SimWorld(n_robots=n_robots)
     runner = SimRunner(world, real_time_factor).start()
     session = open_session(bus)
     overrides = dict(overrides or {})
     overrides.setdefault("real_time_factor", real_time_factor)
-    nodes = [Cm730Node(robot_id=r.robot_id, bus=session, params_file=params, overrides=overrides,
-                       backend=MujocoBackend(world, r, runner)).start() for r in world.robots]
+    cameras = n_robots if cameras is None else cameras
+    nodes = [Cm730Node(robot_id=r.robot_id, bus=session, params_file=params,
+                       overrides=robot_overrides(i, overrides, cameras),
+                       backend=MujocoBackend(world, r, runner)).start() for i, r in enumerate(world.robots)]
     return runner, nodes, session
 
 
@@ -41,13 +57,17 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--params", type=Path, default=None)
     parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
     parser.add_argument("--real-time-factor", type=float, default=1.0, help="0 = as fast as possible")
+    parser.add_argument("--cameras", type=int, default=None,
+                        help="how many robots (the first ones) render their head camera images (default all); "
+                             "the others still see the ball, goals and robots (detections, relative positions)")
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s [sim] %(message)s")
     bus = bus_from_arguments(args)
     stop = threading.Event()
     signal.signal(signal.SIGINT, lambda *_: stop.set())
     signal.signal(signal.SIGTERM, lambda *_: stop.set())
-    runner, nodes, session = serve(args.robots, bus, args.params, parse_overrides(args.set), args.real_time_factor)
+    runner, nodes, session = serve(args.robots, bus, args.params, parse_overrides(args.set), args.real_time_factor,
+                                   args.cameras)
     logging.info("simulating %d robot(s): %s", len(nodes), ", ".join(n.robot_id for n in nodes))
     stop.wait()
     for node in nodes:

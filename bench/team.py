@@ -1,0 +1,204 @@
+"""A team on one laptop: what each further simulated robot costs, and whether 8 of them keep real time.
+
+    python bench/team.py [--seconds 60] [--robots 1,2,4,8] [--soak-minutes 0]
+
+For each N it runs the demo's stack as `pitchside demo --robots N --match` starts it: the MuJoCo world (robot1
+renders its head camera, the others perceive without images), each robot's nodes composed in one process, the
+simulated GameController, and the dashboard server in match mode, which gets everything through one-way
+telemetry. After start-up it measures for ``--seconds``: the CPU time of every process of the stack (% of one
+core), their summed RSS, the process count, and the world's real-time factor (the cm730 sim node's
+``real_time_factor`` diagnostic: sim seconds per wall second over each 1 s, read on the demo's Zenoh bus); its
+minimum is the figure. The server's RSS is sampled every second; its slope after a warm-up is the memory growth
+(``--soak-minutes`` runs the largest N that long, for the 30-minute soak of a match day).
+
+The baseline, in the same run: one robot with each node in a process of its own (``--compose none``), the layout
+the thesis measured against its monolith (fig. 6.5), beside one robot composed.
+
+Budgets (issue "A team on one laptop", 2-core machine): rtf_min_8 >= 0.98, cpu_pct_per_robot <= 15,
+rss_mb_per_robot <= 150.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import os
+import re
+import statistics
+import sys
+import tempfile
+import threading
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+import psutil
+
+import schemas
+from robot_nodes.runtime import BusConfig, open_session
+from schemas.std import DiagnosticArray
+from tests.running_demo import RunningDemo, running_demo
+from wire import keys
+
+ROUTER = re.compile(r"Zenoh router (tcp/[0-9.]+:\d+)")
+WARM_UP_S = 15.0  # after the dashboard answers: every robot stood up, the match recording started
+
+
+@dataclass
+class Figures:
+    """One run of the stack."""
+
+    label: str
+    robots: int
+    seconds: float = 0.0
+    cpu_pct: float = 0.0
+    rss_mb: float = 0.0
+    processes: int = 0
+    rtf: list[float] = field(default_factory=list)
+    by_process: list[tuple[str, float, float]] = field(default_factory=list)  # (name, cpu %, rss MB)
+    server_rss: list[tuple[float, float]] = field(default_factory=list)  # (minutes, MB)
+
+    @property
+    def rtf_min(self) -> float:
+        return min(self.rtf) if self.rtf else 0.0
+
+    @property
+    def server_slope(self) -> float:
+        """MB per minute, least squares over the samples."""
+        if len(self.server_rss) < 3:
+            return 0.0
+        xs, ys = zip(*self.server_rss, strict=True)
+        return float(statistics.linear_regression(xs, ys).slope)
+
+
+class RealTimeFactor:
+    """The world's real_time_factor reports, read on the demo's bus (robot1's cm730 node speaks for the world)."""
+
+    def __init__(self, endpoint: str) -> None:
+        self.values: list[tuple[float, float]] = []
+        self._session = open_session(BusConfig(connect=[endpoint]))
+        self._sub = self._session.declare_subscriber(keys.topic_key("robot1", "diagnostics"), self._on_sample)
+
+    def _on_sample(self, sample: object) -> None:
+        msg = schemas.decode(sample.payload.to_bytes(), DiagnosticArray)  # type: ignore[attr-defined]
+        for status in msg.status:
+            if status.name.endswith("/cm730"):
+                for kv in status.values:
+                    if kv.key == "real_time_factor":
+                        self.values.append((time.monotonic(), float(kv.value)))
+
+    def between(self, t0: float, t1: float) -> list[float]:
+        return [v for t, v in self.values if t0 < t <= t1]
+
+    def close(self) -> None:
+        self._sub.undeclare()
+        self._session.close()
+
+
+def label(p: psutil.Process) -> str:
+    cmd = p.cmdline()
+    if "-m" in cmd:
+        module = cmd[cmd.index("-m") + 1]
+        robot = cmd[cmd.index("--robot-id") + 1] if "--robot-id" in cmd else ""
+        return f"{module} {robot}".strip()
+    return Path(cmd[0]).name if cmd else p.name()
+
+
+@contextlib.contextmanager
+def stack(robots: int, compose: str) -> Iterator[RunningDemo]:
+    with tempfile.TemporaryDirectory() as tmp:
+        os.environ["PITCHSIDE_RECORDINGS"] = str(Path(tmp) / "recordings")
+        with running_demo(Path(tmp), "--robots", str(robots), "--match", "--cameras", "1",
+                          "--compose", compose) as demo:
+            yield demo
+
+
+def measure(robots: int, compose: str, seconds: float) -> Figures:
+    figures = Figures(f"{robots} robot{'s' if robots > 1 else ''}, compose {compose}", robots)
+    with stack(robots, compose) as demo:
+        found = ROUTER.search(demo.output())
+        if found is None:
+            raise SystemExit("the demo did not say where its Zenoh router is")
+        rtf = RealTimeFactor(found.group(1))
+        try:
+            time.sleep(WARM_UP_S)
+            procs = demo.processes()
+            server = next(p for p in procs if label(p) == "server")
+            before = {p.pid: sum(p.cpu_times()[:2]) for p in procs}
+            t0 = time.monotonic()
+            stop = threading.Event()
+
+            def sample_server() -> None:
+                while not stop.wait(1.0):
+                    with contextlib.suppress(psutil.Error):
+                        figures.server_rss.append(((time.monotonic() - t0) / 60.0, server.memory_info().rss / 1e6))
+
+            sampler = threading.Thread(target=sample_server, daemon=True)
+            sampler.start()
+            time.sleep(seconds)
+            stop.set()
+            sampler.join(5)
+            t1 = time.monotonic()
+            for p in procs:
+                with contextlib.suppress(psutil.Error):
+                    cpu = 100.0 * (sum(p.cpu_times()[:2]) - before[p.pid]) / (t1 - t0)
+                    figures.by_process.append((label(p), cpu, p.memory_info().rss / 1e6))
+            gone = [p.pid for p in procs if not p.is_running()]
+            if gone or len(demo.processes()) != len(procs):
+                raise SystemExit(f"{figures.label}: processes died or restarted during the measurement: {gone}")
+            figures.seconds = t1 - t0
+            figures.cpu_pct = sum(c for _, c, _ in figures.by_process)
+            figures.rss_mb = sum(r for _, _, r in figures.by_process)
+            figures.processes = len(procs)
+            figures.rtf = rtf.between(t0, t1)
+        finally:
+            rtf.close()
+    if not figures.rtf:
+        raise SystemExit(f"{figures.label}: no real_time_factor report arrived")
+    return figures
+
+
+def show(f: Figures) -> None:
+    print(f"\n{f.label}: CPU {f.cpu_pct:.0f} % of one core, RSS {f.rss_mb:.0f} MB, {f.processes} processes, "
+          f"real-time factor min {f.rtf_min:.3f} (median {statistics.median(f.rtf):.3f}, {len(f.rtf)} windows of "
+          f"1 s), server RSS slope {f.server_slope:+.2f} MB/min over {f.seconds:.0f} s")
+    for name, cpu, rss in sorted(f.by_process, key=lambda x: -x[1]):
+        print(f"  {cpu:6.1f} %  {rss:6.0f} MB  {name}")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seconds", type=float, default=60.0, help="measured seconds per run, after start-up")
+    parser.add_argument("--robots", default="1,2,4,8", help="the team sizes to run, comma-separated")
+    parser.add_argument("--soak-minutes", type=float, default=0.0,
+                        help="run the largest team this long instead (the server's memory slope over a match day)")
+    args = parser.parse_args()
+    sizes = sorted({int(n) for n in args.robots.split(",")})
+    load = os.getloadavg()[0]
+    split = measure(1, "none", args.seconds)
+    show(split)
+    runs: dict[int, Figures] = {}
+    for n in sizes:
+        seconds = args.soak_minutes * 60.0 if args.soak_minutes and n == sizes[-1] else args.seconds
+        runs[n] = measure(n, "all", seconds)
+        show(runs[n])
+    first, last = runs[sizes[0]], runs[sizes[-1]]
+    extra = max(last.robots - first.robots, 1)
+    cpu_per_robot = (last.cpu_pct - first.cpu_pct) / extra
+    rss_per_robot = (last.rss_mb - first.rss_mb) / extra
+    composed_1 = runs[1].cpu_pct if 1 in runs else float("nan")
+    print(f"\nper further robot ({first.robots} -> {last.robots}): {cpu_per_robot:.1f} % of one core, "
+          f"{rss_per_robot:.0f} MB; one robot composed {composed_1:.0f} % against split {split.cpu_pct:.0f} % "
+          f"(ratio {composed_1 / split.cpu_pct:.2f}); machine: {psutil.cpu_count()} cores, load average "
+          f"{load:.1f} at the start")
+    print(f"RESULT team cpu_pct_per_robot={cpu_per_robot:.1f} rss_mb_per_robot={rss_per_robot:.0f} "
+          f"rtf_min_{last.robots}={last.rtf_min:.3f} cpu_pct_{last.robots}={last.cpu_pct:.0f} "
+          f"split_cpu_pct_1={split.cpu_pct:.0f} composed_cpu_pct_1={composed_1:.0f} "
+          f"server_rss_slope_mb_per_min={last.server_slope:.2f}")
+
+
+if __name__ == "__main__":
+    main()

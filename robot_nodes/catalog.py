@@ -1,0 +1,56 @@
+"""The robot's nodes by name: the module that runs one alone, the class a composed process builds.
+
+A team's own node is named the same ways: ``package.module`` runs alone (its ``__main__`` calls ``run``), and
+``package.module:NodeClass`` can also be composed with others.
+"""
+
+from __future__ import annotations
+
+import importlib
+from dataclasses import dataclass
+
+from robot_nodes.runtime import Node
+
+
+@dataclass(frozen=True)
+class NodeEntry:
+    """Where one node lives: run alone with ``python -m module``, composed from ``node_class``."""
+
+    module: str
+    node_class: str  # "module:Class"
+
+    def load(self) -> type[Node]:
+        """The node class (imports its module): ValueError if it is not a pitchside Node."""
+        module_name, _, class_name = self.node_class.partition(":")
+        cls = getattr(importlib.import_module(module_name), class_name, None)
+        if not (isinstance(cls, type) and issubclass(cls, Node)):
+            raise ValueError(f"{self.node_class} is not a pitchside Node class")
+        return cls
+
+
+NODES: dict[str, NodeEntry] = {
+    "cm730": NodeEntry("robot_nodes.cm730", "robot_nodes.cm730.node:Cm730Node"),
+    "hcm": NodeEntry("robot_nodes.hcm", "robot_nodes.hcm.node:HcmNode"),
+    "animation": NodeEntry("robot_nodes.animation", "robot_nodes.animation.node:AnimationNode"),
+    "walking": NodeEntry("robot_nodes.walking", "robot_nodes.walking.node:WalkingNode"),
+    "pause": NodeEntry("robot_nodes.hcm.pause", "robot_nodes.hcm.pause:PauseNode"),
+    "speaker": NodeEntry("robot_nodes.speaker", "robot_nodes.speaker.node:SpeakerNode"),
+    "game_controller": NodeEntry("robot_nodes.game_controller",
+                                 "robot_nodes.game_controller.receiver:GameControllerNode"),
+    "mitecom": NodeEntry("robot_nodes.mitecom", "robot_nodes.mitecom.node:MitecomNode"),
+    "telemetry": NodeEntry("robot_nodes.telemetry", "robot_nodes.telemetry.sender:TelemetryNode"),
+}
+NODE_MODULES: dict[str, str] = {name: entry.module for name, entry in NODES.items()}
+
+
+def entry(name: str) -> NodeEntry:
+    """A node of the table, or a team's own: ``package.module`` or ``package.module:NodeClass``."""
+    if name in NODES:
+        return NODES[name]
+    module, _, cls = name.partition(":")
+    return NodeEntry(module, name if cls else "")
+
+
+def node_label(name: str) -> str:
+    """The short name a node goes by in logs and process names (a table name, else the class or module)."""
+    return name if name in NODES else (name.rpartition(":")[2] or name.rpartition(".")[2])

@@ -1,0 +1,155 @@
+"""Several nodes of one robot in one process, what ROS 2 calls a component container:
+
+    python -m robot_nodes.compose --robot-id robot1 hcm animation walking --set walking.rate_hz=100
+
+Each node keeps its name, its parameters (queryable as when it runs alone), its timers, its diagnostics and its
+own loop thread, so a slow callback of one node never delays another's. They share the process's Zenoh session,
+so what one publishes reaches the others as the same object, without CDR (robot_nodes/runtime/local_bus.py).
+
+A node that cannot start, or whose loop ends on its own, ends the process with exit code FAILED_NODE_EXIT + its
+index, so the supervisor (robot_nodes/launch.py) names the node when it restarts the process.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import signal
+import sys
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+from robot_nodes.catalog import NODES, entry, node_label
+from robot_nodes.runtime import Node
+from robot_nodes.runtime.node import parse_overrides
+from wire.bus import add_bus_arguments, bus_from_arguments, load_config_file, open_session
+from wire.command_line import CommandParser
+
+log = logging.getLogger("pitchside.compose")
+
+FAILED_NODE_EXIT = 64  # exit code of a composed process whose node i failed: FAILED_NODE_EXIT + i
+SHUTDOWN_WAIT_S = 10.0  # per stage of a clean stop (nodes with last duties first, then the others)
+
+
+def overrides_by_node(items: list[str], nodes: list[tuple[str, type[Node]]]) -> dict[str, dict[str, Any]]:
+    """``--set NODE.NAME=VALUE`` -> {node: {name: value}}, NODE as given on the command line or the node's own name;
+    SystemExit names the nodes of the process for an entry that fits none."""
+    out: dict[str, dict[str, Any]] = {spec: {} for spec, _ in nodes}
+    aliases = {alias: spec for spec, cls in nodes for alias in (spec, node_label(spec), cls.name)}
+    for item in items:
+        target, dot, rest = item.partition(".")
+        if not dot or target not in aliases or "=" not in rest:
+            raise SystemExit(f"compose: --set expects NODE.NAME=VALUE with NODE one of "
+                             f"{', '.join(sorted(aliases))}, got {item!r}")
+        out[aliases[target]].update(parse_overrides([rest]))
+    return out
+
+
+def load_classes(names: list[str], robot_id: str) -> list[tuple[str, type[Node]]]:
+    """The node classes; one that does not load ends the process, naming it."""
+    out = []
+    for i, name in enumerate(names):
+        try:
+            out.append((name, entry(name).load()))
+        except Exception as exc:
+            log.critical("%s/%s cannot be loaded: %s: %s", robot_id, node_label(name), type(exc).__name__, exc)
+            raise SystemExit(FAILED_NODE_EXIT + i) from exc
+    return out
+
+
+class ComposedNodes:
+    """The nodes of one process, built in order on one session, stopped with their last duties first."""
+
+    def __init__(self, nodes: list[Node]) -> None:
+        self.nodes = nodes
+        self.stopping = threading.Event()
+
+    def start(self) -> None:
+        for node in self.nodes:
+            node.start()
+
+    def failed(self) -> int | None:
+        """Index of a node whose loop ended while nobody asked it to stop."""
+        if self.stopping.is_set():
+            return None
+        for i, node in enumerate(self.nodes):
+            thread = node._thread
+            if thread is not None and not thread.is_alive():
+                return i
+        return None
+
+    def stop(self) -> None:
+        """Nodes with last duties (the HCM sits the robot down) stop first, while the nodes they need still run."""
+        self.stopping.set()
+        with_duties = [n for n in self.nodes if type(n).request_shutdown is not Node.request_shutdown]
+        for stage in (with_duties, [n for n in self.nodes if n not in with_duties]):
+            for node in stage:
+                node.loop.call_soon(node.request_shutdown)
+            deadline = time.monotonic() + SHUTDOWN_WAIT_S
+            for node in stage:
+                if node._thread is not None:
+                    node._thread.join(max(0.1, deadline - time.monotonic()))
+                    if node._thread.is_alive():
+                        log.warning("%s did not stop within %.0f s", node.name, SHUTDOWN_WAIT_S)
+
+
+def build(classes: list[tuple[str, type[Node]]], robot_id: str, session: Any, params: Path | None,
+          overrides: dict[str, dict[str, Any]]) -> list[Node]:
+    """Each node on the shared session, in the order given; a node that cannot start ends the process, naming it."""
+    nodes: list[Node] = []
+    for i, (name, cls) in enumerate(classes):
+        try:
+            nodes.append(cls(robot_id=robot_id, bus=session, params_file=params, overrides=overrides[name]))
+        except Exception as exc:
+            log.critical("%s/%s failed to start: %s: %s", robot_id, node_label(name), type(exc).__name__, exc)
+            for node in nodes:
+                node.shutdown()
+            raise SystemExit(FAILED_NODE_EXIT + i) from exc
+    return nodes
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = CommandParser(prog="python -m robot_nodes.compose", description=__doc__,
+                           formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("nodes", nargs="+", help=f"nodes of this process: {', '.join(NODES)}, or a team's own "
+                                                 "as package.module:NodeClass")
+    parser.add_argument("--robot-id", default="robot1")
+    add_bus_arguments(parser)
+    parser.add_argument("--params", type=Path, default=None, help="params.yaml of the robot")
+    parser.add_argument("--set", action="append", default=[], metavar="NODE.NAME=VALUE",
+                        help="override a node's parameter (YAML value syntax)")
+    parser.add_argument("--log-level", default="INFO")
+    args = parser.parse_args(argv)
+    logging.basicConfig(level=args.log_level, format="%(asctime)s %(levelname)s [%(name)s] %(message)s")
+    if len(set(args.nodes)) != len(args.nodes):
+        raise SystemExit(f"compose: a node is named twice in {args.nodes}")
+    classes = load_classes(args.nodes, args.robot_id)
+    overrides = overrides_by_node(args.set, classes)
+    if args.zenoh_config:
+        try:
+            load_config_file(args.zenoh_config)
+        except ValueError as exc:
+            raise SystemExit(f"compose: {exc}") from None
+    stop = threading.Event()
+    signal.signal(signal.SIGINT, lambda *_: stop.set())
+    signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    session = open_session(bus_from_arguments(args))
+    composed = ComposedNodes(build(classes, args.robot_id, session, args.params, overrides))
+    composed.start()
+    log.info("%s up for robot %s in one process", ", ".join(n.name for n in composed.nodes), args.robot_id)
+    failed = None
+    while not stop.wait(0.5) and failed is None:
+        failed = composed.failed()
+    if failed is not None:
+        log.critical("%s/%s stopped on its own; ending the process so it is started again", args.robot_id,
+                     composed.nodes[failed].name)
+    composed.stop()
+    session.close()
+    if failed is not None:
+        sys.exit(FAILED_NODE_EXIT + failed)
+
+
+if __name__ == "__main__":
+    main()
