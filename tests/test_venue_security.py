@@ -10,6 +10,7 @@ import re
 import stat
 import subprocess
 import sys
+import threading
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -17,12 +18,14 @@ from typing import Any
 import httpx
 import pytest
 import websockets.sync.client as ws_client
+import zenoh
 from websockets.exceptions import InvalidStatus
 
 from server.security.token_file import read_token_file, token_path
 from tests.dashboard_server import RunningServer, dashboard_server
 from tests.support import REPO, free_port
 from tests.waiting import wait_for
+from wire import keys
 from wire.machine import machine_addresses
 
 EVIL = "http://evil.example"
@@ -223,6 +226,46 @@ def test_nested_huge_and_binary_bodies_are_answered_not_crashed(server: RunningS
     binary = server.http.post(url, content=os.urandom(2000), headers={"Content-Type": "application/json"})
     assert binary.status_code in (400, 422), binary.text
     assert server.http.get(f"{server.url}/api/replay").status_code == 200  # still serving
+
+
+def test_parameter_events_outlive_what_a_process_on_the_bus_sends(router_endpoint: str, client: zenoh.Session,
+                                                                  tmp_path: Path) -> None:
+    """The browser's stream of parameter events carries what nodes announce on the bus. JSON nested 100,000 deep
+    (which made Python's parser raise RecursionError and cut every browser's stream) is skipped, and an event
+    with a carriage return (which ends a line of a server-sent event) arrives as one line, as the server writes
+    it; the stream stays open and the next event arrives."""
+    changed = keys.params_changed_key("r6", "hcm")
+    good = {"node": "hcm", "changed": {"gain": 2.0}, "revisions": {"gain": 4}}
+    lines: list[str] = []
+    closed = threading.Event()
+    with dashboard_server(["--connect", router_endpoint, "--no-telemetry"], tmp_path) as server:
+        def listen() -> None:
+            try:
+                with httpx.stream("GET", f"{server.url}/api/robots/r6/params/*/events", headers=server.auth,
+                                  timeout=httpx.Timeout(10.0, read=None)) as reply:
+                    assert reply.status_code == 200
+                    for line in reply.iter_lines():
+                        lines.append(line)
+            except httpx.HTTPError:
+                pass
+            closed.set()
+
+        reader = threading.Thread(target=listen, daemon=True)
+        reader.start()
+        wait_for(lambda: lines, 20.0, 0.05, "the event stream open")
+
+        def delivered() -> bool:  # sent again until the server's subscription is routed to this session
+            client.put(changed, b"[" * 100_000)
+            client.put(changed, b'{"node": "hcm",\r"changed": {"gain": 1.0},\r"revisions": {"gain": 3}}\r')
+            client.put(changed, json.dumps(good))
+            return closed.is_set() or any(line.startswith("data: ") and json.loads(line[6:]) == good for line in lines)
+
+        wait_for(delivered, 20.0, 0.2, "an event after the hostile ones")
+        assert not closed.is_set(), lines
+        data = [json.loads(line[6:]) for line in lines if line.startswith("data: ")]  # every one a whole event
+        assert {"node": "hcm", "changed": {"gain": 1.0}, "revisions": {"gain": 3}} in data
+        assert not [line for line in lines if line and not line.startswith(("data: ", ": "))], lines
+    reader.join(10)
 
 
 # -- paths and names from clients ----------------------------------------------------------------------------------

@@ -19,7 +19,7 @@ from urllib.parse import parse_qsl, urlencode, urlsplit
 
 from server.security.credentials import Credentials
 from server.security.hosts import AllowedHosts, host_name_of
-from server.security.json_limits import MAX_DEPTH, JsonLimitError, check_json_depth
+from wire.json_limits import MAX_DEPTH, JsonLimitError, check_json_depth
 
 Scope = MutableMapping[str, Any]
 Message = MutableMapping[str, Any]
