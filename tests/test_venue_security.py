@@ -17,10 +17,14 @@ from typing import Any
 
 import httpx
 import pytest
+import uvicorn
 import websockets.sync.client as ws_client
 import zenoh
+from fastapi.routing import APIRoute
 from websockets.exceptions import InvalidStatus
 
+from server.app import create_app
+from server.config import ServerConfig
 from server.security.token_file import read_token_file, token_path
 from tests.dashboard_server import RunningServer, dashboard_server
 from tests.support import REPO, free_port
@@ -266,6 +270,33 @@ def test_parameter_events_outlive_what_a_process_on_the_bus_sends(router_endpoin
         assert {"node": "hcm", "changed": {"gain": 1.0}, "revisions": {"gain": 3}} in data
         assert not [line for line in lines if line and not line.startswith(("data: ", ": "))], lines
     reader.join(10)
+
+
+def test_a_failing_request_is_answered_with_the_security_headers(tmp_path: Path) -> None:
+    """A bug that raises in an endpoint is answered by the guard (500, JSON, every security header), not by
+    Starlette's own error page around it, which carries none of them."""
+    port = free_port()
+    config = ServerConfig(port=port, live_source=False, telemetry_source=False, recordings_dir=tmp_path)
+    app = create_app(config)
+
+    def broken() -> None:
+        raise RuntimeError("a bug")
+
+    app.router.routes.insert(0, APIRoute("/api/broken", broken))  # before the page's files, which take the rest
+    server = uvicorn.Server(uvicorn.Config(app, host="127.0.0.1", port=port, log_level="critical"))
+    thread = threading.Thread(target=server.run, daemon=True)
+    thread.start()
+    try:
+        wait_for(lambda: server.started, 30.0, 0.05, "the server up")
+        reply = httpx.get(f"http://127.0.0.1:{port}/api/broken", timeout=10)
+        assert reply.status_code == 500 and reply.headers["content-type"] == "application/json", reply.text
+        assert reply.headers.get("x-content-type-options") == "nosniff"
+        assert "frame-ancestors 'self'" in reply.headers.get("content-security-policy", "")
+        assert "a bug" not in reply.text  # the details stay in the server's log
+        assert httpx.get(f"http://127.0.0.1:{port}/api/config", timeout=10).status_code == 200  # still serving
+    finally:
+        server.should_exit = True
+        thread.join(10)
 
 
 # -- paths and names from clients ----------------------------------------------------------------------------------
