@@ -491,3 +491,25 @@ def _b64(data: bytes) -> str:
     import base64
 
     return base64.b64encode(data).decode("ascii")
+
+
+def test_a_router_open_to_the_network_without_access_control_says_so(team: Path) -> None:
+    """`pitchside router --listen tcp/0.0.0.0:...` (the lab's plain setup) lets anyone who reaches it publish
+    motor_goals: the router says so when it starts, and a team's secured router has nothing to warn about."""
+    cli = [sys.executable, "-m", "pitchside.cli", "router"]
+    for args, warned in ((["--listen", f"tcp/0.0.0.0:{free_port()}"], True),
+                         (["--listen", f"tcp/127.0.0.1:{free_port()}"], False),
+                         (["--zenoh-config", str(team / "router.json5"), "--listen", f"tls/0.0.0.0:{free_port()}"],
+                          False)):
+        router = subprocess.Popen([*cli, *args], cwd=REPO, stderr=subprocess.PIPE, text=True)
+        try:
+            assert router.stderr is not None
+            lines = [router.stderr.readline()]
+            while "Zenoh router listening on" not in lines[-1]:
+                assert lines[-1], lines  # (an empty line: the router ended)
+                lines.append(router.stderr.readline())
+            said = "".join(lines)
+            assert ("without access control: anyone who reaches it may publish motor_goals" in said) is warned, said
+        finally:
+            router.terminate()
+            router.wait(15)

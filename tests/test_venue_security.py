@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import os
 import re
+import socket
 import stat
 import subprocess
 import sys
@@ -16,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 import httpx
+import psutil
 import pytest
 import uvicorn
 import websockets.sync.client as ws_client
@@ -27,10 +29,11 @@ from server.app import create_app
 from server.config import ServerConfig
 from server.security.token_file import read_token_file, token_path
 from tests.dashboard_server import RunningServer, dashboard_server
+from tests.running_demo import running_demo
 from tests.support import REPO, free_port
 from tests.waiting import wait_for
 from wire import keys
-from wire.machine import machine_addresses
+from wire.machine import is_loopback, machine_addresses
 
 EVIL = "http://evil.example"
 BODIES: dict[str, Any] = {"/params/{node}": {"values": {"rate_hz": 10}}, "/penalize": {"penalize": "on"},
@@ -297,6 +300,31 @@ def test_a_failing_request_is_answered_with_the_security_headers(tmp_path: Path)
     finally:
         server.should_exit = True
         thread.join(10)
+
+
+# -- what the demo opens -------------------------------------------------------------------------------------------
+@pytest.mark.slow
+def test_the_demo_listens_on_loopback_only(tmp_path: Path) -> None:
+    """Everything of `pitchside demo` runs on this machine: none of its processes (world, robot nodes, simulated
+    GameController, dashboard, 3D view, plots, Foxglove) takes a port a stranger on the network could send to,
+    UDP included (the GameController receiver, the telemetry listener, the telemetry sender's own socket)."""
+    with running_demo(tmp_path) as demo:
+        def telemetry_flows() -> bool:
+            sources = httpx.get(f"{demo.url}/api/sources", headers=demo.auth, timeout=10).json()
+            return any(s["name"] == "telemetry" and s.get("messages", 0) > 0 for s in sources)
+
+        wait_for(telemetry_flows, 120.0, 0.5, "the robot's telemetry at the dashboard")
+        opened = []
+        for process in demo.processes():
+            try:
+                connections = process.net_connections(kind="inet")
+            except psutil.NoSuchProcess:
+                continue
+            opened += [(process.name(), " ".join(process.cmdline()[1:4]), c.type, c.laddr) for c in connections
+                       if c.status == psutil.CONN_LISTEN or c.type == socket.SOCK_DGRAM]
+        assert len(opened) >= 8, opened  # the dashboard, its views, every node's bus port, the UDP links
+        assert {c[2] for c in opened} == {socket.SOCK_STREAM, socket.SOCK_DGRAM}, opened
+        assert [c for c in opened if not is_loopback(c[3].ip)] == []
 
 
 # -- paths and names from clients ----------------------------------------------------------------------------------
