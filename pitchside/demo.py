@@ -58,8 +58,10 @@ def demo_processes(robots: int, endpoint: str, http_port: int, telemetry_port: i
     for i in range(1, robots + 1):
         robot_id = f"robot{i}"
         extra = {
+            # everything of the demo is on this machine: nothing listens beyond loopback (README "Security at
+            # the venue"); a real robot hears the GameController's broadcast on every interface
             "game_controller": ["--set", f"player_number={i}", "--set", f"listen_port={gc_ports[i - 1]}",
-                                "--set", f"return_port={gc_return_port}"],
+                                "--set", "listen_address=127.0.0.1", "--set", f"return_port={gc_return_port}"],
             "telemetry": ["--set", f"destination=127.0.0.1:{telemetry_port}",
                           *(["--set", f"team_key={telemetry_key}"] if telemetry_key else
                             ["--set", "allow_dev_key=true"])],
@@ -70,7 +72,8 @@ def demo_processes(robots: int, endpoint: str, http_port: int, telemetry_port: i
     for port in gc_ports:
         gc += ["--to", f"127.0.0.1:{port}"]
     processes.append(NodeProcess("gamecontroller", gc))
-    server = [py, "-m", "server", "--port", str(http_port), "--telemetry-port", str(telemetry_port),
+    server = [py, "-m", "server", "--port", str(http_port), "--telemetry-host", "127.0.0.1",
+              "--telemetry-port", str(telemetry_port),
               "--urdf", str(descriptions.urdf(model)), "--robot3d", "--plots", *connect]
     server += ["--telemetry-key", str(telemetry_key)] if telemetry_key else ["--allow-dev-key"]
     if match:

@@ -8,7 +8,6 @@ the credential whatever the method, so a GET that queries robots (their paramete
 
 from __future__ import annotations
 
-import re
 import time
 
 from fastapi import Depends, HTTPException
@@ -17,7 +16,7 @@ from starlette.requests import HTTPConnection
 from server.security import Credentials
 from server.state import ServerState
 from server.zenoh_link import MATCH_MODE_REASON
-from wire.keys import NAME_RULE, is_valid_name
+from wire.keys import NAME_RULE, NODE_RULE, is_valid_name, is_valid_node_name
 
 
 def get_state(conn: HTTPConnection) -> ServerState:
@@ -74,10 +73,7 @@ def valid_robot(robot: str) -> str:
     return robot
 
 
-_NODE = re.compile(r"^[A-Za-z0-9_]{1,64}$")
-
-
 def valid_node(node: str) -> str:
-    if not _NODE.match(node):
-        raise HTTPException(422, f"bad node name {node!r}: 1-64 letters, digits or '_'")
+    if not is_valid_node_name(node):
+        raise HTTPException(422, f"bad node name {node!r}: {NODE_RULE}")
     return node

@@ -45,7 +45,7 @@ from typing import Any, Literal, TypedDict
 
 from schemas.json_view import to_dict
 from server.hub import HubMessage
-from server.security.json_limits import JsonLimitError, loads_limited
+from wire.json_limits import JsonLimitError, loads_limited
 
 IMAGE_TYPES = frozenset({"sensor_msgs/msg/CompressedImage"})
 MAX_CLIENT_FRAME_BYTES = 64 << 10  # a request is ~100 bytes; anything far larger is not one of ours

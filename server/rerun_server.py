@@ -3,7 +3,7 @@
 The SDK's own ``rr.serve_grpc`` listens on every interface (rerun 0.41's Python bindings fix 0.0.0.0) and answers
 any Host and any localhost origin, so anyone on the venue network, and a DNS-rebinding page in the laptop's
 browser, could read the plots. The ``rerun`` CLI shipped in the same wheel takes ``--bind``: it serves the viewer's
-files and the data on 127.0.0.1, the gRPC port by default one browsers refuse (server.loopback_ports), and the
+files and the data on 127.0.0.1, on ports browsers refuse by default (server.loopback_ports), and the
 dashboard passes both through its own origin (server.routers.plots). The SDK logs into it over gRPC.
 
 The child dies with the dashboard (PR_SET_PDEATHSIG), so a killed dashboard leaves no server holding the plots.
@@ -23,7 +23,7 @@ import sys
 from importlib.resources import files
 from pathlib import Path
 
-from server.loopback_ports import LOOPBACK, any_free_port, internal_port
+from server.loopback_ports import LOOPBACK, internal_port
 
 log = logging.getLogger(__name__)
 START_TIMEOUT_S = 20.0
@@ -54,7 +54,7 @@ def rerun_cli() -> Path:
 
 class RerunServer:
     """``rerun --serve-web --bind 127.0.0.1``: the gRPC proxy the SDK logs into and the viewer reads from, and the
-    viewer's files. Ports 0 mean: gRPC on a browser-blocked port, the files on any free port."""
+    viewer's files. Ports 0 mean: each on a browser-blocked port (server.loopback_ports)."""
 
     def __init__(self, grpc_port: int = 0, web_port: int = 0, memory_limit: str = "256MiB") -> None:
         self.wanted = (grpc_port, web_port)
@@ -80,7 +80,9 @@ class RerunServer:
         exe = rerun_cli()
         for attempt in range(3):
             self.grpc_port = internal_port(self.wanted[0], "plots (rerun's gRPC server)")
-            self.web_port = self.wanted[1] or any_free_port()
+            # the viewer's files too: rerun's file server answers any Host, so a page that rebinds its name to
+            # loopback could otherwise load the viewer from it (and, given a gRPC port it may open, the plots)
+            self.web_port = internal_port(self.wanted[1], "plots (rerun's viewer files)", avoid=(self.grpc_port,))
             try:
                 await self._spawn(exe)
                 return

@@ -491,3 +491,72 @@ def _b64(data: bytes) -> str:
     import base64
 
     return base64.b64encode(data).decode("ascii")
+
+
+def test_a_router_open_to_the_network_without_access_control_says_so(team: Path) -> None:
+    """`pitchside router --listen tcp/0.0.0.0:...` (the lab's plain setup) lets anyone who reaches it publish
+    motor_goals: the router says so when it starts, and a team's secured router has nothing to warn about."""
+    cli = [sys.executable, "-m", "pitchside.cli", "router"]
+    for args, warned in ((["--listen", f"tcp/0.0.0.0:{free_port()}"], True),
+                         (["--listen", f"tcp/127.0.0.1:{free_port()}"], False),
+                         (["--zenoh-config", str(team / "router.json5"), "--listen", f"tls/0.0.0.0:{free_port()}"],
+                          False)):
+        router = subprocess.Popen([*cli, *args], cwd=REPO, stderr=subprocess.PIPE, text=True)
+        try:
+            assert router.stderr is not None
+            lines = [router.stderr.readline()]
+            while "Zenoh router listening on" not in lines[-1]:
+                assert lines[-1], lines  # (an empty line: the router ended)
+                lines.append(router.stderr.readline())
+            said = "".join(lines)
+            assert ("without access control: anyone who reaches it may publish motor_goals" in said) is warned, said
+        finally:
+            router.terminate()
+            router.wait(15)
+
+
+def test_no_member_but_the_robot_writes_any_topic_of_it(team: Path, router: zenoh.Session) -> None:
+    """Not only motor_goals and cmd_vel: every topic of the table (motor_torque, head and walk goals, animation,
+    paused, gamestate, ...) sent to robot1 by another robot, by a viewer (both with the rules deleted from their
+    files) or by the lab laptop is dropped at the team router, except the two the laptop may send."""
+    robot1 = robot_router(team, "robot1")
+    node = robot_process(robot1)
+    got: list[tuple[str, str]] = []
+    lock = threading.Lock()
+
+    def on_sample(sample: zenoh.Sample) -> None:
+        _, topic = keys.split_topic_key(str(sample.key_expr))
+        with lock:
+            got.append((topic, sample.attachment.to_string() if sample.attachment is not None else "?"))
+
+    subscriber = node.declare_subscriber(keys.topic_key("robot1", "**"), on_sample)
+    robot2_router = robot_router(team, "robot2", access_control=False)
+    sessions: list[zenoh.Session] = []
+    try:
+        senders = {"robot2": robot_process(robot2_router), "viewer": member_session(team, "viewer",
+                                                                                   access_control=False),
+                   "laptop": member_session(team, "laptop")}
+        sessions += senders.values()
+        publishers = {(who, t): session.declare_publisher(keys.topic_key("robot1", t))
+                      for who, session in senders.items() for t in schemas.TOPICS}
+        for (who, t), publisher in publishers.items():
+            wait_matched(publisher, f"robot1's subscription seen by {who} ({t})")
+        for (who, _), publisher in publishers.items():
+            publisher.put(b"\x00\x01\x00\x00", attachment=who)  # bytes are enough: the router drops by key
+
+        def laptop_heard() -> bool:  # after everything else the laptop sent, on the same session
+            publishers[("laptop", "cmd_vel")].put(b"\x00\x01\x00\x00", attachment="laptop-last")
+            with lock:
+                return ("cmd_vel", "laptop-last") in got
+
+        wait_for(laptop_heard, 10.0, 0.2, "the laptop's last cmd_vel")
+        with lock:
+            heard = {(t, who) for t, who in got if who != "laptop-last"}
+        assert heard <= {("cmd_vel", "laptop"), ("record_motor_goals", "laptop")}, sorted(heard)
+    finally:
+        subscriber.undeclare()
+        for session in sessions:
+            session.close()
+        robot2_router.close()
+        node.close()
+        robot1.close()

@@ -4,21 +4,37 @@ as text and runs none of it."""
 
 from __future__ import annotations
 
+import json
 import threading
 from pathlib import Path
 from typing import Any
 
 import pytest
 import zenoh
+from mcap.writer import Writer
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 import schemas
+from schemas import codec
 from schemas.logs import LogWriter
-from tests.dashboard_server import dashboard_server
+from schemas.topics import TOPICS
+from tests.dashboard_server import RunningServer, dashboard_server
 from tests.waiting import wait_for
+from wire import keys
 from wire.keys import topic_key
 
 pytestmark = [pytest.mark.slow, pytest.mark.browser]
 MARKUP = "<img src=x onerror=window.__pwned=1>"
+# breaks out of a quoted attribute as well as text; every element it would make is marked, so one query finds them
+HOSTILE = "\"'><img src=x data-pwned=1 onerror=window.__pwned=1><b data-pwned=2>pwned</b>"
+# counts every marked element ever added to the page, also one a later redraw removed again
+WATCH = """() => { window.__injected = []; new MutationObserver((changes) => { for (const c of changes) {
+    for (const n of c.addedNodes) { if (!n.querySelectorAll) continue;
+      for (const e of [n, ...n.querySelectorAll('[data-pwned]')]) if (e.hasAttribute('data-pwned'))
+        window.__injected.push(((e.closest('[data-panel]') || {}).dataset || {}).panel + ': ' +
+                               (e.closest('tr') || e.parentElement || e).outerHTML.slice(0, 300)); } } })
+  .observe(document, { subtree: true, childList: true }); }"""
+SHOW_ALL = "() => { const l = window.pitchside.layout; for (const p of l.state.panels) if (p.hidden) l.show(p.id); }"
 
 
 def _hostile_log(path: Path) -> None:
@@ -113,3 +129,195 @@ def test_a_page_opened_without_the_token_is_view_only_until_signed_in(browser: A
         assert cookie["httpOnly"] and cookie["sameSite"] == "Strict" and cookie["value"] != server.token
         assert page.evaluate("document.cookie") == ""  # no script of the page can read it
         assert not errors, errors
+
+
+# -- every string of every topic, the parameters, the file names ---------------------------------------------------
+def _with_markup(typename: str, depth: int = 0, **numbers: Any) -> Any:
+    """A message of the type with HOSTILE in every string (in sequences of strings and of messages too)."""
+    fields: dict[str, Any] = dict(numbers)
+    definition: Any = codec.typestore().fielddefs[codec.full_name(typename)][1]
+    for name, (kind, detail) in definition:
+        if kind == 1 and detail[0] in ("string", "wstring"):
+            fields[name] = HOSTILE
+        elif kind == 2 and depth < 4:
+            fields[name] = _with_markup(detail, depth + 1)
+        elif kind in (3, 4) and detail[0][0] == 1 and detail[0][1][0] in ("string", "wstring"):
+            fields[name] = [HOSTILE] * (detail[1] if kind == 3 else 3)
+        elif kind == 4 and detail[0][0] == 2 and depth < 4:
+            fields[name] = [_with_markup(detail[0][1], depth + 1) for _ in range(2)]
+    return schemas.make(typename, **fields)
+
+
+def _hostile_parameters(client: zenoh.Session, robot: str) -> Any:
+    """A process on the bus answering the robot's parameter queries: one answer as a well-named node whose
+    parameters carry markup, one that names a node with markup, one that claims a node on another node's key."""
+    params = [{"name": "mode", "type": "str", "value": HOSTILE, "default": HOSTILE, "choices": [HOSTILE, "b"],
+               "doc": HOSTILE, "revision": 1},
+              {"name": "gain", "type": "float", "value": 1.0, "default": 0.5, "range": [0.0, 2.0], "doc": HOSTILE,
+               "revision": 2},
+              {"name": "tags", "type": "list", "value": [HOSTILE], "default": [], "doc": HOSTILE, "revision": 3}]
+
+    def answer(query: zenoh.Query) -> None:
+        # each on a key of its own: Zenoh keeps one reply per key
+        for node, key in (("evil_node", "evil_node"), (HOSTILE, "marked"), ("hcm", "impostor")):
+            query.reply(keys.params_key(robot, key), json.dumps({"ok": True, "node": node, "robot": robot,
+                                                                 "params": params}))
+
+    return client.declare_queryable(keys.params_key(robot, "*"), answer)
+
+
+def _publish_every_topic(client: zenoh.Session, robot: str, stop: threading.Event) -> None:
+    numbers = {"rosout": {"level": 40}}  # an error: the node log shows it whatever its level filter
+    payloads = {t.name: schemas.encode(_with_markup(t.type, **numbers.get(t.name, {}))) for t in TOPICS.values()
+                if t.type != "sensor_msgs/msg/CompressedImage"}
+    assert len(payloads) >= 30, sorted(payloads)
+    while not stop.wait(0.2):
+        for name, data in payloads.items():
+            client.put(topic_key(robot, name), data)
+
+
+def _injected(page: Any) -> list[str]:
+    return [*page.evaluate("window.__injected"), *(["script ran"] if page.evaluate("window.__pwned") else [])]
+
+
+def test_every_string_of_every_topic_every_parameter_and_file_name_stays_text(
+        browser: Any, router_endpoint: str, client: zenoh.Session, tmp_path: Path) -> None:
+    """Any process on the bus, with markup in every string of every topic of the table and in its parameters'
+    names, values, choices and descriptions, and a recording named with markup: every panel shows them, as text."""
+    rec = tmp_path / "rec"
+    rec.mkdir()
+    with LogWriter(rec / "a'b&c.mcap") as writer:  # a file name a shell allows: quote and ampersand
+        writer.write("r8", "robot_state", schemas.make("humanoid_league_msgs/msg/RobotControlState", state=2),
+                     log_time_ns=1_700_000_000_000_000_000)
+    (rec / f"x{HOSTILE.replace('/', '')}.mcap").write_bytes((rec / "a'b&c.mcap").read_bytes())
+    stop = threading.Event()
+    publisher = threading.Thread(target=_publish_every_topic, args=(client, "r9", stop), daemon=True)
+    publisher.start()
+    queryable = _hostile_parameters(client, "r9")
+    try:
+        with dashboard_server(["--connect", router_endpoint, "--no-telemetry", "--recordings", str(rec)],
+                              tmp_path) as server:
+            def listing() -> dict[str, Any]:
+                reply = server.http.get(f"{server.url}/api/robots/r9/params", timeout=20)
+                assert reply.status_code == 200, reply.text
+                return dict(reply.json())
+
+            nodes = wait_for(listing, 20.0, 0.2, "r9's parameters listed")
+            assert set(nodes) == {"evil_node"}, nodes  # nodes named by the rule, each on its own key
+            page = browser.new_page(viewport={"width": 1800, "height": 3200})
+            console: list[str] = []
+            page.on("console", lambda m: console.append(m.text))
+            page.add_init_script(f"({WATCH})()")
+            page.goto(server.login_url)
+            page.wait_for_function("() => window.pitchside && window.pitchside.layout")
+            page.evaluate(SHOW_ALL)
+            page.evaluate("window.pitchside.store.setFocus('r9')")
+            panels = ["diagnostics", "node_log", "hcm", "team", "parameters", "recordings"]
+
+            def shown() -> list[str]:  # the panels that show the markup (as text) so far
+                return [p for p in panels if "data-pwned=2" in (page.text_content(f'[data-panel="{p}"]') or "")]
+
+            wait_for(lambda: len(shown()) == len(panels), 60.0, 0.5, f"markup as text in {panels} (so far {shown()})")
+            wait_for(lambda: "data-pwned" in (page.text_content('[data-panel="recordings"]') or ""), 30.0, 0.2,
+                     "the file named with markup in the recordings list")
+            for node in page.query_selector_all('[data-panel="hcm"] .hcm-node')[:3]:
+                node.dispatch_event("mouseenter")  # the tooltip of a state: its transitions' names
+            assert "data-pwned=2" in (page.text_content('[data-panel="hcm"] .tip') or "")
+            assert _injected(page) == []
+            page.reload()  # the page built from the newest messages at once, not only from the updates
+            page.wait_for_function("() => window.pitchside && window.pitchside.layout")
+            wait_for(lambda: len(shown()) >= 3, 60.0, 0.5, "the markup after a reload")
+            assert _injected(page) == []
+            assert not [m for m in console if "Content Security Policy" in m]
+    finally:
+        stop.set()
+        publisher.join(5)
+        queryable.undeclare()
+
+
+# -- a log whose schemas give a table topic other types -----------------------------------------------------------
+def _definition(*parts: str) -> str:
+    """A ros2msg schema text: the type's fields, then each type it uses under its MSG: line."""
+    return ("=" * 80 + "\n").join(parts)
+
+
+_TIME = "MSG: builtin_interfaces/Time\nint32 sec\nuint32 nanosec\n"
+RETYPED = {  # each a table topic's type, a number of it now a string (the file carries its own definitions)
+    "rosout": ("rcl_interfaces/msg/Log", _definition("builtin_interfaces/Time stamp\nstring level\nstring name\n"
+                                                     "string msg\nstring file\nstring function\nstring line\n",
+                                                     _TIME)),
+    "diagnostics": ("diagnostic_msgs/msg/DiagnosticArray", _definition(
+        "std_msgs/Header header\nDiagnosticStatus[] status\n",
+        "MSG: std_msgs/Header\nbuiltin_interfaces/Time stamp\nstring frame_id\n", _TIME,
+        "MSG: diagnostic_msgs/DiagnosticStatus\nstring level\nstring name\nstring message\nstring hardware_id\n"
+        "KeyValue[] values\n",
+        "MSG: diagnostic_msgs/KeyValue\nstring key\nstring value\n")),
+    "robot_state": ("humanoid_league_msgs/msg/RobotControlState", "string state\n"),
+    "hcm_graph": ("std_msgs/msg/String", "string data\n"),  # another type altogether
+}
+
+
+def _retyped_log(path: Path) -> None:
+    """Another team's log, written with its own schemas (as any MCAP writer may), robot r7."""
+    store = get_typestore(Stores.EMPTY)
+    for typename, text in RETYPED.values():
+        store.register(get_types_from_msg(text, typename))
+    types = store.types
+    with path.open("wb") as f:
+        writer = Writer(f)
+        writer.start(profile="ros2", library="another team")
+        channels = {}
+        for topic, (typename, text) in RETYPED.items():
+            schema = writer.register_schema(typename, "ros2msg", text.encode())
+            channels[topic] = writer.register_channel(f"/r7/{topic}", "cdr", schema, {"robot_id": "r7", "topic": topic})
+        for k in range(60):
+            t = 1_700_000_000_000_000_000 + k * 50_000_000
+            stamp = types["builtin_interfaces/msg/Time"](sec=t // 10**9, nanosec=t % 10**9)
+            header = types["std_msgs/msg/Header"](stamp=stamp, frame_id="")
+            status = types["diagnostic_msgs/msg/DiagnosticStatus"](level=HOSTILE, name="r7/cm730", message=HOSTILE,
+                                                                   hardware_id="", values=[])
+            messages = {
+                "rosout": types["rcl_interfaces/msg/Log"](stamp=stamp, level=HOSTILE, name="cm730", msg=HOSTILE,
+                                                          file=HOSTILE, function="f", line=HOSTILE),
+                "diagnostics": types["diagnostic_msgs/msg/DiagnosticArray"](header=header, status=[status]),
+                "robot_state": types["humanoid_league_msgs/msg/RobotControlState"](state=HOSTILE),
+                "hcm_graph": types["std_msgs/msg/String"](data=HOSTILE),
+            }
+            for topic, (typename, _) in RETYPED.items():
+                writer.add_message(channels[topic], log_time=t, publish_time=t,
+                                   data=bytes(store.serialize_cdr(messages[topic], typename)))
+        writer.finish()
+
+
+def _replay(server: RunningServer, what: str, body: dict[str, Any] | None = None) -> Any:
+    reply = server.http.post(f"{server.url}/api/replay/{what}", json=body or {})
+    assert reply.status_code == 200, reply.text
+    return reply.json()
+
+
+def test_a_log_that_retypes_a_table_topic_is_not_replayed_as_that_topic(browser: Any, tmp_path: Path) -> None:
+    """A log's own schema for rosout, diagnostics or robot_state with a string where the topic table has a number
+    (or another type on hcm_graph) would put that string where panels write numbers (a CSS class): such channels
+    are listed with the reason and reach no panel."""
+    rec = tmp_path / "rec"
+    rec.mkdir()
+    _retyped_log(rec / "retyped.mcap")
+    with dashboard_server(["--no-live", "--no-telemetry", "--recordings", str(rec)], tmp_path) as server:
+        page = browser.new_page(viewport={"width": 1800, "height": 3200})
+        page.add_init_script(f"({WATCH})()")
+        page.goto(server.login_url)
+        page.wait_for_function("() => window.pitchside && window.pitchside.layout")
+        page.evaluate(SHOW_ALL)
+        info = _replay(server, "open", {"path": "retyped.mcap"})
+        _replay(server, "play", None)
+        wait_for(lambda: server.http.get(f"{server.url}/api/replay").json()["state"] in ("ended", "paused"), 30.0,
+                 0.2, "the replay played to its end")
+        wait_for(lambda: all(t in (page.text_content('[data-panel="replay"]') or "") for t in RETYPED), 30.0, 0.2,
+                 "the replay panel listing the log's topics")
+        assert _injected(page) == []
+        problems = {t["topic"]: t["problem"] for t in info["topics"]}
+        assert set(problems) == set(RETYPED) and all(problems.values()), problems
+        assert not any(t["decodable"] for t in info["topics"]), info["topics"]
+        assert "std_msgs/msg/String" in problems["hcm_graph"] and "other fields" in problems["rosout"]
+        robots = server.http.get(f"{server.url}/api/robots").json()
+        assert not [r for r in robots if r["robot"] == "replay.r7"], robots  # none of its messages reached the hub

@@ -165,7 +165,9 @@ def test_rest_recording_of_live_messages(router_endpoint: str, stand: TestStand,
         got = server.http.get(f"{server.url}/api/recordings/files/{listing['files'][0]['name']}", timeout=20)
         assert got.status_code == 200 and "attachment" in got.headers["content-disposition"]
         (folder / "notes.txt").write_text("not a recording")
-        for name in ("nothing.mcap", "notes.txt", "..%2F..%2Fetc%2Fpasswd", "%2Fetc%2Fpasswd"):
+        (tmp_path / "elsewhere.mcap").write_bytes(got.content)  # a link in the folder to a file outside it
+        (folder / "link_out.mcap").symlink_to(tmp_path / "elsewhere.mcap")
+        for name in ("nothing.mcap", "notes.txt", "..%2F..%2Fetc%2Fpasswd", "%2Fetc%2Fpasswd", "link_out.mcap"):
             assert server.http.get(f"{server.url}/api/recordings/files/{name}", timeout=10).status_code == 404, name
     (entry,) = listing["files"]
     assert got.content == (folder / entry["name"]).read_bytes()

@@ -7,23 +7,33 @@ from __future__ import annotations
 import json
 import os
 import re
+import socket
 import stat
 import subprocess
 import sys
+import threading
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import httpx
+import psutil
 import pytest
+import uvicorn
 import websockets.sync.client as ws_client
+import zenoh
+from fastapi.routing import APIRoute
 from websockets.exceptions import InvalidStatus
 
+from server.app import create_app
+from server.config import ServerConfig
 from server.security.token_file import read_token_file, token_path
 from tests.dashboard_server import RunningServer, dashboard_server
+from tests.running_demo import running_demo
 from tests.support import REPO, free_port
 from tests.waiting import wait_for
-from wire.machine import machine_addresses
+from wire import keys
+from wire.machine import is_loopback, machine_addresses
 
 EVIL = "http://evil.example"
 BODIES: dict[str, Any] = {"/params/{node}": {"values": {"rate_hz": 10}}, "/penalize": {"penalize": "on"},
@@ -223,6 +233,98 @@ def test_nested_huge_and_binary_bodies_are_answered_not_crashed(server: RunningS
     binary = server.http.post(url, content=os.urandom(2000), headers={"Content-Type": "application/json"})
     assert binary.status_code in (400, 422), binary.text
     assert server.http.get(f"{server.url}/api/replay").status_code == 200  # still serving
+
+
+def test_parameter_events_outlive_what_a_process_on_the_bus_sends(router_endpoint: str, client: zenoh.Session,
+                                                                  tmp_path: Path) -> None:
+    """The browser's stream of parameter events carries what nodes announce on the bus. JSON nested 100,000 deep
+    (which made Python's parser raise RecursionError and cut every browser's stream) is skipped, and an event
+    with a carriage return (which ends a line of a server-sent event) arrives as one line, as the server writes
+    it; the stream stays open and the next event arrives."""
+    changed = keys.params_changed_key("r6", "hcm")
+    good = {"node": "hcm", "changed": {"gain": 2.0}, "revisions": {"gain": 4}}
+    lines: list[str] = []
+    closed = threading.Event()
+    with dashboard_server(["--connect", router_endpoint, "--no-telemetry"], tmp_path) as server:
+        def listen() -> None:
+            try:
+                with httpx.stream("GET", f"{server.url}/api/robots/r6/params/*/events", headers=server.auth,
+                                  timeout=httpx.Timeout(10.0, read=None)) as reply:
+                    assert reply.status_code == 200
+                    for line in reply.iter_lines():
+                        lines.append(line)
+            except httpx.HTTPError:
+                pass
+            closed.set()
+
+        reader = threading.Thread(target=listen, daemon=True)
+        reader.start()
+        wait_for(lambda: lines, 20.0, 0.05, "the event stream open")
+
+        def delivered() -> bool:  # sent again until the server's subscription is routed to this session
+            client.put(changed, b"[" * 100_000)
+            client.put(changed, b'{"node": "hcm",\r"changed": {"gain": 1.0},\r"revisions": {"gain": 3}}\r')
+            client.put(changed, json.dumps(good))
+            return closed.is_set() or any(line.startswith("data: ") and json.loads(line[6:]) == good for line in lines)
+
+        wait_for(delivered, 20.0, 0.2, "an event after the hostile ones")
+        assert not closed.is_set(), lines
+        data = [json.loads(line[6:]) for line in lines if line.startswith("data: ")]  # every one a whole event
+        assert {"node": "hcm", "changed": {"gain": 1.0}, "revisions": {"gain": 3}} in data
+        assert not [line for line in lines if line and not line.startswith(("data: ", ": "))], lines
+    reader.join(10)
+
+
+def test_a_failing_request_is_answered_with_the_security_headers(tmp_path: Path) -> None:
+    """A bug that raises in an endpoint is answered by the guard (500, JSON, every security header), not by
+    Starlette's own error page around it, which carries none of them."""
+    port = free_port()
+    config = ServerConfig(port=port, live_source=False, telemetry_source=False, recordings_dir=tmp_path)
+    app = create_app(config)
+
+    def broken() -> None:
+        raise RuntimeError("a bug")
+
+    app.router.routes.insert(0, APIRoute("/api/broken", broken))  # before the page's files, which take the rest
+    server = uvicorn.Server(uvicorn.Config(app, host="127.0.0.1", port=port, log_level="critical"))
+    thread = threading.Thread(target=server.run, daemon=True)
+    thread.start()
+    try:
+        wait_for(lambda: server.started, 30.0, 0.05, "the server up")
+        reply = httpx.get(f"http://127.0.0.1:{port}/api/broken", timeout=10)
+        assert reply.status_code == 500 and reply.headers["content-type"] == "application/json", reply.text
+        assert reply.headers.get("x-content-type-options") == "nosniff"
+        assert "frame-ancestors 'self'" in reply.headers.get("content-security-policy", "")
+        assert "a bug" not in reply.text  # the details stay in the server's log
+        assert httpx.get(f"http://127.0.0.1:{port}/api/config", timeout=10).status_code == 200  # still serving
+    finally:
+        server.should_exit = True
+        thread.join(10)
+
+
+# -- what the demo opens -------------------------------------------------------------------------------------------
+@pytest.mark.slow
+def test_the_demo_listens_on_loopback_only(tmp_path: Path) -> None:
+    """Everything of `pitchside demo` runs on this machine: none of its processes (world, robot nodes, simulated
+    GameController, dashboard, 3D view, plots, Foxglove) takes a port a stranger on the network could send to,
+    UDP included (the GameController receiver, the telemetry listener, the telemetry sender's own socket)."""
+    with running_demo(tmp_path) as demo:
+        def telemetry_flows() -> bool:
+            sources = httpx.get(f"{demo.url}/api/sources", headers=demo.auth, timeout=10).json()
+            return any(s["name"] == "telemetry" and s.get("messages", 0) > 0 for s in sources)
+
+        wait_for(telemetry_flows, 120.0, 0.5, "the robot's telemetry at the dashboard")
+        opened = []
+        for process in demo.processes():
+            try:
+                connections = process.net_connections(kind="inet")
+            except psutil.NoSuchProcess:
+                continue
+            opened += [(process.name(), " ".join(process.cmdline()[1:4]), c.type, c.laddr) for c in connections
+                       if c.status == psutil.CONN_LISTEN or c.type == socket.SOCK_DGRAM]
+        assert len(opened) >= 8, opened  # the dashboard, its views, every node's bus port, the UDP links
+        assert {c[2] for c in opened} == {socket.SOCK_STREAM, socket.SOCK_DGRAM}, opened
+        assert [c for c in opened if not is_loopback(c[3].ip)] == []
 
 
 # -- paths and names from clients ----------------------------------------------------------------------------------

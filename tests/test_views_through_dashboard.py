@@ -275,7 +275,10 @@ def test_a_web_page_cannot_reach_the_views_own_servers(browser: Any, tmp_path: P
             "--plots-grpc-port", "0"]
     with dashboard_server(args, tmp_path) as server:
         viser_port = httpx.get(f"{server.url}/api/robot3d", timeout=10).json()["port"]
-        grpc_port = httpx.get(f"{server.url}/api/plots", timeout=10).json()["grpc_port"]
+        plots = httpx.get(f"{server.url}/api/plots", timeout=10).json()
+        grpc_port, web_port = plots["grpc_port"], plots["web_port"]
+        # rerun's file server answers any Host: a rebinding page could load the viewer from a port it may open
+        assert {viser_port, grpc_port, web_port} <= set(BROWSER_BLOCKED_PORTS)
         page = browser.new_page()
         try:
             page.goto(f"{server.url}/api/config")  # any page: a foreign one would do the same
@@ -284,6 +287,7 @@ def test_a_web_page_cannot_reach_the_views_own_servers(browser: Any, tmp_path: P
             assert page.evaluate(reach, f"{server.url}/api/config") == "reached"  # fetch itself works here
             assert page.evaluate(reach, f"http://127.0.0.1:{grpc_port}{GRPC_READ}") == "refused"
             assert page.evaluate(reach, f"http://127.0.0.1:{viser_port}/") == "refused"
+            assert page.evaluate(reach, f"http://127.0.0.1:{web_port}/") == "refused"
             opened = """(url) => new Promise((done) => { const ws = new WebSocket(url, ['%s']);
                           ws.onopen = () => { ws.close(); done('opened'); }; ws.onerror = () => done('refused'); })"""
             assert page.evaluate(opened % viser_subprotocol(), f"ws://127.0.0.1:{server.port}/robot3d/view") == \

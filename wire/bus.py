@@ -21,7 +21,7 @@ from typing import Any
 
 import zenoh
 
-from wire.machine import is_on_this_machine
+from wire.machine import endpoint_host, is_loopback, is_on_this_machine
 
 DEFAULT_ROUTER = "tcp/127.0.0.1:7447"
 DEFAULT_LISTEN = DEFAULT_ROUTER  # where a router listens without a config: loopback only
@@ -173,14 +173,29 @@ def router_config(listen: list[str] | None = None, connect: list[str] | None = N
     """A router's Zenoh config; from a file (a team's router.json5: TLS, access control, endpoints), listen and
     connect, when given, replace the file's endpoints."""
     if config_file is None:
-        return zenoh.Config.from_json5(json.dumps(router_settings(listen or [DEFAULT_LISTEN], connect)))
-    conf = load_config_file(config_file)
-    conf.insert_json5("mode", '"router"')
-    if listen:
-        conf.insert_json5("listen/endpoints", json.dumps(listen))
-    if connect:
-        conf.insert_json5("connect/endpoints", json.dumps(connect))
+        conf = zenoh.Config.from_json5(json.dumps(router_settings(listen or [DEFAULT_LISTEN], connect)))
+    else:
+        conf = load_config_file(config_file)
+        conf.insert_json5("mode", '"router"')
+        if listen:
+            conf.insert_json5("listen/endpoints", json.dumps(listen))
+        if connect:
+            conf.insert_json5("connect/endpoints", json.dumps(connect))
+    if exposed := open_to_strangers(conf):
+        log.warning("Zenoh router listening on %s without access control: anyone who reaches it may publish "
+                    "motor_goals and cmd_vel to every robot; `pitchside team-keys` makes the team's secured bus "
+                    "(README, 'A team on a secured bus')", ", ".join(exposed))
     return conf
+
+
+def open_to_strangers(conf: zenoh.Config) -> list[str]:
+    """The endpoints a config listens on beyond loopback with no access control: others on the network may send."""
+    if json.loads(conf.get_json("access_control/enabled")) is True:
+        return []
+    listen = json.loads(conf.get_json("listen/endpoints")) or []
+    if isinstance(listen, dict):  # per mode: {"router": [...], "peer": [...]}
+        listen = [e for endpoints in listen.values() for e in endpoints]
+    return [e for e in listen if not is_loopback(endpoint_host(e) or "")]
 
 
 def open_router(listen: list[str] | None = None, connect: list[str] | None = None,

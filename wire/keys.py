@@ -28,6 +28,9 @@ NAME_RULE = "1-12 characters of A-Z a-z 0-9 _ -"
 _TOPIC = re.compile(r"^/?[A-Za-z0-9_]+(?:/[A-Za-z0-9_]+)*$")
 TOPIC_RULE = "letters, digits and '_' in parts joined by '/', at most 200 characters"
 MAX_TOPIC = 200
+# a node's name: one part of a parameter key and of the dashboard's URLs (ROS 2 node names are such tokens)
+_NODE = re.compile(r"^[A-Za-z0-9_]{1,64}$")
+NODE_RULE = "1-64 letters, digits or '_'"
 
 
 def is_valid_name(robot: str) -> bool:
@@ -61,6 +64,11 @@ def check_robot_id(robot: str) -> str:
     if not isinstance(robot, str) or not is_valid_name(robot):
         raise ValueError(f"robot id {robot!r} must be {NAME_RULE}")
     return robot
+
+
+def is_valid_node_name(node: str) -> bool:
+    """True for a node name as it may stand in a parameter key (a node's answer naming another is not believed)."""
+    return bool(_NODE.match(node))
 
 
 def is_valid_topic(topic: str) -> bool:

@@ -30,6 +30,9 @@ import yaml
 import zenoh
 
 from wire import keys
+from wire.json_limits import JsonLimitError, loads_limited
+
+MAX_REPLY_BYTES = 4 << 20  # a node's answer lists its parameters: a few kB, a lot of them a few hundred
 
 
 class ParameterError(ValueError):
@@ -78,9 +81,27 @@ class ParameterClient:
         replies = []
         for reply in self.session.get(keys.params_key(self.robot, node), payload=json.dumps(request),
                                       timeout=self.timeout):
-            if reply.ok is not None:
-                replies.append(json.loads(reply.ok.payload.to_bytes()))
+            if reply.ok is not None and (answer := self._believed(reply.ok, node)) is not None:
+                replies.append(answer)
         return replies
+
+    def _believed(self, sample: zenoh.Sample, asked: str) -> dict[str, Any] | None:
+        """A node's reply as the protocol has it, else None: JSON within limits, an object that names a node by the
+        rule, sent on that node's own key (so nobody answers for another node), with its parameters as a list of
+        objects. Anything else did not come from a pitchside node and is left out, not passed on to a page."""
+        try:
+            reply = loads_limited(sample.payload.to_bytes(), MAX_REPLY_BYTES)
+        except JsonLimitError:
+            return None
+        if not isinstance(reply, dict):
+            return None
+        name, params = reply.get("node"), reply.get("params")
+        if not isinstance(name, str) or not keys.is_valid_node_name(name) or \
+                str(sample.key_expr) != keys.params_key(self.robot, name):
+            return None
+        if asked not in ("*", name) or not isinstance(params, list) or not all(isinstance(p, dict) for p in params):
+            return None
+        return reply
 
     def nodes(self) -> dict[str, list[dict[str, Any]]]:
         """Every node of the robot that answers, with its parameter descriptions."""

@@ -19,6 +19,7 @@ from schemas.codec import schema_hash
 from schemas.messages import RobotControlState
 from schemas.std import CompressedImage, Log
 from schemas.topics import Priority, topic
+from wire.machine import is_loopback
 from wire.telemetry.datagram import (
     DEFAULT_PORT,
     MAX_TOPIC_STREAM,
@@ -83,6 +84,16 @@ def parse_destination(spec: str) -> tuple[str, int]:
     if not host or not port.isdigit() or not 0 < int(port) < 65536:
         raise ValueError(f"telemetry destination {spec!r} is not host:port")
     return host, int(port)
+
+
+def sending_socket(family: int, loopback: bool) -> socket.socket:
+    """A non-blocking UDP socket that only sends. For a team PC on this machine (the demo, a test) it is bound to
+    loopback: a socket that sends takes a port on every interface otherwise, which strangers could address."""
+    sock = socket.socket(family, socket.SOCK_DGRAM)
+    sock.setblocking(False)
+    if loopback:
+        sock.bind(("::1" if family == socket.AF_INET6 else "127.0.0.1", 0))
+    return sock
 
 
 @dataclass
@@ -157,8 +168,8 @@ class TelemetryNode(Node):
         self._writer = DatagramWriter(self._key, self.robot_id, self.params.encrypt)
         self.refused_datagrams = 0
         self._key_refusal = self._check_key()
-        self._socket = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        self._socket.setblocking(False)
+        self._socket = sending_socket(socket.AF_INET, loopback=False)
+        self._on_loopback = False
         parse_destination(self.params.destination)  # a malformed destination is a configuration error: fail early
         self._address: tuple[str, int] | None = None
         self._resolve_destination()
@@ -203,10 +214,10 @@ class TelemetryNode(Node):
                 self.record_error(f"telemetry destination {self.params.destination!r}: {exc}")
             self._address = None
             return
-        if family != self._socket.family:
+        loopback = is_loopback(str(address[0]))
+        if family != self._socket.family or loopback != self._on_loopback:
             self._socket.close()
-            self._socket = socket.socket(family, socket.SOCK_DGRAM)
-            self._socket.setblocking(False)
+            self._socket, self._on_loopback = sending_socket(family, loopback), loopback
         self._address = (str(address[0]), int(address[1]))
 
     def _apply_topics(self, spec: str) -> None:

@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from schemas.logs import LogError, LogReader, data_start_ns
+from server.security import AllowedFolders, FolderError
 
 _SAFE = re.compile(r"[^A-Za-z0-9_.-]+")
 
@@ -44,9 +45,13 @@ class RecordingsFolder:
         self._cache: dict[Path, _Cached] = {}
 
     def resolve(self, name: str) -> Path:
-        """The file ``name`` (a bare file name) inside the folder; LogError if it is not there."""
-        path = self.folder / Path(name).name
-        if path.suffix != ".mcap" or not path.is_file():
+        """The file ``name`` (a bare file name) inside the folder; LogError if it is not there. Through the
+        server's one check of client paths, so a link in the folder that points out of it leads nowhere."""
+        try:
+            path = AllowedFolders([self.folder], "recordings").resolve(Path(name).name)
+        except FolderError:
+            path = None
+        if path is None or path.suffix != ".mcap" or not path.is_file():
             raise LogError(f"no recording {name!r} in {self.folder}")
         return path
 

@@ -14,7 +14,6 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import json
-import re
 from collections.abc import AsyncIterator
 from typing import Any, Literal
 
@@ -25,14 +24,15 @@ from pydantic import BaseModel, ConfigDict, Field
 
 import robots
 from server.deps import require_control, robot_on_link, valid_node, valid_robot
+from server.security import JsonLimitError, loads_limited
 from server.state import ServerState
 from wire import keys
 from wire.parameters import NodeSilent, ParameterClient, ParameterError, load_yaml_section
 
 router = APIRouter(prefix="/api/robots/{robot}/params", tags=["parameters"], dependencies=[Depends(valid_robot)])
-_NAME = re.compile(r"^[A-Za-z0-9_.-]+$")  # a robot or node name: nothing a Zenoh key expression would read as a pattern
 EVENTS_KEEPALIVE_S = 15.0  # a comment line this often, so proxies and the browser see the stream alive
 EVENTS_QUEUE = 1000  # a browser this far behind loses events and is told to read everything again
+MAX_EVENT_BYTES = 256 << 10  # a node's change event: a few parameters' values, well under this
 ON_LINK = [Depends(robot_on_link), Depends(valid_node)]
 
 
@@ -158,8 +158,8 @@ async def parameter_events(robot: str, node: str, state: ServerState = Depends(r
     """Server-sent events: one ``data:`` line (JSON ``{"node", "changed": {name: value}, "revisions": {name: n}}``)
     per accepted change of the node's parameters (``*``: every node of the robot), whoever made it: another
     dashboard, the command line, or the node itself. ``event: resync`` says events were lost: read again."""
-    if not _NAME.match(robot) or not (node == "*" or _NAME.match(node)):
-        raise HTTPException(422, "robot and node names are letters, digits, '_', '-' and '.' (node may be '*')")
+    if not (node == "*" or keys.is_valid_node_name(node)):  # the robot: valid_robot, as on every route here
+        raise HTTPException(422, f"bad node name {node!r}: {keys.NODE_RULE} (or '*' for every node)")
     session = await asyncio.to_thread(state.link.session)
     loop = asyncio.get_running_loop()
     queue: asyncio.Queue[str | None] = asyncio.Queue(EVENTS_QUEUE)
@@ -191,11 +191,11 @@ async def parameter_events(robot: str, node: str, state: ServerState = Depends(r
                 if item is None:
                     yield "event: resync\ndata: {}\n\n"
                     continue
-                try:
-                    json.loads(item)
-                except ValueError:
-                    continue  # not ours: never pass on what the browser cannot read
-                yield f"data: {item.replace(chr(10), ' ')}\n\n"
+                try:  # written again by us: one line, whatever line breaks (CR too ends an SSE line) it held
+                    line = json.dumps(loads_limited(item, MAX_EVENT_BYTES), separators=(",", ":"), allow_nan=False)
+                except (JsonLimitError, ValueError):
+                    continue  # not ours (or too deep, too large): never pass on what the browser cannot read
+                yield f"data: {line}\n\n"
         finally:
             with contextlib.suppress(Exception):
                 subscriber.undeclare()

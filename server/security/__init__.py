@@ -9,7 +9,7 @@ from server.security.credentials import Credentials
 from server.security.folders import AllowedFolders, FolderError
 from server.security.guard import VenueGuard, VenuePolicy
 from server.security.hosts import AllowedHosts, host_name_of
-from server.security.json_limits import JsonLimitError, check_json_depth, loads_limited
+from wire.json_limits import JsonLimitError, check_json_depth, loads_limited
 
 __all__ = [
     "AllowedFolders",

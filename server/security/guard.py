@@ -12,6 +12,7 @@ makes sure nothing reaches them that a foreign page or a stranger sent.
 from __future__ import annotations
 
 import json
+import logging
 from collections.abc import Awaitable, Callable, MutableMapping
 from dataclasses import dataclass
 from typing import Any
@@ -19,8 +20,9 @@ from urllib.parse import parse_qsl, urlencode, urlsplit
 
 from server.security.credentials import Credentials
 from server.security.hosts import AllowedHosts, host_name_of
-from server.security.json_limits import MAX_DEPTH, JsonLimitError, check_json_depth
+from wire.json_limits import MAX_DEPTH, JsonLimitError, check_json_depth
 
+log = logging.getLogger(__name__)
 Scope = MutableMapping[str, Any]
 Message = MutableMapping[str, Any]
 Receive = Callable[[], Awaitable[Message]]
@@ -116,7 +118,25 @@ class VenueGuard:
             if login is not None:
                 await self._refuse(scope, send, login)
                 return
-        await self.app(scope, receive, self._with_headers(scope, send))
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+        started = False
+        with_headers = self._with_headers(scope, send)
+
+        async def tracked(message: Message) -> None:
+            nonlocal started
+            started = started or message["type"] == "http.response.start"
+            await with_headers(message)
+
+        try:
+            await self.app(scope, receive, tracked)
+        except Exception:
+            if started:
+                raise  # half an answer sent: the server closes the connection
+            # Starlette's own 500 would go out around this middleware, without the security headers
+            log.exception("%s %s failed", scope["method"], scope["path"])
+            await self._refuse(scope, send, Refusal(500, "the server failed on this request; its log says why"))
 
     # -- the checks ---------------------------------------------------------------------------------------
     def _check(self, scope: Scope, headers: dict[str, str]) -> None:

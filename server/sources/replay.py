@@ -62,6 +62,31 @@ def _well_named(robot_id: str, topic: str) -> bool:
     return (not robot_id or keys.is_valid_name(robot_id)) and keys.is_valid_topic(topic)
 
 
+def _table_misfit(reader: LogReader, channel: ChannelInfo) -> str:
+    """Why a channel on a topic of the topic table may not be replayed under that name ("" if it may).
+
+    The page, the plots, the 3D view and Foxglove read a table topic as the table's type. A log carries its own
+    schemas, so another team's file could give ``rosout`` a ``string level`` where the table has a number, and
+    the string would reach places that expect a number (a CSS class, a plot). Such a channel is listed with
+    this reason and never reaches the hub; constants may differ (they are names for values, not layout)."""
+    row = TOPICS.get(channel.topic)
+    if row is None or not channel.decodable:
+        return ""
+    if channel.topic == OVERVIEW_TOPIC and channel.typename == STRING_TYPE:
+        return ""  # an earlier version's overview, converted by _legacy_overview
+    if channel.typename != row.type:
+        return f"the topic table's {channel.topic!r} is {row.type}, this log's is {channel.typename}"
+    schema = reader.schema(channel.channel_id)
+    try:
+        parsed = get_types_from_msg(schema.data.decode(), channel.typename) if schema is not None else {}
+    except Exception:  # rosbags raises several kinds on bad text
+        parsed = {}
+    shared = codec.typestore().fielddefs
+    if not parsed or any(name not in shared or shared[name][1] != fields for name, (_, fields) in parsed.items()):
+        return f"this log's {channel.typename} has other fields than pitchside's: not replayed as {channel.topic!r}"
+    return ""
+
+
 class ReplayFile:
     """An opened log: what is in it (for the timeline) and its messages as hub messages."""
 
@@ -78,12 +103,18 @@ class ReplayFile:
         every = {c.mcap_topic for r in reader.readers for c in r.channels}
         self.raw_topics = sorted(every - foreign)
         self.decoded_topics = sorted(foreign)
+        # (robot, topic, type) of channels whose type is not the topic table's; a stream with one such channel
+        # is not replayed at all (its messages do not say which channel they came from)
+        self.misfits: dict[tuple[str, str, str], str] = {}
+        for r in reader.readers:
+            for c in r.channels:
+                if problem := _table_misfit(r, c):
+                    self.misfits[(c.robot_id, c.topic, c.typename)] = problem
 
     def info(self) -> dict[str, Any]:
         topics = [{"robot": keys.replayed_robot_id(c.robot_id), "topic": c.topic, "msgtype": c.typename,
                    "count": c.message_count, "known": c.topic in TOPICS,
-                   "decodable": c.decodable and _well_named(c.robot_id, c.topic),
-                   "problem": c.problem or ("" if _well_named(c.robot_id, c.topic) else BAD_NAME)}
+                   "decodable": not self.problem(c), "problem": self.problem(c)}
                   for c in self.channels]
         return {"path": str(self.path), "files": [str(p) for p in self.reader.paths], "start_ns": self.start_ns,
                 "end_ns": self.end_ns, "duration_s": (self.end_ns - self.start_ns) / 1e9,
@@ -94,11 +125,22 @@ class ReplayFile:
                               if b.log_time_ns >= self.start_ns],
                 "warnings": self.reader.warnings[-20:]}
 
+    def problem(self, channel: ChannelInfo) -> str:
+        """Why the channel is not replayed ("" if it is): it does not decode, a name breaks the rules, or its type
+        is not the topic table's."""
+        if channel.problem:
+            return channel.problem
+        if not _well_named(channel.robot_id, channel.topic):
+            return BAD_NAME
+        return self.misfits.get((channel.robot_id, channel.topic, channel.typename), "")
+
     def hub_message(self, item: LogMessage) -> HubMessage | None:
         """None for a message that did not decode (its channel is still listed, with the problem)."""
         robot = keys.replayed_robot_id(item.robot_id)
         if not _well_named(item.robot_id, item.topic):
             return None  # a name from a foreign file that breaks the rules never reaches the hub (or a page)
+        if (item.robot_id, item.topic, item.typename) in self.misfits:
+            return None  # a table topic as another type: never where panels expect the table's
         typename, data = item.typename, item.msg
         if item.raw and item.topic not in self._raw_names:
             return None  # a channel without a usable schema

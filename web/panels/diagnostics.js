@@ -40,7 +40,7 @@ export default {
       const rows = [...statuses.values()]
         .map((r) => ({ ...r, level: now - r.at > STALE_MS ? stale : r.status.level }))
         .sort((a, b) => b.level - a.level || a.robot.localeCompare(b.robot) || a.status.name.localeCompare(b.status.name));
-      tbody.innerHTML = rows.map(({ robot, status, level }) => `<tr class="level-${level}" data-node="${esc(status.name)}">
+      tbody.innerHTML = rows.map(({ robot, status, level }) => `<tr class="level-${esc(level)}" data-node="${esc(status.name)}">
         <td>${esc(robot)}</td><td>${esc(status.name)}</td>
         <td>${level === stale && status.level !== stale ? "STALE (silent)"
           : esc(diagnosticLevelName(status.level))}</td>

@@ -69,7 +69,7 @@ function render(log) {
   const names = constantNames(LOG);
   const rows = visible(log);
   log.el.count.textContent = `${rows.length} of ${log.records.length}`;
-  log.el.rows.innerHTML = rows.slice(0, SHOWN).map((r) => `<tr class="log-level-${r.level}" data-level="${r.level}">
+  log.el.rows.innerHTML = rows.slice(0, SHOWN).map((r) => `<tr class="log-level-${esc(r.level)}" data-level="${esc(r.level)}">
     <td>${new Date(r.t * 1000).toLocaleTimeString()}</td><td>${esc(r.robot)}</td><td>${esc(r.node)}</td>
     <td>${esc(names.get(r.level) ?? r.level)}</td><td title="${esc(r.where)}"><pre>${esc(r.text)}</pre></td></tr>`)
     .join("");

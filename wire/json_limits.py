@@ -1,8 +1,10 @@
-"""JSON from clients with limits on size and nesting, checked before the parser recurses into it.
+"""JSON from outside (a browser, a script, another process on the bus) with limits on size and nesting, checked
+before the parser recurses into it.
 
 Python's json module parses nested arrays by recursion: ``[`` x 100,000 raises RecursionError deep inside the
 parser, which no caller expects. The depth is therefore measured first, by a linear scan that stops at the
-first bracket too deep, and the text is parsed only when it is within both limits.
+first bracket too deep, and the text is parsed only when it is within both limits. Below the server and the
+nodes, as both read JSON that others send: the dashboard's clients, and the replies and events of the bus.
 """
 
 from __future__ import annotations
