@@ -112,7 +112,7 @@ def _without_checkout() -> dict[str, str]:
 
 def _open(endpoint: str) -> zenoh.Session | None:
     try:
-        return open_session(BusConfig(connect=[endpoint], mode="client"))
+        return open_session(BusConfig(connect=[endpoint], mode="client"), wait=False)
     except zenoh.ZError:
         return None
 
