@@ -100,7 +100,8 @@ def third_party_imports(folders: tuple[str, ...]) -> dict[Path, set[str]]:
     for folder in folders:
         for path in sorted((REPO / folder).rglob("*.py")):
             names = set(_runtime_imports(ast.parse(path.read_text(), str(path))))
-            found[path] = {n for n in names if n not in sys.stdlib_module_names and n not in OWN and n != "__future__"}
+            found[path] = {n for n in names if n not in sys.stdlib_module_names and n not in OWN and n != "__future__"
+                           and not (path.parent / f"{n}.py").exists()}  # a script's neighbour (bench/replay.py)
     return found
 
 
