@@ -25,6 +25,7 @@ from tests.servo_bus_emulator import ServoBusEmulator
 from tests.support import free_port
 from tests.waiting import wait_for
 from wire.keys import topic_key
+from wire.telemetry.datagram import write_new_key
 
 pytestmark = pytest.mark.slow
 
@@ -96,6 +97,14 @@ def test_robot_nodes_from_the_robot_install_drive_the_emulated_bus(robot_venv: P
             wait_for(lambda: heard["robot_state"], 60, 0.2, "the HCM's robot_state")
             wait_for(lambda: any(m.game_state == 3 for m in heard["gamestate"]), 60, 0.2, "PLAYING from the GC")
             wait_for(lambda: _diagnosed(heard["diagnostics"]) >= set(NODES), 60, 0.5, f"diagnostics of {NODES}")
+            # the doctor from the same install, beside the running robot: every check passes
+            write_new_key(tmp_path / "team.key")
+            doctor = subprocess.run([str(robot_venv / "bin" / "pitchside"), "doctor", "--params", str(params),
+                                     "--connect", router, "--telemetry-key", str(tmp_path / "team.key"),
+                                     "--min-free-gb", "0.01", "--gc-port", str(gc_port), "--gc-wait", "10"],
+                                    cwd=tmp_path, env=_without_checkout(), capture_output=True, text=True, timeout=120)
+            assert doctor.returncode == 0, doctor.stdout + doctor.stderr
+            assert servo_bus.port in doctor.stdout and "teams 5 and 6" in doctor.stdout
         for sub in subs:
             sub.undeclare()
         session.close()
