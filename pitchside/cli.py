@@ -14,6 +14,8 @@ from wire.command_line import EXIT_CODES
 COMMANDS: dict[str, tuple[str, str]] = {
     "demo": ("pitchside.demo:main", "simulated world + robot nodes + GameController + dashboard; prints the link"),
     "robot": ("pitchside.robot:main", "everything a robot runs, with its own Zenoh router (simulated by default)"),
+    "doctor": ("pitchside.doctor:main", "on the robot: checks serial port, router, clock, disk, telemetry key and "
+               "GameController, and says how to fix what fails"),
     "sim": ("robot_nodes.cm730.sim.__main__:main", "the MuJoCo world and one cm730 node per robot (robot1..N)"),
     "serve": ("server.__main__:serve", "the dashboard server (live Zenoh and UDP telemetry sources)"),
     "router": ("robot_nodes.runtime.router:main", "a Zenoh router for robots and dashboards on several machines"),

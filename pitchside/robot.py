@@ -14,6 +14,7 @@ import logging
 from pathlib import Path
 
 import robots
+from pitchside.service import DEFAULT_UNIT, UNIT_DIR, RobotService, ServiceError, install, invoking_user, robot_program
 from pitchside.team_access import Role
 from pitchside.team_keys import member_of
 from robot_nodes.catalog import NODE_MODULES
@@ -113,6 +114,54 @@ def telemetry_arguments(args: argparse.Namespace) -> list[str] | None:
     return out
 
 
+def service_command(args: argparse.Namespace, robot_id: str) -> list[str]:
+    """This command line again, for the unit: the same options, paths absolute, the service's own options left out."""
+    command = [*robot_program(), "robot", "--robot-id", robot_id, "--model", args.model]
+    if args.params:
+        command += ["--params", str(args.params.resolve())]
+    if args.nodes != ",".join(ROBOT_NODES):
+        command += ["--nodes", args.nodes]
+    for option, values in (("--connect", args.connect), ("--listen", args.listen)):
+        for value in values or []:
+            command += [option, value]
+    if args.mode != "auto":
+        command += ["--mode", args.mode]
+    if args.zenoh_config:
+        command += ["--zenoh-config", str(Path(args.zenoh_config).resolve())]
+    if args.telemetry_to:
+        command += ["--telemetry-to", args.telemetry_to]
+    if args.telemetry_key:
+        command += ["--telemetry-key", str(Path(args.telemetry_key).resolve())]
+    if args.allow_dev_key:
+        command.append("--allow-dev-key")
+    if args.match:
+        command.append("--match")
+    return command
+
+
+def install_service(args: argparse.Namespace) -> None:
+    """--install-service: the same checks as a start (a unit that would only fail at boot is refused now)."""
+    if args.zenoh_config:
+        try:
+            load_config_file(args.zenoh_config)
+        except ValueError as exc:
+            raise SystemExit(f"pitchside robot: {exc}") from None
+    if args.params and not args.params.is_file():
+        raise SystemExit(f"pitchside robot: params file {args.params} does not exist")
+    robot_id = robot_id_for(args.robot_id, args.zenoh_config)
+    telemetry_arguments(args)
+    unit = RobotService(service_command(args, robot_id), args.service_user or invoking_user(), Path.cwd(), robot_id,
+                        args.service_name)
+    if args.dry_run:
+        print(unit.unit_text(), end="")
+        return
+    try:
+        for line in install(unit, args.unit_dir):
+            print(line)
+    except ServiceError as exc:
+        raise SystemExit(f"pitchside robot: {exc}") from None
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = CommandParser(prog="pitchside robot", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -138,8 +187,21 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--match", action="store_true",
                         help="match configuration: the robot's Zenoh connects to nobody (nothing reaches the team "
                              "PC but the telemetry, nothing needs to come back); needs --telemetry-to and a key")
+    service = parser.add_argument_group("as a systemd service (README: On the robot)")
+    service.add_argument("--install-service", action="store_true",
+                         help="write a systemd unit that runs this command with these options at every boot "
+                              "(restart on failure, output to the journal), enable it, and exit")
+    service.add_argument("--dry-run", action="store_true", help="with --install-service: print the unit, write nothing")
+    service.add_argument("--service-user", default=None, metavar="USER",
+                         help="who the service runs as (default: you, also under sudo)")
+    service.add_argument("--service-name", default=DEFAULT_UNIT, metavar="NAME", help="the unit's name")
+    service.add_argument("--unit-dir", type=Path, default=UNIT_DIR, metavar="DIR",
+                         help=f"where the unit is written (default {UNIT_DIR}; enabled only there)")
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s [robot] %(message)s")
+    if args.install_service:
+        install_service(args)
+        return
     if args.zenoh_config:
         try:
             load_config_file(args.zenoh_config)

@@ -21,7 +21,8 @@ from wire.parameters import NodeSilent, ParameterError, StaleRevision
 from wire.services import ServiceError
 
 STREAMS = {"/api/robots/{robot}/params/{node}/events",  # server-sent events, not JSON
-           "/api/recordings/files/{name}"}  # a recording's MCAP bytes, as a download
+           "/api/recordings/files/{name}",  # a recording's MCAP bytes, as a download
+           "/api/recordings/series/{name}"}  # a half's files as one zip
 PROXIES = ("/plots/viewer/", "/robot3d/view/", "/rerun.")  # the views' own files and data, passed through
 
 

@@ -4,15 +4,13 @@ robot descriptions and web page come from the installed package (importlib.resou
 from __future__ import annotations
 
 import subprocess
-import sys
-import sysconfig
 from pathlib import Path
 
 import httpx
 import pytest
 
+from tests.installs import borrow_test_dependencies, build_wheel, fresh_venv, install_wheel
 from tests.running_demo import running_demo
-from tests.support import REPO
 from tests.waiting import wait_for
 
 pytestmark = pytest.mark.slow
@@ -21,19 +19,9 @@ pytestmark = pytest.mark.slow
 def _fresh_venv(tmp_path: Path) -> Path:
     """A virtualenv with only the wheel of pitchside; its dependencies come from the test's own environment
     (a .pth line, so nothing is downloaded), never pitchside itself."""
-    wheels = tmp_path / "wheels"
-    built = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q", "-w",
-                            str(wheels), str(REPO)], capture_output=True, text=True, timeout=300)
-    assert built.returncode == 0, built.stderr[-3000:]
-    (wheel,) = wheels.glob("pitchside-*.whl")
-    venv = tmp_path / "venv"
-    subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True, timeout=300)
-    site = Path(subprocess.run([str(venv / "bin" / "python"), "-c", "import sysconfig; print(sysconfig.get_paths()"
-                                "['purelib'])"], capture_output=True, text=True, check=True).stdout.strip())
-    (site / "zz_dependencies.pth").write_text(sysconfig.get_paths()["purelib"] + "\n")
-    installed = subprocess.run([str(venv / "bin" / "python"), "-m", "pip", "install", "-q", "--no-deps",
-                                "--no-index", str(wheel)], capture_output=True, text=True, timeout=300)
-    assert installed.returncode == 0, installed.stderr[-3000:]
+    venv = fresh_venv(tmp_path / "venv")
+    borrow_test_dependencies(venv)
+    install_wheel(venv, build_wheel(tmp_path / "wheels"))
     return venv
 
 

@@ -36,6 +36,10 @@ CLAMP_REPORT_EVERY_S = 5.0  # at most one error line per this many seconds while
 SERVO_HEALTH_PERIOD_S = 1.0  # servo_health goes out on every change and at least this often
 
 
+class SimulationNotInstalled(RuntimeError):
+    """backend mujoco on an install without the simulation profile."""
+
+
 @dataclass
 class Cm730Params:
     backend: str = param("mujoco", choices=["mujoco", "dynamixel"], doc="servo bus: simulated or real Dynamixel")
@@ -174,8 +178,13 @@ class Cm730Node(Node):
     def _open_backend(self) -> ServoBackend:
         p = self.params
         if p.backend == "mujoco":
-            from robot_nodes.cm730.sim_backend import MujocoBackend
-
+            try:
+                from robot_nodes.cm730.sim_backend import MujocoBackend
+            except ModuleNotFoundError as exc:  # a robot's install (pitchside[robot]) has no MuJoCo
+                raise SimulationNotInstalled(
+                    f"cm730: backend mujoco needs the simulation ({exc.name} is not installed: pip install "
+                    "'pitchside[sim]'); on a robot set cm730.backend: dynamixel and cm730.device in its params.yaml"
+                ) from None
             return MujocoBackend.standalone(real_time_factor=p.real_time_factor)
         # the Dynamixel backend lives in robot_nodes/cm730/dynamixel and is imported only when chosen
         dynamixel = importlib.import_module("robot_nodes.cm730.dynamixel")

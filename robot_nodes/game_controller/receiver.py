@@ -113,9 +113,10 @@ class GameControllerNode(Node):
 
     # -- socket ---------------------------------------------------------------------------------------------
     def _open_socket(self) -> None:
+        # address reuse: `pitchside doctor` listens beside the running node for the GameController's broadcasts
         self._udp = UdpPort(self.params.listen_address, self.params.listen_port,
                             lambda data, addr: self._on_datagram(data, addr[0]), loop=self.loop,
-                            recv_size=_RECV_SIZE, name="gc-receiver")
+                            recv_size=_RECV_SIZE, name="gc-receiver", reuse_address=True)
 
     def _close_socket(self) -> None:
         if self._udp is not None:

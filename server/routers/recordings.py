@@ -5,13 +5,17 @@ Recording sends nothing to robots, so it works in match mode too; it needs the t
 
 from __future__ import annotations
 
+import io
+import zipfile
+from collections.abc import Iterator
+from pathlib import Path
 from typing import Any
 
 from fastapi import APIRouter, Depends, HTTPException
-from fastapi.responses import FileResponse
+from fastapi.responses import FileResponse, StreamingResponse
 from pydantic import BaseModel
 
-from schemas.logs import LogError
+from schemas.logs import LogError, log_series
 from server.deps import get_state, require_token
 from server.recorder import Recorder
 from server.state import ServerState
@@ -69,6 +73,7 @@ class RecordingFile(BaseModel):
     indexed: bool | None = None
     bookmarks: int | None = None
     error: str | None = None  # a file that cannot be read: why
+    series: list[str] | None = None  # the first file of a size-rotated recording (a half): all its files, in order
 
 
 class RecordingsListing(RecorderStatus):
@@ -87,8 +92,14 @@ def get_recorder(state: ServerState = Depends(get_state)) -> Recorder:
 
 @router.get("", response_model=RecordingsListing, response_model_exclude_unset=True)
 def list_recordings(recorder: Recorder = Depends(get_recorder)) -> dict[str, Any]:
-    """The files (newest first, with size_bytes, duration_s, messages) and what is being recorded now."""
-    return {"files": recorder.listing(), **recorder.status()}
+    """The files (newest first, with size_bytes, duration_s, messages) and what is being recorded now; the first
+    file of a rotated recording names its series (downloaded at once from /series/<name>)."""
+    files = recorder.listing()
+    for entry in files:
+        parts = log_series(recorder.files.folder / entry["name"])
+        if len(parts) > 1:
+            entry["series"] = [p.name for p in parts]
+    return {"files": files, **recorder.status()}
 
 
 @router.get("/files/{name}", response_class=FileResponse)
@@ -99,6 +110,53 @@ def download_recording(name: str, recorder: Recorder = Depends(get_recorder)) ->
     except LogError as exc:
         raise HTTPException(404, str(exc)) from None
     return FileResponse(path, media_type="application/octet-stream", filename=path.name)
+
+
+@router.get("/series/{name}", response_class=StreamingResponse)
+def download_series(name: str, recorder: Recorder = Depends(get_recorder)) -> StreamingResponse:
+    """A recording with all its rotated files (a half: ``game.mcap``, ``game_001.mcap`` ...) as one zip, streamed
+    as it is read (files stored as they are: MCAP chunks are compressed already). By the first file's bare name."""
+    try:
+        first = recorder.files.resolve(name)
+    except LogError as exc:
+        raise HTTPException(404, str(exc)) from None
+    parts = log_series(first)
+    if {str(p) for p in parts} & recorder.active_paths():
+        raise HTTPException(409, f"{first.name} is still being recorded; download it when it has stopped")
+    return StreamingResponse(_zipped(parts), media_type="application/zip",
+                             headers={"Content-Disposition": f'attachment; filename="{first.stem}.zip"'})
+
+
+class _Outbox(io.RawIOBase):
+    """Where the zip writer puts its bytes until the response takes them; not seekable, so zipfile streams."""
+
+    def __init__(self) -> None:
+        self._parts: list[bytes] = []
+
+    def writable(self) -> bool:
+        return True
+
+    def write(self, data: Any) -> int:
+        self._parts.append(bytes(data))
+        return len(data)
+
+    def take(self) -> bytes:
+        out = b"".join(self._parts)
+        self._parts.clear()
+        return out
+
+
+def _zipped(parts: list[Path], chunk: int = 1 << 20) -> Iterator[bytes]:
+    """The zip of ``parts``, a megabyte at a time (memory stays flat however large the half)."""
+    outbox = _Outbox()
+    with zipfile.ZipFile(outbox, "w", zipfile.ZIP_STORED) as archive:
+        for path in parts:
+            with path.open("rb") as source, archive.open(zipfile.ZipInfo.from_file(path, path.name), "w",
+                                                         force_zip64=True) as entry:
+                while data := source.read(chunk):
+                    entry.write(data)
+                    yield outbox.take()
+    yield outbox.take()
 
 
 @router.get("/status", response_model=RecorderStatus)

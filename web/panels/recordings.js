@@ -77,7 +77,9 @@ export default {
         <td>${f.recording ? "recording…" : f.error ? `<span class="bad">${esc(f.error)}</span>` : clock(f.duration_s)}</td>
         <td>${f.recording ? "" : `<button type="button" data-open="${esc(f.name)}">replay</button>
           <a class="button" data-download="${esc(f.name)}" href="api/recordings/files/${esc(encodeURIComponent(f.name))}"
-            download="${esc(f.name)}">download</a>`}</td></tr>`)
+            download="${esc(f.name)}">download</a>${f.series ? ` <a class="button" data-download-series="${esc(f.name)}"
+            href="api/recordings/series/${esc(encodeURIComponent(f.name))}" title="${esc(f.series.join(", "))}"
+            >all ${f.series.length} files (zip)</a>` : ""}`}</td></tr>`)
         .join("") || `<tr><td colspan="4" class="empty">no recordings yet</td></tr>`;
     }
     refresh();
