@@ -57,7 +57,7 @@ def test_panels_show_live_data(browser: Any, scene: RunningServer, stands: dict[
     page = browser.new_page(bypass_csp=True, viewport={"width": 1600, "height": 2100})
     errors: list[str] = []
     page.on("pageerror", lambda exc: errors.append(str(exc)))
-    page.goto(scene.login_url)
+    page.goto(scene.page_url("all"))
     page.evaluate("localStorage.clear(); localStorage.setItem('pitchside.focus', 'r1')")
     page.reload()
     timeout = 30_000
@@ -165,7 +165,7 @@ def test_the_page_names_what_the_msg_files_name(browser: Any, scene: RunningServ
 
 def test_layout_is_changed_and_remembered(browser: Any, scene: RunningServer) -> None:
     page = browser.new_page(bypass_csp=True, viewport={"width": 1400, "height": 2400})  # no scrolling while dragging
-    page.goto(scene.login_url)
+    page.goto(scene.page_url("all"))
     page.evaluate("localStorage.clear()")
     page.reload()
     page.wait_for_selector('[data-panel="team"]')
@@ -217,7 +217,7 @@ def test_robot3d_panel_shows_viser(browser: Any, router_endpoint: str, bus: BusC
     try:
         with dashboard_server(args, tmp_path) as server:
             page = browser.new_page(bypass_csp=True, viewport={"width": 1600, "height": 1100})
-            page.goto(server.login_url)
+            page.goto(server.page_url("all"))
             page.evaluate("localStorage.clear()")
             page.reload()
             src = page.get_attribute('[data-panel="robot3d"] iframe', "src")

@@ -2,4 +2,4 @@
 
 import { stateGraphPanel } from "./state_graph.js";
 
-export default stateGraphPanel({ id: "hcm", title: "HCM state graph (focused robot)", topic: "hcm_graph" });
+export default stateGraphPanel({ id: "hcm", title: "HCM state graph (focused robot)", topic: "hcm_graph", size: [2, 3] });
