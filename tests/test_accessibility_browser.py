@@ -5,33 +5,17 @@ graph's SVG names, which axe does not judge, are measured against their boxes (A
 from __future__ import annotations
 
 import json
-from collections.abc import Iterator
-from pathlib import Path
 from typing import Any
 
 import pytest
 
-from robot_nodes.runtime import BusConfig
 from tests.accessibility import serious_violations, svg_state_contrast
-from tests.dashboard_server import RunningServer, dashboard_server
+from tests.dashboard_server import RunningServer
 from tests.support import REPO
-from tests.teststand import SceneStand
 from tests.waiting import wait_for
 
 OUTPUT = REPO / "test-output" / "accessibility"
 pytestmark = [pytest.mark.slow, pytest.mark.browser]
-
-
-@pytest.fixture
-def scene(router_endpoint: str, bus: BusConfig, tmp_path: Path) -> Iterator[RunningServer]:
-    stands = [SceneStand("r1", bus, overrides={"x": -2.0, "y": 1.0}).start(),
-              SceneStand("r2", bus, overrides={"x": 2.0, "y": -1.5, "penalized": True}).start()]
-    try:
-        with dashboard_server(["--connect", router_endpoint, "--no-telemetry"], tmp_path) as server:
-            yield server
-    finally:
-        for stand in stands:
-            stand.shutdown()
 
 
 @pytest.mark.parametrize("theme", ["light", "dark"])

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -34,21 +33,6 @@ class Talker(Node):
     def tick(self) -> None:
         self.speak.publish(schemas.make("humanoid_league_msgs/msg/Speak", text="ball"))
         self.strategy.publish(schemas.make("humanoid_league_msgs/msg/Strategy"))
-
-
-@pytest.fixture
-def stands(bus: BusConfig) -> Iterator[dict[str, SceneStand]]:
-    nodes = {"r1": SceneStand("r1", bus, overrides={"x": -2.0, "y": 1.0}).start(),
-             "r2": SceneStand("r2", bus, overrides={"x": 2.0, "y": -1.5, "penalized": True}).start()}
-    yield nodes
-    for node in nodes.values():
-        node.shutdown()
-
-
-@pytest.fixture
-def scene(router_endpoint: str, stands: dict[str, SceneStand], tmp_path: Path) -> Iterator[RunningServer]:
-    with dashboard_server(["--connect", router_endpoint, "--no-telemetry"], tmp_path) as server:
-        yield server
 
 
 def test_panels_show_live_data(browser: Any, scene: RunningServer, stands: dict[str, SceneStand],

@@ -6,14 +6,12 @@ lists the shortcuts."""
 from __future__ import annotations
 
 import json
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import pytest
 
-from robot_nodes.runtime import BusConfig
-from tests.dashboard_server import RunningServer, dashboard_server
+from tests.dashboard_server import RunningServer
 from tests.teststand import SceneStand
 from tests.waiting import wait_for
 
@@ -21,21 +19,6 @@ pytestmark = [pytest.mark.slow, pytest.mark.browser]
 MATCH = ["field", "team", "game", "links", "recordings"]
 LAB = ["parameters", "animation", "robot3d", "teleop", "plots", "camera"]
 REPLAY = ["field", "hcm", "replay", "recordings", "plots", "robot3d"]
-
-
-@pytest.fixture
-def stands(bus: BusConfig) -> Iterator[dict[str, SceneStand]]:
-    nodes = {"r1": SceneStand("r1", bus, overrides={"x": -2.0, "y": 1.0}).start(),
-             "r2": SceneStand("r2", bus, overrides={"x": 2.0, "y": -1.5}).start()}
-    yield nodes
-    for node in nodes.values():
-        node.shutdown()
-
-
-@pytest.fixture
-def scene(router_endpoint: str, stands: dict[str, SceneStand], tmp_path: Path) -> Iterator[RunningServer]:
-    with dashboard_server(["--connect", router_endpoint, "--no-telemetry"], tmp_path) as server:
-        yield server
 
 
 def _panels(page: Any) -> list[str]:

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Iterator
+from pathlib import Path
 from typing import Any
 
 import httpx
@@ -60,8 +61,7 @@ def _record(demo: RunningDemo, seconds: float) -> str:
     time.sleep(seconds)  # the length of the recording itself, not a wait for a condition
     stopped = http.post("/api/recordings/stop")
     assert stopped.status_code == 200, stopped.text
-    name: str = stopped.json()["name"]
-    return name
+    return Path(stopped.json()["path"]).name
 
 
 def _layout_problems(page: Any, panels: list[str]) -> list[str]:
@@ -91,9 +91,9 @@ def _silent_panels(page: Any, panels: list[str]) -> dict[str, float]:
 def test_each_preset_fits_1920x1080_draws_every_panel_and_is_pictured(demo: RunningDemo, page: Any) -> None:
     PICTURES.mkdir(parents=True, exist_ok=True)
     name = _record(demo, 8.0)
+    http = httpx.Client(base_url=demo.url, headers=demo.auth, timeout=60.0)
     for preset, panels in PRESETS.items():
         if preset == "replay":  # a replay open and playing: the playback bar, the replayed robot beside the live one
-            http = httpx.Client(base_url=demo.url, headers=demo.auth, timeout=60.0)
             assert http.post("/api/replay/open", json={"path": name}).status_code == 200
             assert http.post("/api/replay/play").status_code == 200
         page.goto(f"{demo.url}/?preset={preset}&robot={ROBOT}")
@@ -107,6 +107,9 @@ def test_each_preset_fits_1920x1080_draws_every_panel_and_is_pictured(demo: Runn
             assert graph["states"] >= 17 and graph["problems"] == [], graph
         if preset == "match":
             page.wait_for_selector(f'.card[data-robot="{ROBOT}"]')
+        if preset == "replay":  # halfway through, held there: the picture shows a replay in progress
+            http.post("/api/replay/pause")
+            assert http.post("/api/replay/seek", json={"t_s": 4.0}).status_code == 200
         page.mouse.move(1919, 1079)  # no hover marks in the picture
         assert _layout_problems(page, panels) == [], preset
         # the 3D robot and the plots (software WebGL here) come in last: every panel draws something in time
