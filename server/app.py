@@ -28,6 +28,7 @@ from server.routers import (
     robots,
     session,
     sources,
+    state_graphs,
     teleop,
     ws,
 )
@@ -82,7 +83,7 @@ def create_app(config: ServerConfig) -> FastAPI:
     recording = attach_recording(state)
     install_error_statuses(app)
     for module in (recordings, replay, session, dashboard, robots, message_schemas, sources, parameters, animations,
-                   teleop, ws, plots, robot3d):
+                   teleop, ws, plots, robot3d, state_graphs):
         app.include_router(module.router)
     app.mount("/", StaticFiles(directory=config.web_dir, html=True), name="web")
     return app

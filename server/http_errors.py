@@ -12,6 +12,7 @@ from robots import UnknownModel
 from server.recorder import RecorderError
 from server.sources import SourceError
 from server.sources.replay import BadTimelineRequest, LogNotFound, NoLogOpen, ReplayRefused, UnreadableLog
+from server.state_graph_layout import GraphTooLarge, LayoutEngineMissing, LayoutFailed
 from wire.actions import ActionError
 from wire.animation import AnimationError
 from wire.parameters import NodeSilent, ParameterError, StaleRevision
@@ -27,6 +28,7 @@ STATUS_BY_TYPE: dict[type[Exception], int] = {
     AnimationError: 422,
     UnreadableLog: 422,
     BadTimelineRequest: 422,
+    GraphTooLarge: 422,
     # what was asked for is not there
     UnknownModel: 404,
     LogNotFound: 404,
@@ -37,6 +39,9 @@ STATUS_BY_TYPE: dict[type[Exception], int] = {
     RecorderError: 409,
     NoLogOpen: 409,
     SourceError: 409,
+    # the server cannot do it: Graphviz missing, or dot failed on a graph
+    LayoutEngineMissing: 503,
+    LayoutFailed: 500,
 }
 
 

@@ -13,7 +13,9 @@ import zenoh
 
 from robot_nodes.runtime import BusConfig, open_router, open_session
 from robot_nodes.runtime.local_bus import CHECK_FROZEN_ENV, THAWED
+from tests.dashboard_server import RunningServer, dashboard_server
 from tests.support import TESTDATA, free_port, launch_chromium
+from tests.teststand import SceneStand
 
 # every test checks the in-process bus's rule, in this process and in the nodes it starts: a published message is
 # never changed afterwards (robot_nodes/runtime/local_bus.py)
@@ -78,3 +80,20 @@ def browser() -> Iterator[Any]:
         launched = launch_chromium(pw)
         yield launched
         launched.close()
+
+
+@pytest.fixture
+def stands(bus: BusConfig) -> Iterator[dict[str, SceneStand]]:
+    """Two stand-in robots publishing one of everything the panels draw: r1 at (-2, 1), r2 at (2, -1.5), penalized."""
+    nodes = {"r1": SceneStand("r1", bus, overrides={"x": -2.0, "y": 1.0}).start(),
+             "r2": SceneStand("r2", bus, overrides={"x": 2.0, "y": -1.5, "penalized": True}).start()}
+    yield nodes
+    for node in nodes.values():
+        node.shutdown()
+
+
+@pytest.fixture
+def scene(router_endpoint: str, stands: dict[str, SceneStand], tmp_path: Path) -> Iterator[RunningServer]:
+    """A dashboard server that hears the stand-in robots over the test's Zenoh router."""
+    with dashboard_server(["--connect", router_endpoint, "--no-telemetry"], tmp_path) as server:
+        yield server

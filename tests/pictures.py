@@ -41,3 +41,12 @@ def wait_for_moving_plot(shoot: Callable[[], Any], timeout: float) -> None:
     before = wait_for(lambda: (p := shoot(), coloured_pixels(p) > 2000)[1] and p, timeout, 1.0,
                       "plot lines drawn in the rerun viewer")
     wait_for(lambda: changed_pixels(before, shoot()) > 200, 30.0, 1.0, "the plots following new data")
+
+
+def drawn_share(picture: Any) -> float:
+    """Share of the pixels that differ clearly from the picture's most common colour (its background): 0 for a
+    panel that draws nothing, a few per cent for a line of text, more for a field, a graph or a 3D view."""
+    colours = picture.getcolors(picture.width * picture.height)
+    background = max(colours)[1]
+    differ = sum(n for n, c in colours if sum(abs(a - b) for a, b in zip(c, background, strict=True)) > 60)
+    return float(differ) / (picture.width * picture.height)

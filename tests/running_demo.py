@@ -38,6 +38,11 @@ class RunningDemo:
         """The link the demo prints: opening it signs the browser in (session cookie), so it may control."""
         return f"{self.url}/?token={self.token}"
 
+    def page_url(self, preset: str) -> str:
+        """The signing-in link opening the page in a layout preset ("match", "lab", "replay", or "all": every
+        panel, the page scrolling, the arrangement the older browser tests were written for)."""
+        return f"{self.login_url}&preset={preset}"
+
     @property
     def auth(self) -> dict[str, str]:
         return {"Authorization": f"Bearer {self.token}"}

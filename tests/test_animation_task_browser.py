@@ -98,7 +98,7 @@ def test_new_animation_from_the_robots_pose_played_saved_and_kept_across_a_reloa
     page = browser.new_page(bypass_csp=True, viewport={"width": 1920, "height": 1080})
     page.errors = []
     page.on("pageerror", lambda exc: page.errors.append(str(exc)))
-    page.goto(server.login_url)
+    page.goto(server.page_url("all"))  # the layout of every panel, arranged below
     page.evaluate(f"localStorage.clear(); localStorage.setItem('pitchside.focus', '{ROBOT}'); "
                   "localStorage.setItem('pitchside.layout', JSON.stringify({columns: 1, panels: ["
                   "{id: 'animation', w: 1, h: 8}]}))")

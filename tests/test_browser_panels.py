@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -36,28 +35,13 @@ class Talker(Node):
         self.strategy.publish(schemas.make("humanoid_league_msgs/msg/Strategy"))
 
 
-@pytest.fixture
-def stands(bus: BusConfig) -> Iterator[dict[str, SceneStand]]:
-    nodes = {"r1": SceneStand("r1", bus, overrides={"x": -2.0, "y": 1.0}).start(),
-             "r2": SceneStand("r2", bus, overrides={"x": 2.0, "y": -1.5, "penalized": True}).start()}
-    yield nodes
-    for node in nodes.values():
-        node.shutdown()
-
-
-@pytest.fixture
-def scene(router_endpoint: str, stands: dict[str, SceneStand], tmp_path: Path) -> Iterator[RunningServer]:
-    with dashboard_server(["--connect", router_endpoint, "--no-telemetry"], tmp_path) as server:
-        yield server
-
-
 def test_panels_show_live_data(browser: Any, scene: RunningServer, stands: dict[str, SceneStand],
                                bus: BusConfig) -> None:
     OUTPUT.mkdir(exist_ok=True)
     page = browser.new_page(bypass_csp=True, viewport={"width": 1600, "height": 2100})
     errors: list[str] = []
     page.on("pageerror", lambda exc: errors.append(str(exc)))
-    page.goto(scene.login_url)
+    page.goto(scene.page_url("all"))
     page.evaluate("localStorage.clear(); localStorage.setItem('pitchside.focus', 'r1')")
     page.reload()
     timeout = 30_000
@@ -165,7 +149,7 @@ def test_the_page_names_what_the_msg_files_name(browser: Any, scene: RunningServ
 
 def test_layout_is_changed_and_remembered(browser: Any, scene: RunningServer) -> None:
     page = browser.new_page(bypass_csp=True, viewport={"width": 1400, "height": 2400})  # no scrolling while dragging
-    page.goto(scene.login_url)
+    page.goto(scene.page_url("all"))
     page.evaluate("localStorage.clear()")
     page.reload()
     page.wait_for_selector('[data-panel="team"]')
@@ -217,7 +201,7 @@ def test_robot3d_panel_shows_viser(browser: Any, router_endpoint: str, bus: BusC
     try:
         with dashboard_server(args, tmp_path) as server:
             page = browser.new_page(bypass_csp=True, viewport={"width": 1600, "height": 1100})
-            page.goto(server.login_url)
+            page.goto(server.page_url("all"))
             page.evaluate("localStorage.clear()")
             page.reload()
             src = page.get_attribute('[data-panel="robot3d"] iframe', "src")

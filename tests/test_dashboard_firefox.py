@@ -148,7 +148,7 @@ def firefox(demo: RunningDemo, display: str | None) -> Iterator[FirefoxBidi]:
         ff.navigate(f"{demo.url}/style.css")
         ff.evaluate(f"""(() => {{ localStorage.clear(); localStorage.setItem('pitchside.focus', '{ROBOT}');
             localStorage.setItem('pitchside.layout', JSON.stringify({json.dumps(_layout(webgl))})); }})()""")
-        ff.navigate(demo.login_url)
+        ff.navigate(demo.page_url("all"))
         ff.wait_for_js("window.pitchside?.layout", 60, what="the dashboard's modules")
         hidden = ff.evaluate("window.pitchside.layout.state.panels.filter((p) => p.hidden).map((p) => p.id)")
         assert (set(WEBGL_VIEWS) & set(hidden)) == (set() if webgl else set(WEBGL_VIEWS)), hidden

@@ -50,7 +50,7 @@ def page(demo: RunningDemo) -> Iterator[Any]:
         page.errors = []
         page.on("pageerror", lambda exc: page.errors.append(str(exc)))
         page.set_default_timeout(60_000)
-        page.goto(demo.login_url)
+        page.goto(demo.page_url("all"))
         page.wait_for_function("window.pitchside?.layout")
         # the WebGL views (software-rendered here, in the page's own renderer) come in after the data panels
         page.evaluate(f"""(views) => {{ localStorage.clear(); localStorage.setItem('pitchside.focus', '{ROBOT}');

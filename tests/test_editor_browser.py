@@ -62,7 +62,7 @@ def editor_page(browser: Any, server: RunningServer) -> Any:
     page = browser.new_page(bypass_csp=True, viewport={"width": 1400, "height": 2000})
     page.errors = []
     page.on("pageerror", lambda exc: page.errors.append(str(exc)))
-    page.goto(server.login_url)
+    page.goto(server.page_url("all"))
     page.evaluate(f"localStorage.clear(); localStorage.setItem('pitchside.focus', '{ROBOT}'); "
                   "localStorage.setItem('pitchside.layout', JSON.stringify({columns: 1, panels: ["
                   "{id: 'animation', w: 1, h: 8}]}))")

@@ -67,7 +67,7 @@ def page(server: RunningServer) -> Iterator[Any]:
         page.errors = []
         page.on("pageerror", lambda exc: page.errors.append(str(exc)))
         page.set_default_timeout(30_000)
-        page.goto(server.login_url)
+        page.goto(server.page_url("all"))
         page.evaluate("localStorage.clear(); localStorage.setItem('pitchside.focus', 'walker')")
         page.reload()
         page.wait_for_function("window.pitchside?.fieldView")

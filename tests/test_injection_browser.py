@@ -82,7 +82,7 @@ def test_markup_from_the_bus_and_from_a_log_is_shown_as_text_and_never_runs(
             console: list[str] = []
             page.on("console", lambda m: console.append(m.text))
             page.on("pageerror", lambda exc: console.append(str(exc)))
-            page.goto(server.login_url)
+            page.goto(server.page_url("all"))
             reply = server.http.post(f"{server.url}/api/replay/open", json={"path": "other_team.mcap"})
             assert reply.status_code == 200, reply.text
             wait_for(lambda: page.evaluate("document.querySelector('[data-panel=\"diagnostics\"]')?.textContent"

@@ -36,7 +36,7 @@ def _page(browser: Any, server: RunningServer, robot: str) -> Any:
     page = browser.new_page(bypass_csp=True, viewport={"width": 1600, "height": 2400})
     page.errors = []
     page.on("pageerror", lambda exc: page.errors.append(str(exc)))
-    page.goto(server.login_url)
+    page.goto(server.page_url("all"))
     page.evaluate(f"localStorage.clear(); localStorage.setItem('pitchside.focus', '{robot}'); "
                   "localStorage.setItem('pitchside.layout', JSON.stringify({columns: 2, panels: ["
                   "{id: 'parameters', w: 1, h: 5}, {id: 'animation', w: 1, h: 6}, {id: 'teleop', w: 1, h: 2}]}))")

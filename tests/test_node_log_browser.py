@@ -36,7 +36,7 @@ def test_the_node_log_shows_filters_and_searches(browser: Any, server: RunningSe
     errors: list[str] = []
     page.on("pageerror", lambda exc: errors.append(str(exc)))
     try:
-        page.goto(server.login_url)
+        page.goto(server.page_url("all"))
         page.evaluate("localStorage.clear()")
         page.reload()
         panel = 'section[data-panel="node_log"]'

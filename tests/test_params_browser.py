@@ -39,7 +39,7 @@ def panel_page(browser: Any, server: RunningServer, robot: str) -> Any:
     page = browser.new_page(bypass_csp=True, viewport={"width": 1400, "height": 2000})
     page.errors = []
     page.on("pageerror", lambda exc: page.errors.append(str(exc)))
-    page.goto(server.login_url)
+    page.goto(server.page_url("all"))
     page.evaluate(f"localStorage.clear(); localStorage.setItem('pitchside.focus', '{robot}'); "
                   "localStorage.setItem('pitchside.layout', JSON.stringify({columns: 1, panels: ["
                   "{id: 'parameters', w: 1, h: 8}]}))")

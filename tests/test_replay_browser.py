@@ -88,7 +88,7 @@ def test_replay_task(browser: Any, live_and_recorded: RunningServer) -> None:
     page = browser.new_page(bypass_csp=True, viewport={"width": 1920, "height": 1080})
     errors: list[str] = []
     page.on("pageerror", lambda exc: errors.append(str(exc)))
-    page.goto(server.login_url)
+    page.goto(server.page_url("all"))
     page.evaluate("localStorage.clear()")
     page.reload()
     actions = 0

@@ -4,6 +4,11 @@ import { Connection } from "./connection.js";
 import { setOptions } from "./dom.js";
 import { SessionBar } from "./session.js";
 import { Layout } from "./layout.js";
+import { installLayoutControls } from "./layout_controls.js";
+import { PRESETS, startPreset } from "./presets.js";
+import { installShortcuts } from "./shortcuts.js";
+import { installTheme } from "./theme.js";
+import { showInAddress, viewFromAddress } from "./view_state.js";
 import { PlaybackBar } from "./playback_bar.js";
 import { eventTopics, learnSchemas } from "./msgtypes.js";
 import { Store } from "./store.js";
@@ -21,9 +26,12 @@ import teleop from "./panels/teleop.js";
 import replay from "./panels/replay.js";
 import recordings from "./panels/recordings.js";
 import nodeLog from "./panels/node_log.js";
+import gameState from "./panels/game_state.js";
+import linkHealth from "./panels/link_health.js";
 
 const PANELS = [teamOverview, fieldView, relativeView, hcmGraph, camera, diagnostics, robot3d, plots, parameters,
-  animationEditor, teleop, replay, recordings, nodeLog];
+  animationEditor, teleop, replay, recordings, nodeLog, gameState, linkHealth];
+const PRESET_KEY = "pitchside.preset";
 
 async function main() {
   // the message constants and the topic table come from the server (the .msg files), before any panel starts
@@ -40,6 +48,12 @@ async function main() {
   document.getElementById("match-badge").hidden = !config.match_mode;
   new SessionBar(document.getElementById("session"), config);
 
+  // the view: the address first (a shared link), then what this browser used last, then the server's mode
+  const asked = viewFromAddress();
+  if (asked.robot) store.setFocus(asked.robot);
+  const preset = [asked.preset, localStorage.getItem(PRESET_KEY)].find((p) => PRESETS[p]) ?? startPreset(config);
+
+  let followLayout = () => {};
   const ctx = {
     store, conn, config,
     /** Subscribe a panel to a topic of every robot, at most maxHz; fn(frame) on every arrival. */
@@ -47,34 +61,18 @@ async function main() {
       conn.subscribe("*", topic, maxHz);
       return store.on(`topic:${topic}`, fn);
     },
-    onLayout: (state) => {
-      document.getElementById("columns-select").value = String(state.columns);
-      refreshAddMenu(state);
-    },
+    onLayout: (state, chosen) => followLayout(state, chosen),
   };
-  const layout = new Layout(document.getElementById("grid"), PANELS, ctx);
-  window.pitchside = { store, conn, layout, config, schemas };
+  const layout = new Layout(document.getElementById("grid"), PANELS, ctx, preset);
+  window.pitchside = { ...window.pitchside, store, conn, layout, config, schemas };
+  followLayout = installLayoutControls({ layout, modules: PANELS, bar: document.getElementById("topbar"),
+    onPreset: (chosen) => { localStorage.setItem(PRESET_KEY, chosen); showInAddress(chosen, store.focus); } });
   new PlaybackBar(document.body, store);
   store.on("replay-opened", () => { // a log opened (from the recordings list): bring the replay view into sight
     layout.show("replay");
     layout.live.get("replay")?.section.scrollIntoView({ behavior: "smooth", block: "nearest" });
   });
-
-  const addMenu = document.getElementById("add-panel");
-  function refreshAddMenu(state) {
-    setOptions(addMenu, [["", "+ panel"], ...state.panels.filter((x) => x.hidden)
-      .map((p) => [p.id, PANELS.find((m) => m.id === p.id)?.title ?? p.id])]);
-  }
-  addMenu.addEventListener("change", () => { if (addMenu.value) layout.show(addMenu.value); });
-  document.getElementById("columns-select").addEventListener("change", (e) => layout.setColumns(+e.target.value));
-  document.getElementById("layout-reset").addEventListener("click", () => layout.reset());
-  const root = document.documentElement;
-  if (localStorage.getItem("pitchside.theme") === "dark") root.classList.add("dark");
-  document.getElementById("theme-toggle").addEventListener("click", () => {
-    root.classList.toggle("dark");
-    localStorage.setItem("pitchside.theme", root.classList.contains("dark") ? "dark" : "light");
-    store.emit("theme");
-  });
+  installTheme(document.getElementById("theme-toggle"), () => store.emit("theme"));
 
   const focusSelect = document.getElementById("focus-select");
   function refreshFocus() {
@@ -82,8 +80,23 @@ async function main() {
     focusSelect.value = store.focus;
   }
   store.on("robots", refreshFocus);
-  store.on("focus", refreshFocus);
+  store.on("focus", () => { refreshFocus(); showInAddress(layout.preset, store.focus); });
   focusSelect.addEventListener("change", () => store.setFocus(focusSelect.value));
+
+  const pause = document.getElementById("pause-live");
+  const showPause = () => {
+    pause.textContent = store.paused ? `PAUSED · ${store.held.length + store.heldDropped} new` : "live";
+    pause.className = `badge ${store.paused ? "warn" : "ok"}`;
+    pause.setAttribute("aria-pressed", String(store.paused));
+  };
+  pause.addEventListener("click", () => (store.paused ? store.resume() : store.pause()));
+  store.on("paused", showPause);
+  setInterval(() => { if (store.paused) showPause(); }, 500);
+  showPause();
+  const help = document.getElementById("shortcuts");
+  installShortcuts({ store, layout, help });
+  document.getElementById("shortcuts-button").addEventListener("click", () => help.showModal());
+
   layout.render();
   window.addEventListener("resize", () => { for (const l of layout.live.values()) l.instance.resize?.(); });
 }

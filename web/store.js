@@ -2,6 +2,8 @@
 
 /** A stream that arrived at least this often (Hz) is periodic: once it stops, that is news. */
 export const PERIODIC_HZ = 0.9;
+/** Frames kept during a pause (events and the newest of each periodic stream); beyond, they are skipped. */
+const HELD_MAX = 50000;
 
 export class Store {
   /** eventTopics: topics published only when something happens (an animation plays, the robot walks or talks, a
@@ -18,6 +20,46 @@ export class Store {
     this.periodic = new Set(); // "robot|topic" of streams seen arriving at PERIODIC_HZ or more
     this.replayed = new Set(); // robots of the open replay (the server says so): shown apart, marked REPLAY
     this.replayListed = new Set(); // the replayed robots of the last "robots" frame
+    this.paused = false;       // the live view frozen (space): frames keep arriving into `held`, shown on resume
+    this.pausedAt = 0;
+    this.held = [];            // frames that arrived while paused, in order
+    this.heldAt = new Map();   // "robot|topic" of a periodic stream (or "robots") -> its index in held
+    this.heldDropped = 0;
+  }
+
+  /** Freezes what the panels show; the connection stays subscribed and every frame is kept for resume(). */
+  pause() {
+    if (this.paused) return;
+    this.paused = true;
+    this.pausedAt = performance.now();
+    this.emit("paused", true);
+  }
+
+  /** Shows what arrived meanwhile (the newest of each periodic stream, every event) and goes live again. */
+  resume() {
+    if (!this.paused) return;
+    this.paused = false;
+    const held = this.held;
+    this.held = [];
+    this.heldAt.clear();
+    this.heldDropped = 0;
+    for (const frame of held) this.handle(frame);
+    this.emit("paused", false);
+  }
+
+  /** While paused: a periodic stream keeps only its newest frame (it replaces its own older one), events all. */
+  _hold(frame) {
+    const key = frame.type === "robots" ? "robots" : `${frame.robot}|${frame.topic}`;
+    const coalesce = frame.type === "robots" || (this.periodic.has(key) && !this.eventTopics.has(frame.topic));
+    if (coalesce && this.heldAt.has(key)) { this.held[this.heldAt.get(key)] = frame; return; }
+    if (this.held.length >= HELD_MAX) { this.heldDropped++; return; } // a very long pause: the rest is skipped
+    if (coalesce) this.heldAt.set(key, this.held.length);
+    this.held.push(frame);
+  }
+
+  /** The page's clock for ages: stands still while paused, so nothing turns stale on screen meanwhile. */
+  now() {
+    return this.paused ? this.pausedAt : performance.now();
   }
 
   on(event, fn) {
@@ -33,6 +75,10 @@ export class Store {
   }
 
   handle(frame) {
+    if (this.paused && (frame.type === "msg" || frame.type === "image" || frame.type === "robots")) {
+      this._hold(frame);
+      return;
+    }
     if (frame.type === "msg" || frame.type === "image") {
       if (!this.latest.has(frame.robot)) this.latest.set(frame.robot, new Map());
       this.latest.get(frame.robot).set(frame.topic, frame);
@@ -68,7 +114,7 @@ export class Store {
   /** Seconds since the server last heard from the robot (or stream), advanced locally between "robots" frames;
    * a frame this page received itself is fresher evidence. */
   robotAge(info, topic = null) {
-    const now = performance.now();
+    const now = this.now();
     const serverAge = (topic ? info.streams[topic].age_s : info.age_s) + (now - this.robotsAt) / 1000;
     const seen = this.arrivals.get(topic ? `${info.robot}|${topic}` : info.robot);
     return seen === undefined ? serverAge : Math.min(serverAge, (now - seen) / 1000);

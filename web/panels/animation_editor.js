@@ -610,11 +610,13 @@ function renderJoints(ed) {
   const { state } = ed;
   ed.$('[data-role="joints"]').innerHTML = state.joints.map((j) => `<tr data-joint="${esc(j.name)}">
         <td>${esc(j.name)}</td>
-        <td><input type="checkbox" data-rec ${state.recordJoints.has(j.name) ? "checked" : ""}></td>
-        <td><input type="checkbox" data-limp ${state.limp.has(j.name) ? "checked" : ""}></td>
-        <td><input type="range" data-slider min="${esc(j.lower)}" max="${esc(j.upper)}" step="0.5"
-          value="${esc(state.held[j.name] ?? 0)}">
-          <input type="number" data-held step="0.5" value="${(state.held[j.name] ?? 0).toFixed(1)}"></td></tr>`).join("");
+        <td><input type="checkbox" data-rec aria-label="record ${esc(j.name)}"
+          ${state.recordJoints.has(j.name) ? "checked" : ""}></td>
+        <td><input type="checkbox" data-limp aria-label="${esc(j.name)} limp" ${state.limp.has(j.name) ? "checked" : ""}></td>
+        <td><input type="range" data-slider aria-label="${esc(j.name)} goal (slider)" min="${esc(j.lower)}"
+          max="${esc(j.upper)}" step="0.5" value="${esc(state.held[j.name] ?? 0)}">
+          <input type="number" data-held aria-label="${esc(j.name)} goal (deg)" step="0.5"
+          value="${(state.held[j.name] ?? 0).toFixed(1)}"></td></tr>`).join("");
 }
 
 // -- recording --------------------------------------------------------------------------------------

@@ -24,20 +24,23 @@ function same(a, b) { return JSON.stringify(a) === JSON.stringify(b); }
 /** The input that fits a parameter's type: a toggle, a menu of its choices, a number (with a slider in a range). */
 function controlFor(p) {
   if (p.type === "bool") {
-    return `<label class="toggle"><input type="checkbox" data-role="value" ${p.value ? "checked" : ""}> on</label>`;
+    return `<label class="toggle"><input type="checkbox" data-role="value" aria-label="${esc(p.name)}"
+      ${p.value ? "checked" : ""}> on</label>`;
   }
   if (p.choices) {
-    return `<select data-role="value">${p.choices.map((c) => `<option value="${esc(JSON.stringify(c))}"
+    return `<select data-role="value" aria-label="${esc(p.name)}">${p.choices.map((c) => `<option value="${esc(JSON.stringify(c))}"
       ${c === p.value ? "selected" : ""}>${esc(c)}</option>`).join("")}</select>`;
   }
   if (p.type === "int" || p.type === "float") {
     const step = p.type === "int" ? 1 : "any";
-    const slider = p.range ? `<input type="range" data-role="slider" min="${esc(p.range[0])}" max="${esc(p.range[1])}"
+    const slider = p.range ? `<input type="range" data-role="slider" aria-label="${esc(p.name)} (slider)" min="${esc(p.range[0])}" max="${esc(p.range[1])}"
       step="${p.type === "int" ? 1 : esc((p.range[1] - p.range[0]) / 200)}" value="${esc(p.value)}">` : "";
-    return `${slider}<input type="number" data-role="value" step="${step}" value="${esc(p.value)}">`;
+    return `${slider}<input type="number" data-role="value" aria-label="${esc(p.name)}" step="${step}"
+      value="${esc(p.value)}">`;
   }
-  if (p.type === "list") return `<input type="text" data-role="value" value="${esc(JSON.stringify(p.value))}">`;
-  return `<input type="text" data-role="value" value="${esc(p.value)}">`;
+  const label = `aria-label="${esc(p.name)}"`;
+  if (p.type === "list") return `<input type="text" data-role="value" ${label} value="${esc(JSON.stringify(p.value))}">`;
+  return `<input type="text" data-role="value" ${label} value="${esc(p.value)}">`;
 }
 
 /** The value a parameter's input holds, in the parameter's type; throws on a list or choice that is not JSON. */
@@ -171,10 +174,11 @@ const TIPS = {
 /** A node's section: its buttons (diff, save, revert, reset), the place for the diff, and its parameters' table. */
 function nodeSection(node, params) {
   return `<details class="param-node" data-node="${esc(node)}" open>
-        <summary>${esc(node)} <button data-act="diff" title="${esc(TIPS.diff)}">diff vs file</button>
+        <summary>${esc(node)}</summary>
+        <div class="param-node-acts"><button data-act="diff" title="${esc(TIPS.diff)}">diff vs file</button>
           <button data-act="save" title="${esc(TIPS.save)}">save</button>
           <button data-act="revert-node" title="${esc(TIPS.revert)}">revert all to file</button>
-          <button data-act="reset-node" title="${esc(TIPS.reset)}">reset all to default</button></summary>
+          <button data-act="reset-node" title="${esc(TIPS.reset)}">reset all to default</button></div>
         <div class="param-diff" data-role="diff"></div>
         <table class="grid-table params"><colgroup><col class="c-name"><col class="c-value"><col class="c-default">
           <col class="c-range"><col class="c-acts"></colgroup>

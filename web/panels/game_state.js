@@ -1,0 +1,45 @@
+// Game state: what the GameController says, big enough to read from the bench: state, score, clock, half,
+// kick-off, the secondary state (free kick, penalty shoot-out...) and which of our robots are penalized.
+
+import { fmtClock, gameName, secondaryName } from "../msgtypes.js";
+
+export default {
+  id: "game",
+  title: "Game state",
+  size: [1, 1],
+  create(body, ctx) {
+    const { store } = ctx;
+    body.innerHTML = `<div class="game-panel">
+      <div class="game-main"><span class="game-name"></span> <span class="game-score"></span></div>
+      <div class="game-clock"></div><div class="game-secondary"></div><div class="game-penalized"></div></div>`;
+    const $ = (sel) => body.querySelector(sel);
+
+    function render() {
+      // the focused robot's view of the game first; a replayed game is never mixed with the live one
+      const ids = [store.focus, ...store.robotIds()];
+      const from = ids.find((id) => store.get(id, "gamestate")?.data);
+      const game = from === undefined ? undefined : store.get(from, "gamestate").data;
+      body.dataset.state = game ? gameName(game.game_state) : "";
+      if (!game) {
+        $(".game-name").textContent = "no game state";
+        for (const sel of [".game-score", ".game-clock", ".game-secondary", ".game-penalized"]) $(sel).textContent = "";
+        return;
+      }
+      const replay = store.isReplayed(from);
+      $(".game-name").textContent = `${replay ? "REPLAY " : ""}${gameName(game.game_state)}`;
+      $(".game-score").textContent = `${game.own_score} : ${game.rival_score}`;
+      $(".game-clock").textContent = `${fmtClock(game.seconds_remaining)} ${game.first_half ? "1st" : "2nd"} half` +
+        `${game.has_kick_off ? " · our kick-off" : ""}`;
+      $(".game-secondary").textContent = game.secondary_state
+        ? `${secondaryName(game.secondary_state)} ${fmtClock(game.secondary_seconds_remaining)}` : "";
+      const penalized = store.robotIds().filter((id) => store.isReplayed(id) === replay
+        && store.get(id, "gamestate")?.data?.penalized);
+      $(".game-penalized").textContent = penalized.length ? `penalized: ${penalized.join(", ")}` : "nobody penalized";
+      $(".game-penalized").classList.toggle("bad", penalized.length > 0);
+    }
+
+    const offs = [ctx.subscribe("gamestate", 2, render), store.on("focus", render), store.on("robots", render)];
+    render();
+    return { destroy() { offs.forEach((off) => off()); } };
+  },
+};
