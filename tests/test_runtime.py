@@ -79,6 +79,7 @@ class GainParams:
     mode: str = param("soft", choices=["soft", "hard"], doc="a mode")
     enabled: bool = param(True, doc="a switch")
     count: int = param(3, range=(0, 10), doc="a count")
+    wiring: str = param("fixed", startup=True, doc="read once at start-up")
 
 
 class Tunable(Node):
@@ -90,6 +91,41 @@ class Tunable(Node):
 
     def on_parameters_changed(self, changed: dict[str, object]) -> None:
         self.seen_changes.append(changed)
+
+
+def _ask(session: zenoh.Session, payload: bytes) -> dict[str, object]:
+    """A raw parameter request as any process on the bus can send it; the node's JSON reply."""
+    import json
+
+    replies = wait_for(lambda: list(session.get(keys.params_key("robot1", "tunable"), payload=payload, timeout=2.0)),
+                       10.0, 0.1, "the node's answer (once its queryable is known to this session)")
+    assert replies[0].ok is not None
+    return dict(json.loads(replies[0].ok.payload.to_bytes()))
+
+
+def test_parameter_requests_from_the_bus_write_no_other_file_and_change_no_startup_value(
+        bus: BusConfig, tmp_path: Path) -> None:
+    yaml_path = tmp_path / "params.yaml"
+    yaml_path.write_text("tunable:\n  gain: 1.5\n")
+    elsewhere = tmp_path / "elsewhere.yaml"
+    node = Tunable(bus=bus, params_file=yaml_path).start()
+    try:
+        with open_session(bus) as session:
+            reply = _ask(session, f'{{"op": "save", "path": "{elsewhere}"}}'.encode())
+            assert reply["ok"] is False and "own parameter file only" in str(reply["error"])
+            assert not elsewhere.exists()
+            reply = _ask(session, b"[" * 100_000)  # nested past any limit: an answer, not a RecursionError
+            assert reply["ok"] is False and "nested deeper" in str(reply["error"])
+            client = ParameterClient(session, "robot1")
+            with pytest.raises(ParameterError, match="read once when tunable starts"):
+                client.set("tunable", {"wiring": "other"})
+            client.set("tunable", {"wiring": "fixed"})  # the value it has: no change, no refusal
+            client.set("tunable", {"gain": 0.5})
+            client.reset("tunable")  # every parameter that may change live
+            assert client.get("tunable", "gain") == 1.0 and client.get("tunable", "wiring") == "fixed"
+            assert {p["name"]: p["startup"] for p in client.describe("tunable")}["wiring"] is True
+    finally:
+        node.shutdown()
 
 
 def test_parameters_list_get_set_save_reload(bus: BusConfig, tmp_path: Path) -> None:

@@ -126,8 +126,9 @@ class ParameterClient:
     def reset(self, node: str, names: list[str] | None = None) -> dict[str, Any]:
         return self._one(node, {"op": "reset", "names": names or []})
 
-    def save(self, node: str, path: str | None = None) -> dict[str, Any]:
-        return self._one(node, {"op": "save", "path": path})
+    def save(self, node: str) -> dict[str, Any]:
+        """The node writes its live values into its own parameter file (never a file named over the bus)."""
+        return self._one(node, {"op": "save"})
 
     def file(self, node: str) -> tuple[str | None, dict[str, Any]]:
         """The YAML file the node started with (None: none) and its section of it as it is now."""

@@ -31,7 +31,6 @@ from schemas.std import Header, Imu, JointState, JointTrajectory, Quaternion, Te
 OPTICAL_FRAME = "camera_optical_frame"
 FOOTPRINT_FRAME = "base_footprint"
 MAP_FRAME = "map"
-LIMIT_PARAMS = ("model", "urdf", "limit_margin_deg")  # read once at start-up (section "Safety" of the README)
 CLAMP_REPORT_EVERY_S = 5.0  # at most one error line per this many seconds while goals are being clamped
 SERVO_HEALTH_PERIOD_S = 1.0  # servo_health goes out on every change and at least this often
 
@@ -48,12 +47,12 @@ class Cm730Params:
     servo_data_rate: float = param(5.0, range=(0.1, 50.0), doc="Hz of servo_data (temperatures, voltage)")
     device: str = param("/dev/ttyUSB0", doc="dynamixel: serial port of the servo bus")
     baudrate: int = param(1000000, range=(9600, 4500000), doc="dynamixel: bus baud rate")
-    model: str = param("minibot", doc="robot model; its URDF is robots/<model>/urdf/<model>.urdf (start-up only)")
-    urdf: str = param("", doc="URDF whose joint limits every goal is clamped to; empty = the model's (start-up only)")
+    model: str = param("minibot", startup=True, doc="robot model; its URDF is robots/<model>/urdf/<model>.urdf")
+    urdf: str = param("", startup=True, doc="URDF whose joint limits every goal is clamped to; empty = the model's")
     limit_margin_deg: float = param(
-        1.0, range=(0.0, 10.0),
+        1.0, range=(0.0, 10.0), startup=True,
         doc="goals stay this far inside each URDF joint limit: a servo overshoots its goal by a few ticks and the "
-            "URDF limit is where parts touch (start-up only)")
+            "URDF limit is where parts touch")
     real_time_factor: float = param(1.0, range=(0.0, 100.0), doc="mujoco: sim speed, 0 = as fast as possible")
     imu_gyro_noise: float = param(0.005, range=(0.0, 1.0), doc="mujoco: gyro noise std dev, rad/s")
     imu_accel_noise: float = param(0.05, range=(0.0, 5.0), doc="mujoco: accelerometer noise std dev, m/s^2")
@@ -344,11 +343,6 @@ class Cm730Node(Node):
         self._sim.runner.set_real_time_factor(p.real_time_factor)
 
     def on_parameters_changed(self, changed: dict[str, Any]) -> None:
-        late = [name for name in LIMIT_PARAMS if name in changed]
-        if late:
-            # the limits cannot be widened over the network while the robot runs; the servos' registers hold too
-            in_force = self.goal_limits.describe() if self.goal_limits is not None else "none"
-            self.record_error(f"{', '.join(late)} take effect at the next start of cm730; in force: {in_force}")
         if "publish_rate" in changed:
             self._state_timer.set_rate(self.params.publish_rate)
         if "servo_data_rate" in changed:

@@ -32,10 +32,12 @@ from wire import keys
 from wire.actions import ActionClient
 from wire.bus import BusConfig, add_bus_arguments, bus_from_arguments, load_config_file, open_session
 from wire.command_line import CommandParser
+from wire.json_limits import JsonLimitError, loads_limited
 from wire.parameters import ParameterError
 
 log = logging.getLogger(__name__)
 FIRST_REPORT_AGAIN_S = 0.5  # the second report of a starting node (see spin)
+MAX_PARAMETER_REQUEST = 1 << 20  # bytes of one JSON parameter request (its depth: wire.json_limits)
 
 
 @dataclass
@@ -400,8 +402,8 @@ class Node:
         """Runs on a Zenoh thread: the store has its own lock, change callbacks go to the loop."""
         reply: dict[str, Any]
         try:
-            request: dict[str, Any] = (json.loads(query.payload.to_bytes()) if query.payload is not None
-                                       else {"op": "list"})
+            request: dict[str, Any] = (loads_limited(query.payload.to_bytes(), MAX_PARAMETER_REQUEST)
+                                       if query.payload is not None else {"op": "list"})
             if not isinstance(request, dict):
                 raise ValueError("a parameter request is a JSON object")
             op = request.get("op", "list")
@@ -414,8 +416,10 @@ class Node:
                 changed = self.parameters.reset(request.get("names"))
                 reply = {"ok": True, "changed": sorted(changed)}
             elif op == "save":
-                path = self.parameters.save(Path(request["path"]) if request.get("path") else None)
-                reply = {"ok": True, "path": str(path)}
+                if request.get("path"):  # a path from the bus would let anyone on it write any file the node may
+                    raise ParameterError(f"{self.name} saves to its own parameter file only, not to a path asked "
+                                         "for over the bus")
+                reply = {"ok": True, "path": str(self.parameters.save())}
             elif op == "file":
                 file, values = self.parameters.file_values()
                 reply = {"ok": True, "path": str(file) if file else None, "values": values}
@@ -423,7 +427,7 @@ class Node:
                 reply = {"ok": False, "error": f"unknown parameter operation {op!r}"}
         except ParameterError as exc:
             reply = {"ok": False, "error": str(exc), "reason": exc.reason}
-        except (ValueError, TypeError, KeyError) as exc:
+        except (ValueError, TypeError, KeyError, JsonLimitError) as exc:
             reply = {"ok": False, "error": str(exc), "reason": ParameterError.reason}
         reply.update({"node": self.name, "robot": self.robot_id, "params": self.parameters.describe()})
         query.reply(keys.params_key(self.robot_id, self.name), json.dumps(reply))

@@ -28,9 +28,12 @@ def param(
     range: tuple[float, float] | None = None,
     choices: list[Any] | None = None,
     doc: str = "",
+    startup: bool = False,
 ) -> Any:
-    """A dataclass field that carries its range, choices and one line of documentation."""
-    return field(default=default, metadata={"range": range, "choices": choices, "doc": doc})
+    """A dataclass field that carries its range, choices and one line of documentation. A ``startup`` parameter
+    is read once when the node starts (e.g. the joint limits): it cannot be changed while the node runs, only in
+    the parameter file, so nobody on the bus can widen it live."""
+    return field(default=default, metadata={"range": range, "choices": choices, "doc": doc, "startup": startup})
 
 
 @dataclass(frozen=True, slots=True)
@@ -41,6 +44,7 @@ class ParameterSpec:
     range: tuple[float, float] | None
     choices: list[Any] | None
     doc: str
+    startup: bool = False
 
     def validate(self, value: Any) -> Any:
         """The value converted to the parameter's type, or ParameterError."""
@@ -99,6 +103,7 @@ def specs_of(params_cls: type) -> dict[str, ParameterSpec]:
             range=f.metadata.get("range"),
             choices=f.metadata.get("choices"),
             doc=f.metadata.get("doc", ""),
+            startup=bool(f.metadata.get("startup", False)),
         )
     return specs
 
@@ -140,6 +145,7 @@ class ParameterStore:
                 "range": list(s.range) if s.range else None,
                 "choices": s.choices,
                 "doc": s.doc,
+                "startup": s.startup,
                 "revision": self.revisions[s.name],
             }
             for s in self.specs.values()
@@ -154,6 +160,9 @@ class ParameterStore:
                 if spec is None:
                     raise ParameterError(f"node {self.node!r} has no parameter {name!r}")
                 checked[name] = spec.validate(value)  # a bad value is named as such, whatever its revision
+                if spec.startup and checked[name] != getattr(self.values, name):
+                    raise ParameterError(f"{name} is read once when {self.node} starts: change it in the parameter "
+                                         "file and restart the node")
                 if revisions and name in revisions and revisions[name] != self.revisions[name]:
                     raise StaleRevision(
                         f"{name} was changed meanwhile (revision {self.revisions[name]}, "
@@ -169,7 +178,8 @@ class ParameterStore:
         return changed
 
     def reset(self, names: list[str] | None = None) -> dict[str, Any]:
-        names = names if names else list(self.specs)
+        """Back to the defaults: the named parameters, or every one that may change while the node runs."""
+        names = names if names else [n for n, spec in self.specs.items() if not spec.startup]
         return self.set({n: self.specs[n].default for n in names if n in self.specs})
 
     def save(self, path: Path | None = None) -> Path:

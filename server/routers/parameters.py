@@ -56,6 +56,7 @@ class Parameter(BaseModel):
     range: list[float] | None = None
     choices: list[Any] | None = None
     doc: str = ""
+    startup: bool = False  # read once when the node starts: refused while it runs
     revision: int
 
 

@@ -23,24 +23,26 @@ function same(a, b) { return JSON.stringify(a) === JSON.stringify(b); }
 
 /** The input that fits a parameter's type: a toggle, a menu of its choices, a number (with a slider in a range). */
 function controlFor(p) {
+  // a start-up parameter (e.g. the joint limits) changes only in the parameter file: shown, not editable
+  const lock = p.startup ? ' disabled title="read once when its node starts: change it in the parameter file"' : "";
   if (p.type === "bool") {
-    return `<label class="toggle"><input type="checkbox" data-role="value" aria-label="${esc(p.name)}"
+    return `<label class="toggle"><input type="checkbox" data-role="value"${lock} aria-label="${esc(p.name)}"
       ${p.value ? "checked" : ""}> on</label>`;
   }
   if (p.choices) {
-    return `<select data-role="value" aria-label="${esc(p.name)}">${p.choices.map((c) => `<option value="${esc(JSON.stringify(c))}"
+    return `<select data-role="value"${lock} aria-label="${esc(p.name)}">${p.choices.map((c) => `<option value="${esc(JSON.stringify(c))}"
       ${c === p.value ? "selected" : ""}>${esc(c)}</option>`).join("")}</select>`;
   }
   if (p.type === "int" || p.type === "float") {
     const step = p.type === "int" ? 1 : "any";
-    const slider = p.range ? `<input type="range" data-role="slider" aria-label="${esc(p.name)} (slider)" min="${esc(p.range[0])}" max="${esc(p.range[1])}"
+    const slider = p.range ? `<input type="range" data-role="slider"${lock} aria-label="${esc(p.name)} (slider)" min="${esc(p.range[0])}" max="${esc(p.range[1])}"
       step="${p.type === "int" ? 1 : esc((p.range[1] - p.range[0]) / 200)}" value="${esc(p.value)}">` : "";
-    return `${slider}<input type="number" data-role="value" aria-label="${esc(p.name)}" step="${step}"
+    return `${slider}<input type="number" data-role="value"${lock} aria-label="${esc(p.name)}" step="${step}"
       value="${esc(p.value)}">`;
   }
   const label = `aria-label="${esc(p.name)}"`;
-  if (p.type === "list") return `<input type="text" data-role="value" ${label} value="${esc(JSON.stringify(p.value))}">`;
-  return `<input type="text" data-role="value" ${label} value="${esc(p.value)}">`;
+  if (p.type === "list") return `<input type="text" data-role="value"${lock} ${label} value="${esc(JSON.stringify(p.value))}">`;
+  return `<input type="text" data-role="value"${lock} ${label} value="${esc(p.value)}">`;
 }
 
 /** The value a parameter's input holds, in the parameter's type; throws on a list or choice that is not JSON. */
