@@ -86,7 +86,7 @@ def test_the_page_downloads_the_half(browser: Any, recorded: tuple[RunningServer
     server, _, parts = recorded
     page = browser.new_page()
     try:
-        page.goto(server.login_url)
+        page.goto(server.page_url("match"))  # after a match: the recordings are in its layout
         row = page.locator('.rec-files tr[data-file="half.mcap"]')
         row.wait_for(timeout=20_000)
         link = row.locator("a[data-download-series]")
