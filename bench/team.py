@@ -142,13 +142,14 @@ def measure(robots: int, compose: str, seconds: float) -> Figures:
             stop.set()
             sampler.join(5)
             t1 = time.monotonic()
+            gone = [label(p) for p in procs if not p.is_running()]
+            if gone:
+                raise SystemExit(f"{figures.label}: processes died during the measurement: {gone}")
+            procs = demo.processes()  # with any started meanwhile (e.g. a layout by graphviz): all their CPU counts
             for p in procs:
                 with contextlib.suppress(psutil.Error):
-                    cpu = 100.0 * (sum(p.cpu_times()[:2]) - before[p.pid]) / (t1 - t0)
+                    cpu = 100.0 * (sum(p.cpu_times()[:2]) - before.get(p.pid, 0.0)) / (t1 - t0)
                     figures.by_process.append((label(p), cpu, p.memory_info().rss / 1e6))
-            gone = [p.pid for p in procs if not p.is_running()]
-            if gone or len(demo.processes()) != len(procs):
-                raise SystemExit(f"{figures.label}: processes died or restarted during the measurement: {gone}")
             figures.seconds = t1 - t0
             figures.cpu_pct = sum(c for _, c, _ in figures.by_process)
             figures.rss_mb = sum(r for _, _, r in figures.by_process)

@@ -40,16 +40,20 @@ class HubMessage:
     # known, or not live (replay). The hub holds back messages that arrive late (server.lateness).
     sent: float | None = None
     frame: str | bytes | None = None  # cache of the browser frame (server.protocol), built once for all clients
+    decoded: Any = field(default=None, repr=False)  # cache of the message decoded from ``data``'s CDR
 
     @property
     def message(self) -> Any:
-        """The decoded message; schemas.SchemaError if CDR bytes do not decode as ``typename``."""
-        if isinstance(self.data, bytes | bytearray | memoryview):
-            self.data = schemas.decode(bytes(self.data), self.typename)
-        return self.data
+        """The decoded message (decoded once, on first use); schemas.SchemaError if the CDR does not decode."""
+        if not isinstance(self.data, bytes | bytearray | memoryview):
+            return self.data
+        if self.decoded is None:
+            self.decoded = schemas.decode(bytes(self.data), self.typename)
+        return self.decoded
 
     @property
     def cdr(self) -> bytes:
+        """The CDR as the source had it (a recording and Foxglove pass it on, never re-encoded)."""
         return bytes(self.data) if isinstance(self.data, bytes | bytearray | memoryview) else schemas.encode(self.data)
 
 

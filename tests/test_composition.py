@@ -220,3 +220,32 @@ def test_composed_arguments_take_only_parameters() -> None:
         robot_processes("robot1", [["hcm", "walking"]], [], extra={"hcm": ["--log-level", "DEBUG"]})
     processes = robot_processes("robot1", [["hcm", "walking"]], [], extra={"hcm": ["--set", "rate_hz=50"]})
     assert processes[0].argv[-2:] == ["--set", "hcm.rate_hz=50"]
+
+
+class Sampler(Node):
+    """A rate-limited subscription and a kept-latest one of the same topic."""
+
+    name = "sampler"
+
+    def setup(self) -> None:
+        self.calls: list[float] = []
+        self.limited = self.subscribe("joint_states", lambda _msg: self.calls.append(time.monotonic()), max_hz=20.0)
+        self.newest = self.keep_latest("joint_states")
+
+
+@pytest.mark.parametrize("outside", [False, True], ids=["composed", "other process"])
+def test_rate_limited_and_latest_subscriptions_do_not_wake_the_node_for_every_message(
+        session: zenoh.Session, bus: BusConfig, outside: bool) -> None:
+    talker = Talker(bus=bus if outside else session, overrides={"rate_hz": 200.0})
+    sampler = Sampler(bus=session)
+    nodes = started(sampler, talker)
+    try:
+        wait_for(lambda: sampler.newest.count >= 400, 20.0, what="two seconds of 200 Hz")
+        calls, taken = len(sampler.calls), sampler.newest.count
+        assert 0 < calls <= taken / 200 * 20 * 1.2 + 2, (calls, taken)  # about 20 a second reached the handler
+        assert sampler.limited.skipped >= taken - calls - 5
+        newest = int(sampler.newest.message.position[0])
+        assert newest >= talker.seq - 5, "the kept message is the newest"
+    finally:
+        for node in nodes:
+            node.shutdown()

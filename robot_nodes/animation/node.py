@@ -77,10 +77,10 @@ class AnimationNode(Node):
     def setup(self) -> None:
         self.library = AnimationLibrary(self.folders())
         self._positions: dict[str, float] | None = None
-        self._newest_joints: JointState | None = None  # merged into _positions when read, not 200 times a second
+        self._merged: JointState | None = None  # the joint_states already in _positions
         self.playback: Playback | None = None
         self.pub = self.publisher("animation")
-        self.subscribe("joint_states", self.on_joint_states)
+        self.joints = self.keep_latest("joint_states")  # read when an animation starts, never woken by it
         self.server = self.action_server("animation", self.on_goal, self.on_cancel)
         self.tick_timer = self.timer(self.params.rate_hz, self.tick)
         self.tick_timer.pause()  # ticks only while an animation plays
@@ -111,14 +111,12 @@ class AnimationNode(Node):
                 self.record_error(problem)
 
     # -- inputs ----------------------------------------------------------------------------------------
-    def on_joint_states(self, msg: JointState) -> None:
-        self._newest_joints = msg
-
     @property
     def joint_positions(self) -> dict[str, float] | None:
         """Every joint's last measured position (None before the first joint_states)."""
-        msg, self._newest_joints = self._newest_joints, None
-        if msg is not None:
+        msg: JointState | None = self.joints.message
+        if msg is not None and msg is not self._merged:
+            self._merged = msg
             positions = self._positions if self._positions is not None else {}
             for joint, value in zip(msg.name, msg.position, strict=False):
                 if math.isfinite(value):  # a servo that did not answer must not put NaN into the curves

@@ -92,8 +92,11 @@ class HcmNode(Node):
         self.graph_pub = self.publisher("hcm_graph")
         self.speak_pub = self.publisher("speak")
         self.animations = self.action_client("animation")
-        self.subscribe("imu/data", self.on_imu)
-        self.subscribe("joint_states", self.on_joint_states)
+        # read at each step (100 Hz), each new message once: the sensors do not wake the HCM between its steps
+        self.imu = self.keep_latest("imu/data")
+        self.joints = self.keep_latest("joint_states")
+        self._imu_seen: Imu | None = None
+        self._joints_seen: JointState | None = None
         self.subscribe("walk_motor_goals", lambda m: self.on_goals(GoalSource.WALKING, m))
         self.subscribe("head_motor_goals", lambda m: self.on_goals(GoalSource.HEAD, m))
         self.subscribe("record_motor_goals", lambda m: self.on_goals(GoalSource.RECORD, m))
@@ -108,17 +111,27 @@ class HcmNode(Node):
         self.publish_state()
 
     # -- inputs -------------------------------------------------------------------------------------------
-    def on_imu(self, msg: Imu) -> None:
-        self.last_imu = time.monotonic()
-        o, g = msg.orientation, msg.angular_velocity
-        self.fall_checker.update(self.last_imu, np.array([o.x, o.y, o.z, o.w]), np.array([g.x, g.y, g.z]))
+    def take_sensors(self) -> None:
+        """The IMU and joint_states that arrived since the last step, each once, with their arrival times."""
+        imu, joints = self.imu.message, self.joints.message
+        if imu is not None and imu is not self._imu_seen:
+            self._imu_seen = imu
+            self.on_imu(imu, self.imu.received_at)
+        if joints is not None and joints is not self._joints_seen:
+            self._joints_seen = joints
+            self.on_joint_states(joints, self.joints.received_at)
 
-    def on_joint_states(self, msg: JointState) -> None:
+    def on_imu(self, msg: Imu, at: float) -> None:
+        self.last_imu = at
+        o, g = msg.orientation, msg.angular_velocity
+        self.fall_checker.update(at, np.array([o.x, o.y, o.z, o.w]), np.array([g.x, g.y, g.z]))
+
+    def on_joint_states(self, msg: JointState, at: float) -> None:
         # a bus that repeats stale values is as silent as one that says nothing
         positions = np.asarray(msg.position)
         if self.last_joint_positions is None or len(positions) != len(self.last_joint_positions) or \
                 not np.array_equal(positions, self.last_joint_positions) or msg.velocity.any():
-            self.last_joints = time.monotonic()
+            self.last_joints = at
         self.last_joint_positions = positions
         self.joint_names = list(msg.name)
 
@@ -188,6 +201,7 @@ class HcmNode(Node):
 
     # -- the decision -------------------------------------------------------------------------------------
     def step(self) -> None:
+        self.take_sensors()
         now = time.monotonic()
         bb, p, checker = self.bb, self.params, self.fall_checker
         bb.now = now

@@ -2,7 +2,7 @@
 service and action servers; what nodes share with the server (keys, bus, protocols, clients) is in ``wire``."""
 
 from robot_nodes.runtime.action_server import ActionServer, ServerGoal
-from robot_nodes.runtime.node import Node, Publisher, Subscription, header, run, stamp_now
+from robot_nodes.runtime.node import LatestMessage, Node, Publisher, Subscription, header, run, stamp_now
 from robot_nodes.runtime.parameters import ParameterStore, param
 from robot_nodes.runtime.service_server import ServiceServer
 from wire.actions import ActionClient, ActionError, ClientGoal, GoalStatus
@@ -17,6 +17,7 @@ __all__ = [
     "BusConfig",
     "ClientGoal",
     "GoalStatus",
+    "LatestMessage",
     "Node",
     "ParameterClient",
     "ParameterError",

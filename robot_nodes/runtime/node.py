@@ -7,6 +7,7 @@ import contextlib
 import inspect
 import json
 import logging
+import math
 import signal
 import threading
 import time
@@ -129,7 +130,8 @@ class Subscription:
     """One topic of the table into a node's loop: from nodes of this process as objects, from elsewhere decoded
     once per process (robot_nodes/runtime/local_bus.py)."""
 
-    def __init__(self, node: Node, topic: str, handler: Callable[..., None], robot: str) -> None:
+    def __init__(self, node: Node, topic: str, handler: Callable[..., None], robot: str,
+                 max_hz: float | None = None) -> None:
         self.topic = schemas.topic(topic)
         _check_handler(self.topic, handler, schemas.codec.full_name(self.topic.type))
         self.handler = handler
@@ -137,17 +139,42 @@ class Subscription:
         self.any_robot = robot == keys.ANY_ROBOT
         self.count = 0
         self.decode_errors = 0
+        self.skipped = 0  # messages dropped by max_hz before they woke the node
+        self.max_hz = max_hz
+        self._last_taken = -math.inf
         self._node = node
         self._call_soon = node.loop.call_soon
         node.local_bus.add(self)
 
+    @property
+    def max_hz(self) -> float | None:
+        """At most this many messages a second reach the handler (10 % slack for a publisher's jitter); the others
+        are dropped on the delivering thread, so they never wake the node."""
+        return 0.9 / self._min_interval if self._min_interval else None
+
+    @max_hz.setter
+    def max_hz(self, hz: float | None) -> None:
+        self._min_interval = 0.9 / hz if hz else 0.0
+
+    def _taken(self) -> bool:
+        if not self._min_interval:
+            return True
+        now = time.monotonic()
+        if now - self._last_taken < self._min_interval:
+            self.skipped += 1
+            return False
+        self._last_taken = now
+        return True
+
     def hand_over(self, key: str, msg: Message | SchemaError) -> None:
         """A sample from outside the process (any thread)."""
-        self._call_soon(self._deliver_remote, key, msg)
+        if isinstance(msg, SchemaError) or self._taken():
+            self._call_soon(self._deliver_remote, key, msg)
 
     def hand_over_local(self, robot: str, msg: Message, cdr: bytes | None) -> None:
         """A message a node of this process published (its thread); cdr: its encoding, to check it stays frozen."""
-        self._call_soon(self._deliver, robot, msg, cdr)
+        if self._taken():
+            self._call_soon(self._deliver, robot, msg, cdr)
 
     def _deliver_remote(self, key: str, msg: Message | SchemaError) -> None:
         if isinstance(msg, SchemaError):
@@ -178,6 +205,35 @@ class Subscription:
 
     def close(self) -> None:
         self._node.local_bus.remove(self)
+
+
+class LatestMessage(Subscription):
+    """The newest message of one of this robot's topics, kept without waking the node: for a node that reads a
+    topic when it ticks (walking reads the IMU each cycle) rather than acting on every message.
+
+    ``message`` is None until the first arrives; ``received_at`` is when it arrived (time.monotonic)."""
+
+    def __init__(self, node: Node, topic: str, robot: str) -> None:
+        super().__init__(node, topic, _kept, robot)
+        self.message: Any = None  # the topic's class
+        self.received_at = -math.inf
+
+    def hand_over(self, key: str, msg: Message | SchemaError) -> None:
+        if isinstance(msg, SchemaError):
+            super().hand_over(key, msg)  # counted and reported on the node's loop, as for a handler
+        else:
+            self._keep(msg)
+
+    def hand_over_local(self, robot: str, msg: Message, cdr: bytes | None) -> None:
+        self._keep(msg)
+
+    def _keep(self, msg: Message) -> None:
+        self.message, self.received_at = msg, time.monotonic()  # one reference: atomic for the reading loop
+        self.count += 1
+
+
+def _kept(msg: Message) -> None:
+    """A LatestMessage has no handler: the node reads ``message``."""
 
 
 class Node:
@@ -249,9 +305,17 @@ class Node:
         self._publishers.append(pub)
         return pub
 
-    def subscribe(self, topic: str, handler: Callable[..., None], robot: str | None = None) -> Subscription:
-        """handler(msg) for this robot's topic; with robot="*", handler(robot_id, msg) for every robot."""
-        sub = Subscription(self, topic, handler, robot or self.robot_id)
+    def subscribe(self, topic: str, handler: Callable[..., None], robot: str | None = None,
+                  max_hz: float | None = None) -> Subscription:
+        """handler(msg) for this robot's topic; with robot="*", handler(robot_id, msg) for every robot. max_hz: at
+        most this many messages a second, the others dropped before they wake the node."""
+        sub = Subscription(self, topic, handler, robot or self.robot_id, max_hz)
+        self._subscriptions.append(sub)
+        return sub
+
+    def keep_latest(self, topic: str) -> LatestMessage:
+        """The newest message of this robot's topic, kept without waking the node (read it when you tick)."""
+        sub = LatestMessage(self, topic, self.robot_id)
         self._subscriptions.append(sub)
         return sub
 

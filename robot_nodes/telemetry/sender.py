@@ -42,6 +42,7 @@ from wire.telemetry.datagram import (
 IMAGE_TOPIC = "camera/image/compressed"
 OVERVIEW_SOURCES = ("robot_state", "gamestate", "position", "ball_relative", "servo_data")
 PUMP_HZ = 100.0
+PER_NODE_TOPICS = ("diagnostics", "rosout")  # every node publishes them: rate-limited per node, not per topic
 
 DEFAULT_TOPICS = ",".join((
     "robot_state:10", "gamestate:5", "paused:5", "joint_states:10", "imu/data:10", "position:10",
@@ -222,24 +223,34 @@ class TelemetryNode(Node):
 
     def _apply_topics(self, spec: str) -> None:
         rates = parse_topics(spec)
+        new = [name for name in rates if name not in self._stream_ids]
+        if len(self._stream_ids) + len(new) > MAX_TOPIC_STREAM:  # ids are never reused within a boot
+            raise ValueError("too many telemetry streams")
+        for name in new:
+            sid = self._stream_ids[name] = len(self._stream_ids) + 1
+            self._schema[sid] = (Kind.MESSAGE, schema_hash(topic(name).type))
+        old_rates, self._rates = self._rates, rates
         for name in rates:
-            if name not in self._stream_ids:
-                sid = len(self._stream_ids) + 1  # ids are never reused within a boot
-                if sid > MAX_TOPIC_STREAM:
-                    raise ValueError("too many telemetry streams")
-                self._stream_ids[name] = sid
-                self._schema[sid] = (Kind.MESSAGE, schema_hash(topic(name).type))
             self._ensure_subscribed(name)
-        for name in set(self._rates) - set(rates):
+        for name in set(old_rates) - set(rates):
             for key in [k for k in self.budget.streams if k[0] == self._stream_ids[name]]:
                 self.budget.remove(key)
             if name not in OVERVIEW_SOURCES and name in self._subs:
                 self._subs.pop(name).close()
-        self._rates = rates
+            elif name in self._subs:
+                self._subs[name].max_hz = None
 
     def _ensure_subscribed(self, name: str) -> None:
         if name not in self._subs:
             self._subs[name] = self.subscribe(name, lambda msg, name=name: self._on_message(name, msg))
+        self._subs[name].max_hz = self._subscription_hz(name)
+
+    def _subscription_hz(self, name: str) -> float | None:
+        """Messages beyond the stream's rate never wake the node (joint_states come 100 times a second, 10 are
+        sent), except where the overview needs each one or several nodes share the topic (one limit per node)."""
+        if name in OVERVIEW_SOURCES or name in PER_NODE_TOPICS:
+            return None
+        return self._rates.get(name)
 
     def on_parameters_changed(self, changed: dict[str, Any]) -> None:
         try:

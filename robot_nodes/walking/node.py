@@ -54,8 +54,6 @@ class WalkingNode(Node):
         self.engine = WalkEngine(self.params)
         self.robot_state: int | None = None
         self.paused = False
-        self._imu: Imu | None = None  # the newest, read by the cycle (not turned into angles 200 times a second)
-        self._joints: JointState | None = None
         self.last_active: bool | None = None
         self.last_tick = time.monotonic()
         self.last_odometry = -math.inf
@@ -66,8 +64,9 @@ class WalkingNode(Node):
         self.subscribe("cmd_vel", self.on_cmd_vel)
         self.subscribe("robot_state", self.on_robot_state)
         self.subscribe("paused", self.on_paused)
-        self.subscribe("imu/data", self.on_imu)
-        self.subscribe("joint_states", self.on_joint_states)
+        # read by the cycle when it runs: 100 messages a second each do not wake a standing robot's walking
+        self.imu = self.keep_latest("imu/data")
+        self.joints = self.keep_latest("joint_states")
         self.cycle_timer = self.timer(self.params.rate_hz, self.tick, name="walk")
         self.timer(ACTIVE_PUBLISH_HZ, self.standing_tick, name="standing")
         self._update_stop()  # no robot_state yet: the HCM has not allowed walking
@@ -93,12 +92,6 @@ class WalkingNode(Node):
         self.paused = bool(msg.data)
         self._update_stop()
 
-    def on_imu(self, msg: Imu) -> None:
-        self._imu = msg
-
-    def on_joint_states(self, msg: JointState) -> None:
-        self._joints = msg
-
     def _update_stop(self) -> None:
         self.engine.request_stop(self.paused or self.robot_state not in WALKABLE_STATES)
         self._wake()
@@ -111,7 +104,7 @@ class WalkingNode(Node):
     @property
     def present(self) -> dict[str, float]:
         """The measured joint positions of the newest joint_states."""
-        msg = self._joints
+        msg: JointState | None = self.joints.message
         return {} if msg is None else dict(zip(msg.name, (float(p) for p in msg.position), strict=False))
 
     # -- the cycle ----------------------------------------------------------------------------------------
@@ -126,8 +119,9 @@ class WalkingNode(Node):
         dt, self.last_tick = now - self.last_tick, now
         started = time.perf_counter()
         was_stepping = self.engine.stepping
-        if self._imu is not None:
-            o, g = self._imu.orientation, self._imu.angular_velocity
+        imu: Imu | None = self.imu.message
+        if imu is not None:
+            o, g = imu.orientation, imu.angular_velocity
             pitch, roll, yaw = tilt_of((o.x, o.y, o.z, o.w))
             self.engine.set_imu(pitch, roll, float(g.y), float(g.x), yaw)
         out = self.engine.update(dt, self.present or None)

@@ -45,7 +45,9 @@ class TelemetrySource(Source):
         except ImportError as exc:
             raise SourceError(f"the telemetry receiver is not available: {exc}") from exc
         if self.receiver is None:
-            self.receiver = TelemetryReceiver(self.key)
+            # messages go to the hub as the CDR they came in: decoded only if a panel, a plot or the team overview
+            # wants them, passed on as they are to recordings and Foxglove
+            self.receiver = TelemetryReceiver(self.key, decode=False)
         try:
             self._transport = await listen(self.receiver, self._on_messages, host=self.host, port=self.port)
         except OSError as exc:
@@ -71,12 +73,13 @@ class TelemetrySource(Source):
                 # copy only counts for link health (the receiver has counted it already)
                 self.shadowed += 1
                 continue
-            if item.msg is None:  # the receiver counted why (schema mismatch, decode error)
+            if item.error:  # the receiver counted why (a schema this server does not have)
                 self.undecodable += 1
                 continue
             self.messages += 1
             stamp = stamp_of(item.payload, item.type) if starts_with_header(item.type) else item.send_time
-            self.hub.publish(HubMessage(item.robot_id, item.topic, item.type, stamp, item.msg, self.name,
+            data = item.msg if item.msg is not None else item.payload  # the overview comes decoded
+            self.hub.publish(HubMessage(item.robot_id, item.topic, item.type, stamp, data, self.name,
                                         sent=item.send_time))
 
     def stream_health(self) -> dict[tuple[str, str], dict[str, Any]]:
