@@ -220,15 +220,24 @@ class RobotSeen:
     streams: dict[str, StreamStats] = field(default_factory=dict)
 
 
+MAX_ROBOTS = 64  # robots the hub keeps apart (two teams of six, replays of earlier games, room to spare)
+MAX_STREAMS = 4096  # (robot, topic) streams it remembers: a process inventing names cannot grow it further
+
+
 class Hub:
-    """Fans messages out to subscribers, remembers the latest message per (robot, topic) for late joiners."""
+    """Fans messages out to subscribers, remembers the latest message per (robot, topic) for late joiners.
+
+    Its memory is bounded by design: at most MAX_ROBOTS robots and MAX_STREAMS streams are known (what comes beyond
+    is refused and counted), each with its latest message and counters; each subscriber's queue has its maxlen."""
 
     def __init__(self, default_maxlen: int = 2000) -> None:
         self.default_maxlen = default_maxlen
+        self.refused = 0  # messages of robots or streams beyond MAX_ROBOTS / MAX_STREAMS
         self.subscribers: list[Subscriber] = []
         self.latest: dict[tuple[str, str], HubMessage] = {}
         self.robots: dict[str, RobotSeen] = {}
         self.published = 0
+        self.streams = 0  # known (robot, topic) streams, of every robot
         self.decode_errors = 0  # messages whose CDR did not decode when a subscriber needed them
         self.lateness = Lateness()  # per robot and source: which messages arrive late (server.lateness)
         self.loop: asyncio.AbstractEventLoop | None = None
@@ -259,12 +268,19 @@ class Hub:
             self.lateness.late_by(msg.robot, msg.source, time.time(), msg.sent) > LATE_AFTER_S
         robot = self.robots.get(msg.robot)
         if robot is None:
+            if len(self.robots) >= MAX_ROBOTS:
+                self.refused += 1
+                return
             robot = self.robots[msg.robot] = RobotSeen(msg.robot, time.time())
             for listener in self._robot_listeners:
                 listener(msg.robot)
         stats = robot.streams.get(msg.topic)
         if stats is None:
+            if self.streams >= MAX_STREAMS:
+                self.refused += 1
+                return
             stats = robot.streams[msg.topic] = StreamStats(msg.typename, msg.source)
+            self.streams += 1
         self.published += 1
         if late:
             stats.late += 1
@@ -290,7 +306,9 @@ class Hub:
 
     def forget(self, robot: str) -> None:
         """A robot that is gone for good (a closed replay): out of the robots list and the latest messages."""
-        self.robots.pop(robot, None)
+        gone = self.robots.pop(robot, None)
+        if gone is not None:
+            self.streams -= len(gone.streams)
         for key in [k for k in self.latest if k[0] == robot]:
             del self.latest[key]
 

@@ -57,6 +57,18 @@ def bus(router_endpoint: str) -> BusConfig:
     return BusConfig(connect=[router_endpoint])
 
 
+@pytest.fixture(params=["composed", "split"])
+def robot_bus(request: pytest.FixtureRequest, bus: BusConfig) -> Iterator[BusConfig | zenoh.Session]:
+    """Where a test's robot nodes meet, in both layouts: one shared session ("composed", as in one process: messages
+    handed over as objects) or a session each ("split", as separate processes: every message CDR through the
+    router)."""
+    if request.param == "split":
+        yield bus
+        return
+    with open_session(bus) as session:
+        yield session
+
+
 @pytest.fixture
 def testdata() -> Path:
     if not TESTDATA.exists():

@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+import zenoh
 
 import schemas
 from robot_nodes.animation.node import NO_TORQUE_REQUEST, AnimationNode
@@ -72,8 +73,9 @@ def animations(tmp_path: Path) -> Path:
 
 
 @pytest.fixture
-def body(bus: BusConfig) -> Iterator[Body]:
-    node = Body(bus=bus)
+def body(robot_bus: BusConfig | zenoh.Session) -> Iterator[Body]:
+    """Stands in for the servo bus and the HCM: composed with the animation node, or in a session of its own."""
+    node = Body(bus=robot_bus)
     node.positions = dict(HEAD)
     node.start()
     yield node
@@ -81,8 +83,8 @@ def body(bus: BusConfig) -> Iterator[Body]:
 
 
 @pytest.fixture
-def player(bus: BusConfig, animations: Path, body: Body) -> Iterator[AnimationNode]:
-    node = AnimationNode(bus=bus, overrides={"animation_dir": str(animations)})
+def player(robot_bus: BusConfig | zenoh.Session, animations: Path, body: Body) -> Iterator[AnimationNode]:
+    node = AnimationNode(bus=robot_bus, overrides={"animation_dir": str(animations)})
     node.start()
     wait_for(lambda: node.joint_positions is not None and "LKnee" in node.joint_positions, 10.0,
              what="joint_states at the animation node")

@@ -40,12 +40,13 @@ PATIENT_HCM = {"imu_timeout_s": 2.0, "motor_timeout_s": 2.0}
 
 
 class Stack:
-    """cm730 (MuJoCo), animation, HCM and pause nodes in this process, plus a client session that watches."""
+    """cm730 (MuJoCo), animation, HCM and pause nodes in this process (composed on one session, or a session each),
+    plus a client session that watches."""
 
-    def __init__(self, bus: BusConfig, hcm: dict[str, Any] | None = None, animation: dict[str, Any] | None = None,
-                 yaw: float = 0.0) -> None:
+    def __init__(self, bus: BusConfig, robot_bus: BusConfig | zenoh.Session, hcm: dict[str, Any] | None = None,
+                 animation: dict[str, Any] | None = None, yaw: float = 0.0) -> None:
         self.t0 = time.monotonic()
-        self.cm730 = Cm730Node(bus=bus, overrides=CM730)
+        self.cm730 = Cm730Node(bus=robot_bus, overrides=CM730)
         self.robot = self.cm730.backend.robot  # type: ignore[attr-defined]
         self.world = self.cm730.backend.world  # type: ignore[attr-defined]
         with self.world.lock:
@@ -66,8 +67,9 @@ class Stack:
         self._stop = threading.Event()
         self._sampler = threading.Thread(target=self._sample_height, daemon=True)
         self._sampler.start()
-        self.nodes = [self.cm730.start(), AnimationNode(bus=bus, overrides=animation or {}).start(),
-                      HcmNode(bus=bus, overrides={**PATIENT_HCM, **(hcm or {})}).start(), PauseNode(bus=bus).start()]
+        self.nodes = [self.cm730.start(), AnimationNode(bus=robot_bus, overrides=animation or {}).start(),
+                      HcmNode(bus=robot_bus, overrides={**PATIENT_HCM, **(hcm or {})}).start(),
+                      PauseNode(bus=robot_bus).start()]
         self.hcm: HcmNode = self.nodes[2]  # type: ignore[assignment]
         self.animation: AnimationNode = self.nodes[1]  # type: ignore[assignment]
         self.actions = ActionClient(self.session, "robot1", "animation")
@@ -142,11 +144,12 @@ class Stack:
 
 
 @pytest.fixture
-def make_stack(bus: BusConfig) -> Iterator[Callable[..., Stack]]:
+def make_stack(bus: BusConfig, robot_bus: BusConfig | zenoh.Session) -> Iterator[Callable[..., Stack]]:
+    """The robot's nodes composed in one session, and split into a session each (the test runs in both)."""
     stacks: list[Stack] = []
 
     def make(**kwargs: Any) -> Stack:
-        stacks.append(Stack(bus, **kwargs))
+        stacks.append(Stack(bus, robot_bus, **kwargs))
         return stacks[-1]
 
     yield make

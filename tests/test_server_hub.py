@@ -127,3 +127,22 @@ def test_threadsafe_publish_from_another_thread() -> None:
         assert [m.message.state for m in sub.drain()] == list(range(10))
 
     asyncio.run(main())
+
+
+def test_robots_and_streams_beyond_the_bounds_are_refused_and_counted() -> None:
+    """A process on the bus inventing robot ids or topics cannot grow the hub (its memory is bounded by design)."""
+    from server.hub import MAX_ROBOTS, MAX_STREAMS
+
+    hub = Hub()
+    sub = hub.subscribe("all")
+    sub.subscribe("*", "*")
+    for i in range(MAX_ROBOTS + 10):
+        hub.publish(state_msg(robot=f"r{i}"))
+    assert len(hub.robots) == MAX_ROBOTS and hub.refused == 10
+    for i in range(MAX_STREAMS):
+        hub.publish(state_msg(robot="r0", topic=f"t{i}"))
+    assert hub.streams == MAX_STREAMS and len(hub.latest) == MAX_STREAMS
+    assert hub.refused == 10 + MAX_ROBOTS  # the other robots' first streams filled the table before r0's last ones
+    hub.forget("r1")
+    hub.publish(state_msg(robot="r0", topic="one more"))
+    assert ("r0", "one more") in hub.latest, "a forgotten robot's streams make room again"

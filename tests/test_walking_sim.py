@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+import zenoh
 
 import schemas
 from robot_nodes.animation.node import AnimationNode
@@ -178,15 +179,17 @@ class Probe(Node):
 
 
 @pytest.fixture
-def chain(bus: BusConfig) -> Iterator[tuple[MujocoBackend, Probe, Listener, Cm730Node]]:
+def chain(bus: BusConfig, robot_bus: BusConfig | zenoh.Session
+          ) -> Iterator[tuple[MujocoBackend, Probe, Listener, Cm730Node]]:
+    """The robot's nodes composed or split (robot_bus), and a probe of the test's own, outside them."""
     backend = MujocoBackend.standalone(real_time_factor=1.0)
     nodes: list[Node] = []
     try:
-        nodes.append(Cm730Node("robot1", bus, backend=backend, overrides={"publish_rate": 100.0,
-                                                                          "render_camera": False}).start())
-        nodes.append(AnimationNode("robot1", bus).start())
-        nodes.append(HcmNode("robot1", bus).start())
-        nodes.append(WalkingNode("robot1", bus).start())
+        nodes.append(Cm730Node("robot1", robot_bus, backend=backend, overrides={"publish_rate": 100.0,
+                                                                                "render_camera": False}).start())
+        nodes.append(AnimationNode("robot1", robot_bus).start())
+        nodes.append(HcmNode("robot1", robot_bus).start())
+        nodes.append(WalkingNode("robot1", robot_bus).start())
         probe = Probe("robot1", bus)
         listener = Listener(probe, ["robot_state", "walking_active", "walk_odometry", "walk_motor_goals"])
         probe.start()
@@ -230,6 +233,8 @@ def test_walking_node_walks_the_simulated_robot_through_the_hcm(
     assert cm730.clamps.total_positions == 0 and cm730.clamps.total_speeds == 0, cm730.clamps.by_joint()
     # nothing steps while the robot is paused, even with a command
     probe.publisher("paused").publish(schemas.make("std_msgs/msg/Bool", data=True))
+    # paused first (two topics from one sender may arrive in either order): the HCM says PENALTY once it is
+    wait_for(lambda: state() == 7, 10.0, what="HCM in PENALTY while paused")
     cmd.publish(twist)
     count = len(listener.history["walking_active"])
     wait_for(lambda: len(listener.history["walking_active"]) > count + 5, 5.0, what="walking_active at 10 Hz")

@@ -48,6 +48,7 @@ class SubscriberCounters(BaseModel):
 class HubCounters(BaseModel):
     published: int
     decode_errors: int
+    refused: int  # messages of robots or streams beyond the hub's bounds (server/hub.py MAX_ROBOTS, MAX_STREAMS)
     subscribers: list[SubscriberCounters]
 
 
@@ -74,6 +75,7 @@ def hub_status(state: ServerState = Depends(get_state)) -> HubCounters:
     return HubCounters(
         published=hub.published,
         decode_errors=hub.decode_errors,
+        refused=hub.refused,
         subscribers=[
             SubscriberCounters(name=s.name, queued=len(s), delivered=s.delivered, dropped=s.dropped,
                                thinned=s.thinned,

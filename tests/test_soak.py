@@ -1,0 +1,57 @@
+"""A match day in half an hour: the demo's memory stays flat (opt-in: PITCHSIDE_SOAK_MINUTES=30 ./run test -k soak).
+
+Every process of `pitchside demo` is sampled every 30 s; after the warm-up (the first third of the run, in which
+the stated caps fill: the hub's queues, the plots' history, the link-health windows) each process's RSS slope
+must stay under 0.2 MB/min per robot. bench/team.py measures the same slope for the server with 8 robots.
+"""
+
+from __future__ import annotations
+
+import os
+import statistics
+import time
+from pathlib import Path
+
+import psutil
+import pytest
+
+from tests.running_demo import running_demo
+
+MINUTES = float(os.environ.get("PITCHSIDE_SOAK_MINUTES", "0"))
+ROBOTS = int(os.environ.get("PITCHSIDE_SOAK_ROBOTS", "1"))
+SLOPE_MB_PER_MIN_PER_ROBOT = 0.2
+SAMPLE_S = 30.0
+
+pytestmark = [pytest.mark.slow, pytest.mark.skipif(MINUTES <= 0, reason="opt-in: PITCHSIDE_SOAK_MINUTES=30")]
+
+
+def label(p: psutil.Process) -> str:
+    cmd = p.cmdline()
+    name = cmd[cmd.index("-m") + 1] if "-m" in cmd else Path(cmd[0]).name if cmd else p.name()
+    return f"{name} {cmd[cmd.index('--robot-id') + 1]}" if "--robot-id" in cmd else name
+
+
+def test_every_process_of_the_demo_keeps_its_memory_flat(tmp_path: Path) -> None:
+    samples: dict[str, list[tuple[float, float]]] = {}
+    with running_demo(tmp_path, "--robots", str(ROBOTS)) as demo:
+        t0 = time.monotonic()
+        while (elapsed := time.monotonic() - t0) < MINUTES * 60:
+            for p in demo.processes():
+                try:
+                    samples.setdefault(f"{label(p)} [{p.pid}]", []).append((elapsed / 60, p.memory_info().rss / 1e6))
+                except psutil.Error:
+                    continue
+            time.sleep(SAMPLE_S)
+    warm = MINUTES / 3
+    slopes = {}
+    for name, points in samples.items():
+        late = [(t, mb) for t, mb in points if t >= warm]
+        if len(late) >= 3:
+            xs, ys = zip(*late, strict=True)
+            slopes[name] = statistics.linear_regression(xs, ys).slope
+    for name, slope in sorted(slopes.items(), key=lambda x: -x[1]):
+        print(f"{slope:+.3f} MB/min  {name}  ({samples[name][0][1]:.0f} -> {samples[name][-1][1]:.0f} MB)")
+    assert slopes, "no process was sampled after the warm-up"
+    limit = SLOPE_MB_PER_MIN_PER_ROBOT * ROBOTS
+    growing = {n: round(s, 3) for n, s in slopes.items() if s > limit}
+    assert not growing, f"RSS grows faster than {limit} MB/min after the warm-up: {growing}"
