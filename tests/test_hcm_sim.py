@@ -22,6 +22,7 @@ from robot_nodes.cm730.node import Cm730Node
 from robot_nodes.hcm.node import HcmNode
 from robot_nodes.hcm.pause import PauseNode
 from robot_nodes.runtime import BusConfig, ParameterClient, call_service, open_session
+from tests.support import REPO
 from tests.waiting import wait_for
 from wire.actions import ActionClient, GoalStatus
 from wire.keys import topic_key
@@ -411,3 +412,32 @@ def test_silent_hardware_is_a_hardware_problem(make_stack: Callable[..., Stack],
     assert STARTUP in stack.sequence(back), stack.sequence(back)
     print(f"\n{fault}: HARDWARE_PROBLEM {problem - broken:.3f} s after it fell silent; "
           f"CONTROLLABLE {time.monotonic() - back:.1f} s after it returned")
+
+
+def test_an_animation_with_torque_switches_reaches_the_servos_as_published(make_stack: Callable[..., Stack],
+                                                                          tmp_path: Path) -> None:
+    """The HCM passes an animation's torque switches on as motor_torque and its goals as motor_goals without
+    changing the animation's message (composed, the animation node and telemetry share that very object)."""
+    source = json.loads((REPO / "robots" / "minibot" / "animations" / "init.json").read_text())
+    pose = source["keyframes"][0]["goals"]
+    # limp from the end of the first keyframe's pause (1.5 s) to the end of the second (2.0 s)
+    source["keyframes"] = [{"duration": 1.0, "pause": 0.5, "goals": pose, "torque": {"HeadPan": 0.0}},
+                           {"duration": 0.5, "pause": 0.0, "goals": pose, "torque": {"HeadPan": 1.0}}]
+    source["name"] = "limp_head"
+    (tmp_path / "limp_head.json").write_text(json.dumps(source))
+    stack = make_stack(animation={"search_path": str(tmp_path)})
+    stack.wait_controllable_standing()
+    head = stack.robot.joint_names.index("HeadPan")
+    off: list[bool] = []
+    goal = stack.actions.send_goal(schemas.make("humanoid_league_msgs/action/PlayAnimation_Goal",
+                                                animation="limp_head", hcm=False))
+    assert goal.wait_accepted(10.0), goal.reason
+    def finished() -> bool:
+        off.append(not stack.robot.torque_enabled[head])
+        return goal.done
+
+    stack.wait(finished, 30.0, "the animation played to its end")
+    status, _ = goal.wait_result(1.0)
+    assert any(off), "HeadPan went limp while the animation ran"
+    assert stack.robot.torque_enabled[head], "and stiff again at its end"
+    assert status == GoalStatus.SUCCEEDED

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from dataclasses import dataclass
@@ -194,7 +195,9 @@ class HcmNode(Node):
             if switch:
                 self.torque_pub.publish(schemas.make(JointState, header=header(),
                                                      name=[n for n, _ in switch], effort=[e for _, e in switch]))
-            point.effort = np.zeros(0)
+            # the goals go on without the switches; a new message, as the received one is shared (frozen)
+            point = dataclasses.replace(point, effort=np.zeros(0))
+            trajectory = dataclasses.replace(trajectory, points=[point, *trajectory.points[1:]])
         if len(point.positions):
             self.goals_pub.publish(trajectory)
         self.forwarded[source] += 1
