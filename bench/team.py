@@ -108,17 +108,18 @@ def label(p: psutil.Process) -> str:
 
 
 @contextlib.contextmanager
-def stack(robots: int, compose: str) -> Iterator[RunningDemo]:
+def stack(robots: int, compose: str, lab: bool = False) -> Iterator[RunningDemo]:
     with tempfile.TemporaryDirectory() as tmp:
         os.environ["PITCHSIDE_RECORDINGS"] = str(Path(tmp) / "recordings")
-        with running_demo(Path(tmp), "--robots", str(robots), "--match", "--cameras", "1",
+        with running_demo(Path(tmp), "--robots", str(robots), *([] if lab else ["--match"]), "--cameras", "1",
                           "--compose", compose) as demo:
             yield demo
 
 
-def measure(robots: int, compose: str, seconds: float) -> Figures:
-    figures = Figures(f"{robots} robot{'s' if robots > 1 else ''}, compose {compose}", robots)
-    with stack(robots, compose) as demo:
+def measure(robots: int, compose: str, seconds: float, lab: bool = False) -> Figures:
+    mode = "lab (live Zenoh)" if lab else "match (telemetry)"
+    figures = Figures(f"{robots} robot{'s' if robots > 1 else ''}, compose {compose}, {mode}", robots)
+    with stack(robots, compose, lab) as demo:
         found = ROUTER.search(demo.output())
         if found is None:
             raise SystemExit("the demo did not say where its Zenoh router is")
@@ -174,6 +175,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=60.0, help="measured seconds per run, after start-up")
     parser.add_argument("--robots", default="1,2,4,8", help="the team sizes to run, comma-separated")
+    parser.add_argument("--no-lab", action="store_true", help="skip the lab runs (the server on live Zenoh)")
     parser.add_argument("--soak-minutes", type=float, default=0.0,
                         help="run the largest team this long instead (the server's memory slope over a match day)")
     args = parser.parse_args()
@@ -186,19 +188,30 @@ def main() -> None:
         seconds = args.soak_minutes * 60.0 if args.soak_minutes and n == sizes[-1] else args.seconds
         runs[n] = measure(n, "all", seconds)
         show(runs[n])
+    server_lab_per_robot = float("nan")
+    if not args.no_lab:  # the dashboard in the lab: every topic of every robot live over Zenoh
+        lab = [measure(n, "all", args.seconds, lab=True) for n in (sizes[0], min(4, sizes[-1]))]
+        for figures in lab:
+            show(figures)
+        server_cpu = [next(c for name, c, _ in f.by_process if name == "server") for f in lab]
+        server_lab_per_robot = (server_cpu[1] - server_cpu[0]) / max(lab[1].robots - lab[0].robots, 1)
     first, last = runs[sizes[0]], runs[sizes[-1]]
+    match_server = [next(c for name, c, _ in f.by_process if name == "server") for f in (first, last)]
+    server_match_per_robot = (match_server[1] - match_server[0]) / max(last.robots - first.robots, 1)
     extra = max(last.robots - first.robots, 1)
     cpu_per_robot = (last.cpu_pct - first.cpu_pct) / extra
     rss_per_robot = (last.rss_mb - first.rss_mb) / extra
     composed_1 = runs[1].cpu_pct if 1 in runs else float("nan")
     print(f"\nper further robot ({first.robots} -> {last.robots}): {cpu_per_robot:.1f} % of one core, "
           f"{rss_per_robot:.0f} MB; one robot composed {composed_1:.0f} % against split {split.cpu_pct:.0f} % "
-          f"(ratio {composed_1 / split.cpu_pct:.2f}); machine: {psutil.cpu_count()} cores, load average "
+          f"(ratio {composed_1 / split.cpu_pct:.2f}); the server per further robot: {server_match_per_robot:.1f} % "
+          f"in a match, {server_lab_per_robot:.1f} % in the lab; machine: {psutil.cpu_count()} cores, load average "
           f"{load:.1f} at the start")
     print(f"RESULT team cpu_pct_per_robot={cpu_per_robot:.1f} rss_mb_per_robot={rss_per_robot:.0f} "
           f"rtf_min_{last.robots}={last.rtf_min:.3f} cpu_pct_{last.robots}={last.cpu_pct:.0f} "
           f"split_cpu_pct_1={split.cpu_pct:.0f} composed_cpu_pct_1={composed_1:.0f} "
-          f"server_rss_slope_mb_per_min={last.server_slope:.2f}")
+          f"server_rss_slope_mb_per_min={last.server_slope:.2f} server_match_cpu_pct_per_robot="
+          f"{server_match_per_robot:.1f} server_lab_cpu_pct_per_robot={server_lab_per_robot:.1f}")
 
 
 if __name__ == "__main__":
