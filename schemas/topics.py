@@ -54,6 +54,10 @@ _TABLE: tuple[Topic, ...] = (
         Topic("walking_active", "std_msgs/msg/Bool", "walking tells the HCM it is stepping"),
         Topic("gamestate", _HL + "GameState", "GameController state, game_controller -> all", Priority.CRITICAL),
         Topic("paused", "std_msgs/msg/Bool", "penalty/pause, pause logic -> hcm", Priority.CRITICAL),
+        Topic("manual_penalty", "std_msgs/msg/Bool",
+              "the robot's own manual penalty (its button, the manual_penalize service), on change and with paused; "
+              "pause logic -> game_controller, which tells the GameController (MAN_PENALISE / MAN_UNPENALISE)",
+              Priority.CRITICAL),
         Topic("team_data", _HL + "TeamData", "teammates' data, mitecom -> all", event=True),
         Topic("strategy", _HL + "Strategy", "role and action, behaviour -> mitecom"),
         Topic("speak", _HL + "Speak", "sentences for the speaker", Priority.PERCEPTION, event=True),
