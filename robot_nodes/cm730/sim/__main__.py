@@ -38,12 +38,17 @@ def serve(n_robots: int, bus: BusConfig, params: Path | None = None, overrides: 
           real_time_factor: float = 1.0, cameras: int | None = None) -> tuple[SimRunner, list[Node], object]:
     """Starts the world and its nodes; returns (runner, nodes, session) for the caller to stop.
     cameras: how many robots render images (default all)."""
-    world = SimWorld(n_robots=n_robots)
+    return serve_world(SimWorld(n_robots=n_robots), bus, params, overrides, real_time_factor, cameras)
+
+
+def serve_world(world: SimWorld, bus: BusConfig, params: Path | None = None, overrides: dict | None = None,
+                real_time_factor: float = 1.0, cameras: int | None = None) -> tuple[SimRunner, list[Node], object]:
+    """A runner stepping ``world`` and one cm730 node per robot, on one Zenoh session; (runner, nodes, session)."""
     runner = SimRunner(world, real_time_factor).start()
     session = open_session(bus)
     overrides = dict(overrides or {})
     overrides.setdefault("real_time_factor", real_time_factor)
-    cameras = n_robots if cameras is None else cameras
+    cameras = len(world.robots) if cameras is None else cameras
     nodes = [Cm730Node(robot_id=r.robot_id, bus=session, params_file=params,
                        overrides=robot_overrides(i, overrides, cameras),
                        backend=MujocoBackend(world, r, runner)).start() for i, r in enumerate(world.robots)]
