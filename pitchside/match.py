@@ -151,6 +151,9 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--gc-port", type=int, default=None,
                         help=f"UDP port the GameController sends to (default {DATA_PORT}, for the simulated one a "
                              "free one from there)")
+    parser.add_argument("--gc-return-port", type=int, default=None,
+                        help=f"external: the UDP port the GameController hears return packets on (default "
+                             f"{RETURN_PORT})")
     parser.add_argument("--model", default="minibot")
     args = parser.parse_args(argv)
     try:
@@ -174,7 +177,7 @@ def main(argv: list[str] | None = None) -> None:
                                 free_port(RETURN_PORT, socket.SOCK_DGRAM), free_port(8038))
         where = f"GameController http://127.0.0.1:{gc.http_port}/status"
     else:
-        gc = GameControllerPlan("external", args.gc_port or DATA_PORT, RETURN_PORT, None)
+        gc = GameControllerPlan("external", args.gc_port or DATA_PORT, args.gc_return_port or RETURN_PORT, None)
         where = f"listening for the GameController on UDP {gc.port}"
     token = os.environ.get(ENV_TOKEN) or new_token()
     run_on_this_machine("match", endpoint, http_port, token, lambda key: match_processes(

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import asyncio
 import re
+import socket
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -17,10 +18,12 @@ import pytest
 
 from pitchside.match import GameControllerPlan, default_nodes, parse_nodes, robot_settings
 from robot_nodes.cm730.sim.lineup import Lineup, LineupError, parse_robots
+from robot_nodes.game_controller.simulator import SimulatedGame, SimulatedGameController
 from schemas.logs import LogSeriesReader
 from server.hub import Hub
 from server.sources.replay import ReplaySource
 from tests.running_demo import DashboardObserver, running_demo
+from tests.support import free_port
 from tests.waiting import wait_for
 
 GC_URL = re.compile(r"GameController (http://127\.0\.0\.1:\d+)/status")
@@ -153,3 +156,28 @@ def test_a_match_plays_both_halves_under_the_gamecontroller_and_records_them(tmp
     for path in files:
         info = asyncio.run(replay(path))
         assert set(info["robots"]) >= {f"replay.{r}" for r in ROBOTS} and info["duration_s"] > 10
+
+
+@pytest.mark.slow
+def test_a_real_gamecontroller_on_the_network_referees_every_robot(tmp_path: Path) -> None:
+    """--gamecontroller external: a GameController elsewhere (here one in this test, broadcasting as on a field)
+    reaches every robot of the match on this machine; each answers it; the world's referee follows its game."""
+    gc_port, return_port = free_port(socket.SOCK_DGRAM), free_port(socket.SOCK_DGRAM)
+    game = SimulatedGame(teams=(7, 3), team_colors=(1, 0), players_per_team=2, initial_s=0, auto_progress=False)
+    real = SimulatedGameController(game, [("127.255.255.255", gc_port)], ("127.0.0.1", return_port))
+    args = ("--robots", "2v1", "--teams", "3", "7", "--gamecontroller", "external", "--gc-port", str(gc_port),
+            "--gc-return-port", str(return_port), "--nodes", "hcm,pause,game_controller,mitecom,telemetry")
+    with real, running_demo(tmp_path, *args, command="match") as match:
+        watch = GameWatch(match.ws_url, ("gamestate",))
+        with watch:
+            robots = ("home1", "home2", "away1")
+            wait_for(lambda: all(watch.newest(r) for r in robots), 60, what="every robot hears the GameController")
+            colours = {r: watch.get(r, "gamestate")["data"]["team_color"] for r in robots}  # type: ignore[index]
+            assert colours == {"home1": 0, "home2": 0, "away1": 1}  # team 3 blue, team 7 red, as it says
+            wait_for(lambda: {(r.packet.team, r.packet.player) for r in real.returns} == {(3, 1), (3, 2), (7, 1)},
+                     20, what="return packets of every robot")
+            real.set_state("ready")
+            real.set_state("set")
+            wait_for(lambda: "placed team 7 player 1" in match.output(), 30, what="the referee places robots at SET")
+            wait_for(lambda: watch.sees("away1", lambda h: h[1] == SET), 20, what="SET on the dashboard")
+        assert "refereed by the external GameController" in match.output()

@@ -5,7 +5,9 @@ simulation's clock, so a test plays minutes of a game in seconds."""
 
 from __future__ import annotations
 
+import logging
 import math
+import socket
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
@@ -16,8 +18,17 @@ from robot_nodes.cm730.sim import RobotHandle, SimRunner, SimWorld
 from robot_nodes.cm730.sim.lineup import Lineup
 from robot_nodes.cm730.sim.placements import lineup_start
 from robot_nodes.cm730.sim.referee import TEAM_COLOURS, Call, Referee, RefereeRules
-from robot_nodes.game_controller.packets import GameControlData, GameStateValue, Penalty, SecondaryState
+from robot_nodes.game_controller.listener import GameControllerListener
+from robot_nodes.game_controller.packets import (
+    GameControlData,
+    GameStateValue,
+    Penalty,
+    SecondaryState,
+    TeamInfo,
+    build_state_packet,
+)
 from robot_nodes.game_controller.simulator import SimulatedGame, SimulatedGameController
+from tests.support import free_port
 from tests.waiting import wait_for
 
 HOME, AWAY = 3, 7
@@ -232,3 +243,50 @@ def test_on_the_physics_thread_of_a_running_world() -> None:
     finally:
         runner.stop()
         match.gc.stop()
+
+
+def test_refereed_by_an_external_gamecontroller_it_follows_and_only_says_its_calls(caplog: pytest.LogCaptureFixture
+                                                                                   ) -> None:
+    """A real GameController (here the simulated one in another role, broadcasting on loopback) runs the game: the
+    referee hears it like a robot, follows its penalties and kick-offs, puts the ball back, and says what the human
+    at the GameController should press instead of pressing it."""
+    port = free_port(socket.SOCK_DGRAM)
+    lineup = Lineup.of((HOME, AWAY), (1, 1))
+    world = SimWorld(lineup=lineup, placements=lineup_start(lineup))
+    listener = GameControllerListener("127.255.255.255", port, (HOME, AWAY))
+    game = SimulatedGame(teams=(AWAY, HOME), team_colors=(1, 0), players_per_team=1, initial_s=0, auto_progress=False)
+    real = SimulatedGameController(game, [("127.255.255.255", port)], ("127.0.0.1", 0), rate_hz=10.0)
+    referee = Referee(world, lineup, listener.latest)  # the logging whistle: the default
+    caplog.set_level(logging.WARNING, logger="pitchside.referee")
+
+    def step(seconds: float) -> None:
+        for _ in range(round(seconds / 0.04)):
+            world.step_for(0.04)
+            referee.check()
+
+    try:
+        real.start()
+        wait_for(lambda: listener.latest() is not None, 10, what="the GameController's packets heard")
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:  # another field's GameController: ignored
+            s.setsockopt(socket.SOL_SOCKET, socket.SO_BROADCAST, 1)
+            s.sendto(build_state_packet(GameControlData(teams=(TeamInfo(11), TeamInfo(12)))), ("127.255.255.255", port))
+        wait_for(lambda: listener.foreign_packets >= 1, 10, what="a foreign packet counted")
+        step(0.2)
+        home1 = world.robot("home1")
+        assert home1.jersey() == pytest.approx(TEAM_COLOURS[0])  # colours as the GameController gives them
+        real.set_state("playing")
+        wait_for(lambda: listener.latest().state == PLAYING, 10, what="PLAYING")  # type: ignore[union-attr]
+        step(0.2)
+        world.set_ball(4.2, 0.4, velocity=(2.0, 0.0))
+        step(1.5)
+        assert [c.what for c in referee.calls] == ["goal"] and "goal for team 3" in caplog.text
+        assert [t.score for t in real.snapshot().teams] == [0, 0]  # nobody pressed it: no goal in the GameController
+        real.penalize(HOME, 1, seconds=0)  # the human referee penalises home1: the simulation takes it off
+        wait_for(lambda: listener.latest().team(HOME).player(1).penalty != 0, 10,  # type: ignore[union-attr]
+                 what="the penalty heard")
+        step(0.1)
+        assert abs(home1.pose2d()[1]) > FIELD_HALF_WIDTH + 0.3
+        assert listener.bad_packets == 0 and listener.packets >= 3
+    finally:
+        real.stop()
+        listener.close()
