@@ -13,7 +13,6 @@ import logging
 import signal
 import threading
 from pathlib import Path
-from typing import Any
 
 from robot_nodes.cm730.sim import SimWorld
 from robot_nodes.cm730.sim.__main__ import serve_world
@@ -66,38 +65,35 @@ def main(argv: list[str] | None = None) -> None:
         parser.error(str(exc))
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s [match world] %(message)s")
     world = SimWorld(lineup=lineup, placements=lineup_start(lineup), seed=args.seed)
-    runner, nodes, session = serve_world(world, bus_from_arguments(args), args.params, parse_overrides(args.set),
-                                         cameras=args.cameras)
+    served = serve_world(world, bus_from_arguments(args), args.params, parse_overrides(args.set),
+                         cameras=args.cameras)
     stop = threading.Event()
     signal.signal(signal.SIGINT, lambda *_: stop.set())
     signal.signal(signal.SIGTERM, lambda *_: stop.set())
-    closers: list[Any] = []
+    gc: SimulatedGameController | None = None
+    listener: GameControllerListener | None = None
     try:
         if args.gamecontroller == "sim":
             game = simulated_game(lineup, args.half_seconds, args.ready_seconds, args.set_seconds,
                                   args.initial_seconds, args.half_time_seconds)
             gc = SimulatedGameController(game, [(LOOPBACK_BROADCAST, args.gc_port)],
-                                         ("127.0.0.1", args.gc_return_port), clock=lambda: world.time)
-            gc.start()
-            closers.append(gc)
+                                         ("127.0.0.1", args.gc_return_port), clock=lambda: world.time).start()
             if args.gc_http_port is not None:
                 log.info("GameController HTTP API on http://127.0.0.1:%d/status", gc.serve_http(args.gc_http_port))
-            Referee(world, lineup, gc.snapshot, gc).attach(runner)
+            Referee(world, lineup, gc.snapshot, gc).attach(served.runner)
         else:
             listener = GameControllerListener("0.0.0.0", args.gc_port, (lineup.home.number, lineup.away.number))
-            closers.append(listener)
-            Referee(world, lineup, listener.latest, LoggingWhistle(), RefereeRules()).attach(runner)
+            Referee(world, lineup, listener.latest, LoggingWhistle(), RefereeRules()).attach(served.runner)
         log.info("match %s: team %d (%s) against team %d (%s), refereed by the %s GameController", args.robots,
                  lineup.home.number, ", ".join(lineup.home.robot_ids()), lineup.away.number,
                  ", ".join(lineup.away.robot_ids()), "simulated" if args.gamecontroller == "sim" else "external")
         stop.wait()
     finally:
-        for closer in closers:
-            closer.close() if isinstance(closer, GameControllerListener) else closer.stop()
-        for node in nodes:
-            node.shutdown()
-        runner.stop()
-        session.close()  # type: ignore[attr-defined]
+        if gc is not None:
+            gc.stop()
+        if listener is not None:
+            listener.close()
+        served.close()
 
 
 if __name__ == "__main__":
