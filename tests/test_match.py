@@ -59,6 +59,11 @@ class GameWatch(DashboardObserver):
         with self._lock:
             return next((h for h in reversed(self.history) if h[0] == robot), None)
 
+    def heard(self, robot: str) -> list[int] | None:
+        """The teammates the robot hears, as its newest team_comm on the dashboard says."""
+        frame = self.get(robot, "team_comm")
+        return None if frame is None else list(frame["data"]["mate_ids"])
+
     def sees(self, robot: str, condition: Callable[[tuple[str, int, bool, int, int, bool]], bool]) -> bool:
         """The robot's newest gamestate holds ``condition``."""
         newest = self.newest(robot)
@@ -103,9 +108,11 @@ def test_a_match_plays_both_halves_under_the_gamecontroller_and_records_them(tmp
         gc_url = GC_URL.search(match.output())
         assert gc_url, match.output()
         api = gc_url.group(1)
-        watch = GameWatch(match.ws_url, ("gamestate",))
+        watch = GameWatch(match.ws_url, ("gamestate", "team_comm"))
         with watch:
             wait_for(lambda: all(watch.newest(r) for r in ROBOTS), 60, what="every robot's gamestate on the dashboard")
+            wait_for(lambda: watch.heard("home1") == [2] and watch.heard("away2") == [1], 30,
+                     what="whom each robot hears (team_comm, by telemetry)")
             colours = {r: watch.get(r, "gamestate")["data"]["team_color"] for r in ROBOTS}  # type: ignore[index]
             assert colours == {"home1": 0, "home2": 0, "away1": 1, "away2": 1}  # as the GameController sends them
             wait_for(lambda: watch.sees("home1", lambda h: h[1] == PLAYING), 60, what="first kick-off")
