@@ -161,7 +161,7 @@ class Referee:
         self._follow_penalties(game)
         self._follow_state(game)
         if game.state == GameStateValue.PLAYING:
-            self._judge_ball(game)
+            self._judge_ball()
         if game.state in (GameStateValue.READY, GameStateValue.SET, GameStateValue.PLAYING):
             self._judge_robots(game)
         else:
@@ -238,7 +238,7 @@ class Referee:
             self._call("placed", watch, "not in a legal kick-off position when SET began")
 
     # -- the ball --------------------------------------------------------------------------------------------
-    def _judge_ball(self, game: GameControlData) -> None:
+    def _judge_ball(self) -> None:
         f = self.world.field
         ball = self.world.ball_position()
         self._follow_touch(ball)
@@ -250,9 +250,9 @@ class Referee:
         over_touch_line = f.width / 2 + f.line_width / 2 + radius
         if abs(ball[0]) > over_goal_line:
             crossing = _crossing(previous, ball, over_goal_line)
-            self._over_goal_line(game, crossing, int(math.copysign(1, ball[0])))
+            self._over_goal_line(crossing, int(math.copysign(1, ball[0])))
         elif abs(ball[1]) > over_touch_line:
-            self._over_touch_line(game, ball)
+            self._over_touch_line(ball)
 
     def _follow_touch(self, ball: np.ndarray) -> None:
         d = self.world.data
@@ -278,7 +278,7 @@ class Referee:
         if touching >= 0:
             self._ball.last_touch = self._robots[touching]
 
-    def _over_goal_line(self, game: GameControlData, crossing: np.ndarray, goal_sign: int) -> None:
+    def _over_goal_line(self, crossing: np.ndarray, goal_sign: int) -> None:
         f = self.world.field
         attackers = next(t for t in self.lineup.teams if t.attack == goal_sign)
         defenders = self.lineup.other(attackers)
@@ -298,7 +298,7 @@ class Referee:
             kind, team, spot = "goal_kick", defenders, placements.goal_kick_spot(goal_sign, crossing[1], f)
         self._restart(kind, team, spot, toucher)
 
-    def _over_touch_line(self, game: GameControlData, ball: np.ndarray) -> None:
+    def _over_touch_line(self, ball: np.ndarray) -> None:
         if self._ball.set_play_spot is not None:
             self._put_ball(*self._ball.set_play_spot)
             return
