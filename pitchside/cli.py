@@ -13,6 +13,8 @@ from wire.command_line import EXIT_CODES
 # command -> ("module:function" taking argv, one line of help)
 COMMANDS: dict[str, tuple[str, str]] = {
     "demo": ("pitchside.demo:main", "simulated world + robot nodes + GameController + dashboard; prints the link"),
+    "match": ("pitchside.match:main", "two teams of simulated robots play under the GameController; the match "
+              "dashboard watches and records each half"),
     "robot": ("pitchside.robot:main", "everything a robot runs, with its own Zenoh router (simulated by default)"),
     "doctor": ("pitchside.doctor:main", "on the robot: checks serial port, router, clock, disk, telemetry key and "
                "GameController, and says how to fix what fails"),

@@ -1,6 +1,7 @@
 """`pitchside demo`: the simulated world, its robots' nodes, a simulated GameController and the dashboard.
 
-Everything runs on this machine: a Zenoh router inside this process, the other parts as supervised processes.
+Everything runs on this machine: a Zenoh router inside this process, the other parts as supervised processes
+(pitchside/local_run.py, which `pitchside match` shares).
 """
 
 from __future__ import annotations
@@ -9,36 +10,17 @@ import logging
 import os
 import socket
 import sys
-import tempfile
 from pathlib import Path
 
 import robots as descriptions
+from pitchside.local_run import free_port, run_on_this_machine, server_process, telemetry_settings
 from pitchside.robot import MOTION_NODES, available, robot_nodes
-from robot_nodes.launch import COMPOSE_HELP, Launcher, NodeProcess, process_groups, run_until_signal
+from robot_nodes.launch import COMPOSE_HELP, NodeProcess, process_groups
 from server.security.credentials import ENV_TOKEN, new_token
-from wire.bus import open_router
 from wire.command_line import CommandParser
-from wire.telemetry.datagram import write_new_key
 
 log = logging.getLogger("pitchside.demo")
 DEMO_ROBOT_NODES = [*MOTION_NODES, "walking", "game_controller", "telemetry"]  # cm730: in the world's process
-
-
-def port_is_free(port: int, kind: int = socket.SOCK_STREAM) -> bool:
-    with socket.socket(socket.AF_INET, kind) as s:
-        try:
-            s.bind(("127.0.0.1", port))
-        except OSError:
-            return False
-        return True
-
-
-def free_port(preferred: int, kind: int = socket.SOCK_STREAM) -> int:
-    if port_is_free(preferred, kind):
-        return preferred
-    with socket.socket(socket.AF_INET, kind) as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 def demo_processes(robots: int, endpoint: str, http_port: int, telemetry_port: int, model: str,
@@ -47,8 +29,7 @@ def demo_processes(robots: int, endpoint: str, http_port: int, telemetry_port: i
                    telemetry_key: Path | None = None, compose: str = "all", cameras: int = 1) -> list[NodeProcess]:
     """Every process of the demo.
 
-    token: the dashboard's control token (handed over in the environment, not on the command line where other
-    users of the machine see it); telemetry_key: a key file the robots and the dashboard share."""
+    token: the dashboard's control token; telemetry_key: a key file the robots and the dashboard share."""
     py = sys.executable
     connect = ["--connect", endpoint]
     processes = [NodeProcess("world", [py, "-m", "robot_nodes.cm730.sim", "--robots", str(robots),
@@ -62,9 +43,7 @@ def demo_processes(robots: int, endpoint: str, http_port: int, telemetry_port: i
             # the venue"); a real robot hears the GameController's broadcast on every interface
             "game_controller": ["--set", f"player_number={i}", "--set", f"listen_port={gc_ports[i - 1]}",
                                 "--set", "listen_address=127.0.0.1", "--set", f"return_port={gc_return_port}"],
-            "telemetry": ["--set", f"destination=127.0.0.1:{telemetry_port}",
-                          *(["--set", f"team_key={telemetry_key}"] if telemetry_key else
-                            ["--set", "allow_dev_key=true"])],
+            "telemetry": telemetry_settings(telemetry_port, telemetry_key),
         }
         processes += robot_nodes(robot_id, [endpoint], model, per_robot, extra, compose=compose)
     gc = [py, "-m", "robot_nodes.game_controller.simulator", "--players-per-team", str(max(robots, 4)),
@@ -72,13 +51,7 @@ def demo_processes(robots: int, endpoint: str, http_port: int, telemetry_port: i
     for port in gc_ports:
         gc += ["--to", f"127.0.0.1:{port}"]
     processes.append(NodeProcess("gamecontroller", gc))
-    server = [py, "-m", "server", "--port", str(http_port), "--telemetry-host", "127.0.0.1",
-              "--telemetry-port", str(telemetry_port),
-              "--urdf", str(descriptions.urdf(model)), "--robot3d", "--plots", *connect]
-    server += ["--telemetry-key", str(telemetry_key)] if telemetry_key else ["--allow-dev-key"]
-    if match:
-        server.append("--match")
-    processes.append(NodeProcess("server", server, env={ENV_TOKEN: token} if token else {}))
+    processes.append(server_process(http_port, telemetry_port, model, [endpoint], match, token, telemetry_key))
     return processes
 
 
@@ -106,19 +79,9 @@ def main(argv: list[str] | None = None) -> None:
     gc_ports = [free_port(3838 + i, socket.SOCK_DGRAM) for i in range(args.robots)]
     gc_return_port = free_port(3939, socket.SOCK_DGRAM)
     token = os.environ.get(ENV_TOKEN) or new_token()
-    with tempfile.TemporaryDirectory(prefix="pitchside-demo-") as keys:
-        # a fresh team key per demo: the robots' telemetry and the dashboard share it, nobody else has it
-        key_file = Path(keys) / "telemetry.key"
-        write_new_key(key_file)
-        router = open_router([endpoint])
-        launcher = Launcher(demo_processes(args.robots, endpoint, http_port, telemetry_port, args.model, args.match,
-                                           gc_ports, gc_return_port, token, key_file, args.compose, args.cameras))
-        print(f"\n  pitchside demo: open http://127.0.0.1:{http_port}/?token={token}  (the link signs the browser "
-              f"in; Zenoh router {endpoint}; Ctrl-C stops)\n", flush=True)
-        try:
-            run_until_signal(launcher)
-        finally:
-            router.close()
+    run_on_this_machine("demo", endpoint, http_port, token, lambda key: demo_processes(
+        args.robots, endpoint, http_port, telemetry_port, args.model, args.match, gc_ports, gc_return_port, token,
+        key, args.compose, args.cameras))
 
 
 if __name__ == "__main__":

@@ -608,6 +608,23 @@ class pitchside_msgs__msg__StateMachineGraph:
     __msgtype__: ClassVar[str] = 'pitchside_msgs/msg/StateMachineGraph'
 
 
+@dataclass
+class pitchside_msgs__msg__TeamCommStatus:
+    """Class for pitchside_msgs/msg/TeamCommStatus."""
+
+    header: std_msgs__msg__Header
+    team_id: int
+    player_id: int
+    mate_ids: np.ndarray[tuple[int, ...], np.dtype[np.uint8]]
+    age: np.ndarray[tuple[int, ...], np.dtype[np.float32]]
+    received: np.ndarray[tuple[int, ...], np.dtype[np.uint16]]
+    loss_pct: np.ndarray[tuple[int, ...], np.dtype[np.float32]]
+    window_s: float
+    expected_rate_hz: float
+    memory_s: float
+    __msgtype__: ClassVar[str] = 'pitchside_msgs/msg/TeamCommStatus'
+
+
 FIELDDEFS: Typesdict = {
     'humanoid_league_msgs/msg/AdditionalServoData': (
         [],
@@ -1113,10 +1130,25 @@ FIELDDEFS: Typesdict = {
             ('history_stamps', (T.SEQUENCE, ((T.NAME, 'builtin_interfaces/msg/Time'), 0))),
         ],
     ),
+    'pitchside_msgs/msg/TeamCommStatus': (
+        [],
+        [
+            ('header', (T.NAME, 'std_msgs/msg/Header')),
+            ('team_id', (T.BASE, ('uint16', 0))),
+            ('player_id', (T.BASE, ('uint8', 0))),
+            ('mate_ids', (T.SEQUENCE, ((T.BASE, ('uint8', 0)), 0))),
+            ('age', (T.SEQUENCE, ((T.BASE, ('float32', 0)), 0))),
+            ('received', (T.SEQUENCE, ((T.BASE, ('uint16', 0)), 0))),
+            ('loss_pct', (T.SEQUENCE, ((T.BASE, ('float32', 0)), 0))),
+            ('window_s', (T.BASE, ('float32', 0))),
+            ('expected_rate_hz', (T.BASE, ('float32', 0))),
+            ('memory_s', (T.BASE, ('float32', 0))),
+        ],
+    ),
 }
 
 
-SOURCES_SHA256 = 'a0dc5bdb7347e87187024b862e8021512a8c9e1a318fc87d5eab98ddbd3afa49'
+SOURCES_SHA256 = '9388b8003c35e099f803a61e17a1bd68a868dcfc13d6862b485f38d2eeb34354'
 
 # short names
 AdditionalServoData = humanoid_league_msgs__msg__AdditionalServoData
@@ -1160,5 +1192,6 @@ ServoHealth = pitchside_msgs__msg__ServoHealth
 Speak = humanoid_league_msgs__msg__Speak
 StateMachineGraph = pitchside_msgs__msg__StateMachineGraph
 Strategy = humanoid_league_msgs__msg__Strategy
+TeamCommStatus = pitchside_msgs__msg__TeamCommStatus
 TeamData = humanoid_league_msgs__msg__TeamData
 VisualCompassRotation = humanoid_league_msgs__msg__VisualCompassRotation

@@ -1,4 +1,5 @@
-"""Test and bench helper: `pitchside demo` as a real subprocess tree, and a WebSocket observer of its dashboard."""
+"""Test and bench helper: `pitchside demo` (or `match`) as a real subprocess tree, and a WebSocket observer of its
+dashboard."""
 
 from __future__ import annotations
 
@@ -63,7 +64,7 @@ class RunningDemo:
 def _up(process: subprocess.Popen[bytes], log: Path) -> tuple[str, str] | None:
     """(url, token) once the printed dashboard answers."""
     if process.poll() is not None:
-        raise AssertionError(f"demo exited with {process.returncode}:\n{log.read_text(errors='replace')}")
+        raise AssertionError(f"{log.stem} exited with {process.returncode}:\n{log.read_text(errors='replace')}")
     match = BANNER.search(log.read_text(errors="replace"))
     if match is None:
         return None
@@ -75,19 +76,20 @@ def _up(process: subprocess.Popen[bytes], log: Path) -> tuple[str, str] | None:
 
 
 @contextlib.contextmanager
-def running_demo(log_dir: Path, *args: str, program: list[str] | None = None, cwd: Path = REPO
-                 ) -> Iterator[RunningDemo]:
+def running_demo(log_dir: Path, *args: str, program: list[str] | None = None, cwd: Path = REPO,
+                 command: str = "demo") -> Iterator[RunningDemo]:
     """`pitchside demo --port <free> *args` (by default `python -m pitchside.cli` of this checkout; an installed
-    program and another folder for the wheel), stopped with SIGTERM (its launcher stops the rest)."""
-    log = log_dir / "demo.log"
+    program and another folder for the wheel), stopped with SIGTERM (its launcher stops the rest). ``command``:
+    "match" runs `pitchside match` the same way."""
+    log = log_dir / f"{command}.log"
     env = {k: v for k, v in os.environ.items() if program is None or k != "PYTHONPATH"}
     env.update(PYTHONUNBUFFERED="1", MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl"))
-    command = program or [sys.executable, "-m", "pitchside.cli"]
+    program_words = program or [sys.executable, "-m", "pitchside.cli"]
     with log.open("wb") as out:
-        process = subprocess.Popen([*command, "demo", "--port", str(free_port()), *args],
+        process = subprocess.Popen([*program_words, command, "--port", str(free_port()), *args],
                                    cwd=cwd, stdout=out, stderr=subprocess.STDOUT, env=env, start_new_session=True)
     try:
-        found = wait_for(lambda: _up(process, log), timeout=90.0, interval=0.2, what="demo dashboard up")
+        found = wait_for(lambda: _up(process, log), timeout=90.0, interval=0.2, what=f"{command} dashboard up")
         assert found is not None  # wait_for returns only a truthy value
         yield RunningDemo(process, found[0], log, found[1])
     finally:

@@ -24,6 +24,8 @@ OWN = {*PROGRAM, "tests", "bench"}
 PROFILE_OF = [
     ("robot_nodes/cm730/sim", "sim"),  # the MuJoCo world, its backend and its topics
     ("pitchside/demo.py", "all"),
+    ("pitchside/match.py", "all"),
+    ("pitchside/local_run.py", "all"),
     ("robot_nodes/", "robot"),
     ("pitchside/robot.py", "robot"),
     ("pitchside/doctor", "robot"),

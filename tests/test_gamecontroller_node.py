@@ -165,11 +165,11 @@ def test_garbage_is_counted_and_the_node_keeps_working(node: GameControllerNode,
                 for g in garbage:
                     s.sendto(g, ("127.0.0.1", gc_port))
         wait_for(lambda: node.bad_packets >= 3 * len(garbage), 10, what="garbage counted")
-        gc.goal(5)
         gc.set_state("playing")
-        msg = wait_for(lambda: watcher.latest(lambda m: m.own_score == 1 and m.game_state == 3), 10,
+        gc.goal(6)  # READY again, the kick-off is ours
+        msg = wait_for(lambda: watcher.latest(lambda m: m.rival_score == 1 and m.game_state == 1), 10,
                        what="state after garbage")
-        assert msg.has_kick_off
+        assert msg.has_kick_off and msg.own_score == 0
         diag = wait_for(lambda: watcher.gc_diagnostics.get("bad_packets") == str(3 * len(garbage))
                         and watcher.gc_diagnostics, 10, what="bad_packets in diagnostics")
         assert int(diag["packets"]) >= 1
@@ -182,7 +182,8 @@ def test_garbage_is_counted_and_the_node_keeps_working(node: GameControllerNode,
 
 
 def test_simulator_plays_both_halves_and_takes_manual_penalties() -> None:
-    game = SimulatedGame(teams=(3, 4), players_per_team=2, initial_s=0.2, ready_s=0.2, set_s=0.2, half_s=1)
+    game = SimulatedGame(teams=(3, 4), players_per_team=2, initial_s=0.2, ready_s=0.2, set_s=0.2, half_s=1,
+                         half_time_s=0.2)
     nowhere = ("127.0.0.1", free_port(socket.SOCK_DGRAM))
     with SimulatedGameController(game, [nowhere], ("127.0.0.1", 0), rate_hz=10.0) as gc:
         assert gc.status()["teams"][0]["players"][2]["penalty"] == Penalty.SUBSTITUTE  # beyond playersPerTeam

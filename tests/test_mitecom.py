@@ -15,7 +15,7 @@ import schemas
 from robot_nodes.mitecom import codec, protobuf_codec
 from robot_nodes.mitecom import team_message_pb2 as pb
 from robot_nodes.mitecom.codec import Key, MitecomError, Orientation
-from robot_nodes.mitecom.node import MitecomNode, parse_peers
+from robot_nodes.mitecom.node import MateLink, MitecomNode, parse_peers
 from robot_nodes.mitecom.protobuf_codec import TeamMessageError
 from robot_nodes.mitecom.report import SeenRobot, TeammateReport
 from robot_nodes.runtime import BusConfig, Node
@@ -283,3 +283,66 @@ def test_malformed_and_foreign_messages_are_counted(bus: BusConfig, watcher: Tea
         assert 1 not in watcher.mates_of("solo")  # its own messages came back and were not taken for a teammate
     finally:
         node.shutdown()
+
+
+class TeamCommWatcher(Node):
+    """Keeps each robot's newest team_comm, as the dashboard shows it."""
+
+    name = "team_comm_watcher"
+
+    def setup(self) -> None:
+        self.lock = threading.Lock()
+        self.status: dict[str, Any] = {}
+        self.subscribe("team_comm", self._on_status, robot="*")
+
+    def _on_status(self, robot: str, msg: Any) -> None:
+        with self.lock:
+            self.status[robot] = msg
+
+    def heard_by(self, robot: str) -> dict[int, tuple[float, float, int]]:
+        """Teammate -> (age s, loss %, received) as ``robot`` hears them."""
+        with self.lock:
+            msg = self.status.get(robot)
+        if msg is None:
+            return {}
+        return {int(m): (float(a), float(loss), int(n))
+                for m, a, loss, n in zip(msg.mate_ids, msg.age, msg.loss_pct, msg.received, strict=True)}
+
+
+def test_mate_link_loss_against_the_team_rate() -> None:
+    link = MateLink(first=0.0, newest=0.0)
+    for i in range(20):  # 2 Hz for 10 s, every other message lost
+        if i % 2 == 0:
+            link.heard(i * 0.5, window_s=10.0)
+    assert link.loss_pct(10.0, 10.0, 2.0) == pytest.approx(50.0)
+    assert link.loss_pct(10.0, 10.0, 1.0) == pytest.approx(0.0)  # at the rate it was sent: nothing missing
+    assert MateLink(first=5.0, newest=5.0).loss_pct(5.2, 10.0, 2.0) == 0.0  # too early to tell
+    link.forget(30.0, 10.0)
+    assert not link.arrivals and link.loss_pct(30.0, 10.0, 2.0) == 100.0  # silent for a whole window
+
+
+def test_each_robot_says_which_teammates_it_hears_with_age_and_loss(bus: BusConfig) -> None:
+    ports = [free_port(socket.SOCK_DGRAM) for _ in range(3)]
+    peers = ",".join(f"127.0.0.1:{p}" for p in ports)
+    watcher = TeamCommWatcher(robot_id="comm_watcher", bus=bus)
+    watcher.start()
+    nodes: list[MitecomNode] = []
+    try:
+        for i, rate in enumerate((5.0, 5.0, 2.5)):  # mate3 sends at half the team's rate: half its messages "lost"
+            nodes.append(MitecomNode(robot_id=f"mate{i + 1}", bus=bus, overrides={
+                "team_id": 7, "player_id": i + 1, "port": ports[i], "listen_address": "127.0.0.1", "peers": peers,
+                "send_rate_hz": rate, "loss_window_s": 2.0, "status_memory_s": 3.0}))
+            nodes[-1].start()
+        heard = wait_for(lambda: (h := watcher.heard_by("mate1")) and set(h) == {2, 3} and h[3][1] > 25
+                         and h[2][2] >= 8 and h, 15, what="mate1 hears mate2 and, with loss, mate3")
+        assert heard[2][0] < 0.5 and heard[2][1] < 15  # mate2: fresh, hardly anything missing
+        assert 25 < heard[3][1] < 75 and heard[3][0] < 1.0
+        assert set(watcher.heard_by("mate3")) == {1, 2} and watcher.status["mate1"].expected_rate_hz == 5.0
+        nodes[2].shutdown()  # mate3 goes silent: listed with its age, then forgotten
+        wait_for(lambda: (h := watcher.heard_by("mate1")) and 3 in h and h[3][0] > 1.5, 10,
+                 what="mate3 silent but listed")
+        wait_for(lambda: set(watcher.heard_by("mate1")) == {2}, 10, what="mate3 forgotten after status_memory_s")
+    finally:
+        for n in nodes:
+            n.shutdown()
+        watcher.shutdown()

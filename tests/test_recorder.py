@@ -28,9 +28,10 @@ from tests.waiting import wait_for
 GS = "humanoid_league_msgs/msg/GameState"
 
 
-def gamestate(state: int, first_half: bool = True, own: int = 0, rival: int = 0, penalized: bool = False) -> Any:
+def gamestate(state: int, first_half: bool = True, own: int = 0, rival: int = 0, penalized: bool = False,
+              colour: int = 0) -> Any:
     return schemas.make(GS, game_state=state, first_half=first_half, own_score=own, rival_score=rival,
-                        penalized=penalized, seconds_till_unpenalized=30 if penalized else 0)
+                        penalized=penalized, seconds_till_unpenalized=30 if penalized else 0, team_color=colour)
 
 
 # -- game events (pure) -----------------------------------------------------------------------------------
@@ -54,6 +55,35 @@ def test_game_events_start_split_stop_and_bookmarks() -> None:
         "bookmark", "goal rival 1:1")
     assert kinds(events.feed("r1", gamestate(FINISHED, first_half=False, own=1, rival=1))) == [
         ("bookmark", "FINISHED"), ("stop", "half2")]
+
+
+def test_game_events_of_two_teams_tell_one_score() -> None:
+    """Robots of both teams (a simulated match): each tells the score from its side; one game, one goal each."""
+    events = GameEvents()
+    kinds = lambda evs: [(e.kind, e.part or e.name) for e in evs]  # noqa: E731
+    blue, red = 0, 1
+    assert events.feed("home1", gamestate(INITIAL, colour=blue)) == []
+    assert events.feed("away1", gamestate(INITIAL, colour=red)) == []
+    assert kinds(events.feed("away1", gamestate(READY, colour=red))) == [("start", "half1"), ("bookmark", "READY")]
+    assert events.feed("home1", gamestate(READY, colour=blue)) == []
+    events.feed("home1", gamestate(PLAYING, colour=blue))
+    assert events.feed("away1", gamestate(PLAYING, colour=red)) == []
+    # red scores: red's robot says own 1, blue's says rival 1; one bookmark, named by the scorer's colour
+    assert kinds(events.feed("away1", gamestate(READY, own=1, colour=red))) == [("bookmark", "goal red 0:1"),
+                                                                               ("bookmark", "READY")]
+    assert events.feed("home1", gamestate(READY, rival=1, colour=blue)) == []
+    assert events.feed("away1", gamestate(READY, own=1, colour=red)) == []  # the same again: nothing
+    events.feed("home1", gamestate(PLAYING, rival=1, colour=blue))
+    assert kinds(events.feed("home1", gamestate(READY, own=1, rival=1, colour=blue))) == [
+        ("bookmark", "goal blue 1:1"), ("bookmark", "READY")]
+    assert events.feed("away1", gamestate(READY, own=1, rival=1, colour=red)) == []
+    assert kinds(events.feed("away1", gamestate(FINISHED, own=1, rival=1, colour=red))) == [
+        ("bookmark", "FINISHED"), ("stop", "half1")]
+    red_first = GameEvents()  # whoever is heard first, a goal's score reads blue:red
+    red_first.feed("away1", gamestate(PLAYING, colour=red))
+    red_first.feed("home1", gamestate(PLAYING, colour=blue))
+    assert kinds(red_first.feed("home1", gamestate(READY, own=1, colour=blue))) == [
+        ("start", "half1"), ("bookmark", "goal blue 1:0"), ("bookmark", "READY")]
 
 
 def test_game_events_first_half_to_second_without_initial_splits() -> None:

@@ -304,11 +304,15 @@ def test_a_failing_request_is_answered_with_the_security_headers(tmp_path: Path)
 
 # -- what the demo opens -------------------------------------------------------------------------------------------
 @pytest.mark.slow
-def test_the_demo_listens_on_loopback_only(tmp_path: Path) -> None:
-    """Everything of `pitchside demo` runs on this machine: none of its processes (world, robot nodes, simulated
-    GameController, dashboard, 3D view, plots, Foxglove) takes a port a stranger on the network could send to,
-    UDP included (the GameController receiver, the telemetry listener, the telemetry sender's own socket)."""
-    with running_demo(tmp_path) as demo:
+@pytest.mark.parametrize("command", ["demo", "match"])
+def test_the_demo_listens_on_loopback_only(tmp_path: Path, command: str) -> None:
+    """Everything of `pitchside demo` (and of `pitchside match` with its simulated GameController) runs on this
+    machine: none of its processes (world, robot nodes, simulated GameController, dashboard, 3D view, plots,
+    Foxglove) takes a port a stranger on the network could send to, UDP included (the GameController receivers,
+    bound to the loopback broadcast address in a match, the team communication, the telemetry listener, the
+    telemetry sender's own socket)."""
+    args = ("--robots", "1v1") if command == "match" else ()
+    with running_demo(tmp_path, *args, command=command) as demo:
         def telemetry_flows() -> bool:
             sources = httpx.get(f"{demo.url}/api/sources", headers=demo.auth, timeout=10).json()
             return any(s["name"] == "telemetry" and s.get("messages", 0) > 0 for s in sources)

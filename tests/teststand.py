@@ -137,5 +137,77 @@ class SceneStand(Node):
                                              voltage=[12.1, 12.3]))
 
 
+BEHAVIOUR_STATES = ["INITIAL", "WALK_IN", "STAND", "SEARCH_BALL", "GO_TO_BALL", "KICK", "PENALIZED"]
+BEHAVIOUR_TRANSITIONS = [
+    ("INITIAL", "WALK_IN", "READY"), ("WALK_IN", "STAND", "SET"), ("STAND", "SEARCH_BALL", "PLAYING"),
+    ("SEARCH_BALL", "GO_TO_BALL", "ball seen"), ("GO_TO_BALL", "KICK", "at the ball"),
+    ("KICK", "SEARCH_BALL", "kicked"), ("GO_TO_BALL", "SEARCH_BALL", "ball lost"),
+    ("SEARCH_BALL", "PENALIZED", "penalized"), ("PENALIZED", "SEARCH_BALL", "unpenalized")]
+
+
+@dataclass
+class MatchStandParams:
+    team_color: int = param(0, range=(0, 9), doc="the GameController's colour of the robot's team")
+    player: int = param(1, range=(1, 11), doc="player number")
+    x: float = param(-2.0, range=(-6.0, 6.0), doc="own x on the field (m)")
+    y: float = param(0.0, range=(-4.0, 4.0), doc="own y on the field (m)")
+    theta: float = param(0.0, range=(-4.0, 4.0), doc="own heading (rad)")
+    role: int = param(3, range=(0, 5), doc="Strategy role")
+    own_score: int = param(0, range=(0, 99), doc="")
+    rival_score: int = param(0, range=(0, 99), doc="")
+    kick_off: bool = param(False, doc="the team has the kick-off")
+    penalty_s: int = param(0, range=(0, 255), doc="> 0: penalised, this many seconds left")
+    hcm_state: int = param(10, range=(0, 20), doc="RobotControlState")
+    ball: str = param("", doc="the ball relative to the robot as 'x,y' (empty: not seen)")
+    mates: str = param("", doc="teammates heard as 'number:age_s:loss_pct,...'")
+    behavior: bool = param(False, doc="publish a behaviour state graph")
+
+
+class MatchStand(Node):
+    """A robot of a team in a match, at 5 Hz: its game state (team colour, score, penalty), role, pose, seen ball,
+    what it hears of its teammates and, if asked, its behaviour's state graph."""
+
+    __test__ = False
+    name = "matchstand"
+    Params = MatchStandParams
+
+    def setup(self) -> None:
+        self.pubs = {t: self.publisher(t) for t in (
+            "robot_state", "gamestate", "position", "ball_relative", "strategy", "team_comm", "servo_data",
+            "behavior_graph")}
+        self.timer(5.0, self.tick)
+
+    def tick(self) -> None:
+        p, q = self.pubs, self.params
+        p["robot_state"].publish(schemas.make(HL + "RobotControlState", state=q.hcm_state))
+        p["gamestate"].publish(schemas.make(
+            HL + "GameState", header=header(), game_state=3, first_half=True, own_score=q.own_score,
+            rival_score=q.rival_score, seconds_remaining=312, has_kick_off=q.kick_off, team_color=q.team_color,
+            penalized=q.penalty_s > 0, seconds_till_unpenalized=q.penalty_s, allowed_to_move=q.penalty_s == 0))
+        pose = schemas.make("geometry_msgs/msg/Pose2D", x=q.x, y=q.y, theta=q.theta)
+        p["position"].publish(schemas.make(HL + "Position2D", header=header("map"), pose=pose, confidence=0.9))
+        if q.ball:
+            bx, by = (float(v) for v in q.ball.split(","))
+            p["ball_relative"].publish(schemas.make(HL + "BallRelative", header=header(),
+                                                    ball_relative=point(bx, by), confidence=0.9))
+        p["strategy"].publish(schemas.make(HL + "Strategy", role=q.role, action=2))
+        mates = [tuple(float(v) for v in m.split(":")) for m in q.mates.split(",") if m]
+        p["team_comm"].publish(schemas.make(
+            "pitchside_msgs/msg/TeamCommStatus", header=header(), team_id=q.team_color + 1, player_id=q.player,
+            mate_ids=[int(m[0]) for m in mates], age=[m[1] for m in mates], loss_pct=[m[2] for m in mates],
+            received=[round(20 * (1 - m[2] / 100)) for m in mates], window_s=10.0, expected_rate_hz=2.0,
+            memory_s=30.0))
+        temps = [schemas.make("sensor_msgs/msg/Temperature", header=header("RKnee"), temperature=55.0 + q.player)]
+        p["servo_data"].publish(schemas.make(HL + "AdditionalServoData", header=header(), temperature=temps,
+                                             voltage=[14.8]))
+        if q.behavior:
+            p["behavior_graph"].publish(schemas.make(
+                "pitchside_msgs/msg/StateMachineGraph", header=header(), name="behavior", states=BEHAVIOUR_STATES,
+                transition_from=[t[0] for t in BEHAVIOUR_TRANSITIONS],
+                transition_to=[t[1] for t in BEHAVIOUR_TRANSITIONS],
+                transition_condition=[t[2] for t in BEHAVIOUR_TRANSITIONS], current="GO_TO_BALL",
+                history_states=["STAND", "SEARCH_BALL", "GO_TO_BALL"]))
+
+
 if __name__ == "__main__":  # a stand-in robot on a test machine: python -m tests.teststand --robot-id ...
     run(TestStand)

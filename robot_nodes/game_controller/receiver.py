@@ -1,4 +1,10 @@
-"""GameController receiver node: GC state packets on UDP -> `gamestate`, and ALIVE return packets to the GC."""
+"""GameController receiver node: GC state packets on UDP -> `gamestate`, and return packets to the GC.
+
+The return packets say ALIVE; while the robot is manually penalised (`manual_penalty`, from the pause logic: its
+button or the manual_penalize service) they say MAN_PENALISE, and when that ends MAN_UNPENALISE until the GameController
+no longer reports the robot penalised (at most UNPENALISE_PACKETS of them), then ALIVE again. The GameController acts
+when a robot's message changes, so a lost packet is made good by the next one.
+"""
 
 from __future__ import annotations
 
@@ -15,6 +21,7 @@ from robot_nodes.game_controller.packets import (
     GameControllerPacketError,
     GameStateValue,
     ReturnMessage,
+    RobotInfo,
     SecondaryState,
     build_return_packet,
     parse_state_packet,
@@ -22,7 +29,9 @@ from robot_nodes.game_controller.packets import (
 from robot_nodes.runtime import Node, header, param, run
 from robot_nodes.runtime.udp import UdpPort
 from schemas.messages import GameState
+from schemas.std import Bool
 
+UNPENALISE_PACKETS = 6  # MAN_UNPENALISE packets at most after a manual penalty ends (3 s at the usual 2 Hz)
 _RECV_SIZE = 2048  # larger than any GC packet, so oversized datagrams arrive whole and are rejected by size
 
 
@@ -105,10 +114,13 @@ class GameControllerNode(Node):
         self._last_packet_time = 0.0
         self._last_publish_time = 0.0
         self._udp: UdpPort | None = None
+        self.manual_penalty = False
+        self._unpenalise_left = 0  # MAN_UNPENALISE packets still to send
         self._open_socket()
-        self._return_timer = self.timer(self.params.return_rate_hz, self._send_alive, "return_packets")
+        self._return_timer = self.timer(self.params.return_rate_hz, self._send_return, "return_packets")
         self._keepalive_timer = self.timer(10.0, self._keepalive, "keepalive")
         self._idle()  # both timers wait for the first packet of a GameController
+        self.subscribe("manual_penalty", self._on_manual_penalty)
         self._update_diagnostics()
 
     # -- socket ---------------------------------------------------------------------------------------------
@@ -174,26 +186,45 @@ class GameControllerNode(Node):
         self._keepalive_timer.pause()
         self._return_timer.pause()
 
-    def _send_alive(self) -> None:
+    def _on_manual_penalty(self, msg: Bool) -> None:
+        manual = bool(msg.data)
+        if manual == self.manual_penalty:
+            return
+        self.manual_penalty = manual
+        self._unpenalise_left = 0 if manual else UNPENALISE_PACKETS
+        self._send_return()  # tell the GameController now, not at the next tick
+
+    def return_message(self) -> ReturnMessage:
+        """What the next return packet says (see the module's docstring)."""
+        if self.manual_penalty:
+            return ReturnMessage.MAN_PENALISE
+        if self._unpenalise_left > 0:
+            me = self._own_slot()
+            if me is not None and me.penalized:
+                return ReturnMessage.MAN_UNPENALISE
+            self._unpenalise_left = 0  # the GameController has let the robot play again
+        return ReturnMessage.ALIVE
+
+    def _own_slot(self) -> RobotInfo | None:
+        own = self.last_data.team(self.params.team_number) if self.last_data is not None else None
+        return own.player(self.params.player_number) if own is not None else None
+
+    def _send_return(self) -> None:
         if self.gc_address is None or self._udp is None:
             return
         if time.monotonic() - self._last_packet_time > self.params.gc_timeout_s:
             return
-        packet = build_return_packet(self.params.team_number, self.params.player_number, ReturnMessage.ALIVE)
+        message = self.return_message()
+        packet = build_return_packet(self.params.team_number, self.params.player_number, message)
         try:
             self._udp.sendto(packet, (self.gc_address, self.params.return_port))
             self.returns_sent += 1
+            if message == ReturnMessage.MAN_UNPENALISE:
+                self._unpenalise_left -= 1
             self.set_diagnostic("return_packets_sent", self.returns_sent)
+            self.set_diagnostic("return_message", message.name)
         except OSError as exc:
             self.record_error(f"cannot send return packet to {self.gc_address}:{self.params.return_port}: {exc}")
-
-    def send_return(self, message: ReturnMessage) -> bool:
-        """Ask the GC for a manual (un)penalty; False while no GC has been heard."""
-        if self.gc_address is None or self._udp is None:
-            return False
-        packet = build_return_packet(self.params.team_number, self.params.player_number, message)
-        self._udp.sendto(packet, (self.gc_address, self.params.return_port))
-        return True
 
     def _update_diagnostics(self) -> None:
         self.set_diagnostic("packets", self.packets)

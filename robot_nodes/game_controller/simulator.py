@@ -1,7 +1,16 @@
 """A simulated GameController: real v12 packets at 2 Hz, a game that runs by itself, commands by stdin or HTTP.
 
+It runs the Humanoid League flow as the league's GameController does: INITIAL, READY (with its time limit), SET,
+PLAYING; a goal sends both teams to READY with the kick-off for the other team; the end of the first half is
+FINISHED, then after the half-time break INITIAL of the second half (penalties cleared, the other team kicks off);
+the end of the second half is FINISHED. Set plays (throw-in, goal kick, corner kick, free kicks) run through their
+three sub-phases in the secondary state. A robot's return packet asks for a manual penalty or its end
+(MAN_PENALISE / MAN_UNPENALISE), acted on as the HL GameController does: only when the robot's message changes,
+a penalty only for a robot not penalised, its end only for a penalised one.
+
 Run: ``python -m robot_nodes.game_controller.simulator --teams 1 2 --http-port 8038``; in-process:
-``with SimulatedGameController(SimulatedGame(teams=(1, 2)), destinations=[("127.0.0.1", port)]) as gc: ...``.
+``with SimulatedGameController(SimulatedGame(teams=(1, 2)), destinations=[("127.0.0.1", port)]) as gc: ...``;
+``clock=`` makes it follow another clock (a simulation's time) instead of the wall clock.
 """
 
 from __future__ import annotations
@@ -12,6 +21,7 @@ import logging
 import sys
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from typing import Any
@@ -20,6 +30,7 @@ from robot_nodes.game_controller.packets import (
     DATA_PORT,
     MAX_NUM_PLAYERS,
     RETURN_PORT,
+    SET_PIECES,
     GameControlData,
     GameControllerPacketError,
     GameStateValue,
@@ -27,6 +38,7 @@ from robot_nodes.game_controller.packets import (
     ReturnMessage,
     ReturnPacket,
     RobotInfo,
+    SecondaryState,
     TeamInfo,
     build_state_packet,
     parse_return_packet,
@@ -36,6 +48,11 @@ from wire.command_line import CommandParser
 
 log = logging.getLogger("pitchside.gc_simulator")
 
+# the sub-phases of a set play (secondaryStateInfo[1]): robots freeze while the referee places the ball, then
+# may position, then freeze while illegally placed robots are removed; then play goes on (NORMAL)
+PLACE_BALL, POSITIONING, REMOVE_ILLEGAL = 0, 1, 2
+BALL_FREE_S = 10  # after a kick-off, the secondary clock counts the seconds until the ball is free (as the HL GC)
+
 
 class CommandError(ValueError):
     """A penalize/goal/state command the simulated GC cannot carry out; the message says why."""
@@ -43,16 +60,20 @@ class CommandError(ValueError):
 
 @dataclass
 class SimulatedGame:
-    """What game the simulated GC runs and how fast its phases pass."""
+    """What game the simulated GC runs and how fast its phases pass (seconds of the GC's clock)."""
 
     teams: tuple[int, int] = (1, 2)
     team_colors: tuple[int, int] = (0, 1)
     players_per_team: int = 4
     game_type: int = 0
     initial_s: float = 2.0  # 0 or less: stay in INITIAL until told
-    ready_s: float = 5.0
+    ready_s: float = 5.0  # the HL rules give 45 s
     set_s: float = 2.0
     half_s: int = 600
+    half_time_s: float = 5.0  # the break between FINISHED of the first half and INITIAL of the second
+    set_play_place_s: float = 2.0  # sub-phase 0: the referee places the ball
+    set_play_position_s: float = 15.0  # sub-phase 1: robots may position
+    set_play_freeze_s: float = 1.0  # sub-phase 2: illegally placed robots are removed
     auto_progress: bool = True
 
 
@@ -89,6 +110,7 @@ class SimulatedGameController:
         destinations: list[tuple[str, int]] | None = None,
         return_address: tuple[str, int] = ("127.0.0.1", RETURN_PORT),
         rate_hz: float = 2.0,
+        clock: Callable[[], float] = time.monotonic,
     ) -> None:
         self.game = game or SimulatedGame()
         if len(set(self.game.teams)) != 2:
@@ -97,6 +119,7 @@ class SimulatedGameController:
             raise CommandError(f"players per team must be 1..{MAX_NUM_PLAYERS}")
         self.destinations = list(destinations or [("127.0.0.1", DATA_PORT)])
         self.rate_hz = rate_hz
+        self._clock = clock
         self._lock = threading.Lock()
         self._teams = [
             _Team(number, color, slots=[
@@ -110,12 +133,18 @@ class SimulatedGameController:
         self.first_half = True
         self.kick_off_team = self.game.teams[0]
         self.secs_remaining = float(self.game.half_s)
+        self.secondary_state = SecondaryState.NORMAL
+        self.set_play_team = 0
+        self.set_play_phase = PLACE_BALL
         self.packet_number = 0
         self.packets_sent = 0
         self.returns: list[ReceivedReturn] = []
         self.bad_returns = 0
-        self._phase_started = time.monotonic()
-        self._last_tick = time.monotonic()
+        self._last_message: dict[tuple[int, int], int] = {}  # (team, player) -> last return message
+        self._phase_started = clock()  # of the game state
+        self._set_play_started = clock()  # of the set play's sub-phase
+        self._kicked_off_at: float | None = None  # PLAYING after a kick-off: when (the ball is free 10 s later)
+        self._last_tick = clock()
         self._stop = threading.Event()
         self._threads: list[threading.Thread] = []
         self._udp = UdpPort(return_address[0], return_address[1], self._on_return, recv_size=2048,
@@ -129,7 +158,7 @@ class SimulatedGameController:
         return self._udp.port
 
     def start(self) -> SimulatedGameController:
-        self._phase_started = self._last_tick = time.monotonic()
+        self._phase_started = self._last_tick = self._clock()
         sender = threading.Thread(target=self._send_loop, name="gc-sim-send", daemon=True)
         sender.start()
         self._threads.append(sender)
@@ -173,11 +202,20 @@ class SimulatedGameController:
         with self._lock:
             self.returns.append(ReceivedReturn(time.monotonic(), addr, packet))
             del self.returns[:-10000]
+            key = (packet.team, packet.player)
+            changed = self._last_message.get(key) != packet.message
+            self._last_message[key] = packet.message
+            if not changed:  # the HL GC acts on a robot's message when it changes, not on every packet
+                return
             try:
-                if packet.message == ReturnMessage.MAN_PENALISE:
+                slot = self._slot(packet.team, packet.player)
+                if packet.message == ReturnMessage.MAN_PENALISE and slot.penalty == Penalty.NONE:
                     self._penalize(packet.team, packet.player, Penalty.MANUAL, 0)
-                elif packet.message == ReturnMessage.MAN_UNPENALISE:
+                    log.info("team %d player %d penalised itself (manual penalty)", packet.team, packet.player)
+                elif packet.message == ReturnMessage.MAN_UNPENALISE and slot.penalty not in (Penalty.NONE,
+                                                                                           Penalty.SUBSTITUTE):
                     self._unpenalize(packet.team, packet.player)
+                    log.info("team %d player %d ended its penalty (manual)", packet.team, packet.player)
             except CommandError as exc:
                 log.info("ignored return packet from %s: %s", addr, exc)
 
@@ -185,28 +223,40 @@ class SimulatedGameController:
     def tick(self) -> bytes:
         """Advances the clocks to now and returns the next packet (the send loop calls it every 0.5 s)."""
         with self._lock:
-            now = time.monotonic()
-            dt = now - self._last_tick
-            self._last_tick = now
-            self._advance(now, dt)
-            data = self._snapshot(now)
+            data = self._advance_to_now()
             self.packet_number = (self.packet_number + 1) % 256
             self.packets_sent += 1
         return build_state_packet(data)
 
+    def snapshot(self) -> GameControlData:
+        """The game as the next packet will tell it, clocks advanced to now (for a referee in the same process)."""
+        with self._lock:
+            return self._advance_to_now()
+
+    def _advance_to_now(self) -> GameControlData:
+        now = self._clock()
+        dt = max(0.0, now - self._last_tick)
+        self._last_tick = now
+        self._advance(now, dt)
+        return self._snapshot(now)
+
     def _advance(self, now: float, dt: float) -> None:
         g = self.game
         in_phase = now - self._phase_started
-        for team in self._teams:
-            for slot in team.slots:
-                if slot.penalty not in (Penalty.NONE, Penalty.SUBSTITUTE, Penalty.MANUAL) and slot.secs > 0:
-                    slot.secs = max(0.0, slot.secs - dt)
-                    if slot.secs == 0:
-                        slot.penalty = Penalty.NONE
+        if self.state not in (GameStateValue.INITIAL, GameStateValue.FINISHED):
+            for team in self._teams:
+                for slot in team.slots:
+                    if slot.penalty not in (Penalty.NONE, Penalty.SUBSTITUTE, Penalty.MANUAL) and slot.secs > 0:
+                        slot.secs = max(0.0, slot.secs - dt)
+                        if slot.secs == 0:
+                            slot.penalty = Penalty.NONE
         if self.state == GameStateValue.PLAYING:
             self.secs_remaining = max(0.0, self.secs_remaining - dt)
             if self.secs_remaining == 0:
-                self._end_half()
+                self._finish_half()
+                return
+            if g.auto_progress and self.secondary_state in SET_PIECES:
+                self._advance_set_play(now)
             return
         if not g.auto_progress:
             return
@@ -216,22 +266,62 @@ class SimulatedGameController:
             self._enter(GameStateValue.SET)
         elif self.state == GameStateValue.SET and in_phase >= g.set_s:
             self._enter(GameStateValue.PLAYING)
+        elif self.state == GameStateValue.FINISHED and self.first_half and in_phase >= g.half_time_s:
+            self._enter(GameStateValue.INITIAL)
 
-    def _end_half(self) -> None:
-        if self.first_half:
-            self.first_half = False
-            self.secs_remaining = float(self.game.half_s)
-            self.kick_off_team = self.game.teams[1]
-            self._enter(GameStateValue.READY if self.game.auto_progress else GameStateValue.INITIAL)
+    def _advance_set_play(self, now: float) -> None:
+        g = self.game
+        lasts = {PLACE_BALL: g.set_play_place_s, POSITIONING: g.set_play_position_s,
+                 REMOVE_ILLEGAL: g.set_play_freeze_s}[self.set_play_phase]
+        if now - self._set_play_started >= lasts:
+            self._next_set_play_phase()
+
+    def _next_set_play_phase(self) -> None:
+        if self.set_play_phase == REMOVE_ILLEGAL:
+            self.secondary_state, self.set_play_team, self.set_play_phase = SecondaryState.NORMAL, 0, PLACE_BALL
         else:
-            self._enter(GameStateValue.FINISHED)
+            self.set_play_phase += 1
+        self._set_play_started = self._clock()
+
+    def _finish_half(self) -> None:
+        """The half's clock ran out: FINISHED (after the first half, the half-time break follows)."""
+        self._enter(GameStateValue.FINISHED)
 
     def _enter(self, state: GameStateValue) -> None:
+        if state == GameStateValue.INITIAL and self.state == GameStateValue.FINISHED and self.first_half:
+            self._switch_half()
+        if state != GameStateValue.PLAYING or self.secondary_state not in SET_PIECES:
+            self.secondary_state, self.set_play_team, self.set_play_phase = SecondaryState.NORMAL, 0, PLACE_BALL
+        self._kicked_off_at = self._clock() if (state == GameStateValue.PLAYING
+                                                and self.state == GameStateValue.SET) else None
         self.state = state
-        self._phase_started = time.monotonic()
+        self._phase_started = self._clock()
+
+    def _switch_half(self) -> None:
+        """Half time: the second half's clock, the kick-off for the team that did not kick off the first half,
+        every penalty but substitutes cleared (as the HL GC does)."""
+        self.first_half = False
+        self.secs_remaining = float(self.game.half_s)
+        self.kick_off_team = self.game.teams[1]
+        for team in self._teams:
+            for slot in team.slots:
+                if slot.penalty != Penalty.SUBSTITUTE:
+                    slot.penalty, slot.secs = Penalty.NONE, 0.0
 
     def _secondary_time(self, now: float) -> int:
-        left = {GameStateValue.READY: self.game.ready_s, GameStateValue.SET: self.game.set_s}.get(self.state)
+        g = self.game
+        if self.state == GameStateValue.PLAYING:
+            if self.secondary_state in SET_PIECES:
+                phase_lasts = {PLACE_BALL: g.set_play_place_s, POSITIONING: g.set_play_position_s,
+                        REMOVE_ILLEGAL: g.set_play_freeze_s}[self.set_play_phase]
+                return max(0, round(phase_lasts - (now - self._set_play_started)))
+            if self._kicked_off_at is not None:
+                return max(0, round(BALL_FREE_S - (now - self._kicked_off_at)))
+            return 0
+        lasts: dict[int, float] = {GameStateValue.READY: g.ready_s, GameStateValue.SET: g.set_s}
+        if self.first_half:
+            lasts[GameStateValue.FINISHED] = g.half_time_s
+        left = lasts.get(self.state)
         return 0 if left is None else max(0, round(left - (now - self._phase_started)))
 
     def _snapshot(self, now: float) -> GameControlData:
@@ -251,6 +341,8 @@ class SimulatedGameController:
             state=self.state,
             first_half=self.first_half,
             kick_off_team=self.kick_off_team,
+            secondary_state=self.secondary_state,
+            secondary_state_info=(self.set_play_team, self.set_play_phase if self.set_play_team else 0, 0, 0),
             secs_remaining=round(self.secs_remaining),
             secondary_time=self._secondary_time(now),
             teams=(teams[0], teams[1]),
@@ -291,12 +383,15 @@ class SimulatedGameController:
             self._unpenalize(team, player)
 
     def goal(self, team: int) -> None:
-        """Counts a goal; the other team kicks off after READY/SET, as the real GC does."""
+        """Counts a goal (only in PLAYING, as the HL GC); both teams go to READY, the other team kicks off."""
         with self._lock:
-            self._team(team).score += 1
-            if self.game.auto_progress and self.state == GameStateValue.PLAYING:
-                self.kick_off_team = next(n for n in self.game.teams if n != team)
-                self._enter(GameStateValue.READY)
+            scorer = self._team(team)
+            self._advance_to_now()
+            if self.state != GameStateValue.PLAYING:
+                raise CommandError(f"a goal counts only in PLAYING, the game is in {GameStateValue(self.state).name}")
+            scorer.score += 1
+            self.kick_off_team = next(n for n in self.game.teams if n != team)
+            self._enter(GameStateValue.READY)
 
     def set_state(self, state: int | str) -> None:
         try:
@@ -304,7 +399,36 @@ class SimulatedGameController:
         except (KeyError, ValueError):
             raise CommandError(f"unknown game state {state!r}; one of {[s.name for s in GameStateValue]}") from None
         with self._lock:
+            self._advance_to_now()
             self._enter(value)
+
+    def set_play(self, kind: int | str, team: int) -> None:
+        """Starts a set play for ``team`` (throw-in, goal kick, corner kick, direct/indirect free kick, penalty
+        kick), or, for the set play already running, moves it to its next sub-phase (the GC's button pressed
+        again). Only in PLAYING, as the HL GC."""
+        try:
+            value = SecondaryState[kind.upper()] if isinstance(kind, str) else SecondaryState(kind)
+        except (KeyError, ValueError):
+            value = None
+        if value not in SET_PIECES:
+            names = [SecondaryState(v).name for v in sorted(SET_PIECES)]
+            raise CommandError(f"unknown set play {kind!r}; one of {names}")
+        assert value is not None
+        with self._lock:
+            self._team(team)
+            self._advance_to_now()
+            if self.state != GameStateValue.PLAYING:
+                raise CommandError(f"a set play starts only in PLAYING, the game is in "
+                                   f"{GameStateValue(self.state).name}")
+            if self.secondary_state == SecondaryState.NORMAL:
+                self.secondary_state, self.set_play_team, self.set_play_phase = value, team, PLACE_BALL
+                self._set_play_started = self._clock()
+                self._kicked_off_at = None
+            elif self.secondary_state == value and self.set_play_team == team:
+                self._next_set_play_phase()
+            else:
+                raise CommandError(f"{SecondaryState(self.secondary_state).name} for team {self.set_play_team} "
+                                   "is running")
 
     def returns_from(self, team: int, player: int) -> list[ReceivedReturn]:
         with self._lock:
@@ -320,6 +444,9 @@ class SimulatedGameController:
             "kick_off_team": data.kick_off_team,
             "secs_remaining": data.secs_remaining,
             "secondary_time": data.secondary_time,
+            "secondary_state": SecondaryState(data.secondary_state).name,
+            "set_play_team": data.secondary_state_info[0],
+            "set_play_phase": data.secondary_state_info[1],
             "packets_sent": self.packets_sent,
             "destinations": [f"{h}:{p}" for h, p in self.destinations],
             "return_port": self.return_port,
@@ -344,7 +471,8 @@ class SimulatedGameController:
         }
 
     def execute(self, line: str) -> str:
-        """One text command (stdin): penalize T P [S] | unpenalize T P | goal T | state NAME | status."""
+        """One text command (stdin): penalize T P [S] | unpenalize T P | goal T | state NAME | setplay KIND T |
+        status."""
         words = line.split()
         if not words:
             return ""
@@ -358,11 +486,13 @@ class SimulatedGameController:
                 self.goal(int(args[0]))
             elif cmd == "state" and len(args) == 1:
                 self.set_state(args[0])
+            elif cmd == "setplay" and len(args) == 2:
+                self.set_play(args[0], int(args[1]))
             elif cmd == "status":
                 return json.dumps(self.status(), indent=1)
             else:
                 return ("commands: penalize TEAM PLAYER [SECONDS] | unpenalize TEAM PLAYER | goal TEAM | "
-                        "state NAME | status")
+                        "state NAME | setplay KIND TEAM (throw_in, goal_kick, corner_kick, ...) | status")
         except (CommandError, ValueError) as exc:
             return f"error: {exc}"
         return "ok"
@@ -379,7 +509,8 @@ class SimulatedGameController:
 
 def _make_handler(gc: SimulatedGameController) -> type[BaseHTTPRequestHandler]:
     class Handler(BaseHTTPRequestHandler):
-        """POST /penalize {team, player, seconds}, /unpenalize, /goal {team}, /state {state}; GET /status."""
+        """POST /penalize {team, player, seconds}, /unpenalize, /goal {team}, /state {state}, /set-play {kind,
+        team}; GET /status."""
 
         def log_message(self, fmt: str, *args: Any) -> None:
             log.debug(fmt, *args)
@@ -414,6 +545,8 @@ def _make_handler(gc: SimulatedGameController) -> type[BaseHTTPRequestHandler]:
                     gc.goal(int(body["team"]))
                 elif path == "/state":
                     gc.set_state(body["state"])
+                elif path == "/set-play":
+                    gc.set_play(body["kind"], int(body["team"]))
                 else:
                     self._reply(404, {"error": f"no such endpoint POST {self.path}"})
                     return
@@ -446,12 +579,13 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--ready", type=float, default=5.0)
     parser.add_argument("--set", dest="set_s", type=float, default=2.0)
     parser.add_argument("--half", type=int, default=600, help="seconds per half")
+    parser.add_argument("--half-time", type=float, default=5.0, help="seconds of the half-time break")
     parser.add_argument("--manual", action="store_true", help="do not progress the states by time")
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s [gc-sim] %(message)s")
     game = SimulatedGame(teams=(args.teams[0], args.teams[1]), players_per_team=args.players_per_team,
                          initial_s=args.initial, ready_s=args.ready, set_s=args.set_s, half_s=args.half,
-                         auto_progress=not args.manual)
+                         half_time_s=args.half_time, auto_progress=not args.manual)
     destinations = [_address(d, args.port) for d in (args.to or ["127.0.0.1"])]
     gc = SimulatedGameController(game, destinations, _address(args.return_address, RETURN_PORT))
     gc.start()

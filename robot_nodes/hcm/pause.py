@@ -1,6 +1,8 @@
 """Pause logic: merges the GameController's penalty and the manual_penalize service into `paused`.
 
 A manual penalty overrides the GameController, not the reverse: paused = manual penalty OR GameController penalty.
+The manual penalty alone goes out on `manual_penalty`, so the game_controller node tells the GameController in its
+return packets (MAN_PENALISE, then MAN_UNPENALISE when it ends), as the rules want a robot's button to.
 
     python -m robot_nodes.hcm.pause
 """
@@ -22,6 +24,7 @@ class PauseNode(Node):
         self.manual = False
         self.game_controller = False
         self.paused_pub = self.publisher("paused")
+        self.manual_pub = self.publisher("manual_penalty")
         self.subscribe("gamestate", self.on_gamestate)
         self.service("manual_penalize", self.on_manual_penalize)
         self.timer(2.0, self.publish)
@@ -51,6 +54,7 @@ class PauseNode(Node):
 
     def publish(self) -> None:
         self.paused_pub.publish(schemas.make(Bool, data=self.paused))
+        self.manual_pub.publish(schemas.make(Bool, data=self.manual))
         self.set_diagnostic("manual", self.manual)
         self.set_diagnostic("game_controller", self.game_controller)
 

@@ -1,10 +1,17 @@
-"""Mixed-team communication node: this robot's state to its teammates over UDP, theirs into `team_data`."""
+"""Mixed-team communication node: this robot's state to its teammates over UDP, theirs into `team_data`.
+
+It also says what it hears (`team_comm`): each teammate heard lately, the age of its newest message and how many of
+its messages went missing, counted against the rate the team sends at (this node's send_rate_hz; team messages
+carry no sequence number). The thesis names this as further work: "the wireless connections are very instable
+during competition".
+"""
 
 from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
+from collections import deque
+from dataclasses import dataclass, field
 from typing import Any
 
 import schemas
@@ -16,7 +23,7 @@ from robot_nodes.mitecom.report import HCM_PENALTY, NOT_TOLD, SeenRobot, Teammat
 from robot_nodes.runtime import Node, header, param, run
 from robot_nodes.runtime.udp import UdpPort
 from schemas.codec import Message
-from schemas.messages import Position2D, TeamData
+from schemas.messages import Position2D, TeamCommStatus, TeamData
 from schemas.std import Pose2D
 
 _RECV_SIZE = 65535
@@ -40,6 +47,34 @@ class MitecomParams:
                              doc="Mitecom heading unit: the spec's degrees, or milliradians as Bit-Bots sent")
     walking_speed_estimate: float = param(0.15, range=(0.01, 2.0), doc="m/s used to estimate the time to the ball")
     max_kicking_distance: float = param(2.0, range=(0.0, 20.0), doc="m, how far this robot can kick")
+    loss_window_s: float = param(10.0, range=(1.0, 120.0), doc="team_comm: loss counted over this many seconds")
+    status_memory_s: float = param(30.0, range=(1.0, 600.0),
+                                   doc="team_comm: a teammate silent this long is no longer listed")
+
+
+@dataclass
+class MateLink:
+    """What arrived from one teammate: when first and last, and the arrival times within the loss window."""
+
+    first: float
+    newest: float
+    arrivals: deque[float] = field(default_factory=deque)
+
+    def heard(self, now: float, window_s: float) -> None:
+        self.newest = now
+        self.arrivals.append(now)
+        self.forget(now, window_s)
+
+    def forget(self, now: float, window_s: float) -> None:
+        while self.arrivals and now - self.arrivals[0] > window_s:
+            self.arrivals.popleft()
+
+    def loss_pct(self, now: float, window_s: float, rate_hz: float) -> float:
+        """Missing messages in percent: expected over the window (or since first heard), received within it."""
+        expected = min(window_s, now - self.first) * rate_hz
+        if expected < 1.0:
+            return 0.0
+        return max(0.0, min(100.0, 100.0 * (1.0 - len(self.arrivals) / expected)))
 
 
 def parse_peers(text: str, default_port: int) -> list[tuple[str, int]]:
@@ -65,6 +100,8 @@ class MitecomNode(Node):
 
     def setup(self) -> None:
         self.team_data_pub = self.publisher("team_data")
+        self.team_comm_pub = self.publisher("team_comm")
+        self.links: dict[int, MateLink] = {}
         self.latest: dict[str, tuple[float, Message]] = {}
         for topic in ("position", "ball_relative", "strategy", "robot_state", "cmd_vel", "walk_odometry",
                       "obstacles_relative", "gamestate", "goal_relative"):
@@ -185,6 +222,7 @@ class MitecomNode(Node):
     def _tick(self) -> None:
         self._send()
         self._publish_team_data()
+        self._publish_team_comm()
 
     def _send(self) -> None:
         if self._udp is None:
@@ -222,7 +260,9 @@ class MitecomNode(Node):
         if report.robot_id == self.params.player_id:
             return  # our own message, back through broadcast or a peer list that names us
         is_new = report.robot_id not in self.mates
-        self.mates[report.robot_id] = (time.monotonic(), report)
+        now = time.monotonic()
+        self.mates[report.robot_id] = (now, report)
+        self.links.setdefault(report.robot_id, MateLink(now, now)).heard(now, self.params.loss_window_s)
         self.received += 1
         self.set_diagnostic("received", self.received)
         if is_new:
@@ -235,6 +275,20 @@ class MitecomNode(Node):
         self.set_diagnostic("teammates", len(self.mates))
         self.team_data_pub.publish(team_data_message(
             [(now - seen, report) for _rid, (seen, report) in sorted(self.mates.items())]))
+
+    def _publish_team_comm(self) -> None:
+        p = self.params
+        now = time.monotonic()
+        self.links = {rid: link for rid, link in self.links.items() if now - link.newest <= p.status_memory_s}
+        ids = sorted(self.links)
+        for rid in ids:
+            self.links[rid].forget(now, p.loss_window_s)
+        self.team_comm_pub.publish(schemas.make(
+            TeamCommStatus, header=header(), team_id=p.team_id, player_id=min(p.player_id, 255), mate_ids=ids,
+            age=[now - self.links[rid].newest for rid in ids],
+            received=[min(len(self.links[rid].arrivals), 65535) for rid in ids],
+            loss_pct=[self.links[rid].loss_pct(now, p.loss_window_s, p.send_rate_hz) for rid in ids],
+            window_s=p.loss_window_s, expected_rate_hz=p.send_rate_hz, memory_s=p.status_memory_s))
 
     # -- lifecycle ------------------------------------------------------------------------------------------
     def on_parameters_changed(self, changed: dict[str, Any]) -> None:
@@ -250,6 +304,7 @@ class MitecomNode(Node):
                 self.record_error(f"cannot listen on {self.params.listen_address}:{self.params.port}: {exc}")
         if {"codec", "team_id"} & set(changed):
             self.mates.clear()
+            self.links.clear()
 
     def on_shutdown(self) -> None:
         self._close_socket()

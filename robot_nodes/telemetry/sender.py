@@ -47,7 +47,8 @@ PER_NODE_TOPICS = ("diagnostics", "rosout")  # every node publishes them: rate-l
 DEFAULT_TOPICS = ",".join((
     "robot_state:10", "gamestate:5", "paused:5", "joint_states:10", "imu/data:10", "position:10",
     "ball_relative:10", "obstacles_relative:5", "goal_relative:5", "team_data:2", "strategy:2",
-    "walk_odometry:5", "cmd_vel:5", "diagnostics:1", "servo_data:1", "hcm_graph:1",
+    "walk_odometry:5", "cmd_vel:5", "diagnostics:1", "servo_data:1", "hcm_graph:1", "behavior_graph:1",
+    "team_comm:1",
     "camera/image/compressed:2", "camera/camera_info:0.2", "ball_in_image:5", "goal_in_image:2",
     "obstacles_in_image:2", "line_information_in_image:1", "rosout:2",
 ))

@@ -3,11 +3,15 @@
 Every robot relays the same GameController, a little out of step with the others, so a change counts when
 one robot's own state changes *and* the game's last known value differs: a lagging robot repeating the old
 state never flips the game back. Penalties are per robot (``penalized`` is about the robot that sends it).
+
+Robots of both teams may be heard (a simulated match): each tells the score from its own team's side, so scores are
+turned to the side of the first team heard (by team colour); a goal's bookmark then names the scoring team's colour
+and the score in the order of the colours' numbers (blue before red: "goal red 1:2").
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 from schemas.messages import GameState
@@ -17,6 +21,8 @@ STATE_NAMES = {INITIAL: "INITIAL", READY: "READY", SET: "SET", PLAYING: "PLAYING
 SECONDARY_NAMES = {0: "NORMAL", 1: "PENALTYSHOOT", 2: "OVERTIME", 3: "TIMEOUT", 4: "DIRECT_FREEKICK",
                    5: "INDIRECT_FREEKICK", 6: "PENALTYKICK", 7: "CORNER_KICK", 8: "GOAL_KICK", 9: "THROW_IN"}
 PENALTYSHOOT, OVERTIME = 1, 2
+# GameController team colours (HL v12 TeamInfo.teamColour)
+COLOUR_NAMES = ("blue", "red", "yellow", "black", "white", "green", "orange", "purple", "brown", "gray")
 
 
 @dataclass(frozen=True, slots=True)
@@ -64,6 +70,7 @@ class GameEvents:
         self._resuming: str | None = None
         self._per_robot: dict[str, GameView] = {}
         self._penalized: dict[str, bool] = {}
+        self._colours: list[int] = []  # team colours heard, the first is the side scores are told from
 
     def resume(self, part: str) -> None:
         """A restarted server was recording ``part``: the first message decides whether the game is still on
@@ -71,7 +78,7 @@ class GameEvents:
         self._resuming = part
 
     def feed(self, robot: str, msg: GameState) -> list[GameEvent]:
-        view = GameView.of(msg)
+        view = self._from_first_team(msg)
         events: list[GameEvent] = []
         penalized = bool(msg.penalized)
         was_penalized = self._penalized.get(robot)
@@ -94,6 +101,24 @@ class GameEvents:
         events += self._penalty(robot, was_penalized, penalized, msg)
         return events
 
+    def _from_first_team(self, msg: GameState) -> GameView:
+        view = GameView.of(msg)
+        colour = int(msg.team_color)
+        if colour not in self._colours:
+            self._colours.append(colour)
+        if colour != self._colours[0]:
+            view = replace(view, own_score=view.rival_score, rival_score=view.own_score)
+        return view
+
+    def _goal_name(self, own_scored: bool, view: GameView) -> str:
+        """"goal own 1:0" (seen from the first team) while one team is heard, else "goal <colour> a:b"."""
+        if len(self._colours) < 2:
+            return f"goal {'own' if own_scored else 'rival'} {view.own_score}:{view.rival_score}"
+        first, second = self._colours[:2]
+        scorer = first if own_scored else second
+        scores = sorted([(first, view.own_score), (second, view.rival_score)])
+        return f"goal {_colour_name(scorer)} {scores[0][1]}:{scores[1][1]}"
+
     def _change(self, robot: str, before: GameView | None, game: GameView, view: GameView) -> list[GameEvent]:
         events: list[GameEvent] = []
         # a lagging robot repeating what the game already left behind changes nothing
@@ -101,8 +126,7 @@ class GameEvents:
             return events
         self.game = view
         if (view.own_score, view.rival_score) != (game.own_score, game.rival_score):
-            scorer = "own" if view.own_score > game.own_score else "rival"
-            events.append(GameEvent("bookmark", name=f"goal {scorer} {view.own_score}:{view.rival_score}",
+            events.append(GameEvent("bookmark", name=self._goal_name(view.own_score > game.own_score, view),
                                     data={"own_score": view.own_score, "rival_score": view.rival_score,
                                           "robot": robot}))
         if view.game_state != game.game_state:
@@ -150,6 +174,10 @@ class GameEvents:
             return [GameEvent("bookmark", name=f"penalty {robot}",
                               data={"robot": robot, "seconds_till_unpenalized": int(msg.seconds_till_unpenalized)})]
         return [GameEvent("bookmark", name=f"unpenalized {robot}", data={"robot": robot})]
+
+
+def _colour_name(colour: int) -> str:
+    return COLOUR_NAMES[colour] if 0 <= colour < len(COLOUR_NAMES) else f"colour {colour}"
 
 
 def _progress(view: GameView) -> tuple[int, int, int]:

@@ -1,15 +1,17 @@
-// Field view: the kid-size field to scale, robot poses with confidence, ball, obstacles, teammates, game state.
+// Field view: the kid-size field to scale, robot poses with confidence in their team's colour with their roles, the
+// ball each robot sees and the ball each team sees, obstacles, teammates, and the game: state, score, half, time.
 // Drawn on every animation frame while the panel is on screen (none while hidden, scrolled away or in a background
 // tab); poses glide between the 15 Hz updates: extrapolated a short way past the newest sample, never further.
 // One view object holds the panel's state; each function below draws one part or handles one event.
 
 import { css, fitCanvas, fmtClock, gameName, obstacleColor, secondaryName, yaw } from "../msgtypes.js";
+import { onField, roleOf, teamBall, teamColour, teamOf, teamsOf } from "../teams.js";
 
 // RoboCup Humanoid League kid-size field (metres)
 export const FIELD = { length: 9, width: 6, goalDepth: 0.6, goalWidth: 2.6, goalAreaLength: 1, goalAreaWidth: 3,
   penaltyAreaLength: 2, penaltyAreaWidth: 5, penaltyMark: 1.5, centerCircle: 1.5, border: 0.7 };
 const TOPICS = [["position", 15], ["ground_truth", 15], ["ball_relative", 15], ["obstacles_relative", 5],
-  ["team_data", 2], ["gamestate", 2]];
+  ["team_data", 2], ["gamestate", 2], ["strategy", 2]];
 export const MOTION = {
   horizonS: 0.15,  // extrapolate at most this far past the newest sample (and at most 1.5 sample intervals)
   smoothS: 0.06,   // a new sample's correction fades in with this time constant instead of a jump
@@ -19,12 +21,10 @@ export const MOTION = {
 };
 const HEADER = 28; // px: the game state bar
 const REPLAY_COLOUR = "#9b2fd1"; // replayed robots (the page's --replay)
+const FOCUS_COLOUR = "#ff2d95"; // the ring around the focused robot
+const NO_TEAM_COLOUR = "#1f3cff"; // a robot whose team is not known yet
 
-/** A point relative to a robot (its x forward) on the field, given the robot's pose. */
-function transform(pose, p) {
-  const c = Math.cos(pose.theta), s = Math.sin(pose.theta);
-  return { x: pose.x + c * p.x - s * p.y, y: pose.y + s * p.x + c * p.y };
-}
+const transform = onField; // a point relative to a robot (its x forward) on the field, given the robot's pose
 
 /** a - b wrapped into [-pi, pi], so turning through pi is not a jump. */
 function angleDiff(a, b) {
@@ -262,10 +262,29 @@ function draw(fv, now) {
     drawObstacles(fv, g, view, id, entry);
   }
   balls += drawTrueBalls(fv, g, view, now);
+  stats.teamBalls = drawTeamBalls(fv, g, view);
   for (const [key, t] of fv.tracks) if (!t.used) fv.tracks.delete(key); // gone from the store
   drawGameState(fv, g, w);
   stats.drawn = drawn;
   stats.balls = balls;
+}
+
+/** Where each team sees the ball (its robots' sightings, weighted): a ring in the team's colour. */
+function drawTeamBalls(fv, g, { X, Y, scale }) {
+  const out = [];
+  for (const team of teamsOf(fv.store, [...fv.store.latest.keys()])) {
+    if (team.colour === undefined) continue;
+    const ball = teamBall(fv.store, team.robots);
+    if (!ball) continue;
+    g.save();
+    g.strokeStyle = "#000000"; g.lineWidth = 5;
+    g.beginPath(); g.arc(X(ball.x), Y(ball.y), Math.max(9, 0.16 * scale), 0, 2 * Math.PI); g.stroke();
+    g.strokeStyle = team.css; g.lineWidth = 3;
+    g.beginPath(); g.arc(X(ball.x), Y(ball.y), Math.max(9, 0.16 * scale), 0, 2 * Math.PI); g.stroke();
+    g.restore();
+    out.push({ team: team.name, x: ball.x, y: ball.y, seenBy: ball.seenBy });
+  }
+  return out;
 }
 
 /** Teammates reported over team communication to the focused robot (small, hollow). */
@@ -281,25 +300,34 @@ function drawTeammates(fv, g, { X, Y, scale }) {
   });
 }
 
-/** A robot: ground truth hollow, the estimate filled by confidence with a ring as wide as its doubt, its name. */
+/** A robot: ground truth hollow, the estimate filled by confidence in its team's colour with a ring as wide as its
+ * doubt, the focused one ringed; its name and role. */
 function drawRobot(fv, g, { X, Y, scale }, id, entry, silent) {
-  const focused = id === fv.store.focus;
+  const { store } = fv;
+  const focused = id === store.focus;
+  const colour = teamOf(store, id);
+  const team = colour === undefined ? null : teamColour(colour);
+  const role = roleOf(store, id);
   g.globalAlpha = silent ? 0.45 : 1; // old news: drawn faded, labelled below
   if (entry.truth) robotShape(g, X, Y, scale, entry.truth, "#ffffff", 0, focused);
+  const pose = entry.estimate || entry.truth;
+  if (focused) {
+    g.strokeStyle = FOCUS_COLOUR; g.lineWidth = 5;
+    g.beginPath(); g.arc(X(pose.x), Y(pose.y), 0.32 * scale, 0, 2 * Math.PI); g.stroke();
+  }
   if (entry.estimate) {
     const c = Math.max(0, Math.min(1, entry.estimate.confidence ?? 1));
-    const colour = focused ? "#ff2d95" : fv.store.isReplayed(id) ? REPLAY_COLOUR : "#1f3cff"; // the log's robots apart
-    robotShape(g, X, Y, scale, entry.estimate, colour, 0.35 + 0.65 * c, focused);
+    const fill = store.isReplayed(id) ? REPLAY_COLOUR : team?.css ?? NO_TEAM_COLOUR; // the log's robots apart
+    robotShape(g, X, Y, scale, entry.estimate, fill, 0.35 + 0.65 * c, focused);
     g.strokeStyle = "#000"; g.lineWidth = 1; g.setLineDash([4, 3]);
     g.beginPath(); g.arc(X(entry.estimate.x), Y(entry.estimate.y), (0.25 + (1 - c) * 0.6) * scale, 0, 2 * Math.PI);
     g.stroke(); g.setLineDash([]);
   }
-  const pose = entry.estimate || entry.truth;
-  const name = silent ? `${id} (silent)` : id;
+  const name = `${id}${role ? ` ${role}` : ""}${silent ? " (silent)" : ""}`;
   g.globalAlpha = 1;
   g.fillStyle = "#ffffff"; g.strokeStyle = "#000"; g.lineWidth = 3; g.font = "bold 14px sans-serif";
   g.strokeText(name, X(pose.x) + 12, Y(pose.y) + 18); g.fillText(name, X(pose.x) + 12, Y(pose.y) + 18);
-  return { id, x: pose.x, y: pose.y, silent, replayed: fv.store.isReplayed(id) };
+  return { id, x: pose.x, y: pose.y, silent, replayed: store.isReplayed(id), team: team?.name ?? "", role };
 }
 
 /** The ball a robot sees, placed by its estimated pose, faded by confidence; true if one was drawn. */
@@ -309,7 +337,9 @@ function drawSeenBall(fv, g, { X, Y, scale }, id, entry, now) {
   if (!(ball && entry.estimate && ball.confidence > 0)) return false;
   const rel = track(fv, `ball|${id}`, ballFrame, { x: ball.ball_relative.x, y: ball.ball_relative.y, theta: 0 }, now);
   const b = transform(entry.estimate, rel);
-  ballShape(g, X(b.x), Y(b.y), scale, 0.3 + 0.7 * Math.min(1, ball.confidence));
+  const colour = teamOf(fv.store, id);
+  ballShape(g, X(b.x), Y(b.y), scale, 0.3 + 0.7 * Math.min(1, ball.confidence), false,
+    colour === undefined ? "#000000" : teamColour(colour).css);
   return true;
 }
 
@@ -337,7 +367,8 @@ function drawTrueBalls(fv, g, { X, Y, scale }, now) {
   return balls;
 }
 
-/** The bar above the field: game state, score, clock, half, and who is penalized. */
+/** The bar above the field: game state, score (by team colour when both teams are heard), clock, half, kick-off,
+ * and who is penalized. */
 function drawGameState(fv, g, w) {
   const { store } = fv;
   g.fillStyle = "#000000";
@@ -348,14 +379,19 @@ function drawGameState(fv, g, w) {
   g.fillStyle = "#ffffff";
   g.font = "bold 18px sans-serif";
   if (!game) { g.fillText("no game state", 8, 20); return; }
+  const replayed = store.isReplayed(from);
+  const robots = [...store.latest.keys()].filter((id) => store.isReplayed(id) === replayed);
   const secondary = game.secondary_state ? ` ${secondaryName(game.secondary_state)}` : "";
-  const penalized = [];
-  for (const id of store.latest.keys()) {
-    if (store.isReplayed(id) === store.isReplayed(from) && store.get(id, "gamestate")?.data?.penalized) penalized.push(id);
-  }
-  const replay = store.isReplayed(from) ? "REPLAY   " : ""; // the game of the open log, not the live one
-  const text = `${replay}${gameName(game.game_state)}${secondary}   ${game.own_score} : ${game.rival_score}   ` +
+  const penalized = robots.filter((id) => store.get(id, "gamestate")?.data?.penalized);
+  const teams = teamsOf(store, robots).filter((t) => t.colour !== undefined);
+  const score = teams.length === 2
+    ? `${teams[0].name.toUpperCase()} ${teams[0].score} : ${teams[1].score} ${teams[1].name.toUpperCase()}`
+    : `${game.own_score} : ${game.rival_score}`;
+  const kicking = teams.length === 2 ? teams.find((t) => t.kickOff) : null;
+  const replay = replayed ? "REPLAY   " : ""; // the game of the open log, not the live one
+  const text = `${replay}${gameName(game.game_state)}${secondary}   ${score}   ` +
     `${fmtClock(game.seconds_remaining)}${game.first_half ? " 1st" : " 2nd"}` +
+    (kicking ? `   kick-off ${kicking.name}` : "") +
     (penalized.length ? `   penalized: ${penalized.join(", ")}` : "");
   g.fillText(text, 8, 20);
   fv.stats.gameBar = text;
@@ -422,11 +458,11 @@ function robotShape(g, X, Y, scale, pose, color, alpha, focused) {
   g.restore();
 }
 
-/** A ball: orange as a robot sees it, white where the simulator has it. */
-function ballShape(g, x, y, scale, alpha, truth = false) {
+/** A ball: orange as a robot sees it (outlined in its team's colour), white where the simulator has it. */
+function ballShape(g, x, y, scale, alpha, truth = false, outline = "#000000") {
   g.globalAlpha = alpha;
   g.fillStyle = truth ? "#ffffff" : "#ff8c00";
-  g.strokeStyle = "#000000";
+  g.strokeStyle = outline;
   g.lineWidth = 2;
   g.beginPath(); g.arc(x, y, Math.max(5, 0.08 * scale), 0, 2 * Math.PI); g.fill(); g.stroke();
   g.globalAlpha = 1;

@@ -1,7 +1,9 @@
-// Game state: what the GameController says, big enough to read from the bench: state, score, clock, half,
-// kick-off, the secondary state (free kick, penalty shoot-out...) and which of our robots are penalized.
+// Game state: what the GameController says, big enough to read from the bench: state, score (of both teams, by
+// colour, when both are heard), clock, half, kick-off, the secondary state (free kick, penalty shoot-out...) and
+// which robots are penalized, with the seconds left.
 
 import { fmtClock, gameName, secondaryName } from "../msgtypes.js";
+import { teamsOf } from "../teams.js";
 
 export default {
   id: "game",
@@ -26,14 +28,22 @@ export default {
         return;
       }
       const replay = store.isReplayed(from);
+      const robots = store.robotIds().filter((id) => store.isReplayed(id) === replay);
+      const teams = teamsOf(store, robots).filter((t) => t.colour !== undefined);
+      const both = teams.length === 2;
       $(".game-name").textContent = `${replay ? "REPLAY " : ""}${gameName(game.game_state)}`;
-      $(".game-score").textContent = `${game.own_score} : ${game.rival_score}`;
+      $(".game-score").textContent = both
+        ? `${teams[0].name} ${teams[0].score} : ${teams[1].score} ${teams[1].name}`
+        : `${game.own_score} : ${game.rival_score}`;
+      const kicking = both ? teams.find((t) => t.kickOff) : null;
       $(".game-clock").textContent = `${fmtClock(game.seconds_remaining)} ${game.first_half ? "1st" : "2nd"} half` +
-        `${game.has_kick_off ? " · our kick-off" : ""}`;
+        (both ? (kicking ? ` · kick-off ${kicking.name}` : "") : `${game.has_kick_off ? " · our kick-off" : ""}`);
       $(".game-secondary").textContent = game.secondary_state
         ? `${secondaryName(game.secondary_state)} ${fmtClock(game.secondary_seconds_remaining)}` : "";
-      const penalized = store.robotIds().filter((id) => store.isReplayed(id) === replay
-        && store.get(id, "gamestate")?.data?.penalized);
+      const penalized = robots.filter((id) => store.get(id, "gamestate")?.data?.penalized).map((id) => {
+        const left = store.get(id, "gamestate").data.seconds_till_unpenalized;
+        return left ? `${id} (${left} s)` : id;
+      });
       $(".game-penalized").textContent = penalized.length ? `penalized: ${penalized.join(", ")}` : "nobody penalized";
       $(".game-penalized").classList.toggle("bad", penalized.length > 0);
     }

@@ -1,6 +1,7 @@
-// A state machine graph panel for any StateMachineGraph topic (the HCM's today, a behaviour's later): the server
-// lays the graph out with Graphviz (GET api/state-graphs/<robot>/<topic>), this module draws it, marks the current
-// state and the last transitions, and names a transition's triggers on hover. Names are set as text nodes only.
+// A state machine graph panel for StateMachineGraph topics (the HCM's, the behaviour's; a menu chooses which one when
+// it shows several): the server lays the graph out with Graphviz (GET api/state-graphs/<robot>/<topic>), this module
+// draws it, marks the current state and the last transitions, and names a transition's triggers on hover. Names are
+// set as text nodes only.
 
 const SVG = "http://www.w3.org/2000/svg";
 const PAD = 8; // points around the drawing, so a box's border is never cut by the panel's edge
@@ -25,13 +26,25 @@ export function recentTransitions(historyStates, count = RECENT) {
   return pairs.slice(-count);
 }
 
-/** A panel module drawing the StateMachineGraph stream `topic` of the focused robot. */
-export function stateGraphPanel({ id, title, topic, size = [2, 2] }) {
+/** A panel module drawing a StateMachineGraph stream of the focused robot: `topic`, or one of `topics` ([topic,
+ * label] pairs) chosen in the panel (the choice is remembered in this browser). */
+export function stateGraphPanel({ id, title, topic: only, topics = [[only, only]], size = [2, 2] }) {
   return {
     id, title, size,
     create(body, ctx) {
       const { store } = ctx;
+      const remembered = `pitchside.stateGraph.${id}`;
+      let topic = topics.find(([t]) => t === localStorage.getItem(remembered))?.[0] ?? topics[0][0];
       body.classList.add("state-graph-body");
+      const bar = document.createElement("div");
+      bar.className = "graph-bar";
+      const chooser = document.createElement("select");
+      chooser.className = "graph-topic";
+      chooser.setAttribute("aria-label", "which state machine");
+      chooser.replaceChildren(...topics.map(([t, label]) => new Option(label, t)));
+      chooser.value = topic;
+      bar.append(chooser);
+      bar.hidden = topics.length < 2;
       const root = document.createElement("div");
       root.className = "state-graph hcm";
       const view = document.createElement("div");
@@ -47,17 +60,27 @@ export function stateGraphPanel({ id, title, topic, size = [2, 2] }) {
       const tip = document.createElement("div");
       tip.className = "tip";
       tip.hidden = true;
-      body.append(root, tip);
+      body.append(bar, root, tip);
 
       let shape = "";     // the drawn graph's states and transitions (JSON)
       let asked = "";     // the shape a layout was last asked for (robot + shape)
       let drawing = null; // {svg, layout, scale}
-      const shown = { robot: "", scale: 0, fontPx: 0, error: "" }; // for tests and the README's pictures
+      const shown = { robot: "", topic, scale: 0, fontPx: 0, error: "" }; // for tests and the README's pictures
       (window.pitchside ??= {}).stateGraphs ??= {};
       window.pitchside.stateGraphs[id] = shown;
 
-      const offs = [ctx.subscribe(topic, 5, (f) => { if (f.robot === store.focus) render(); }),
-        store.on("focus", () => { shape = ""; asked = ""; render(); })];
+      const follow = (t) => ctx.subscribe(t, 5, (f) => { if (f.robot === store.focus && t === topic) render(); });
+      let following = follow(topic);
+      const offs = [store.on("focus", () => { shape = ""; asked = ""; render(); })];
+      chooser.addEventListener("change", () => {
+        following();
+        topic = chooser.value;
+        localStorage.setItem(remembered, topic);
+        following = follow(topic);
+        shape = ""; asked = ""; drawing = null;
+        shown.topic = topic; shown.robot = "";
+        render();
+      });
       const resizer = new ResizeObserver(() => fit());
       resizer.observe(view);
 
@@ -88,10 +111,11 @@ export function stateGraphPanel({ id, title, topic, size = [2, 2] }) {
 
       async function fetchLayout(robot, key) {
         asked = `${robot}|${key}`;
+        const wanted = topic;
         try {
-          const answer = await fetch(`api/state-graphs/${encodeURIComponent(robot)}/${topic}`);
+          const answer = await fetch(`api/state-graphs/${encodeURIComponent(robot)}/${wanted}`);
           const data = await answer.json();
-          if (asked !== `${robot}|${key}` || robot !== store.focus) return; // the focus moved meanwhile
+          if (asked !== `${robot}|${key}` || robot !== store.focus || wanted !== topic) return; // focus/graph moved
           if (!answer.ok) throw new Error(data.detail ?? answer.statusText);
           shape = key;
           shown.robot = robot;
@@ -243,7 +267,12 @@ export function stateGraphPanel({ id, title, topic, size = [2, 2] }) {
       render();
       return {
         resize: fit,
-        destroy() { offs.forEach((off) => off()); resizer.disconnect(); delete window.pitchside.stateGraphs[id]; },
+        destroy() {
+          following();
+          offs.forEach((off) => off());
+          resizer.disconnect();
+          delete window.pitchside.stateGraphs[id];
+        },
       };
     },
   };

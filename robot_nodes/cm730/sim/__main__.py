@@ -10,6 +10,7 @@ from __future__ import annotations
 import logging
 import signal
 import threading
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -34,20 +35,40 @@ def robot_overrides(index: int, overrides: dict[str, Any], cameras: int) -> dict
     return own
 
 
+@dataclass
+class ServedWorld:
+    """A world being stepped and served: its runner, one cm730 node per robot, their Zenoh session."""
+
+    runner: SimRunner
+    nodes: list[Node]
+    session: Any
+
+    def close(self) -> None:
+        for node in self.nodes:
+            node.shutdown()
+        self.runner.stop()
+        self.session.close()
+
+
 def serve(n_robots: int, bus: BusConfig, params: Path | None = None, overrides: dict | None = None,
-          real_time_factor: float = 1.0, cameras: int | None = None) -> tuple[SimRunner, list[Node], object]:
-    """Starts the world and its nodes; returns (runner, nodes, session) for the caller to stop.
-    cameras: how many robots render images (default all)."""
-    world = SimWorld(n_robots=n_robots)
+          real_time_factor: float = 1.0, cameras: int | None = None) -> ServedWorld:
+    """Starts a world of ``n_robots`` and its nodes, for the caller to close. cameras: how many robots render
+    images (default all)."""
+    return serve_world(SimWorld(n_robots=n_robots), bus, params, overrides, real_time_factor, cameras)
+
+
+def serve_world(world: SimWorld, bus: BusConfig, params: Path | None = None, overrides: dict | None = None,
+                real_time_factor: float = 1.0, cameras: int | None = None) -> ServedWorld:
+    """A runner stepping ``world`` and one cm730 node per robot, on one Zenoh session."""
     runner = SimRunner(world, real_time_factor).start()
     session = open_session(bus)
     overrides = dict(overrides or {})
     overrides.setdefault("real_time_factor", real_time_factor)
-    cameras = n_robots if cameras is None else cameras
-    nodes = [Cm730Node(robot_id=r.robot_id, bus=session, params_file=params,
-                       overrides=robot_overrides(i, overrides, cameras),
-                       backend=MujocoBackend(world, r, runner)).start() for i, r in enumerate(world.robots)]
-    return runner, nodes, session
+    cameras = len(world.robots) if cameras is None else cameras
+    nodes: list[Node] = [Cm730Node(robot_id=r.robot_id, bus=session, params_file=params,
+                                   overrides=robot_overrides(i, overrides, cameras),
+                                   backend=MujocoBackend(world, r, runner)).start() for i, r in enumerate(world.robots)]
+    return ServedWorld(runner, nodes, session)
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -66,14 +87,10 @@ def main(argv: list[str] | None = None) -> None:
     stop = threading.Event()
     signal.signal(signal.SIGINT, lambda *_: stop.set())
     signal.signal(signal.SIGTERM, lambda *_: stop.set())
-    runner, nodes, session = serve(args.robots, bus, args.params, parse_overrides(args.set), args.real_time_factor,
-                                   args.cameras)
-    logging.info("simulating %d robot(s): %s", len(nodes), ", ".join(n.robot_id for n in nodes))
+    served = serve(args.robots, bus, args.params, parse_overrides(args.set), args.real_time_factor, args.cameras)
+    logging.info("simulating %d robot(s): %s", len(served.nodes), ", ".join(n.robot_id for n in served.nodes))
     stop.wait()
-    for node in nodes:
-        node.shutdown()
-    runner.stop()
-    session.close()  # type: ignore[attr-defined]
+    served.close()
 
 
 if __name__ == "__main__":

@@ -1,4 +1,8 @@
-"""SimRunner: steps a SimWorld in real time (or faster) on its own thread and renders head cameras on another."""
+"""SimRunner: steps a SimWorld in real time (or faster) on its own thread and renders head cameras on another.
+
+Work that must see the world between steps (a referee's checks) runs on the physics thread every so many simulated
+seconds (``every``): a float comparison per chunk of steps, never Python per physics step.
+"""
 
 from __future__ import annotations
 
@@ -29,6 +33,13 @@ class CameraFrame:
     stamp: float  # wall clock (time.time()) when the world state was taken
     width: int
     height: int
+
+
+@dataclass
+class _Periodic:
+    period: float  # simulated seconds
+    work: Callable[[], None]
+    due: float
 
 
 class CameraClient:
@@ -71,6 +82,8 @@ class SimRunner:
         self._cameras: threading.Thread | None = None
         self._snapshot = mujoco.MjData(world.model)
         self.render_error: str = ""
+        self._periodic: list[_Periodic] = []
+        self.periodic_errors = 0
 
     # -- control -----------------------------------------------------------------------------------------
     def start(self) -> SimRunner:
@@ -89,6 +102,13 @@ class SimRunner:
     def set_real_time_factor(self, factor: float) -> None:
         self.real_time_factor = max(0.0, factor)
         self._rebase = True
+
+    def every(self, seconds: float, work: Callable[[], None]) -> None:
+        """Runs ``work`` on the physics thread, holding the world's lock, every ``seconds`` of simulated time
+        (not faster than the runner's chunk of steps). A failing call is logged and counted, never stops physics."""
+        if seconds <= 0:
+            raise ValueError(f"period must be > 0 s, got {seconds}")
+        self._periodic.append(_Periodic(seconds, work, self.world.time + seconds))
 
     def add_camera(self, robot: RobotHandle, on_frame: Callable[[CameraFrame], None], width: int = 320,
                    height: int = 240, rate_hz: float = 10.0, want_image: Callable[[], bool] = lambda: True,
@@ -116,6 +136,10 @@ class SimRunner:
             with world.lock:
                 world.step(self.chunk_steps)
                 sim_now = world.time
+                for job in self._periodic:
+                    if sim_now >= job.due:
+                        job.due = max(job.due + job.period, sim_now)
+                        self._run_periodic(job)
             factor = self.real_time_factor
             if factor <= 0:
                 time.sleep(0)  # let the node threads in
@@ -127,6 +151,13 @@ class SimRunner:
             elif ahead < -MAX_LAG:
                 self.lag_resets += 1
                 self._rebase = True
+
+    def _run_periodic(self, job: _Periodic) -> None:
+        try:
+            job.work()
+        except Exception:  # one failing check must not stop the world
+            self.periodic_errors += 1
+            log.exception("periodic work on the physics thread failed")
 
     def _run_cameras(self) -> None:
         from robot_nodes.cm730.sim.camera import HeadCamera, RenderError

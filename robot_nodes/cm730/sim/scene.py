@@ -152,8 +152,12 @@ def _roll_quat(roll: float) -> list[float]:
 
 def build_world(n_robots: int, placements: list[Placement], urdf_path: Path = MINIBOT_URDF,
                 f: FieldDimensions = KID_SIZE, physics: PhysicsConfig | None = None,
-                render_size: tuple[int, int] = (640, 480)) -> tuple[mujoco.MjModel, list[str]]:
-    """The compiled model and the robots' name prefixes ("robot1/", ...)."""
+                render_size: tuple[int, int] = (640, 480),
+                robot_ids: list[str] | None = None) -> tuple[mujoco.MjModel, list[str]]:
+    """The compiled model and the robots' name prefixes ("robot1/", ... or "<robot id>/" of robot_ids)."""
+    ids = robot_ids or [f"robot{i + 1}" for i in range(n_robots)]
+    if len(ids) != n_robots or len(set(ids)) != n_robots or any("/" in r or not r for r in ids):
+        raise ValueError(f"{n_robots} robots need as many different robot ids without '/', got {ids}")
     physics = physics or PhysicsConfig()
     world = mujoco.MjSpec()
     world.modelname = "pitchside_field"
@@ -171,7 +175,7 @@ def build_world(n_robots: int, placements: list[Placement], urdf_path: Path = MI
     urdf_text = urdf_path.read_text()
     prefixes = []
     for i in range(n_robots):
-        prefix = f"robot{i + 1}/"
+        prefix = f"{ids[i]}/"
         place = placements[i]
         frame = world.worldbody.add_frame(pos=[place.x, place.y, 0.0], quat=_yaw_quat(place.yaw))
         frame.attach_body(_robot_spec(urdf_text, i, n_robots, physics).body("base_link"), prefix, "")

@@ -12,6 +12,7 @@ import numpy as np
 
 from robot_nodes.cm730.backend import BusReading, ImuReading
 from robot_nodes.cm730.sim.field import KID_SIZE, FieldDimensions
+from robot_nodes.cm730.sim.lineup import Lineup, Team
 from robot_nodes.cm730.sim.scene import MINIBOT_URDF, PhysicsConfig, Placement, build_world, default_placements
 
 # a stand pose with slightly bent knees (Wolfgang sign conventions; the knee is straight at +-0.2618)
@@ -49,7 +50,7 @@ class SimError(Exception):
 
 
 class SimWorld:
-    """A Humanoid League kid-size field with a ball and ``n_robots`` Minibots (robot1..robotN).
+    """A Humanoid League kid-size field with a ball and ``n_robots`` Minibots (robot1..robotN, or ``robot_ids``).
 
     Not thread-safe by itself: code that steps it from one thread and reads it from another holds ``lock``.
     """
@@ -57,7 +58,10 @@ class SimWorld:
     def __init__(self, n_robots: int = 1, placements: list[Placement] | None = None,
                  urdf: Path = MINIBOT_URDF, field: FieldDimensions = KID_SIZE,
                  physics: PhysicsConfig | None = None, imu_noise: ImuNoise | None = None,
-                 seed: int = 0) -> None:
+                 seed: int = 0, robot_ids: list[str] | None = None, lineup: Lineup | None = None) -> None:
+        if lineup is not None:  # a match: two teams, robot ids and ends from the lineup
+            robot_ids = lineup.robot_ids()
+            n_robots = len(robot_ids)
         if n_robots < 1 or n_robots > 30:
             raise SimError(f"n_robots must be 1..30, got {n_robots}")
         placements = placements or default_placements(n_robots)
@@ -65,7 +69,10 @@ class SimWorld:
             raise SimError(f"{n_robots} robots need {n_robots} placements, got {len(placements)}")
         self.field = field
         self.physics = physics or PhysicsConfig()
-        self.model, prefixes = build_world(n_robots, placements, urdf, field, self.physics)
+        try:
+            self.model, prefixes = build_world(n_robots, placements, urdf, field, self.physics, robot_ids=robot_ids)
+        except ValueError as exc:
+            raise SimError(str(exc)) from None
         self.data = mujoco.MjData(self.model)
         self.lock = threading.RLock()
         self.rng = np.random.default_rng(seed)
@@ -80,6 +87,10 @@ class SimWorld:
         self._slewing = False
         self._pushes: list[tuple[float, int, np.ndarray]] = []  # (end time, body, force)
         self.robots = [RobotHandle(self, i, prefix) for i, prefix in enumerate(prefixes)]
+        self.lineup = lineup
+        if lineup is not None:
+            for handle in self.robots:
+                handle.team, handle.player = lineup.member(handle.robot_id) or (None, 0)
         for handle in self.robots:
             self._speed_limit[handle._act] = handle.max_velocity
         self._vmax = self._speed_limit.copy()
@@ -129,11 +140,16 @@ class SimWorld:
         """Ground truth ball centre in field coordinates (m)."""
         return self.data.xpos[self._ball_body].copy()
 
-    def set_ball(self, x: float, y: float, velocity: tuple[float, float] = (0.0, 0.0)) -> None:
+    def set_ball(self, x: float, y: float, velocity: tuple[float, ...] = (0.0, 0.0), height: float | None = None
+                 ) -> None:
+        """Puts the ball at (x, y), resting on the turf (or its centre at ``height``), moving at ``velocity`` (m/s,
+        x y or x y z), not spinning."""
         q = self.data.qpos
-        q[self._ball_qadr:self._ball_qadr + 7] = [x, y, self.field.ball_diameter / 2, 1, 0, 0, 0]
+        z = self.field.ball_diameter / 2 if height is None else height
+        q[self._ball_qadr:self._ball_qadr + 7] = [x, y, z, 1, 0, 0, 0]
         v = self.data.qvel
-        v[self._ball_dadr:self._ball_dadr + 6] = [velocity[0], velocity[1], 0, 0, 0, 0]
+        vz = velocity[2] if len(velocity) > 2 else 0.0
+        v[self._ball_dadr:self._ball_dadr + 6] = [velocity[0], velocity[1], vz, 0, 0, 0]
         mujoco.mj_forward(self.model, self.data)
 
     def robot(self, robot_id: str) -> RobotHandle:
@@ -196,6 +212,10 @@ class RobotHandle:
         self._accel_adr = sensor["imu_accel"].adr[0]
         self.torque_enabled = np.ones(len(acts), dtype=bool)
         self.voltage_nominal = 15.2
+        self._jersey = [g for g in self._geoms if m.geom_bodyid[g] == self.torso_body]
+        # in a match: its team (number, end) and player number, else None and 0
+        self.team: Team | None = None
+        self.player = 0
 
     # -- the ServoBackend calls --------------------------------------------------------------------------
     def read(self) -> BusReading:
@@ -299,6 +319,13 @@ class RobotHandle:
         w._goal[self._act[idx]] = values
         d.ctrl[self._act[idx]] = values
         mujoco.mj_forward(m, d)
+
+    def set_jersey(self, rgba: tuple[float, float, float, float]) -> None:
+        """Colours the torso (the team's colour in a match; cameras see it)."""
+        self.world.model.geom_rgba[self._jersey] = rgba
+
+    def jersey(self) -> tuple[float, ...]:
+        return tuple(float(v) for v in self.world.model.geom_rgba[self._jersey[0]]) if self._jersey else ()
 
     def torso_pose(self) -> tuple[np.ndarray, np.ndarray]:
         """Ground truth (position xyz, orientation xyzw) of base_link in the field frame."""

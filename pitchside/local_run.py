@@ -1,0 +1,91 @@
+"""What `pitchside demo` and `pitchside match` share: a whole stack on this machine, as supervised processes.
+
+A Zenoh router inside the command's process, free ports (each falls back to a free one when taken), a fresh team
+telemetry key that the robots and the dashboard share, the dashboard server's process, a robot's telemetry
+settings, and the run itself: the link printed (it signs the browser in), everything stopped on Ctrl-C.
+"""
+
+from __future__ import annotations
+
+import socket
+import sys
+import tempfile
+from collections.abc import Callable
+from pathlib import Path
+
+import robots as descriptions
+from robot_nodes.launch import Launcher, NodeProcess, run_until_signal
+from server.security.credentials import ENV_TOKEN
+from wire.bus import open_router
+from wire.telemetry.datagram import write_new_key
+
+
+def port_is_free(port: int, kind: int = socket.SOCK_STREAM, host: str = "127.0.0.1") -> bool:
+    """Nothing bound to the port at ``host`` (0.0.0.0: at any address, broadcast receivers too)."""
+    with socket.socket(socket.AF_INET, kind) as s:
+        try:
+            s.bind((host, port))
+        except OSError:
+            return False
+        return True
+
+
+def free_port(preferred: int, kind: int = socket.SOCK_STREAM, host: str = "127.0.0.1") -> int:
+    if port_is_free(preferred, kind, host):
+        return preferred
+    with socket.socket(socket.AF_INET, kind) as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def free_ports(first: int, count: int, kind: int = socket.SOCK_DGRAM) -> list[int]:
+    """``count`` different free ports, from ``first`` on where they are free."""
+    ports: list[int] = []
+    candidate = first
+    while len(ports) < count:
+        port = free_port(candidate, kind)
+        if port not in ports:
+            ports.append(port)
+        candidate += 1
+    return ports
+
+
+def telemetry_settings(telemetry_port: int, telemetry_key: Path | None) -> list[str]:
+    """A robot's telemetry node on this machine: to the dashboard's port, under the run's key."""
+    return ["--set", f"destination=127.0.0.1:{telemetry_port}",
+            *(["--set", f"team_key={telemetry_key}"] if telemetry_key else ["--set", "allow_dev_key=true"])]
+
+
+def server_process(http_port: int, telemetry_port: int, model: str, connect: list[str], match: bool,
+                   token: str = "", telemetry_key: Path | None = None) -> NodeProcess:
+    """The dashboard: telemetry on loopback, the 3D robot and plots; in match mode it hears telemetry only.
+
+    token: the dashboard's control token (handed over in the environment, not on the command line where other
+    users of the machine see it)."""
+    server = [sys.executable, "-m", "server", "--port", str(http_port), "--telemetry-host", "127.0.0.1",
+              "--telemetry-port", str(telemetry_port), "--urdf", str(descriptions.urdf(model)), "--robot3d",
+              "--plots"]
+    for endpoint in connect:
+        server += ["--connect", endpoint]
+    server += ["--telemetry-key", str(telemetry_key)] if telemetry_key else ["--allow-dev-key"]
+    if match:
+        server.append("--match")
+    return NodeProcess("server", server, env={ENV_TOKEN: token} if token else {})
+
+
+def run_on_this_machine(command: str, zenoh_endpoint: str, http_port: int, token: str,
+                        processes: Callable[[Path], list[NodeProcess]], also: str = "") -> None:
+    """Starts the router and ``processes(telemetry key file)``, prints the link, runs until a signal stops it."""
+    with tempfile.TemporaryDirectory(prefix=f"pitchside-{command}-") as keys:
+        # a fresh team key per run: the robots' telemetry and the dashboard share it, nobody else has it
+        key_file = Path(keys) / "telemetry.key"
+        write_new_key(key_file)
+        router = open_router([zenoh_endpoint])
+        launcher = Launcher(processes(key_file))
+        print(f"\n  pitchside {command}: open http://127.0.0.1:{http_port}/?token={token}  (the link signs the "
+              f"browser in; Zenoh router {zenoh_endpoint}{'; ' + also if also else ''}; Ctrl-C stops)\n",
+              flush=True)
+        try:
+            run_until_signal(launcher)
+        finally:
+            router.close()

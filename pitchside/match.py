@@ -1,0 +1,188 @@
+"""`pitchside match`: two teams of simulated robots play a game under the GameController, the dashboard watches.
+
+One MuJoCo world with both teams and the referee (robot_nodes/cm730/sim/match.py), each robot's nodes as the demo
+starts them (composed per robot), the simulated GameController on the world's clock (or a real one on the network:
+``--gamecontroller external``), and the dashboard in match mode: it hears the robots' one-way telemetry only and
+records each half. Everything but an external GameController runs on this machine (pitchside/local_run.py).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import os
+import socket
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+import robots as descriptions
+from pitchside.local_run import free_port, free_ports, run_on_this_machine, server_process, telemetry_settings
+from pitchside.robot import MOTION_NODES, available, robot_nodes
+from robot_nodes.catalog import NODES
+from robot_nodes.cm730.sim.lineup import Lineup, LineupError, Team, parse_robots
+from robot_nodes.game_controller.packets import DATA_PORT, RETURN_PORT
+from robot_nodes.launch import COMPOSE_HELP, NodeProcess, process_groups
+from server.security.credentials import ENV_TOKEN, new_token
+from wire.command_line import CommandParser
+
+log = logging.getLogger("pitchside.match")
+# what every robot of a match runs (cm730: in the world's process); the behaviour's nodes join once they exist
+BASE_NODES = [*MOTION_NODES, "walking", "game_controller", "mitecom", "telemetry"]
+BEHAVIOUR_NODES = ["head", "kick", "behavior"]
+LOOPBACK_BROADCAST = "127.255.255.255"
+
+
+def default_nodes() -> list[str]:
+    """The match's robot nodes: the base ones and those of the behaviour that the catalog has (and can run)."""
+    return available([n for n in [*BASE_NODES, *BEHAVIOUR_NODES] if n in NODES])
+
+
+def parse_nodes(text: str) -> list[str]:
+    """``--nodes``: comma-separated catalog names (or a team's own ``package.module[:Class]``)."""
+    names = [n.strip() for n in text.split(",") if n.strip()]
+    unknown = [n for n in names if n not in NODES and "." not in n]
+    if unknown or not names:
+        raise ValueError(f"--nodes: {', '.join(unknown) or 'none given'}: not a node of robot_nodes/catalog.py "
+                         f"({', '.join(NODES)}) nor a package.module")
+    if "cm730" in names:
+        raise ValueError("--nodes: cm730 runs in the world's process, one per robot; leave it out")
+    return names
+
+
+@dataclass(frozen=True)
+class GameControllerPlan:
+    """Where the GameController's packets go and its robots' return packets come back."""
+
+    kind: str  # "sim" or "external"
+    port: int  # UDP port the GameController sends to
+    return_port: int
+    http_port: int | None  # the simulated GameController's HTTP API
+
+    @property
+    def listen_address(self) -> str:
+        # the simulated GameController broadcasts on loopback: robots bound to its broadcast address hear it and
+        # nothing from the network; a real one broadcasts on the field's network, heard on every interface
+        return LOOPBACK_BROADCAST if self.kind == "sim" else "0.0.0.0"
+
+
+def robot_settings(team: Team, player: int, gc: GameControllerPlan, mitecom_ports: dict[str, int],
+                   telemetry_port: int, telemetry_key: Path | None) -> dict[str, list[str]]:
+    """One robot's settings per node: its team and number for the GameController and team communication."""
+    own = mitecom_ports[team.robot_id(player)]
+    mates = ",".join(f"127.0.0.1:{mitecom_ports[r]}" for r in team.robot_ids() if r != team.robot_id(player))
+    team_talk = ["--set", f"team_id={team.number}", "--set", f"player_id={player}",
+                 "--set", "listen_address=127.0.0.1", "--set", f"port={own}"]
+    if mates:  # a team of one has nobody to tell (the node's default, its own port, talks to itself)
+        team_talk += ["--set", f"peers={mates}"]
+    return {
+        "game_controller": ["--set", f"team_number={team.number}", "--set", f"player_number={player}",
+                            "--set", f"listen_address={gc.listen_address}", "--set", f"listen_port={gc.port}",
+                            "--set", f"return_port={gc.return_port}"],
+        "mitecom": team_talk,
+        "telemetry": telemetry_settings(telemetry_port, telemetry_key),
+    }
+
+
+@dataclass(frozen=True)
+class MatchPlan:
+    lineup: Lineup
+    nodes: list[str]
+    half_s: int
+    ready_s: float
+    set_s: float
+    initial_s: float
+    half_time_s: float
+    seed: int
+    cameras: int
+    compose: str
+    model: str
+
+
+def match_processes(plan: MatchPlan, endpoint: str, http_port: int, telemetry_port: int, gc: GameControllerPlan,
+                    mitecom_ports: dict[str, int], token: str, telemetry_key: Path | None) -> list[NodeProcess]:
+    """Every process of the match: the world (with the referee and a simulated GameController), each robot's
+    nodes, the dashboard in match mode."""
+    lineup = plan.lineup
+    world = [sys.executable, "-m", "robot_nodes.cm730.sim.match", "--robots",
+             f"{lineup.home.players}v{lineup.away.players}", "--teams", str(lineup.home.number),
+             str(lineup.away.number), "--gamecontroller", gc.kind, "--gc-port", str(gc.port),
+             "--gc-return-port", str(gc.return_port), "--half-seconds", str(plan.half_s),
+             "--ready-seconds", str(plan.ready_s), "--set-seconds", str(plan.set_s),
+             "--initial-seconds", str(plan.initial_s), "--half-time-seconds", str(plan.half_time_s),
+             "--seed", str(plan.seed), "--cameras", str(plan.cameras), "--connect", endpoint,
+             "--params", str(descriptions.params_file(plan.model))]
+    if gc.http_port is not None:
+        world += ["--gc-http-port", str(gc.http_port)]
+    processes = [NodeProcess("world", world)]
+    for team in lineup.teams:
+        for player in range(1, team.players + 1):
+            extra = robot_settings(team, player, gc, mitecom_ports, telemetry_port, telemetry_key)
+            processes += robot_nodes(team.robot_id(player), [endpoint], plan.model, plan.nodes, extra,
+                                     compose=plan.compose)
+    processes.append(server_process(http_port, telemetry_port, plan.model, [], True, token, telemetry_key))
+    return processes
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = CommandParser(prog="pitchside match", description=__doc__)
+    parser.add_argument("--robots", default="2v2", help="robots per team: 1v1 .. 11v11 (default 2v2; 4v4 is the "
+                                                        "kid-size game)")
+    parser.add_argument("--half-minutes", type=float, default=10.0, help="length of a half (default 10)")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the simulation's noise")
+    parser.add_argument("--gamecontroller", choices=["sim", "external"], default="sim",
+                        help="sim: the simulated GameController referees, on the simulation's clock; external: a "
+                             "real GameController on this machine or network (it must broadcast to UDP 3838)")
+    parser.add_argument("--teams", type=int, nargs=2, default=[1, 2], metavar=("HOME", "AWAY"),
+                        help="team numbers (default 1 2; with an external GameController: as configured there)")
+    parser.add_argument("--nodes", default=None,
+                        help=f"each robot's nodes, comma-separated (default: {', '.join(BASE_NODES)} and, once in "
+                             f"the catalog, {', '.join(BEHAVIOUR_NODES)})")
+    parser.add_argument("--compose", default="all", help=COMPOSE_HELP + " (default all: each robot's nodes in one "
+                                                                       "process)")
+    parser.add_argument("--cameras", type=int, default=0,
+                        help="how many robots render head camera images (default 0; every robot still sees the "
+                             "ball, goals and robots through the perception stand-ins)")
+    parser.add_argument("--ready-seconds", type=float, default=45.0, help="READY's time limit (the rules: 45)")
+    parser.add_argument("--set-seconds", type=float, default=5.0, help="SET before PLAYING")
+    parser.add_argument("--initial-seconds", type=float, default=5.0, help="INITIAL before READY")
+    parser.add_argument("--half-time-seconds", type=float, default=30.0, help="the half-time break")
+    parser.add_argument("--port", type=int, default=8080, help="dashboard port (a free one if taken)")
+    parser.add_argument("--gc-port", type=int, default=None,
+                        help=f"UDP port the GameController sends to (default {DATA_PORT}, for the simulated one a "
+                             "free one from there)")
+    parser.add_argument("--gc-return-port", type=int, default=None,
+                        help=f"external: the UDP port the GameController hears return packets on (default "
+                             f"{RETURN_PORT})")
+    parser.add_argument("--model", default="minibot")
+    args = parser.parse_args(argv)
+    try:
+        lineup = Lineup.of((args.teams[0], args.teams[1]), parse_robots(args.robots))
+        nodes = parse_nodes(args.nodes) if args.nodes else default_nodes()
+        process_groups(nodes, args.compose)
+    except (LineupError, ValueError) as exc:
+        parser.error(str(exc))
+    if not 0 < args.half_minutes <= 60 or not math.isfinite(args.half_minutes):
+        parser.error(f"--half-minutes must be in (0, 60], got {args.half_minutes}")
+    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s [match] %(message)s")
+    plan = MatchPlan(lineup, nodes, max(1, round(args.half_minutes * 60)), args.ready_seconds, args.set_seconds,
+                     args.initial_seconds, args.half_time_seconds, args.seed, args.cameras, args.compose, args.model)
+    endpoint = f"tcp/127.0.0.1:{free_port(7447)}"
+    http_port = free_port(args.port)
+    telemetry_port = free_port(5800, socket.SOCK_DGRAM)
+    robots = lineup.robot_ids()
+    mitecom_ports = dict(zip(robots, free_ports(3737, len(robots)), strict=True))
+    if args.gamecontroller == "sim":
+        gc = GameControllerPlan("sim", args.gc_port or free_port(DATA_PORT, socket.SOCK_DGRAM, host="0.0.0.0"),
+                                free_port(RETURN_PORT, socket.SOCK_DGRAM), free_port(8038))
+        where = f"GameController http://127.0.0.1:{gc.http_port}/status"
+    else:
+        gc = GameControllerPlan("external", args.gc_port or DATA_PORT, args.gc_return_port or RETURN_PORT, None)
+        where = f"listening for the GameController on UDP {gc.port}"
+    token = os.environ.get(ENV_TOKEN) or new_token()
+    run_on_this_machine("match", endpoint, http_port, token, lambda key: match_processes(
+        plan, endpoint, http_port, telemetry_port, gc, mitecom_ports, token, key), also=where)
+
+
+if __name__ == "__main__":
+    main()

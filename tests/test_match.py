@@ -1,0 +1,190 @@
+"""`pitchside match` as a real process tree: two teams in the world, the simulated GameController running the
+Humanoid League flow on fast halves, every robot's nodes, the dashboard in match mode hearing telemetry only and
+recording each half; the recordings open in the replay source."""
+
+from __future__ import annotations
+
+import asyncio
+import re
+import socket
+import threading
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import httpx
+import pytest
+
+from pitchside.match import GameControllerPlan, default_nodes, parse_nodes, robot_settings
+from robot_nodes.cm730.sim.lineup import Lineup, LineupError, parse_robots
+from robot_nodes.game_controller.simulator import SimulatedGame, SimulatedGameController
+from schemas.logs import LogSeriesReader
+from server.hub import Hub
+from server.sources.replay import ReplaySource
+from tests.running_demo import DashboardObserver, running_demo
+from tests.support import free_port
+from tests.waiting import wait_for
+
+GC_URL = re.compile(r"GameController (http://127\.0\.0\.1:\d+)/status")
+INITIAL, READY, SET, PLAYING, FINISHED = range(5)
+ROBOTS = ("home1", "home2", "away1", "away2")
+
+
+@dataclass
+class GameWatch(DashboardObserver):
+    """Every gamestate the dashboard shows, in order (robot, game_state, first_half, own, rival, kick-off)."""
+
+    history: list[tuple[str, int, bool, int, int, bool]] = field(default_factory=list)
+    sources: set[str] = field(default_factory=set)
+    _lock: threading.Lock = field(default_factory=threading.Lock)
+
+    def _seen(self, frame: dict[str, Any]) -> None:
+        super()._seen(frame)
+        if frame["topic"] != "gamestate":
+            return
+        d = frame["data"]
+        with self._lock:
+            self.sources.add(frame["source"])
+            self.history.append((frame["robot"], d["game_state"], d["first_half"], d["own_score"], d["rival_score"],
+                                 d["has_kick_off"]))
+
+    def states(self, robot: str) -> list[tuple[int, bool]]:
+        """The robot's (game state, first half) in the order they came, repeats dropped."""
+        with self._lock:
+            seen = [(s, h) for r, s, h, *_ in self.history if r == robot]
+        return [x for i, x in enumerate(seen) if i == 0 or seen[i - 1] != x]
+
+    def newest(self, robot: str) -> tuple[str, int, bool, int, int, bool] | None:
+        with self._lock:
+            return next((h for h in reversed(self.history) if h[0] == robot), None)
+
+    def heard(self, robot: str) -> list[int] | None:
+        """The teammates the robot hears, as its newest team_comm on the dashboard says."""
+        frame = self.get(robot, "team_comm")
+        return None if frame is None else list(frame["data"]["mate_ids"])
+
+    def sees(self, robot: str, condition: Callable[[tuple[str, int, bool, int, int, bool]], bool]) -> bool:
+        """The robot's newest gamestate holds ``condition``."""
+        newest = self.newest(robot)
+        return newest is not None and condition(newest)
+
+
+def test_lineup_and_robot_settings() -> None:
+    assert parse_robots("4v4") == (4, 4) and parse_robots("2V3") == (2, 3)
+    for bad in ("4", "0v1", "12v1", "av b"):
+        with pytest.raises(LineupError):
+            parse_robots(bad)
+    lineup = Lineup.of((5, 9), (3, 2))
+    assert lineup.robot_ids() == ["home1", "home2", "home3", "away1", "away2"]
+    assert lineup.member("away2") == (lineup.away, 2) and lineup.member("away3") is None
+    with pytest.raises(LineupError, match="different team numbers"):
+        Lineup.of((4, 4), (1, 1))
+    ports = {r: 4000 + i for i, r in enumerate(lineup.robot_ids())}
+    sim = GameControllerPlan("sim", 3838, 3939, 8038)
+    home2 = robot_settings(lineup.home, 2, sim, ports, 5800, None)
+    assert "listen_address=127.255.255.255" in home2["game_controller"]  # hears the loopback broadcast only
+    assert "team_number=5" in home2["game_controller"] and "player_number=2" in home2["game_controller"]
+    assert "peers=127.0.0.1:4000,127.0.0.1:4002" in home2["mitecom"] and "port=4001" in home2["mitecom"]
+    external = GameControllerPlan("external", 3838, 3939, None)
+    assert "listen_address=0.0.0.0" in robot_settings(lineup.away, 1, external, ports, 5800, None)["game_controller"]
+    assert not any(a.startswith("peers=") for a in robot_settings(Lineup.of((1, 2), (1, 1)).home, 1, sim,
+                                                                  {"home1": 1, "away1": 2}, 5800, None)["mitecom"])
+    assert {"game_controller", "mitecom", "telemetry", "hcm", "walking"} <= set(default_nodes())
+    assert parse_nodes("hcm, walking") == ["hcm", "walking"]
+    with pytest.raises(ValueError, match="cm730 runs in the world"):
+        parse_nodes("cm730,hcm")
+    with pytest.raises(ValueError, match="nosuchnode"):
+        parse_nodes("hcm,nosuchnode")
+
+
+@pytest.mark.slow
+def test_a_match_plays_both_halves_under_the_gamecontroller_and_records_them(tmp_path: Path,
+                                                                             recordings_elsewhere: Path) -> None:
+    before = set(recordings_elsewhere.glob("match-*.mcap"))
+    args = ("--robots", "2v2", "--half-minutes", "0.4", "--ready-seconds", "3", "--set-seconds", "1",
+            "--initial-seconds", "2", "--half-time-seconds", "3")
+    with running_demo(tmp_path, *args, command="match") as match:
+        gc_url = GC_URL.search(match.output())
+        assert gc_url, match.output()
+        api = gc_url.group(1)
+        watch = GameWatch(match.ws_url, ("gamestate", "team_comm"))
+        with watch:
+            wait_for(lambda: all(watch.newest(r) for r in ROBOTS), 60, what="every robot's gamestate on the dashboard")
+            wait_for(lambda: watch.heard("home1") == [2] and watch.heard("away2") == [1], 30,
+                     what="whom each robot hears (team_comm, by telemetry)")
+            colours = {r: watch.get(r, "gamestate")["data"]["team_color"] for r in ROBOTS}  # type: ignore[index]
+            assert colours == {"home1": 0, "home2": 0, "away1": 1, "away2": 1}  # as the GameController sends them
+            wait_for(lambda: watch.sees("home1", lambda h: h[1] == PLAYING), 60, what="first kick-off")
+            assert httpx.post(f"{api}/goal", json={"team": 1}, timeout=10).status_code == 200
+            wait_for(lambda: watch.sees("away1", lambda h: h[1] == READY and h[4] == 1), 20,
+                     what="READY after the goal, seen by the other team")
+            assert watch.sees("away1", lambda h: h[5])  # the away team kicks off
+            wait_for(lambda: watch.sees("home1", lambda h: h[3] == 1 and not h[5]), 10, what="home's score")
+            wait_for(lambda: watch.states("home1")[-1:] == [(FINISHED, False)], 150, what="the end of the game")
+            states = watch.states("home1")
+            assert watch.error == "" and watch.sources == {"telemetry"}  # match mode: one-way telemetry only
+        status = httpx.get(f"{api}/status", timeout=10).json()
+        answered = {(r["team"], r["player"]) for r in status["returns"]}
+        assert status["return_count"] > 20 and answered == {(1, 1), (1, 2), (2, 1), (2, 2)}
+        output = match.output()
+        assert "referee at" in output and "placed team 1 player 1" in output
+    for half in (True, False):  # every state of both halves, in the Humanoid League order
+        order = [s for s, h in states if h == half]
+        for state in (INITIAL, READY, SET, PLAYING, FINISHED) if not half else (READY, SET, PLAYING, FINISHED):
+            assert state in order, f"{'first' if half else 'second'} half: {states}"
+    first = [s for s, h in states if h]
+    assert first.index(FINISHED) > first.index(PLAYING) > first.index(SET) > first.index(READY)
+    assert (INITIAL, False) in states and states.index((INITIAL, False)) > states.index((FINISHED, True))
+    assert first.count(READY) >= 2  # kick-off, then again after the goal
+
+    files = sorted(set(recordings_elsewhere.glob("match-*.mcap")) - before)
+    assert [f.name.rsplit("_", 1)[-1] for f in files] == ["half1.mcap", "half2.mcap"], files
+    for path, first_half in zip(files, (True, False), strict=True):
+        with LogSeriesReader(path) as log:
+            states_in_file = {(m.robot_id, int(m.msg.game_state), bool(m.msg.first_half))
+                              for m in log.messages(topics=["gamestate"])}
+            marks = [b.name for b in log.bookmarks]
+        if first_half:
+            assert "goal blue 1:0" in marks, marks  # one goal, named by the scorer's colour (both teams heard)
+        assert {r for r, _, _ in states_in_file} >= set(ROBOTS)
+        assert {h for _, _, h in states_in_file} == {first_half}  # each half in its own file
+        assert (PLAYING in {s for _, s, _ in states_in_file})
+
+    async def replay(path: Path) -> dict[str, Any]:
+        hub = Hub()
+        hub.bind(asyncio.get_running_loop())
+        source = ReplaySource(hub, path.parent)
+        info = await source.open(path.name)
+        await source.seek(info["duration_s"] / 2)
+        await source.close()
+        return info
+
+    for path in files:
+        info = asyncio.run(replay(path))
+        assert set(info["robots"]) >= {f"replay.{r}" for r in ROBOTS} and info["duration_s"] > 10
+
+
+@pytest.mark.slow
+def test_a_real_gamecontroller_on_the_network_referees_every_robot(tmp_path: Path) -> None:
+    """--gamecontroller external: a GameController elsewhere (here one in this test, broadcasting as on a field)
+    reaches every robot of the match on this machine; each answers it; the world's referee follows its game."""
+    gc_port, return_port = free_port(socket.SOCK_DGRAM), free_port(socket.SOCK_DGRAM)
+    game = SimulatedGame(teams=(7, 3), team_colors=(1, 0), players_per_team=2, initial_s=0, auto_progress=False)
+    real = SimulatedGameController(game, [("127.255.255.255", gc_port)], ("127.0.0.1", return_port))
+    args = ("--robots", "2v1", "--teams", "3", "7", "--gamecontroller", "external", "--gc-port", str(gc_port),
+            "--gc-return-port", str(return_port), "--nodes", "hcm,pause,game_controller,mitecom,telemetry")
+    with real, running_demo(tmp_path, *args, command="match") as match:
+        watch = GameWatch(match.ws_url, ("gamestate",))
+        with watch:
+            robots = ("home1", "home2", "away1")
+            wait_for(lambda: all(watch.newest(r) for r in robots), 60, what="every robot hears the GameController")
+            colours = {r: watch.get(r, "gamestate")["data"]["team_color"] for r in robots}  # type: ignore[index]
+            assert colours == {"home1": 0, "home2": 0, "away1": 1}  # team 3 blue, team 7 red, as it says
+            wait_for(lambda: {(r.packet.team, r.packet.player) for r in real.returns} == {(3, 1), (3, 2), (7, 1)},
+                     20, what="return packets of every robot")
+            real.set_state("ready")
+            real.set_state("set")
+            wait_for(lambda: "placed team 7 player 1" in match.output(), 30, what="the referee places robots at SET")
+            wait_for(lambda: watch.sees("away1", lambda h: h[1] == SET), 20, what="SET on the dashboard")
+        assert "refereed by the external GameController" in match.output()
