@@ -256,11 +256,12 @@ def test_foreign_pages_wrong_tokens_and_strange_hosts_are_refused_at_the_handsha
         with socket.create_connection(("127.0.0.1", port)) as raw:  # not HTTP at all
             raw.sendall(b"\x16\x03\x01 hello\r\n\r\n")
             assert raw.recv(100).startswith(b"HTTP/1.1 400")
-        # the SDK itself: on loopback, on a port browsers refuse, so only the guard reaches it
+        # the SDK's two servers (one shows, one offers control): on loopback, on ports browsers refuse, so only the
+        # guard reaches them
         listening = {c.laddr for c in psutil.Process(server.process.pid).net_connections(kind="tcp")
                      if c.status == psutil.CONN_LISTEN}
         sdk = [a for a in listening if a.port in BROWSER_BLOCKED_PORTS]
-        assert len(sdk) == 1 and sdk[0].ip == "127.0.0.1", listening
+        assert len(sdk) == 2 and all(a.ip == "127.0.0.1" for a in sdk), listening
         got = run_client("probe", f"{url}/?token={server.token}", "--topic", "/r5/joint_states", "--seconds", "20")
         assert got["topics"]["/r5/joint_states"]["count"] >= 1
 
@@ -407,7 +408,7 @@ def test_nodelay_watch_sets_tcp_nodelay_on_accepted_connections_of_its_port_only
         ours, _ = listening.accept()
         others, _ = other_listening.accept()
         with ours_client, others_client, ours, others:
-            watch = NoDelayWatch(listening.getsockname()[1])
+            watch = NoDelayWatch({listening.getsockname()[1]})
             assert watch.apply() == 1
             assert ours.getsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY)
             assert not others.getsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY)

@@ -76,6 +76,7 @@ class CameraAnnotations:
     """Derives ``/<robot>/camera/annotations`` from the detection streams handed to it (StreamChannels)."""
 
     topics = DETECTIONS
+    owned = frozenset({TOPIC})
 
     def __init__(self, context: foxglove.Context) -> None:
         self.context = context

@@ -47,9 +47,10 @@ def stream_ended(robot: RobotSeen, stats: StreamStats, now: float, lost_after_s:
 
 
 class DerivedChannels(Protocol):
-    """Channels computed from some hub streams (camera annotations now, /tf from joint_states later)."""
+    """Channels computed from some hub streams (camera annotations, the 3D scene's /tf and markers)."""
 
     topics: frozenset[str]  # the hub topics it is offered
+    owned: frozenset[str]  # channel names ``/<robot>/<name>`` it makes itself: a hub stream of that name gets none
 
     @property
     def channels(self) -> Mapping[str, object]:
@@ -78,6 +79,9 @@ class StreamChannels:
                  source_running: Callable[[str], bool | None], derived: list[DerivedChannels] | None = None) -> None:
         self.hub = hub
         self.derived = derived or []
+        self.owned = frozenset().union(*(d.owned for d in self.derived))
+        self.shows: Callable[[HubMessage], bool] = lambda _msg: True  # which streams the endpoint serves now
+        self.newest_stamp = 0.0  # of the messages handed over: a replay's position in the log
         self.context = context
         self.lost_after_s = lost_after_s
         self.source_running = source_running
@@ -105,6 +109,19 @@ class StreamChannels:
         for derived in self.derived:
             derived.close()
 
+    def reset(self, shows: Callable[[HubMessage], bool]) -> None:
+        """Serves other streams from now on (live robots, or a replay's): every channel closes, and the shown streams'
+        channels open again with their newest message."""
+        self.shows = shows
+        self.newest_stamp = 0.0
+        for stream in self.channels.values():
+            stream.channel.close()
+        self.channels.clear()
+        for derived in self.derived:
+            derived.close()
+        self._subscriber.drain(QUEUE)  # what is queued belongs to the streams served before
+        self._subscriber.subscribe()  # the newest message of each stream again
+
     @property
     def dropped(self) -> int:
         """Messages the hub dropped because the endpoint fell behind."""
@@ -127,6 +144,9 @@ class StreamChannels:
 
     # -- one message --------------------------------------------------------------------------------------
     def deliver(self, msg: HubMessage) -> None:
+        if not self.shows(msg) or msg.topic in self.owned:
+            return
+        self.newest_stamp = max(self.newest_stamp, msg.stamp)
         key = (msg.robot, msg.topic)
         stream = self.channels.get(key)
         if stream is None or stream.typename != msg.typename:
