@@ -36,7 +36,7 @@ from server.loopback_ports import BROWSER_BLOCKED_PORTS
 from server.security.credentials import Credentials
 from server.security.hosts import AllowedHosts
 from tests.dashboard_server import RunningServer, dashboard_server
-from tests.foxglove_node import foxglove_url, node_client, run_client
+from tests.foxglove_node import foxglove_url, node_client, run_client, run_session
 from tests.support import REPO, free_port
 from tests.waiting import wait_for
 from wire.keys import topic_key
@@ -392,6 +392,30 @@ def test_foxglove_decodes_the_demo_robot_live_and_over_one_way_telemetry(tmp_pat
         image = decoded["camera/image/compressed"]
         assert image["format"] == "jpeg" and image["data"]["head"][:2] == [0xFF, 0xD8]
         assert "/robot1/camera/annotations" in channels_of(url)  # the detections, for the Image panel
+        # the robot in 3D, in both modes; control only in the lab (and with the token)
+        steps: list[dict[str, Any]] = [{"op": "waitChannel", "topic": "/tf"},
+                                       {"op": "subscribe", "topic": "/tf", "count": 1}]
+        if mode == "lab":
+            steps += [{"op": "setParameters", "parameters": [{"name": "/robot1/walking/step_frequency",
+                                                              "value": 99.0, "type": "float64"}]},
+                      {"op": "waitService", "service": "/robot1/manual_penalize"},
+                      {"op": "callService", "service": "/robot1/manual_penalize", "request": {"penalize": 1}},
+                      {"op": "callService", "service": "/robot1/manual_penalize", "request": {"penalize": 0}}]
+        got = run_session(f"{url}/?token={demo.token}", steps, seconds=60, timeout=120)
+        assert got["errors"] == [], got["errors"]
+        [tf] = [r["messages"][0]["message"] for r in got["results"] if r["op"] == "subscribe"]
+        frames = {t["child_frame_id"] for t in tf["transforms"]}
+        assert {"robot1/odom", "robot1/base_footprint", "robot1/base_link", "robot1/head"} <= frames
+        capabilities = set(got["serverInfo"]["capabilities"])
+        if mode == "lab":
+            [refused] = [r["parameters"] for r in got["results"] if r["op"] == "setParameters"]
+            assert refused[0]["name"] == "/robot1/walking/step_frequency" and refused[0]["value"] != 99.0
+            assert any("out of range" in s["message"] for s in got["statuses"]), got["statuses"]
+            on, off = [r["response"] for r in got["results"] if r["op"] == "callService"]
+            assert on == {"penalized": True} and off == {"penalized": False}
+            assert {"parameters", "services", "clientPublish", "connectionGraph"} <= capabilities
+        else:
+            assert got["services"] == [] and capabilities == {"assets"}
 
 
 def test_nodelay_watch_sets_tcp_nodelay_on_accepted_connections_of_its_port_only() -> None:

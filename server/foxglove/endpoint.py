@@ -30,7 +30,7 @@ from server.foxglove.parameters import RobotParameters
 from server.foxglove.playback import SYNC_S, ReplayPlayback
 from server.foxglove.scene import REPEAT_S, RobotScene
 from server.foxglove.servers import Offer, SdkServers, ServerStartError
-from server.foxglove.services import RobotServices
+from server.foxglove.services import SERVED_BY, RobotServices, service_name
 from server.foxglove.teleop import FoxgloveTeleop
 from server.foxglove.transforms import DEFAULT_MAX_HZ
 from server.hub import HubMessage
@@ -103,7 +103,7 @@ class FoxgloveEndpoint:
         self.parameters: RobotParameters | None = None
         self.playback: ReplayPlayback | None = None
         self.live_robots: frozenset[str] = frozenset()  # robots heard over Zenoh now: parameters, services
-        self._served: set[str] = set()  # robots whose services the control server offers
+        self._served: set[tuple[str, str]] = set()  # (robot, service) the control server offers
         self._time_told = 0
         self._graph_due: asyncio.TimerHandle | None = None
         self._nodelay = NoDelayWatch(set())
@@ -223,7 +223,8 @@ class FoxgloveEndpoint:
         self._time_told = position
 
     def _live_robots_in_step(self) -> None:
-        """The robots heard over Zenoh and not lost: their parameters are listed, their services offered."""
+        """The robots heard over Zenoh and not lost: their parameters are listed, their services offered (those its
+        nodes serve, when the node graph tells; else both)."""
         if not self.lab:
             return
         now = time.monotonic()
@@ -235,14 +236,18 @@ class FoxgloveEndpoint:
         control = self.servers.servers.get("control")
         if control is None or not self.servers.has("control", Capability.Services):
             return
-        for robot in sorted(live - self._served):
-            control.add_services(self.services.services_for(robot))
-            self._served.add(robot)
-        gone = self._served - live
+        graph = self.state.graph
+        provided = set(service_providers(graph.snapshot())) if graph is not None else None
+        wanted = {(robot, name) for robot in live for name, served_by in SERVED_BY.items()
+                  if provided is None or f"/{robot}/{served_by}" in provided}
+        gone = self._served - wanted
         if gone:
-            control.remove_services([f"/{robot}/{name}" for robot in gone for name in ("manual_penalize",
-                                                                                      "play_animation")])
+            control.remove_services([service_name(robot, name) for robot, name in sorted(gone)])
             self._served -= gone
+        new = sorted(wanted - self._served)
+        if new:
+            control.add_services([self.services.service(robot, name) for robot, name in new])
+            self._served |= set(new)
 
     # -- the node graph -----------------------------------------------------------------------------------
     def _graph_changed_elsewhere(self) -> None:

@@ -24,6 +24,7 @@ from wire.actions import ActionError, action_types
 from wire.services import ServiceError, call_service, service_types
 
 PENALIZE, PLAY = "manual_penalize", "play_animation"
+SERVED_BY = {PENALIZE: "manual_penalize", PLAY: "animation"}  # the robot's service or action each one calls
 TIMEOUT_S = 3.0
 ENCODING = "cdr"
 
@@ -48,17 +49,17 @@ class RobotServices:
         self.state = state
         self.calls = 0
 
-    def services_for(self, robot: str) -> list[foxglove.Service]:
-        penalize_request, penalize_response = service_types(PENALIZE)
+    def service(self, robot: str, name: str) -> foxglove.Service:
+        """``/<robot>/manual_penalize`` or ``/<robot>/play_animation``."""
+        if name == PENALIZE:
+            request, response = service_types(PENALIZE)
+            return foxglove.Service(service_name(robot, PENALIZE), schema=foxglove.ServiceSchema(
+                schemas.SERVICES[PENALIZE].type, request=_schema(request), response=_schema(response)),
+                handler=lambda call: self._penalize(robot, call))
         goal, _, result = action_types("animation")
-        return [
-            foxglove.Service(service_name(robot, PENALIZE), schema=foxglove.ServiceSchema(
-                schemas.SERVICES[PENALIZE].type, request=_schema(penalize_request),
-                response=_schema(penalize_response)), handler=lambda request: self._penalize(robot, request)),
-            foxglove.Service(service_name(robot, PLAY), schema=foxglove.ServiceSchema(
-                schemas.ACTIONS["animation"].type, request=_schema(goal), response=_schema(result)),
-                handler=lambda request: self._play(robot, request)),
-        ]
+        return foxglove.Service(service_name(robot, PLAY), schema=foxglove.ServiceSchema(
+            schemas.ACTIONS["animation"].type, request=_schema(goal), response=_schema(result)),
+            handler=lambda call: self._play(robot, call))
 
     def _decode(self, robot: str, request: Any, typename: str) -> Any:
         self.calls += 1

@@ -18,13 +18,17 @@
 //   node client.mjs session URL --script JSON [--seconds S]
 //       runs the script's steps one after another, each waiting for its answer (at most S seconds, default 20), and
 //       prints what came back and everything the server sent meanwhile: statuses, parameter values, the connection
-//       graph, services, playback states and time. Steps ({"op": ...}):
-//         getParameters {names}, setParameters {parameters: [{name, value, type?}]}, subscribeParameterUpdates
+//       graph, services, playback states and time (after each step a line {"progress": op}, so a test can act
+//       between steps). Steps ({"op": ...}):
+//         getParameters {names}, setParameters {parameters: [{name, value, type?}]} (noAnswer: true sends without
+//         waiting for the values, for a server that refuses), subscribeParameterUpdates
 //         {names}; callService {service, request} (encoded with the service's own ros2msg schema, CDR; the answer
-//         decoded); fetchAsset {uri} (its size and SHA-256); subscribeGraph {}; publish {topic, encoding ("cdr" or
+//         decoded); fetchAsset {uri} (its size and SHA-256); subscribeGraph {}; waitGraphRemoved {topic} (a graph
+//         update removes it); publish {topic, encoding ("cdr" or
 //         "json"), schemaName, schema (ros2msg text, for cdr), message, hz, count, keep?} (advertises, sends count
 //         messages, then unadvertises unless keep); subscribe {topic, count} (decoded messages); waitChannel
 //         {topic}; waitService {service}; waitParameter {name, value} (a pushed parameterValues); wait {ms};
+//         waitPlayback {status, didSeek?} (a playback state the server pushes by itself, after this step began);
 //         playback {command: "play"|"pause", speed, seek?} (PlaybackControl: @foxglove/ws-protocol 0.8 has no call
 //         for it, so its binary request is written here as the SDK's protocol defines it, and the server's
 //         PlaybackState read back).
@@ -296,10 +300,11 @@ async function session(url, opts) {
         await new Promise((resolve) => setTimeout(resolve, step.ms));
         out.results.push({ op: "wait" });
       } else if (step.op === "getParameters" || step.op === "setParameters") {
-        const answer = until((e, m) => e === "parameterValues" && m.id === id, `${step.op} ${id}`);
+        const answer = step.noAnswer ? null : until((e, m) => e === "parameterValues" && m.id === id,
+                                                    `${step.op} ${id}`);
         if (step.op === "getParameters") client.getParameters(step.names, id);
         else client.setParameters(step.parameters, id);
-        out.results.push({ op: step.op, parameters: (await answer).parameters });
+        out.results.push({ op: step.op, parameters: answer ? (await answer).parameters : null });
       } else if (step.op === "subscribeParameterUpdates") {
         client.subscribeParameterUpdates(step.names);
         out.results.push({ op: step.op });
@@ -342,6 +347,11 @@ async function session(url, opts) {
           ? { op: step.op, bytes: reply.data.byteLength, sha256: crypto.createHash("sha256")
               .update(Buffer.from(reply.data.buffer, reply.data.byteOffset, reply.data.byteLength)).digest("hex") }
           : { op: step.op, error: reply.error });
+      } else if (step.op === "waitGraphRemoved") {
+        const removed = (m) => (m.removedTopics ?? []).includes(step.topic);
+        if (!out.graph.some(removed)) await until((e, m) => e === "connectionGraphUpdate" && removed(m),
+                                                  `${step.topic} removed from the graph`);
+        out.results.push({ op: step.op });
       } else if (step.op === "subscribeGraph") {
         const answer = until((e) => e === "connectionGraphUpdate", "the connection graph");
         client.subscribeConnectionGraph();
@@ -377,6 +387,12 @@ async function session(url, opts) {
         });
         client.unsubscribe(subscription);
         out.results.push({ op: step.op, topic: step.topic, messages: got });
+      } else if (step.op === "waitPlayback") {
+        const pushed = (m) => !m.requestId && m.status === step.status && (!step.didSeek || m.didSeek);
+        const known = out.playback.length;
+        await until((e, m) => e === "playback" && pushed(m) && out.playback.indexOf(m) >= known,
+                    `a pushed playback state ${step.status}`);
+        out.results.push({ op: step.op, state: out.playback[out.playback.length - 1] });
       } else if (step.op === "playback") {
         const answer = until((e, m) => e === "playback" && m.requestId === id, `playback ${step.command}`);
         ws.send(playbackRequest(step.command, step.speed ?? 1.0, step.seek ?? null, id));
@@ -384,6 +400,7 @@ async function session(url, opts) {
       } else {
         throw new Error(`unknown step ${step.op}`);
       }
+      print({ progress: step.op }); // a test may act between steps (kill a node once the graph is known)
     }
   } catch (err) {
     out.errors.push(String(err));
