@@ -8,6 +8,7 @@ Each marker lives ``LIFETIME_S``: a detection that is no longer sent fades out o
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any
 
 import schemas
@@ -23,19 +24,23 @@ _COLOURS = {  # the dashboard's colours (web/panels/field.js): ball orange, the 
     _O["ROBOT_MAGENTA"]: (1.0, 0.0, 1.0, 0.8), _O["ROBOT_CYAN"]: (0.0, 0.9, 1.0, 0.8), "other": (0.6, 0.6, 0.6, 0.8)}
 
 
+_MarkerArray = schemas.message_class(MARKER_ARRAY)
+_TEMPLATE = schemas.make("visualization_msgs/msg/Marker")  # every field at zero: a marker is made from it
+_Point, _Pose, _Quaternion, _Vector3, _ColorRGBA, _Duration = (schemas.message_class(t) for t in (
+    "geometry_msgs/msg/Point", "geometry_msgs/msg/Pose", "geometry_msgs/msg/Quaternion", "geometry_msgs/msg/Vector3",
+    "std_msgs/msg/ColorRGBA", "builtin_interfaces/msg/Duration"))
+_LIFETIME = _Duration(sec=int(LIFETIME_S), nanosec=int(LIFETIME_S % 1 * 1e9))
+_UPRIGHT = _Quaternion(x=0.0, y=0.0, z=0.0, w=1.0)
+
+
 def _marker(frame_id: str, ns: str, marker_id: int, kind: int, xyz: tuple[float, float, float],
             scale: tuple[float, float, float], colour: tuple[float, float, float, float], when: float) -> Any:
     r, g, b, a = colour
-    return schemas.make(
-        "visualization_msgs/msg/Marker", header=schemas.header(frame_id, when), ns=ns, id=marker_id, type=kind,
-        action=_C["ADD"],
-        pose=schemas.make("geometry_msgs/msg/Pose", position=schemas.make("geometry_msgs/msg/Point", x=xyz[0],
-                                                                           y=xyz[1], z=xyz[2]),
-                          orientation=schemas.make("geometry_msgs/msg/Quaternion", w=1.0)),
-        scale=schemas.make("geometry_msgs/msg/Vector3", x=scale[0], y=scale[1], z=scale[2]),
-        color=schemas.make("std_msgs/msg/ColorRGBA", r=r, g=g, b=b, a=a),
-        lifetime=schemas.make("builtin_interfaces/msg/Duration", sec=int(LIFETIME_S),
-                              nanosec=int(LIFETIME_S % 1 * 1e9)))
+    return dataclasses.replace(
+        _TEMPLATE, header=schemas.header(frame_id, when), ns=ns, id=marker_id, type=kind, action=_C["ADD"],
+        pose=_Pose(position=_Point(x=float(xyz[0]), y=float(xyz[1]), z=float(xyz[2])), orientation=_UPRIGHT),
+        scale=_Vector3(x=float(scale[0]), y=float(scale[1]), z=float(scale[2])),
+        color=_ColorRGBA(r=r, g=g, b=b, a=a), lifetime=_LIFETIME)
 
 
 def field_markers(robot: str, seen: dict[str, Any], when: float) -> Any:
@@ -61,4 +66,4 @@ def field_markers(robot: str, seen: dict[str, Any], when: float) -> Any:
         b = truth.ball
         markers.append(_marker(MAP_FRAME, "ground_truth/ball", 0, _C["SPHERE"], (b.x, b.y, max(b.z, d / 2)),
                                (d, d, d), _COLOURS["true_ball"], when))
-    return schemas.make(MARKER_ARRAY, markers=markers)
+    return _MarkerArray(markers=markers)

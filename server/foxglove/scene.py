@@ -13,8 +13,8 @@ them and every ``REPEAT_S`` while someone does: a 3D panel opened late still get
 from __future__ import annotations
 
 import logging
+import time
 from collections.abc import Callable
-from typing import Any
 
 import foxglove
 
@@ -30,6 +30,7 @@ TF_TOPIC, TF_STATIC_TOPIC = "/tf", "/tf_static"
 DESCRIPTION, MARKERS = "robot_description", "markers"
 MARKER_TOPICS = frozenset({"ball_relative", "obstacles_relative", "ground_truth"})
 REPEAT_S = 2.0
+MARKER_PERIOD_S = 0.1  # at most 10 updates a second per robot: its detections come at the camera's rate
 
 
 def _channel(topic: str, typename: str, context: foxglove.Context, robot: str = "") -> foxglove.Channel:
@@ -56,7 +57,8 @@ class RobotScene:
         self.markers: dict[str, foxglove.Channel] = {}
         self._statics: dict[str, bytes] = {}  # robot -> its /tf_static message (CDR)
         self._urdfs: dict[str, bytes] = {}  # robot -> its robot_description (CDR)
-        self._seen: dict[str, dict[str, Any]] = {}  # robot -> marker topic -> newest decoded message
+        self._seen: dict[str, dict[str, HubMessage]] = {}  # robot -> marker topic -> newest message
+        self._markers_due: dict[str, float] = {}  # robot -> monotonic time its markers may go out again
         self.logged = 0
 
     @property
@@ -108,6 +110,10 @@ class RobotScene:
                                                          msg.robot)
         if not channel.has_sinks():
             return
+        now = time.monotonic()
+        if now < self._markers_due.get(msg.robot, 0.0):
+            return  # what arrives meanwhile goes out with the next update
+        self._markers_due[msg.robot] = now + MARKER_PERIOD_S
         decoded = {topic: m.message for topic, m in seen.items()}
         channel.log(schemas.encode(field_markers(msg.robot, decoded, msg.stamp)), log_time=int(msg.stamp * 1e9))
         self.logged += 1
@@ -136,6 +142,7 @@ class RobotScene:
         self._statics.pop(robot, None)
         self._urdfs.pop(robot, None)
         self._seen.pop(robot, None)
+        self._markers_due.pop(robot, None)
         self.publisher.forget(robot)
         if not self.descriptions and self.tf is not None:
             for channel in (self.tf, self.tf_static):

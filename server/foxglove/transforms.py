@@ -45,7 +45,7 @@ DESCRIPTION_TYPE = "std_msgs/msg/String"
 MAP_FRAME = "map"
 ODOM, FOOTPRINT, GROUND_TRUTH = "odom", "base_footprint", "ground_truth/torso"
 TOPICS = frozenset({"joint_states", "imu/data", "position", "walk_odometry", "ground_truth"})
-DEFAULT_MAX_HZ = 30.0  # joint_states come at 100 Hz; a 3D view needs no more, and each /tf costs ~0.3 ms to build
+DEFAULT_MAX_HZ = 20.0  # joint_states come at 100-200 Hz; a 3D view needs no more, and a /tf costs ~0.3 ms to encode
 MOVABLE = ("revolute", "continuous", "prismatic")
 
 _TFMessage = message_class(TF_TYPE)
@@ -132,7 +132,8 @@ class JointModel:
 
 @dataclass(slots=True)
 class RobotKinematics:
-    """The joints of one URDF, in an order where a parent link's joint comes before its children's."""
+    """The joints of one URDF, in an order where a parent link's joint comes before its children's; the movable
+    joints' numbers also as arrays, so all of them move in a few numpy operations."""
 
     root: str
     movable: list[JointModel]
@@ -140,52 +141,69 @@ class RobotKinematics:
     joints: dict[str, JointModel]  # by child link
     soles: list[str]  # the links the robot stands on (named *sole*; else the lowest leaves of the tree)
     urdf_text: str
+    _arrays: dict[str, np.ndarray] = field(default_factory=dict)
+    _index: dict[str, int] = field(default_factory=dict)  # movable joint name -> its row
+
+    def __post_init__(self) -> None:
+        m = self.movable
+        self._index = {j.name: i for i, j in enumerate(m)}
+        axes = np.array([j.axis for j in m], dtype=float).reshape(-1, 3)
+        skew = np.array([_skew(a) for a in axes]).reshape(-1, 3, 3)
+        self._arrays = {"axes": axes, "k": skew, "k2": skew @ skew,
+                        "origin": np.array([j.origin for j in m], dtype=float).reshape(-1, 4, 4),
+                        "origin_q": np.array([j.origin_q for j in m], dtype=float).reshape(-1, 4),
+                        "prismatic": np.array([j.type == "prismatic" for j in m], dtype=bool)}
 
     @property
     def joint_names(self) -> list[str]:
         return [j.name for j in self.movable]
 
-    def value(self, joint: JointModel, positions: dict[str, float]) -> float:
-        if joint.mimic is not None:
-            master, multiplier, offset = joint.mimic
-            return multiplier * positions.get(master, 0.0) + offset
-        return positions.get(joint.name, 0.0)
+    def values(self, positions: dict[str, float]) -> np.ndarray:
+        """Each movable joint's value (mimic joints follow their master; unknown joints stand at 0)."""
+        out = np.array([positions.get(j.name, 0.0) for j in self.movable], dtype=float)
+        for i, j in enumerate(self.movable):
+            if j.mimic is not None:
+                master, multiplier, offset = j.mimic
+                out[i] = multiplier * positions.get(master, 0.0) + offset
+        return out
 
-    def joint_transform(self, joint: JointModel, q: float) -> np.ndarray:
-        """parent -> child as a 4x4 for the joint at ``q``."""
-        motion = np.eye(4)
-        if joint.type in ("revolute", "continuous"):
-            k = _skew(joint.axis)
-            motion[:3, :3] += math.sin(q) * k + (1.0 - math.cos(q)) * (k @ k)
-        elif joint.type == "prismatic":
-            motion[:3, 3] = joint.axis * q
-        return joint.origin @ motion
+    def joint_matrices(self, values: np.ndarray) -> np.ndarray:
+        """parent -> child (N, 4, 4) of every movable joint at ``values`` (Rodrigues' formula, all at once)."""
+        a = self._arrays
+        revolute = ~a["prismatic"]
+        angle = np.where(revolute, values, 0.0)
+        motion = np.tile(np.eye(4), (len(values), 1, 1))
+        motion[:, :3, :3] += np.sin(angle)[:, None, None] * a["k"] + (1.0 - np.cos(angle))[:, None, None] * a["k2"]
+        motion[:, :3, 3] = a["axes"] * np.where(revolute, 0.0, values)[:, None]
+        matrices: np.ndarray = a["origin"] @ motion
+        return matrices
 
-    def pose_of(self, link: str, positions: dict[str, float]) -> np.ndarray:
-        """root -> link (4x4) at these joint positions."""
-        chain = []
-        while link != self.root:
-            joint = self.joints.get(link)
-            if joint is None:
-                break
-            chain.append(joint)
-            link = joint.parent
-        pose = np.eye(4)
-        for joint in reversed(chain):
-            pose = pose @ self.joint_transform(joint, self.value(joint, positions))
-        return pose
+    def poses(self, links: list[str], values: np.ndarray) -> dict[str, np.ndarray]:
+        """root -> link (4x4) of each of ``links`` at ``values``; each joint on the way is multiplied once."""
+        matrices = self.joint_matrices(values) if self.movable else np.zeros((0, 4, 4))
+        known: dict[str, np.ndarray] = {self.root: np.eye(4)}
 
-    def moving(self, positions: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
+        def pose(link: str) -> np.ndarray:
+            found = known.get(link)
+            if found is None:
+                joint = self.joints.get(link)
+                if joint is None:
+                    return np.eye(4)  # not a link of this URDF: the root's frame
+                i = self._index.get(joint.name)
+                found = known[link] = pose(joint.parent) @ (matrices[i] if i is not None else joint.origin)
+            return found
+
+        return {link: pose(link) for link in links}
+
+    def moving(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Translations (N, 3) and rotations (N, 4) of the movable joints, parent -> child, in ``movable`` order."""
-        values = np.array([self.value(j, positions) for j in self.movable])
-        axes = np.array([j.axis for j in self.movable]).reshape(-1, 3)
-        revolute = np.array([j.type != "prismatic" for j in self.movable], dtype=bool)
-        half = np.where(revolute, values / 2.0, 0.0)
-        motion = np.concatenate([axes * np.sin(half)[:, None], np.cos(half)[:, None]], axis=1)
-        origins_q = np.array([j.origin_q for j in self.movable]).reshape(-1, 4)
-        rotations = multiply(origins_q, motion)
-        translations = np.array([j.origin[:3, 3] + (0.0 if r else j.origin[:3, :3] @ (j.axis * v))
-                                 for j, r, v in zip(self.movable, revolute, values, strict=True)]).reshape(-1, 3)
+        a = self._arrays
+        prismatic = a["prismatic"]
+        half = np.where(prismatic, 0.0, values / 2.0)
+        motion = np.concatenate([a["axes"] * np.sin(half)[:, None], np.cos(half)[:, None]], axis=1)
+        rotations = multiply(a["origin_q"], motion)
+        slide = a["axes"] * np.where(prismatic, values, 0.0)[:, None]
+        translations = a["origin"][:, :3, 3] + np.einsum("nij,nj->ni", a["origin"][:, :3, :3], slide)
         return translations, rotations
 
 
@@ -265,6 +283,14 @@ def _transform(parent: str, child: str, t: Any, q: Any, when: Any) -> Any:
                              rotation=_Quaternion(x=float(q[0]), y=float(q[1]), z=float(q[2]), w=float(q[3]))))
 
 
+def _set(transform: Any, t: Any, q: Any, when: Any) -> None:
+    """Moves a TransformStamped of a robot's own /tf message (built once, see RobotPose.message)."""
+    transform.header.stamp = when
+    v, r = transform.transform.translation, transform.transform.rotation
+    v.x, v.y, v.z = float(t[0]), float(t[1]), float(t[2])
+    r.x, r.y, r.z, r.w = float(q[0]), float(q[1]), float(q[2]), float(q[3])
+
+
 def tf_message(transforms: list[Any]) -> Any:
     return _TFMessage(transforms=transforms)
 
@@ -284,6 +310,8 @@ class RobotPose:
     imu: tuple[np.ndarray, str] | None = None  # orientation (x, y, z, w) of a frame, and which frame
     next_due: float = 0.0  # monotonic: the next /tf of this robot may go out then
     pending: dict[str, HubMessage] = field(default_factory=dict)  # newest imu, position, odometry: decoded when used
+    # the robot's /tf message, built once and moved each time (building 23 transforms cost more than the rest)
+    message: Any = None
 
 
 def _compose(a: tuple[float, float, float], b: tuple[float, float, float]) -> tuple[float, float, float]:
@@ -336,7 +364,7 @@ class RobotStatePublisher:
 
     def offer(self, msg: HubMessage) -> Any | None:
         """A /tf message when this hub message makes one due (joint_states at most ``max_hz``, ground truth), else
-        None. schemas.SchemaError if its CDR does not decode."""
+        None; encode it before the next offer (see ``dynamic``). schemas.SchemaError if its CDR does not decode."""
         if msg.topic not in TOPICS:
             return None
         if msg.topic == "ground_truth":
@@ -358,7 +386,7 @@ class RobotStatePublisher:
         pending, pose.pending = pose.pending, {}
         for newest in pending.values():
             self._apply(pose, newest)
-        return tf_message(self.dynamic(msg.robot, kinematics, pose, stamp(msg.stamp)))
+        return self.dynamic(msg.robot, kinematics, pose, stamp(msg.stamp))
 
     def _apply(self, pose: RobotPose, msg: HubMessage) -> None:
         """An imu, position or odometry message into the robot's pose (SchemaError if it does not decode)."""
@@ -377,34 +405,43 @@ class RobotStatePublisher:
         if pose.position is not None:  # the localisation's correction, as map -> odom
             pose.map_to_odom = _compose(pose.position, _inverse(pose.odometry)) if pose.odometry else pose.position
 
-    def dynamic(self, robot: str, kinematics: RobotKinematics, pose: RobotPose, when: Any) -> list[Any]:
-        out = []
+    def dynamic(self, robot: str, kinematics: RobotKinematics, pose: RobotPose, when: Any) -> Any:
+        """The robot's /tf message now. It is the robot's one message object, moved at each call: encode it before
+        the next call for the same robot."""
+        if pose.message is None:
+            zero, level = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0)
+            ends = [(MAP_FRAME, frame(robot, ODOM)), (frame(robot, ODOM), frame(robot, FOOTPRINT)),
+                    (frame(robot, FOOTPRINT), frame(robot, kinematics.root))]
+            ends += [(frame(robot, j.parent), frame(robot, j.child)) for j in kinematics.movable]
+            pose.message = tf_message([_transform(parent, child, zero, level, when) for parent, child in ends])
+        transforms = pose.message.transforms
         mx, my, myaw = pose.map_to_odom
-        out.append(_transform(MAP_FRAME, frame(robot, ODOM), (mx, my, 0.0), yaw_quaternion(myaw), when))
+        _set(transforms[0], (mx, my, 0.0), yaw_quaternion(myaw), when)
         ox, oy, oyaw = pose.odometry if pose.odometry and pose.position else (0.0, 0.0, 0.0)
-        out.append(_transform(frame(robot, ODOM), frame(robot, FOOTPRINT), (ox, oy, 0.0), yaw_quaternion(oyaw), when))
-        tilt, height = self.stance(kinematics, pose)
-        out.append(_transform(frame(robot, FOOTPRINT), frame(robot, kinematics.root), (0.0, 0.0, height), tilt, when))
+        _set(transforms[1], (ox, oy, 0.0), yaw_quaternion(oyaw), when)
+        values = kinematics.values(pose.positions)
+        tilt, height = self.stance(kinematics, pose, values)
+        _set(transforms[2], (0.0, 0.0, height), tilt, when)
         if kinematics.movable:
-            translations, rotations = kinematics.moving(pose.positions)
-            for joint, t, q in zip(kinematics.movable, translations, rotations, strict=True):
-                out.append(_transform(frame(robot, joint.parent), frame(robot, joint.child), t, q, when))
-        return out
+            translations, rotations = kinematics.moving(values)
+            for transform, t, q in zip(transforms[3:], translations.tolist(), rotations.tolist(), strict=True):
+                _set(transform, t, q, when)
+        return pose.message
 
-    def stance(self, kinematics: RobotKinematics, pose: RobotPose) -> tuple[np.ndarray, float]:
+    def stance(self, kinematics: RobotKinematics, pose: RobotPose, values: np.ndarray) -> tuple[np.ndarray, float]:
         """base_footprint -> root: the IMU's roll and pitch (no yaw: that is odometry's), and the height that puts
         the lower sole on the ground."""
+        imu_frame = pose.imu[1] if pose.imu is not None and pose.imu[1] in kinematics.joints else None
+        poses = kinematics.poses([*kinematics.soles, *([imu_frame] if imu_frame else [])], values)
         level = np.eye(3)
         if pose.imu is not None:
-            orientation, imu_frame = pose.imu
-            world_imu = rotation_of(orientation)
-            root_imu = kinematics.pose_of(imu_frame, pose.positions)[:3, :3] if imu_frame in kinematics.joints \
-                else np.eye(3)
+            world_imu = rotation_of(pose.imu[0])
+            root_imu = poses[imu_frame][:3, :3] if imu_frame else np.eye(3)
             world_root = world_imu @ root_imu.T
             yaw = math.atan2(world_root[1, 0], world_root[0, 0])
             c, s = math.cos(-yaw), math.sin(-yaw)
             level = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]) @ world_root
-        heights = [(level @ kinematics.pose_of(sole, pose.positions)[:3, 3])[2] for sole in kinematics.soles]
+        heights = [(level @ poses[sole][:3, 3])[2] for sole in kinematics.soles]
         height = -min(heights) if heights else 0.0
         return quaternion_of(level), float(height)
 

@@ -39,7 +39,7 @@ class RecordingStatus:
     reason: str  # "manual", "match", "cli"
     started: float  # wall clock
     stopped: float | None = None
-    messages: int = 0  # handed to the writer
+    messages: int = 0  # handed to the writer (the hub messages and the /tf, /tf_static, robot_description of them)
     flushed_messages: int = 0  # known to be on disk (the writer's chunks handed to the OS)
     skipped: int = 0  # messages that cannot be stored (no CDR, unknown type)
     dropped: int = 0  # lost because the writer fell behind
@@ -158,6 +158,7 @@ class HubRecording:
             except (LogError, codec.SchemaError, ValueError) as exc:
                 log.debug("not recorded: %s/%s: %s", record.robot, record.topic, exc)
                 continue
+            self.status.messages += 1  # what the file holds: the robots' streams and their 3D scene
             self._unflushed += 1
 
     def _flush(self) -> None:

@@ -12,7 +12,8 @@
 //       Prints {"stalled": n} once subscribed, then waits until killed.
 //   node client.mjs latency URL --seconds S [--clients N] [--latency-of SUFFIX]
 //       N connections (default 1) subscribe to everything; prints messages/s per client (all, and of the hub's
-//       streams alone, without derived channels such as the annotations) and the delay from the
+//       streams alone, without the channels the server derives from them: the annotations, /tf, /tf_static, the
+//       markers and the robot descriptions) and the delay from the
 //       log time (the hub message's stamp) to arrival, p50/p99 in ms, of the channels ending in SUFFIX
 //       (default /joint_states, whose stamps the bench sets when it sends).
 //   node client.mjs session URL --script JSON [--seconds S]
@@ -40,6 +41,8 @@ import WebSocket from "ws";
 
 const { FoxgloveClient } = wsProtocol;
 const SUBPROTOCOL = "foxglove.sdk.v1";
+// channels the server computes from the hub's streams (server/foxglove/scene.py, annotations.py)
+const DERIVED = /^\/tf(_static)?$|\/(markers|robot_description|camera\/annotations)$/;
 
 function options(argv) {
   const out = { topics: [], seconds: 5, min: 1, clients: 1, latencyOf: "/joint_states", script: "[]" };
@@ -168,7 +171,7 @@ async function latency(url, opts) {
       for (const channel of list) {
         const id = client.subscribe(channel.id);
         if (channel.topic.endsWith(opts.latencyOf)) timed.add(id);
-        if (channel.encoding === "cdr") streams.add(id);
+        if (channel.encoding === "cdr" && !DERIVED.test(channel.topic)) streams.add(id);
       }
     });
     client.on("message", ({ subscriptionId, timestamp }) => {
