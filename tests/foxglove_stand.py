@@ -1,7 +1,8 @@
 """Test helper: a real node standing in for a robot in a known pose, for the Foxglove 3D scene and parameters.
 
 It publishes the minibot's joint_states (each joint at its own known angle), a level IMU, its position on the field
-(from its parameters), the ball and an obstacle where it sees them; its parameters have a range and a start-up one.
+(from its parameters), the ball and an obstacle where it sees them, and a simulation's ground truth (its torso and the
+ball); its parameters have a range and a start-up one.
 """
 
 from __future__ import annotations
@@ -15,6 +16,8 @@ from server.foxglove.transforms import load_kinematics
 HL = "humanoid_league_msgs/msg/"
 BALL = (1.2, -0.3)
 OBSTACLE = (2.0, 0.5)
+TRUE_TORSO = (1.1, -1.9, 0.42)  # where the simulation says the torso is (the ground truth)
+TRUE_BALL = (2.3, -2.1, 0.05)
 
 
 def known_pose() -> dict[str, float]:
@@ -44,7 +47,7 @@ class PoseStand(Node):
     def setup(self) -> None:
         self.pose = known_pose()
         self.pubs = {t: self.publisher(t) for t in ("joint_states", "imu/data", "position", "ball_relative",
-                                                    "obstacles_relative")}
+                                                    "obstacles_relative", "ground_truth")}
         self.timer(self.params.rate_hz, self.tick)
 
     def tick(self) -> None:
@@ -63,3 +66,9 @@ class PoseStand(Node):
                                 confidence=0.8)
         p["obstacles_relative"].publish(schemas.make(HL + "ObstaclesRelative", header=header("base_footprint"),
                                                      obstacles=[obstacle]))
+        torso = schemas.make("geometry_msgs/msg/Pose", position=schemas.make("geometry_msgs/msg/Point", x=TRUE_TORSO[0],
+                                                                            y=TRUE_TORSO[1], z=TRUE_TORSO[2]),
+                             orientation=level)
+        true_ball = schemas.make("geometry_msgs/msg/Point", x=TRUE_BALL[0], y=TRUE_BALL[1], z=TRUE_BALL[2])
+        p["ground_truth"].publish(schemas.make("pitchside_msgs/msg/GroundTruth", header=header("map"),
+                                               robot_ids=[self.robot_id], robot_poses=[torso], ball=true_ball))

@@ -22,7 +22,7 @@ from robot_nodes.runtime import BusConfig
 from server.foxglove.transforms import rotation_of
 from tests.dashboard_server import RunningServer, dashboard_server
 from tests.foxglove_node import foxglove_url, run_session
-from tests.foxglove_stand import BALL, OBSTACLE, PoseStand, known_pose
+from tests.foxglove_stand import BALL, OBSTACLE, TRUE_BALL, TRUE_TORSO, PoseStand, known_pose
 from tests.support import free_port
 from tests.waiting import wait_for
 
@@ -79,14 +79,17 @@ def test_tf_is_the_urdfs_forward_kinematics_and_the_robot_stands_where_its_posit
     with serve(router_endpoint, tmp_path) as server:
         got = run_session(url_of(server), [
             {"op": "waitChannel", "topic": "/tf"}, {"op": "waitChannel", "topic": f"/{ROBOT}/markers"},
-            {"op": "subscribe", "topic": "/tf", "count": 1},
+            {"op": "subscribe", "topic": "/tf", "count": 6},
             {"op": "subscribe", "topic": "/tf_static", "count": 1},
             {"op": "subscribe", "topic": f"/{ROBOT}/robot_description", "count": 1},
             {"op": "subscribe", "topic": f"/{ROBOT}/markers", "count": 1}])
     assert got["errors"] == []
     oracle = minibot()
-    [tf] = messages(got, "/tf")
-    dynamic = {(t["header"]["frame_id"], t["child_frame_id"]): matrix(t["transform"]) for t in tf["transforms"]}
+    # the newest of each transform (a /tf message carries a robot's joints, or a simulation's ground truth)
+    dynamic = {(t["header"]["frame_id"], t["child_frame_id"]): matrix(t["transform"])
+               for tf in messages(got, "/tf") for t in tf["transforms"]}
+    truth = dynamic.pop(("map", f"{ROBOT}/ground_truth/torso"))  # the simulation's own frame tree, beside
+    np.testing.assert_allclose(truth[:3, 3], TRUE_TORSO, atol=1e-9)
     moving = {(f"{ROBOT}/{j.parent}", f"{ROBOT}/{j.child}") for j in oracle.robot.joints if j.type != "fixed"}
     assert moving <= set(dynamic)  # every movable joint, parent -> child, as robot_state_publisher sends them
     for (parent, child), transform in dynamic.items():
@@ -125,6 +128,9 @@ def test_tf_is_the_urdfs_forward_kinematics_and_the_robot_stands_where_its_posit
     assert (ball["pose"]["position"]["x"], ball["pose"]["position"]["y"]) == pytest.approx(BALL)
     assert (obstacle["pose"]["position"]["x"], obstacle["pose"]["position"]["y"]) == pytest.approx(OBSTACLE)
     assert ball["type"] == 2 and obstacle["type"] == 3  # SPHERE, CYLINDER
+    true_ball = by_ns["ground_truth/ball"]  # where the simulation has it, in the field's frame
+    assert true_ball["header"]["frame_id"] == "map"
+    assert [true_ball["pose"]["position"][k] for k in "xyz"] == pytest.approx(TRUE_BALL)
 
 
 def test_meshes_come_only_from_the_robot_descriptions_folders(testdata: Path, tmp_path: Path) -> None:
@@ -170,13 +176,14 @@ def test_a_recording_carries_the_same_tf_so_a_recorded_match_shows_in_3d(
                   for c in reader.get_summary().channels.values()}
         assert topics["/tf"] == topics["/tf_static"] == "tf2_msgs/msg/TFMessage"
         assert topics[f"/{ROBOT}/robot_description"] == "std_msgs/msg/String"
-        decoded = {}
+        decoded: dict[str, list[Any]] = {}
         for _schema, channel, _message, msg in reader.iter_decoded_messages(topics=["/tf", "/tf_static"]):
-            decoded.setdefault(channel.topic, msg)
+            decoded.setdefault(channel.topic, []).append(msg)
+    assert set(decoded) == {"/tf", "/tf_static"}
     oracle = minibot()
-    for topic, msg in decoded.items():
-        assert msg.transforms, topic
-        for t in msg.transforms:
+    checked: dict[str, set[str]] = {}
+    for topic, msgs in decoded.items():
+        for t in (t for msg in msgs for t in msg.transforms):
             parent, child = t.header.frame_id, t.child_frame_id
             if parent == "map" or link(parent) in ("odom", "base_footprint"):
                 continue
@@ -185,4 +192,6 @@ def test_a_recording_carries_the_same_tf_so_a_recorded_match_shows_in_3d(
             got[:3, :3] = rotation_of((r.x, r.y, r.z, r.w))
             got[:3, 3] = (p.x, p.y, p.z)
             np.testing.assert_allclose(got, oracle.get_transform(link(child), link(parent)), atol=1e-9)
-    assert set(decoded) == {"/tf", "/tf_static"}
+            checked.setdefault(topic, set()).add(link(child))
+    assert checked["/tf"] == {j.child for j in oracle.robot.joints if j.type != "fixed"}  # every movable joint
+    assert checked["/tf_static"] == {j.child for j in oracle.robot.joints if j.type == "fixed"}
