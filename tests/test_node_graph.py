@@ -43,8 +43,13 @@ def test_the_graph_follows_node_processes_and_a_killed_one_leaves_it(router_endp
     try:
         with dashboard_server(["--connect", router_endpoint, "--no-telemetry", "--foxglove-port", str(free_port())],
                               tmp_path) as server:
-            wait_for(lambda: {"/g1/talker", "/g1/echo", "/g2/talker"} <= node_ids(server), timeout=60, interval=0.2,
-                     what="the three nodes in the graph")
+            def announced() -> bool:
+                topics = {t["topic"]: t for t in graph(server)["topics"]}
+                return topics.get("/g1/joint_states", {}).get("subscribers") == ["/g1/echo"] and \
+                    topics.get("/g1/robot_state", {}).get("publishers") == ["/g1/echo"] and \
+                    topics.get("/g2/joint_states", {}).get("publishers") == ["/g2/talker"]
+
+            wait_for(announced, timeout=60, interval=0.2, what="the three nodes in the graph")
             body = graph(server)
             assert body["available"] is True
             echo = next(n for n in body["nodes"] if n["id"] == "/g1/echo")
@@ -68,9 +73,13 @@ def test_the_graph_follows_node_processes_and_a_killed_one_leaves_it(router_endp
             out, err = session.communicate(timeout=60)
             got = json.loads(out.splitlines()[-1])
             assert got["errors"] == [], (got["errors"], err)
-            first = got["graph"][0]
-            published = {t["name"]: t["publisherIds"] for t in first["publishedTopics"]}
-            subscribed = {t["name"]: t["subscriberIds"] for t in first["subscribedTopics"]}
+            published: dict[str, list[str]] = {}  # the graph as the client built it from the updates (diffs)
+            subscribed: dict[str, list[str]] = {}
+            for update in got["graph"]:
+                if "/g1/joint_states" in update.get("removedTopics", []):
+                    break
+                published.update({t["name"]: t["publisherIds"] for t in update["publishedTopics"]})
+                subscribed.update({t["name"]: t["subscriberIds"] for t in update["subscribedTopics"]})
             assert published["/g1/joint_states"] == ["/g1/talker"] and published["/g2/joint_states"] == ["/g2/talker"]
             assert subscribed["/g1/joint_states"] == ["/g1/echo"]
             assert any("/g1/joint_states" in m.get("removedTopics", []) for m in got["graph"][1:])
@@ -90,11 +99,14 @@ def test_nodes_composed_in_one_session_leave_the_graph_one_by_one(bus: BusConfig
     session = open_session(bus)
     try:
         talker, echo = Talker("c1", session).start(), Echo("c1", session).start()
-        wait_for(lambda: {("c1", "talker"), ("c1", "echo")} <= {(e.robot, e.node) for e in watched.snapshot()},
-                 timeout=20, what="both composed nodes announced")
-        links = topic_links(watched.snapshot())
-        assert links["/c1/joint_states"].publishers == {"/c1/talker"}
-        assert links["/c1/joint_states"].subscribers == {"/c1/echo"}
+        def joint_states_links() -> tuple[set[str], set[str]] | None:
+            links = topic_links(watched.snapshot()).get("/c1/joint_states")
+            return (links.publishers, links.subscribers) if links is not None else None
+
+        wait_for(lambda: joint_states_links() == ({"/c1/talker"}, {"/c1/echo"}), timeout=20,
+                 what="both composed nodes announced")
+        assert {("c1", "talker", "pub", "diagnostics"), ("c1", "echo", "pub", "diagnostics")} <= \
+            {(e.robot, e.node, e.role, e.name) for e in watched.snapshot()}
         echo.shutdown()
         wait_for(lambda: not any(e.node == "echo" for e in watched.snapshot()), timeout=20, what="echo gone")
         assert any(e.node == "talker" for e in watched.snapshot())  # the session and its other node stay

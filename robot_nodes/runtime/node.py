@@ -220,7 +220,7 @@ class Node:
         self._thread: threading.Thread | None = None
         self._started = time.monotonic()
         self._closed = False
-        self.graph = GraphAnnouncer(self.session, robot_id, self.name)  # the node graph: what it publishes, ...
+        self._node_graph = GraphAnnouncer(self.session, robot_id, self.name)  # its entries in the node graph
         self._diag_pub = self.publisher("diagnostics")
         self._rosout = RosoutHandler(self.publisher("rosout").publish, self.name)
         self.log.addHandler(self._rosout)
@@ -249,14 +249,14 @@ class Node:
     def publisher(self, topic: str) -> Publisher:
         pub = Publisher(self, topic, self.robot_id)
         self._publishers.append(pub)
-        self.graph.publishes(topic)
+        self._node_graph.publishes(topic)
         return pub
 
     def subscribe(self, topic: str, handler: Callable[..., None], robot: str | None = None) -> Subscription:
         """handler(msg) for this robot's topic; with robot="*", handler(robot_id, msg) for every robot."""
         sub = Subscription(self, topic, handler, robot or self.robot_id)
         self._subscriptions.append(sub)
-        self.graph.subscribes(topic, sub.robot)
+        self._node_graph.subscribes(topic, sub.robot)
         return sub
 
     def timer(self, hz: float, callback: Callable[[], None], name: str | None = None) -> Timer:
@@ -270,7 +270,7 @@ class Node:
                       on_preempt: Callable[[ServerGoal], None] | None = None) -> ActionServer:
         server = ActionServer(self.session, self.loop, self.robot_id, action, on_goal, on_cancel, on_preempt)
         self._declared.append(server)
-        self.graph.serves_action(action)
+        self._node_graph.serves_action(action)
         return server
 
     def action_client(self, action: str, robot: str | None = None) -> ActionClient:
@@ -282,7 +282,7 @@ class Node:
     def service(self, name: str, handler: Callable[[Any], Message]) -> ServiceServer:
         server = ServiceServer(self.session, self.loop, self.robot_id, name, handler)
         self._declared.append(server)
-        self.graph.serves(name)
+        self._node_graph.serves(name)
         return server
 
     def set_diagnostic(self, key: str, value: Any) -> None:
@@ -361,7 +361,7 @@ class Node:
         for declared in self._declared:
             with contextlib.suppress(Exception):
                 declared.close() if hasattr(declared, "close") else declared.undeclare()
-        self.graph.close()
+        self._node_graph.close()
         self.local_bus.leave()
         if self._own_session:
             self.session.close()

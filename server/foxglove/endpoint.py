@@ -163,7 +163,7 @@ class FoxgloveEndpoint:
         self._served.clear()
         self._time_told = 0
         if self.playback is not None:
-            self.playback._told = None
+            self.playback.forget_told()
         self._publish_graph()
 
     def _offer(self) -> Offer:

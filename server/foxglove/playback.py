@@ -85,5 +85,9 @@ class ReplayPlayback:
         return PlaybackState(status=state.status, current_time=state.current_time,
                              playback_speed=state.playback_speed, did_seek=did_seek, request_id=None)
 
+    def forget_told(self) -> None:
+        """New servers: their clients were told nothing yet."""
+        self._told = None
+
     def _remember(self, state: PlaybackState) -> None:
         self._told = (self.replay.state, float(state.playback_speed), self.replay.seeks)
