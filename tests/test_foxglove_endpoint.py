@@ -393,8 +393,8 @@ def test_foxglove_decodes_the_demo_robot_live_and_over_one_way_telemetry(tmp_pat
         assert image["format"] == "jpeg" and image["data"]["head"][:2] == [0xFF, 0xD8]
         assert "/robot1/camera/annotations" in channels_of(url)  # the detections, for the Image panel
         # the robot in 3D, in both modes; control only in the lab (and with the token)
-        steps: list[dict[str, Any]] = [{"op": "waitChannel", "topic": "/tf"},
-                                       {"op": "subscribe", "topic": "/tf", "count": 1}]
+        steps: list[dict[str, Any]] = [{"op": "waitChannel", "topic": "/robot1/tf"},
+                                       {"op": "subscribe", "topic": "/robot1/tf", "count": 1}]
         if mode == "lab":
             steps += [{"op": "setParameters", "parameters": [{"name": "/robot1/walking/step_frequency",
                                                               "value": 99.0, "type": "float64"}]},
@@ -483,3 +483,23 @@ def test_beyond_loopback_every_foxglove_client_needs_the_token(tmp_path: Path) -
     finally:
         process.terminate()
         process.wait(15)
+
+
+def test_a_port_a_websocket_server_left_closed_connections_on_is_free_for_the_sdk() -> None:
+    """A WebSocket server closes its connections first, so its port keeps them in TIME_WAIT for a minute; the SDK
+    binds with SO_REUSEADDR and may take it again (the endpoint restarts its servers when a replay opens, and tests
+    start many servers): the probe for the SDK's ports asks as the SDK binds."""
+    from server.loopback_ports import port_is_free
+
+    with socket.socket() as listening:
+        listening.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)  # as tokio's listeners, the SDK's
+        listening.bind(("127.0.0.1", 0))
+        listening.listen()
+        port = listening.getsockname()[1]
+        far = socket.create_connection(("127.0.0.1", port))
+        near, _ = listening.accept()
+        near.close()  # the server's side first: its port keeps the connection in TIME_WAIT
+        assert far.recv(1) == b""
+        far.close()
+    assert wait_for(lambda: not port_is_free(port), timeout=5, what="the port held by TIME_WAIT")
+    assert port_is_free(port, reuse_address=True)

@@ -74,7 +74,7 @@ def test_foxglove_plays_pauses_seeks_and_sets_the_speed_of_the_replay_in_step_wi
     assert panel["state"] == "paused" and panel["speed"] == 2.0 and abs(panel["position_s"] - 12.0) < 1e-6
     assert got["time"] is not None and start <= got["time"] <= end  # Foxglove's clock is the log's
     # the replayed robots in 3D, with their replay ids
-    assert {"/tf", "/replay.r1/robot_description"} <= set(got["channels"])
+    assert {"/replay.r1/tf", "/replay.r1/robot_description"} <= set(got["channels"])
     assert not any(c.startswith("/r1/") for c in got["channels"])
 
 

@@ -1,7 +1,7 @@
 """The robots in Foxglove's 3D panel (issue 17 point 3), through the real Foxglove client (tests/foxglove_client):
-/tf against forward kinematics for a known pose, the robot standing where its position says, /tf_static, the URDF
+the robot's tf against forward kinematics for a known pose, standing where its position says, its tf_static, the URDF
 with the robot's frame names, the ball and obstacles as markers, mesh assets only from the descriptions' folders, and
-the same /tf in a recording."""
+the same tf in a recording."""
 
 from __future__ import annotations
 
@@ -19,6 +19,7 @@ import yourdfpy
 
 import robots
 from robot_nodes.runtime import BusConfig
+from schemas.logs import LogReader
 from server.foxglove.transforms import rotation_of
 from tests.dashboard_server import RunningServer, dashboard_server
 from tests.foxglove_node import foxglove_url, run_session
@@ -27,6 +28,7 @@ from tests.support import free_port
 from tests.waiting import wait_for
 
 ROBOT = "r1"
+TF, TF_STATIC = f"/{ROBOT}/tf", f"/{ROBOT}/tf_static"  # a robot's own, as ROS 2 namespaces them
 FIELD_POSE = (1.0, -2.0, 0.5)  # PoseStand's default x, y, theta
 
 
@@ -78,16 +80,16 @@ def test_tf_is_the_urdfs_forward_kinematics_and_the_robot_stands_where_its_posit
         router_endpoint: str, stand: PoseStand, tmp_path: Path) -> None:
     with serve(router_endpoint, tmp_path) as server:
         got = run_session(url_of(server), [
-            {"op": "waitChannel", "topic": "/tf"}, {"op": "waitChannel", "topic": f"/{ROBOT}/markers"},
-            {"op": "subscribe", "topic": "/tf", "count": 6},
-            {"op": "subscribe", "topic": "/tf_static", "count": 1},
+            {"op": "waitChannel", "topic": TF}, {"op": "waitChannel", "topic": f"/{ROBOT}/markers"},
+            {"op": "subscribe", "topic": TF, "count": 6},
+            {"op": "subscribe", "topic": TF_STATIC, "count": 1},
             {"op": "subscribe", "topic": f"/{ROBOT}/robot_description", "count": 1},
             {"op": "subscribe", "topic": f"/{ROBOT}/markers", "count": 1}])
     assert got["errors"] == []
     oracle = minibot()
-    # the newest of each transform (a /tf message carries a robot's joints, or a simulation's ground truth)
+    # the newest of each transform (a tf message carries a robot's joints, or a simulation's ground truth)
     dynamic = {(t["header"]["frame_id"], t["child_frame_id"]): matrix(t["transform"])
-               for tf in messages(got, "/tf") for t in tf["transforms"]}
+               for tf in messages(got, TF) for t in tf["transforms"]}
     truth = dynamic.pop(("map", f"{ROBOT}/ground_truth/torso"))  # the simulation's own frame tree, beside
     np.testing.assert_allclose(truth[:3, 3], TRUE_TORSO, atol=1e-9)
     moving = {(f"{ROBOT}/{j.parent}", f"{ROBOT}/{j.child}") for j in oracle.robot.joints if j.type != "fixed"}
@@ -107,8 +109,8 @@ def test_tf_is_the_urdfs_forward_kinematics_and_the_robot_stands_where_its_posit
     soles = [oracle.get_transform(sole, "base_link")[2, 3] for sole in ("l_sole", "r_sole")]
     assert standing[2, 3] == pytest.approx(-min(soles), abs=1e-9) and standing[2, 3] > 0.2
     np.testing.assert_allclose(standing[:3, :3], np.eye(3), atol=1e-9)  # a level IMU: upright
-    # the fixed joints, once, on /tf_static
-    [static] = messages(got, "/tf_static")
+    # the fixed joints, once, on its tf_static
+    [static] = messages(got, TF_STATIC)
     fixed = {(f"{ROBOT}/{j.parent}", f"{ROBOT}/{j.child}") for j in oracle.robot.joints if j.type == "fixed"}
     assert {(t["header"]["frame_id"], t["child_frame_id"]) for t in static["transforms"]} == fixed
     for t in static["transforms"]:
@@ -170,16 +172,18 @@ def test_a_recording_carries_the_same_tf_so_a_recorded_match_shows_in_3d(
                  timeout=30, what="a second of recording")
         stopped = server.http.post(f"{server.url}/api/recordings/stop").json()
     path = Path(stopped["files"][0])
+    with LogReader(path) as log:  # every channel is the robot's: a replay of it shows no other robot
+        assert {c.robot_id for c in log.channels} == {ROBOT}
     with path.open("rb") as f:
         reader = make_reader(f, decoder_factories=[DecoderFactory()])
         topics = {c.topic: reader.get_summary().schemas[c.schema_id].name
                   for c in reader.get_summary().channels.values()}
-        assert topics["/tf"] == topics["/tf_static"] == "tf2_msgs/msg/TFMessage"
+        assert topics[TF] == topics[TF_STATIC] == "tf2_msgs/msg/TFMessage"
         assert topics[f"/{ROBOT}/robot_description"] == "std_msgs/msg/String"
         decoded: dict[str, list[Any]] = {}
-        for _schema, channel, _message, msg in reader.iter_decoded_messages(topics=["/tf", "/tf_static"]):
+        for _schema, channel, _message, msg in reader.iter_decoded_messages(topics=[TF, TF_STATIC]):
             decoded.setdefault(channel.topic, []).append(msg)
-    assert set(decoded) == {"/tf", "/tf_static"}
+    assert set(decoded) == {TF, TF_STATIC}
     oracle = minibot()
     checked: dict[str, set[str]] = {}
     for topic, msgs in decoded.items():
@@ -193,5 +197,5 @@ def test_a_recording_carries_the_same_tf_so_a_recorded_match_shows_in_3d(
             got[:3, 3] = (p.x, p.y, p.z)
             np.testing.assert_allclose(got, oracle.get_transform(link(child), link(parent)), atol=1e-9)
             checked.setdefault(topic, set()).add(link(child))
-    assert checked["/tf"] == {j.child for j in oracle.robot.joints if j.type != "fixed"}  # every movable joint
-    assert checked["/tf_static"] == {j.child for j in oracle.robot.joints if j.type == "fixed"}
+    assert checked[TF] == {j.child for j in oracle.robot.joints if j.type != "fixed"}  # every movable joint
+    assert checked[TF_STATIC] == {j.child for j in oracle.robot.joints if j.type == "fixed"}

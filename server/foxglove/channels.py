@@ -50,13 +50,15 @@ class DerivedChannels(Protocol):
     """Channels computed from some hub streams (camera annotations, the 3D scene's /tf and markers)."""
 
     topics: frozenset[str]  # the hub topics it is offered
-    owned: frozenset[str]  # channel names ``/<robot>/<name>`` it makes itself: a hub stream of that name gets none
 
     @property
     def channels(self) -> Mapping[str, object]:
         """Robot -> its channel(s); closed with the robot's streams."""
 
     def offer(self, msg: HubMessage) -> None: ...
+
+    def owns(self, msg: HubMessage) -> bool:
+        """Is the stream's channel name one it makes itself? Then the stream gets no channel."""
 
     def close_robot(self, robot: str) -> None: ...
 
@@ -79,7 +81,6 @@ class StreamChannels:
                  source_running: Callable[[str], bool | None], derived: list[DerivedChannels] | None = None) -> None:
         self.hub = hub
         self.derived = derived or []
-        self.owned = frozenset().union(*(d.owned for d in self.derived))
         self.shows: Callable[[HubMessage], bool] = lambda _msg: True  # which streams the endpoint serves now
         self.newest_stamp = 0.0  # of the messages handed over: a replay's position in the log
         self.context = context
@@ -144,7 +145,7 @@ class StreamChannels:
 
     # -- one message --------------------------------------------------------------------------------------
     def deliver(self, msg: HubMessage) -> None:
-        if not self.shows(msg) or msg.topic in self.owned:
+        if not self.shows(msg) or any(derived.owns(msg) for derived in self.derived):
             return
         self.newest_stamp = max(self.newest_stamp, msg.stamp)
         key = (msg.robot, msg.topic)

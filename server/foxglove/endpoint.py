@@ -332,7 +332,7 @@ class FoxgloveEndpoint:
                 "dropped": self.channels.dropped, "accepted": self.guard.counters.accepted,
                 "with_token": self.guard.counters.with_token, "refused": self.guard.counters.refused,
                 "serving": "replay" if offer is not None and offer.replay else "live",
-                "scene_robots": sorted(self.scene.descriptions), "assets_served": self.assets.served,
+                "scene_robots": sorted(self.scene.robots), "assets_served": self.assets.served,
                 "assets_refused": self.assets.refused}
 
     def _source_running(self, name: str) -> bool | None:

@@ -85,7 +85,8 @@ class SdkServers:
         self.stop()
         self.offer = offer
         for door in ("view", "control"):
-            port = internal_port(0, f"Foxglove endpoint ({door})")
+            # the SDK binds with SO_REUSEADDR: a port its last server left connections on is free for it
+            port = internal_port(0, f"Foxglove endpoint ({door})", reuse_address=True)
             try:
                 self.servers[door] = foxglove.start_server(
                     name=SERVER_NAME, host=LOOPBACK, port=port, context=self.context,

@@ -1,8 +1,8 @@
-"""/tf from what the robots send: robot_state_publisher's job, done in the server for every robot it hears.
+"""tf from what the robots send: robot_state_publisher's job, done in the server for every robot it hears.
 
 From a robot's URDF (yourdfpy parses it) and its joint_states, each joint's transform parent -> child, as ROS 2's
-robot_state_publisher computes it: movable joints on /tf at each joint_states (at most ``max_hz`` per robot), fixed
-joints once on /tf_static. Above the URDF's root link the robot stands on the field:
+robot_state_publisher computes it: movable joints on the robot's tf at each joint_states (at most ``max_hz``), fixed
+joints once on its tf_static. Above the URDF's root link the robot stands on the field:
 
     map -> <robot>/odom -> <robot>/base_footprint -> <robot>/<root link> -> ... every link ...
 
@@ -329,7 +329,7 @@ def _inverse(a: tuple[float, float, float]) -> tuple[float, float, float]:
 
 
 class RobotStatePublisher:
-    """/tf and /tf_static for every robot whose messages it is offered (hub messages, any source).
+    """Each robot's tf and tf_static messages, for every robot whose messages it is offered (hub messages, any source).
 
     ``description_for(robot)`` says where a robot's URDF is (the server's --urdf); a robot whose URDF cannot be read
     gets no frames (said once in the log). ``max_hz`` caps each robot's /tf; ``clock`` is for tests."""

@@ -1,10 +1,11 @@
-"""The robots in 3D in a recording: /tf, /tf_static and ``/<robot>/robot_description`` written beside the streams.
+"""The robots in 3D in a recording: ``/<robot>/tf``, ``/<robot>/tf_static`` and ``/<robot>/robot_description``
+written beside the streams.
 
 The same messages the Foxglove endpoint serves live (server.foxglove.transforms: robot_state_publisher's job from
 joint_states and the URDF), so a recorded match opened in Foxglove or Lichtblick shows each robot moving on the field:
-/tf with every recorded robot's frames (``<robot>/<link>``, at most ``max_hz`` per robot), and in each file of a
-series, before a robot's first /tf, its fixed joints on /tf_static and its URDF on ``/<robot>/robot_description``
-(std_msgs/String, link names as its frames).
+each robot's tf with its frames (``<robot>/<link>``, at most ``max_hz``), and in each file of a series, before a
+robot's first tf, its fixed joints on its tf_static and its URDF on its robot_description (std_msgs/String, link
+names as its frames). A robot's own tf topics, as ROS 2 namespaces them, keep a replayed recording's robots apart.
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ TF, TF_STATIC, DESCRIPTION = "tf", "tf_static", "robot_description"
 
 @dataclass(frozen=True, slots=True)
 class SceneRecord:
-    """One message to write: robot "" for the /tf and /tf_static channels every robot shares."""
+    """One message to write, on a topic of the robot's."""
 
     robot: str
     topic: str
@@ -57,12 +58,12 @@ class RecordedScene:
                     out.append(SceneRecord(msg.robot, DESCRIPTION, DESCRIPTION_TYPE, schemas.encode(description)))
                     static = self.publisher.static(msg.robot, schemas.stamp(msg.stamp))
                     if static is not None:
-                        out.append(SceneRecord("", TF_STATIC, TF_TYPE, schemas.encode(static)))
+                        out.append(SceneRecord(msg.robot, TF_STATIC, TF_TYPE, schemas.encode(static)))
             tf = self.publisher.offer(msg)
         except schemas.SchemaError as exc:  # a message that does not decode adds no frames
             self.errors += 1
             log.debug("no /tf from %s/%s: %s", msg.robot, msg.topic, exc)
             return out
         if tf is not None and tf.transforms:
-            out.append(SceneRecord("", TF, TF_TYPE, schemas.encode(tf)))
+            out.append(SceneRecord(msg.robot, TF, TF_TYPE, schemas.encode(tf)))
         return out

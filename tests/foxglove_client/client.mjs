@@ -42,7 +42,7 @@ import WebSocket from "ws";
 const { FoxgloveClient } = wsProtocol;
 const SUBPROTOCOL = "foxglove.sdk.v1";
 // channels the server computes from the hub's streams (server/foxglove/scene.py, annotations.py)
-const DERIVED = /^\/tf(_static)?$|\/(markers|robot_description|camera\/annotations)$/;
+const DERIVED = /\/(tf|tf_static|markers|robot_description|camera\/annotations)$/;
 
 function options(argv) {
   const out = { topics: [], seconds: 5, min: 1, clients: 1, latencyOf: "/joint_states", script: "[]" };
