@@ -50,6 +50,7 @@ class DerivedChannels(Protocol):
     """Channels computed from some hub streams (camera annotations, the 3D scene's /tf and markers)."""
 
     topics: frozenset[str]  # the hub topics it is offered
+    names: frozenset[str]  # the topic names of its own channels (``/<robot>/<name>``): see ``owns``
 
     @property
     def channels(self) -> Mapping[str, object]:
@@ -82,6 +83,7 @@ class StreamChannels:
         self.hub = hub
         self.derived = derived or []
         self.shows: Callable[[HubMessage], bool] = lambda _msg: True  # which streams the endpoint serves now
+        self._derived_names = frozenset().union(*(d.names for d in self.derived))
         self.newest_stamp = 0.0  # of the messages handed over: a replay's position in the log
         self.context = context
         self.lost_after_s = lost_after_s
@@ -145,7 +147,7 @@ class StreamChannels:
 
     # -- one message --------------------------------------------------------------------------------------
     def deliver(self, msg: HubMessage) -> None:
-        if not self.shows(msg) or any(derived.owns(msg) for derived in self.derived):
+        if not self.shows(msg) or (msg.topic in self._derived_names and any(d.owns(msg) for d in self.derived)):
             return
         self.newest_stamp = max(self.newest_stamp, msg.stamp)
         key = (msg.robot, msg.topic)

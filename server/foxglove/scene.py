@@ -59,6 +59,7 @@ class RobotScene:
     """DerivedChannels for the 3D panel; runs on the hub's event loop (``republish`` too)."""
 
     topics = TRANSFORM_TOPICS | MARKER_TOPICS
+    names = frozenset({TF, TF_STATIC, DESCRIPTION, MARKERS})
 
     def __init__(self, context: foxglove.Context, description_for: Callable[[str], RobotDescription],
                  clock: Callable[[], float], max_hz: float) -> None:
@@ -78,7 +79,7 @@ class RobotScene:
 
     def owns(self, msg: HubMessage) -> bool:
         """A hub stream whose channel name is one of the scene's: it gets none (the scene's replaces it)."""
-        return msg.topic in (TF, TF_STATIC, DESCRIPTION, MARKERS) and msg.robot != FOREIGN
+        return msg.topic in self.names and msg.robot != FOREIGN
 
     # -- hub messages ---------------------------------------------------------------------------------------
     def offer(self, msg: HubMessage) -> None:
