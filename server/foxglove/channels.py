@@ -10,7 +10,6 @@ oldest messages too, and nobody else notices.
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import logging
 import time
 from collections.abc import Callable, Mapping
@@ -93,6 +92,7 @@ class StreamChannels:
         self.logged = 0  # messages handed to the SDK (with at least one client subscribed)
         self.encode_errors = 0
         self._task: asyncio.Task[None] | None = None
+        self._stopping = False
         self._subscriber = hub.subscribe(name="foxglove", maxlen=QUEUE)
 
     # -- life ---------------------------------------------------------------------------------------------
@@ -102,10 +102,12 @@ class StreamChannels:
 
     async def stop(self) -> None:
         self._subscriber.close()
+        self._stopping = True
         if self._task is not None:
+            # Python 3.11's wait_for (in the hub subscriber's wait) loses a cancellation that comes as its event
+            # is set: the loop also ends by itself at the flag, within a sweep period
             self._task.cancel()
-            with contextlib.suppress(asyncio.CancelledError):
-                await self._task
+            await asyncio.wait({self._task}, timeout=2 * SWEEP_PERIOD_S)
         for stream in self.channels.values():
             stream.channel.close()
         self.channels.clear()
@@ -132,7 +134,7 @@ class StreamChannels:
 
     async def _run(self) -> None:
         next_sweep = time.monotonic() + SWEEP_PERIOD_S
-        while True:
+        while not self._stopping:
             await self._subscriber.wait(timeout=SWEEP_PERIOD_S)
             for msg in self._subscriber.drain(DRAIN_BATCH):
                 try:

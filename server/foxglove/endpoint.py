@@ -51,6 +51,7 @@ NODELAY_PERIOD_S = 0.25  # how soon a new connection from the guard gets TCP_NOD
 ROBOTS_PERIOD_S = 1.0  # how often the live robots (their services) are looked for
 GRAPH_DEBOUNCE_S = 0.2  # a node's start declares a dozen tokens: one graph update for them
 SUBSCRIBED_DELAY_S = 0.05
+STOP_WAIT_S = 2.0
 
 
 class FoxgloveError(RuntimeError):
@@ -173,9 +174,8 @@ class FoxgloveEndpoint:
     async def stop(self) -> None:
         for task in self._tasks:
             task.cancel()
-        for task in self._tasks:
-            with contextlib.suppress(asyncio.CancelledError):
-                await task
+        if self._tasks:  # bounded: a task that lost its cancellation must not hold the server's shutdown
+            await asyncio.wait(self._tasks, timeout=STOP_WAIT_S)
         if self._graph_due is not None:
             self._graph_due.cancel()
         await asyncio.to_thread(self.guard.stop)
