@@ -8,8 +8,9 @@ telemetry); a feeder process publishes 11 robots with the demo's topic mix at th
 ~580 msg/s per robot); the real Foxglove client (@foxglove/ws-protocol on Node.js, tests/foxglove_client) runs as
 1 and as 5 connections subscribed to every channel. Figures:
 - fed_msgs_per_s: what the hub took in; msgs_per_s_1 / msgs_per_s_5: delivered to 1 client / to 5 in total (the
-  hub's streams and the channels derived from them, the camera annotations); min_client_share: the slowest
-  client's share of the hub's streams, and whether every client kept up (>= 95 %);
+  hub's streams and the channels derived from them: the camera annotations, and the 3D scene's /tf (computed from
+  each robot's joint_states and the minibot URDF, 30 Hz per robot), /tf_static, markers and robot descriptions);
+  min_client_share: the slowest client's share of the hub's streams, and whether every client kept up (>= 95 %);
 - latency_p50_ms / p99: joint_states stamped by the feeder when it sends -> Foxglove client (so hub -> client plus
   one Zenoh hop on loopback), with 1 client; the dashboard's own /ws client on the same stream is the baseline;
 - cpu_overhead_pct: server CPU (% of one core) with the endpoint and 1 client subscribed to everything, minus
@@ -40,8 +41,10 @@ import httpx
 import numpy as np
 import psutil
 
+import robots
 import schemas
 from robot_nodes.runtime import BusConfig, open_router, open_session
+from server.foxglove.transforms import load_kinematics
 from tests.foxglove_node import foxglove_url, run_client
 from tests.support import free_port
 from tests.waiting import wait_for
@@ -57,7 +60,7 @@ DEMO_RATES = {
     "goal_in_image": 10, "line_information_in_image": 10, "walk_odometry": 10, "diagnostics": 8, "servo_data": 5,
     "paused": 2, "gamestate": 1, "hcm_graph": 1, "servo_health": 1,
 }
-JOINTS = [f"joint{i}" for i in range(20)]
+JOINTS = load_kinematics(robots.urdf()).joint_names  # the minibot's 20: the server computes /tf from them
 TICK_HZ = 200  # the feeder's loop: every topic is due every TICK_HZ / rate ticks
 
 

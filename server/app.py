@@ -19,6 +19,7 @@ from server.recording.wiring import attach_recording
 from server.routers import (
     animations,
     dashboard,
+    graph,
     message_schemas,
     parameters,
     plots,
@@ -65,6 +66,7 @@ def create_app(config: ServerConfig) -> FastAPI:
                 except SourceError as exc:
                     log.warning("source %s not started: %s", name, exc)
         await _start_views(state)
+        await _start_graph(state)
         await recording.start()
         state.foxglove = await start_foxglove(state)
         try:
@@ -73,6 +75,8 @@ def create_app(config: ServerConfig) -> FastAPI:
             with contextlib.suppress(Exception):
                 await recording.stop()
             await _stop_views(state)
+            if state.graph is not None:
+                await asyncio.to_thread(state.graph.stop)
             await source_set.stop_all()
             await asyncio.to_thread(link.close)
 
@@ -83,7 +87,7 @@ def create_app(config: ServerConfig) -> FastAPI:
     recording = attach_recording(state)
     install_error_statuses(app)
     for module in (recordings, replay, session, dashboard, robots, message_schemas, sources, parameters, animations,
-                   teleop, ws, plots, robot3d, state_graphs):
+                   teleop, ws, plots, robot3d, state_graphs, graph):
         app.include_router(module.router)
     app.mount("/", StaticFiles(directory=config.web_dir, html=True), name="web")
     return app
@@ -101,6 +105,21 @@ def venue_policy(config: ServerConfig) -> VenuePolicy:
     return VenuePolicy(hosts=AllowedHosts(config.host, config.allowed_hosts),
                        credentials=Credentials(config.token, config.port), allowed_origins=frozenset(origins),
                        reads_need_credential=config.beyond_loopback, max_body_bytes=config.max_body_bytes)
+
+
+async def _start_graph(state: ServerState) -> None:
+    """The node graph (server.node_graph) while the server watches the bus: lab mode with the live source on."""
+    config = state.config
+    if config.match_mode or not config.live_source:
+        return
+    from server.node_graph import NodeGraph
+
+    node_graph = NodeGraph(state.link)
+    try:
+        await asyncio.to_thread(node_graph.start)
+        state.graph = node_graph
+    except Exception as exc:  # no bus: the dashboard works without the graph
+        log.warning("node graph not started: %s", exc)
 
 
 async def _start_views(state: ServerState) -> None:

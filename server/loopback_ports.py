@@ -20,9 +20,13 @@ BROWSER_BLOCKED_PORTS = (6665, 6666, 6667, 6668, 6669, 6697, 10080, 1719, 1720, 
                          6566, 2049, 6000)
 
 
-def port_is_free(port: int) -> bool:
-    """Can a TCP server bind this loopback port now? (Another may take it before we do: callers cope.)"""
+def port_is_free(port: int, reuse_address: bool = False) -> bool:
+    """Can a TCP server bind this loopback port now? (Another may take it before we do: callers cope.)
+    ``reuse_address``: for a server that binds with SO_REUSEADDR (tokio's do, the Foxglove SDK's), for which the
+    closed connections a WebSocket server leaves behind on its port (TIME_WAIT, a minute) are no obstacle."""
     with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        if reuse_address:
+            s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
         try:
             s.bind((LOOPBACK, port))
         except OSError as exc:
@@ -38,13 +42,14 @@ def any_free_port() -> int:
         return int(s.getsockname()[1])
 
 
-def internal_port(configured: int, what: str, *, avoid: tuple[int, ...] = ()) -> int:
+def internal_port(configured: int, what: str, *, avoid: tuple[int, ...] = (), reuse_address: bool = False) -> int:
     """The port for an internal server: ``configured`` if not 0, else a free browser-blocked port (any free port,
-    with a warning, when all of them are taken). ``avoid``: ports just handed out and not bound yet."""
+    with a warning, when all of them are taken). ``avoid``: ports just handed out and not bound yet;
+    ``reuse_address``: the server binds with SO_REUSEADDR (see ``port_is_free``)."""
     if configured:
         return configured
     for port in BROWSER_BLOCKED_PORTS:
-        if port not in avoid and port_is_free(port):
+        if port not in avoid and port_is_free(port, reuse_address):
             return port
     port = any_free_port()
     log.warning("%s: every browser-blocked port is taken; using loopback port %d, which a web page in this "

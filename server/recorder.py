@@ -17,14 +17,17 @@ import asyncio
 import contextlib
 import logging
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 from schemas.logs import LogError
+from server.config import RobotDescription
 from server.hub import Hub, HubMessage, Subscriber
 from server.recording.files import RecordingsFolder, safe_name, timestamped
 from server.recording.game_events import GameEvent, GameEvents
 from server.recording.journal import TOUCH_EVERY_S, ManualEntry, MatchEntry, RecordingJournal
+from server.recording.scene import RecordedScene
 from server.recording.session import HubRecording, RecordingStatus
 
 log = logging.getLogger(__name__)
@@ -42,8 +45,11 @@ class Recorder:
     """One manual recording at a time, plus the automatic match recording (independent of it)."""
 
     def __init__(self, hub: Hub, folder: Path, *, auto_match: bool = True,
-                 rotate_bytes: int | None = DEFAULT_ROTATE_BYTES, chunk_size: int = 1 << 20) -> None:
+                 rotate_bytes: int | None = DEFAULT_ROTATE_BYTES, chunk_size: int = 1 << 20,
+                 description_for: Callable[[str], RobotDescription] | None = None) -> None:
+        """description_for: where each robot's URDF is, for the /tf a recording carries (None: no /tf)."""
         self.hub = hub
+        self.description_for = description_for
         self.folder = Path(folder)
         self.files = RecordingsFolder(self.folder)
         self.auto_match = auto_match
@@ -210,8 +216,9 @@ class Recorder:
     # -- shared -----------------------------------------------------------------------------------------
     def _open(self, path: Path, reason: str, resume: bool = False) -> HubRecording:
         try:
+            scene = RecordedScene(self.description_for) if self.description_for is not None else None
             return HubRecording(self.hub, path, reason, rotate_bytes=self.rotate_bytes, chunk_size=self.chunk_size,
-                                resume=resume)
+                                resume=resume, scene=scene)
         except (LogError, OSError) as exc:
             raise RecorderError(f"cannot record to {path}: {exc}") from exc
 

@@ -14,6 +14,7 @@ from server.zenoh_link import ZenohLink
 if TYPE_CHECKING:  # the views import viser and rerun: heavy, and only started when the config asks for them
     from server.foxglove.endpoint import FoxgloveEndpoint
     from server.lab import LabTools
+    from server.node_graph import NodeGraph
     from server.plots import PlotFeed
     from server.recorder import Recorder
     from server.robot3d import Robot3DView
@@ -33,3 +34,4 @@ class ServerState:
     plots: PlotFeed | None = None  # the plots (--plots), once started
     foxglove: FoxgloveEndpoint | None = None  # the Foxglove endpoint (--foxglove-port), once started
     lab: LabTools | None = None  # what lives between lab requests, made on first use (server.lab.lab_tools)
+    graph: NodeGraph | None = None  # the node graph from Zenoh liveliness (lab, live source on), once started

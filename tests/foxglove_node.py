@@ -56,3 +56,10 @@ def run_client(mode: str, url: str, *args: str, timeout: float = 60.0) -> dict[s
         raise AssertionError(f"foxglove client {mode} failed ({proc.returncode}): {out[-2000:]} {err[-2000:]}")
     result: dict[str, Any] = json.loads(lines[-1])
     return result
+
+
+def run_session(url: str, steps: list[dict[str, Any]], seconds: float = 20.0, timeout: float = 120.0
+                ) -> dict[str, Any]:
+    """The client's ``session`` mode: the steps one after another, each answered (at most ``seconds``); what came
+    back, with every status, parameter value, graph update, service and playback state the server sent meanwhile."""
+    return run_client("session", url, "--script", json.dumps(steps), "--seconds", str(seconds), timeout=timeout)

@@ -36,7 +36,7 @@ from server.loopback_ports import BROWSER_BLOCKED_PORTS
 from server.security.credentials import Credentials
 from server.security.hosts import AllowedHosts
 from tests.dashboard_server import RunningServer, dashboard_server
-from tests.foxglove_node import foxglove_url, node_client, run_client
+from tests.foxglove_node import foxglove_url, node_client, run_client, run_session
 from tests.support import REPO, free_port
 from tests.waiting import wait_for
 from wire.keys import topic_key
@@ -256,11 +256,12 @@ def test_foreign_pages_wrong_tokens_and_strange_hosts_are_refused_at_the_handsha
         with socket.create_connection(("127.0.0.1", port)) as raw:  # not HTTP at all
             raw.sendall(b"\x16\x03\x01 hello\r\n\r\n")
             assert raw.recv(100).startswith(b"HTTP/1.1 400")
-        # the SDK itself: on loopback, on a port browsers refuse, so only the guard reaches it
+        # the SDK's two servers (one shows, one offers control): on loopback, on ports browsers refuse, so only the
+        # guard reaches them
         listening = {c.laddr for c in psutil.Process(server.process.pid).net_connections(kind="tcp")
                      if c.status == psutil.CONN_LISTEN}
         sdk = [a for a in listening if a.port in BROWSER_BLOCKED_PORTS]
-        assert len(sdk) == 1 and sdk[0].ip == "127.0.0.1", listening
+        assert len(sdk) == 2 and all(a.ip == "127.0.0.1" for a in sdk), listening
         got = run_client("probe", f"{url}/?token={server.token}", "--topic", "/r5/joint_states", "--seconds", "20")
         assert got["topics"]["/r5/joint_states"]["count"] >= 1
 
@@ -391,6 +392,30 @@ def test_foxglove_decodes_the_demo_robot_live_and_over_one_way_telemetry(tmp_pat
         image = decoded["camera/image/compressed"]
         assert image["format"] == "jpeg" and image["data"]["head"][:2] == [0xFF, 0xD8]
         assert "/robot1/camera/annotations" in channels_of(url)  # the detections, for the Image panel
+        # the robot in 3D, in both modes; control only in the lab (and with the token)
+        steps: list[dict[str, Any]] = [{"op": "waitChannel", "topic": "/robot1/tf"},
+                                       {"op": "subscribe", "topic": "/robot1/tf", "count": 1}]
+        if mode == "lab":
+            steps += [{"op": "setParameters", "parameters": [{"name": "/robot1/walking/step_frequency",
+                                                              "value": 99.0, "type": "float64"}]},
+                      {"op": "waitService", "service": "/robot1/manual_penalize"},
+                      {"op": "callService", "service": "/robot1/manual_penalize", "request": {"penalize": 1}},
+                      {"op": "callService", "service": "/robot1/manual_penalize", "request": {"penalize": 0}}]
+        got = run_session(f"{url}/?token={demo.token}", steps, seconds=60, timeout=120)
+        assert got["errors"] == [], got["errors"]
+        [tf] = [r["messages"][0]["message"] for r in got["results"] if r["op"] == "subscribe"]
+        frames = {t["child_frame_id"] for t in tf["transforms"]}
+        assert {"robot1/odom", "robot1/base_footprint", "robot1/base_link", "robot1/head"} <= frames
+        capabilities = set(got["serverInfo"]["capabilities"])
+        if mode == "lab":
+            [refused] = [r["parameters"] for r in got["results"] if r["op"] == "setParameters"]
+            assert refused[0]["name"] == "/robot1/walking/step_frequency" and refused[0]["value"] != 99.0
+            assert any("out of range" in s["message"] for s in got["statuses"]), got["statuses"]
+            on, off = [r["response"] for r in got["results"] if r["op"] == "callService"]
+            assert on == {"penalized": True} and off == {"penalized": False}
+            assert {"parameters", "services", "clientPublish", "connectionGraph"} <= capabilities
+        else:
+            assert got["services"] == [] and capabilities == {"assets"}
 
 
 def test_nodelay_watch_sets_tcp_nodelay_on_accepted_connections_of_its_port_only() -> None:
@@ -407,7 +432,7 @@ def test_nodelay_watch_sets_tcp_nodelay_on_accepted_connections_of_its_port_only
         ours, _ = listening.accept()
         others, _ = other_listening.accept()
         with ours_client, others_client, ours, others:
-            watch = NoDelayWatch(listening.getsockname()[1])
+            watch = NoDelayWatch({listening.getsockname()[1]})
             assert watch.apply() == 1
             assert ours.getsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY)
             assert not others.getsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY)
@@ -458,3 +483,23 @@ def test_beyond_loopback_every_foxglove_client_needs_the_token(tmp_path: Path) -
     finally:
         process.terminate()
         process.wait(15)
+
+
+def test_a_port_a_websocket_server_left_closed_connections_on_is_free_for_the_sdk() -> None:
+    """A WebSocket server closes its connections first, so its port keeps them in TIME_WAIT for a minute; the SDK
+    binds with SO_REUSEADDR and may take it again (the endpoint restarts its servers when a replay opens, and tests
+    start many servers): the probe for the SDK's ports asks as the SDK binds."""
+    from server.loopback_ports import port_is_free
+
+    with socket.socket() as listening:
+        listening.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)  # as tokio's listeners, the SDK's
+        listening.bind(("127.0.0.1", 0))
+        listening.listen()
+        port = listening.getsockname()[1]
+        far = socket.create_connection(("127.0.0.1", port))
+        near, _ = listening.accept()
+        near.close()  # the server's side first: its port keeps the connection in TIME_WAIT
+        assert far.recv(1) == b""
+        far.close()
+    assert wait_for(lambda: not port_is_free(port), timeout=5, what="the port held by TIME_WAIT")
+    assert port_is_free(port, reuse_address=True)

@@ -222,8 +222,9 @@ def test_kill_9_while_recording_keeps_the_file(router_endpoint: str, bus: BusCon
         with dashboard_server(["--connect", router_endpoint, "--no-telemetry", "--recordings", str(folder)],
                               tmp_path) as server:
             assert server.http.post(f"{server.url}/api/recordings/start", json={"name": "crash"}, timeout=10).is_success
-            wait_for(lambda: (_status(server.url)["manual"] or {}).get("messages", 0) >= 300, timeout=30,
-                     interval=0.2, what="300 messages recorded")
+            # 100 Hz joint_states and robot_state, and the /tf made of them (20 Hz): 340 hold 150 joint_states
+            wait_for(lambda: (_status(server.url)["manual"] or {}).get("messages", 0) >= 340, timeout=30,
+                     interval=0.2, what="340 messages recorded")
             node.shutdown()
             # once the stream is quiet the open chunk goes to disk: everything recorded is flushed
             status = wait_for(lambda: (s := _status(server.url)["manual"]) and s["messages"] > 0

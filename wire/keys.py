@@ -9,6 +9,10 @@
     pitchside/<robot>/_action/<action>/events      16-byte goal id + b"F" + CDR feedback, or
                                                    16-byte goal id + b"R" + 1 status byte + CDR result
                                                    (one key, so a result never overtakes its last feedback)
+    pitchside/<robot>/_graph/<node>/<role>/<name>  Zenoh liveliness token while the node has it (the node graph):
+                                                   role pub/sub (the robot's own topic), suball (the topic of
+                                                   every robot), srv (a service it serves), action (an action it
+                                                   serves); name a topic, service or action name
 
 Robot ids and topic names come from the network (a Zenoh key, a telemetry header, a log file) and end up in
 keys, file names and the dashboard's page: the rules below are checked where they enter, the same everywhere.
@@ -96,7 +100,7 @@ def split_topic_key(key: str) -> tuple[str, str]:
 def is_topic_key(key: str) -> bool:
     """False for the parameter, service and action keys that share the robot's prefix."""
     parts = key.split("/", 3)
-    return len(parts) >= 3 and parts[0] == PREFIX and parts[2] not in ("params", "_srv", "_action")
+    return len(parts) >= 3 and parts[0] == PREFIX and parts[2] not in ("params", "_srv", "_action", "_graph")
 
 
 def params_key(robot: str, node: str) -> str:
@@ -115,3 +119,29 @@ def action_key(robot: str, action: str, part: str) -> str:
     if part not in ("goal", "cancel", "events"):
         raise ValueError(f"unknown action key part {part!r}")
     return f"{PREFIX}/{robot}/_action/{action}/{part}"
+
+
+# The node graph (robot_nodes/runtime/graph.py announces, the server's node graph reads): a liveliness token per thing
+# a node publishes, subscribes or serves, gone with the node (or its process, or its link).
+GRAPH_ROLES = ("pub", "sub", "suball", "srv", "action")
+GRAPH_ALL = f"{PREFIX}/*/_graph/**"
+
+
+def graph_key(robot: str, node: str, role: str, name: str) -> str:
+    """The liveliness key of one entry of a node's graph; ValueError for a name that breaks the rules."""
+    if role not in GRAPH_ROLES:
+        raise ValueError(f"graph role {role!r} is not one of {GRAPH_ROLES}")
+    if not is_valid_name(robot) or not is_valid_node_name(node) or not is_valid_topic(name) or name.startswith("/"):
+        raise ValueError(f"graph entry {robot!r}/{node!r}/{name!r} breaks the naming rules")
+    return f"{PREFIX}/{robot}/_graph/{node}/{role}/{name}"
+
+
+def split_graph_key(key: str) -> tuple[str, str, str, str]:
+    """(robot, node, role, name) of a graph key; ValueError for anything else (names are checked by the rules)."""
+    parts = key.split("/", 5)
+    if len(parts) != 6 or parts[0] != PREFIX or parts[2] != "_graph" or parts[4] not in GRAPH_ROLES:
+        raise ValueError(f"not a node graph key: {key!r}")
+    robot, node, role, name = parts[1], parts[3], parts[4], parts[5]
+    if not is_valid_name(robot) or not is_valid_node_name(node) or not is_valid_topic(name) or name.startswith("/"):
+        raise ValueError(f"node graph key {key!r} breaks the naming rules")
+    return robot, node, role, name

@@ -22,6 +22,7 @@ import zenoh
 
 import schemas
 from robot_nodes.runtime.action_server import ActionServer, ServerGoal
+from robot_nodes.runtime.graph import GraphAnnouncer
 from robot_nodes.runtime.local_bus import LocalBus, RemoteInterest, freeze, thawed
 from robot_nodes.runtime.loop import EventLoop, Timer
 from robot_nodes.runtime.parameters import ParameterStore
@@ -275,6 +276,7 @@ class Node:
         self._thread: threading.Thread | None = None
         self._started = time.monotonic()
         self._closed = False
+        self._node_graph = GraphAnnouncer(self.session, robot_id, self.name)  # its entries in the node graph
         self._diag_pub = self.publisher("diagnostics")
         self._rosout = RosoutHandler(self.publisher("rosout").publish, self.name)
         self.log.addHandler(self._rosout)
@@ -303,6 +305,7 @@ class Node:
     def publisher(self, topic: str) -> Publisher:
         pub = Publisher(self, topic, self.robot_id)
         self._publishers.append(pub)
+        self._node_graph.publishes(topic)
         return pub
 
     def subscribe(self, topic: str, handler: Callable[..., None], robot: str | None = None,
@@ -317,6 +320,7 @@ class Node:
         """The newest message of this robot's topic, kept without waking the node (read it when you tick)."""
         sub = LatestMessage(self, topic, self.robot_id)
         self._subscriptions.append(sub)
+        self._node_graph.subscribes(topic, sub.robot)
         return sub
 
     def timer(self, hz: float, callback: Callable[[], None], name: str | None = None) -> Timer:
@@ -330,6 +334,7 @@ class Node:
                       on_preempt: Callable[[ServerGoal], None] | None = None) -> ActionServer:
         server = ActionServer(self.session, self.loop, self.robot_id, action, on_goal, on_cancel, on_preempt)
         self._declared.append(server)
+        self._node_graph.serves_action(action)
         return server
 
     def action_client(self, action: str, robot: str | None = None) -> ActionClient:
@@ -341,6 +346,7 @@ class Node:
     def service(self, name: str, handler: Callable[[Any], Message]) -> ServiceServer:
         server = ServiceServer(self.session, self.loop, self.robot_id, name, handler)
         self._declared.append(server)
+        self._node_graph.serves(name)
         return server
 
     def set_diagnostic(self, key: str, value: Any) -> None:
@@ -419,6 +425,7 @@ class Node:
         for declared in self._declared:
             with contextlib.suppress(Exception):
                 declared.close() if hasattr(declared, "close") else declared.undeclare()
+        self._node_graph.close()
         self.local_bus.leave()
         if self._own_session:
             self.session.close()

@@ -76,6 +76,11 @@ class CameraAnnotations:
     """Derives ``/<robot>/camera/annotations`` from the detection streams handed to it (StreamChannels)."""
 
     topics = DETECTIONS
+    names = frozenset({TOPIC})
+
+    def owns(self, msg: HubMessage) -> bool:
+        """A hub stream named like the annotations channel gets no channel of its own."""
+        return msg.topic == TOPIC
 
     def __init__(self, context: foxglove.Context) -> None:
         self.context = context

@@ -10,7 +10,6 @@ oldest messages too, and nobody else notices.
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import logging
 import time
 from collections.abc import Callable, Mapping
@@ -47,15 +46,19 @@ def stream_ended(robot: RobotSeen, stats: StreamStats, now: float, lost_after_s:
 
 
 class DerivedChannels(Protocol):
-    """Channels computed from some hub streams (camera annotations now, /tf from joint_states later)."""
+    """Channels computed from some hub streams (camera annotations, the 3D scene's /tf and markers)."""
 
     topics: frozenset[str]  # the hub topics it is offered
+    names: frozenset[str]  # the topic names of its own channels (``/<robot>/<name>``): see ``owns``
 
     @property
     def channels(self) -> Mapping[str, object]:
         """Robot -> its channel(s); closed with the robot's streams."""
 
     def offer(self, msg: HubMessage) -> None: ...
+
+    def owns(self, msg: HubMessage) -> bool:
+        """Is the stream's channel name one it makes itself? Then the stream gets no channel."""
 
     def close_robot(self, robot: str) -> None: ...
 
@@ -78,6 +81,9 @@ class StreamChannels:
                  source_running: Callable[[str], bool | None], derived: list[DerivedChannels] | None = None) -> None:
         self.hub = hub
         self.derived = derived or []
+        self.shows: Callable[[HubMessage], bool] = lambda _msg: True  # which streams the endpoint serves now
+        self._derived_names = frozenset().union(*(d.names for d in self.derived))
+        self.newest_stamp = 0.0  # of the messages handed over: a replay's position in the log
         self.context = context
         self.lost_after_s = lost_after_s
         self.source_running = source_running
@@ -86,6 +92,7 @@ class StreamChannels:
         self.logged = 0  # messages handed to the SDK (with at least one client subscribed)
         self.encode_errors = 0
         self._task: asyncio.Task[None] | None = None
+        self._stopping = False
         self._subscriber = hub.subscribe(name="foxglove", maxlen=QUEUE)
 
     # -- life ---------------------------------------------------------------------------------------------
@@ -95,15 +102,30 @@ class StreamChannels:
 
     async def stop(self) -> None:
         self._subscriber.close()
+        self._stopping = True
         if self._task is not None:
+            # Python 3.11's wait_for (in the hub subscriber's wait) loses a cancellation that comes as its event
+            # is set: the loop also ends by itself at the flag, within a sweep period
             self._task.cancel()
-            with contextlib.suppress(asyncio.CancelledError):
-                await self._task
+            await asyncio.wait({self._task}, timeout=2 * SWEEP_PERIOD_S)
         for stream in self.channels.values():
             stream.channel.close()
         self.channels.clear()
         for derived in self.derived:
             derived.close()
+
+    def reset(self, shows: Callable[[HubMessage], bool]) -> None:
+        """Serves other streams from now on (live robots, or a replay's): every channel closes, and the shown streams'
+        channels open again with their newest message."""
+        self.shows = shows
+        self.newest_stamp = 0.0
+        for stream in self.channels.values():
+            stream.channel.close()
+        self.channels.clear()
+        for derived in self.derived:
+            derived.close()
+        self._subscriber.drain(QUEUE)  # what is queued belongs to the streams served before
+        self._subscriber.subscribe()  # the newest message of each stream again
 
     @property
     def dropped(self) -> int:
@@ -112,7 +134,7 @@ class StreamChannels:
 
     async def _run(self) -> None:
         next_sweep = time.monotonic() + SWEEP_PERIOD_S
-        while True:
+        while not self._stopping:
             await self._subscriber.wait(timeout=SWEEP_PERIOD_S)
             for msg in self._subscriber.drain(DRAIN_BATCH):
                 try:
@@ -127,6 +149,9 @@ class StreamChannels:
 
     # -- one message --------------------------------------------------------------------------------------
     def deliver(self, msg: HubMessage) -> None:
+        if not self.shows(msg) or (msg.topic in self._derived_names and any(d.owns(msg) for d in self.derived)):
+            return
+        self.newest_stamp = max(self.newest_stamp, msg.stamp)
         key = (msg.robot, msg.topic)
         stream = self.channels.get(key)
         if stream is None or stream.typename != msg.typename:

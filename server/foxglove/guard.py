@@ -2,7 +2,7 @@
 
 foxglove-sdk 0.30 accepts every WebSocket handshake: no token, no Host or Origin check. A web page the laptop's
 browser opens could read every stream from ws://127.0.0.1:8765 (WebSockets are not bound by the same-origin
-policy), and beyond loopback anyone at the venue could. So the SDK listens on a loopback port browsers refuse
+policy), and beyond loopback anyone at the venue could. So the SDK listens on loopback ports browsers refuse
 (server.loopback_ports), and this guard listens where the dashboard listens. It reads the HTTP upgrade request
 (h11), answers it itself when refused, and otherwise hands the request and then the raw bytes both ways to the
 SDK: it does not speak the Foxglove protocol and looks at no message. The rules, as the dashboard's (DESIGN.md
@@ -11,6 +11,10 @@ section 11):
 - the ``Host`` must be a name the server is reached by (DNS rebinding);
 - with the token (``?token=`` in the URL, or ``Authorization: Bearer``) anyone may connect;
 - without it only on loopback, and not from a web page of a foreign origin (``--allow-origin`` adds origins).
+
+The SDK has two servers behind the guard (server.foxglove.servers): a connection that showed the token reaches the
+one that offers control (parameters, services, publishing cmd_vel, playback control), as the dashboard's control API
+needs the credential; one without the token reaches the one that only shows.
 
 Bytes pass in chunks; a client that does not read stops the guard reading from the SDK for it (``drain``), the
 SDK's queue for that client then drops its oldest messages, and memory stays bounded.
@@ -54,8 +58,8 @@ class GuardPolicy:
     allowed_origins: frozenset[str] = frozenset()
     token_needed: bool = False  # beyond loopback every connection needs the token
 
-    def check(self, target: bytes, headers: dict[str, str]) -> None:
-        """Refused unless the handshake may pass (see module doc)."""
+    def check(self, target: bytes, headers: dict[str, str]) -> bool:
+        """Refused unless the handshake may pass (see module doc); True when it showed the token."""
         if not self.hosts.allows(host_name_of(headers.get("host", ""))):
             raise Refused(421, "this server does not answer that host name")
         query = parse_qs(urlsplit(target.decode("latin-1")).query)
@@ -63,7 +67,7 @@ class GuardPolicy:
         presented = tokens[0] if tokens else self.credentials.bearer_of(headers.get("authorization", ""))
         if presented is not None:
             if self.credentials.token_matches(presented):
-                return
+                return True
             raise Refused(401, "wrong token")
         if self.token_needed:
             raise Refused(401, "the Foxglove endpoint listens beyond loopback: connect to the URL printed at start, "
@@ -71,21 +75,31 @@ class GuardPolicy:
         origin = headers.get("origin")
         if origin is not None and normalized_origin(origin) not in self.allowed_origins:
             raise Refused(403, "a web page of another origin needs the token in the URL (or --allow-origin)")
+        return False
 
 
 @dataclass
 class GuardCounters:
     accepted: int = 0
+    with_token: int = 0  # of the accepted: passed to the SDK server that offers control
     refused: dict[int, int] = field(default_factory=dict)  # HTTP status -> count
 
 
-class FoxgloveGuard:
-    """Listens on (host, port) in a thread of its own and passes checked connections to the SDK's port."""
+@dataclass
+class SdkPorts:
+    """Where the guard passes connections: the SDK server that only shows, and the one that offers control."""
 
-    def __init__(self, policy: GuardPolicy, host: str, sdk_port: int) -> None:
+    view: int = 0
+    control: int = 0
+
+
+class FoxgloveGuard:
+    """Listens on (host, port) in a thread of its own and passes checked connections to the SDK's ports."""
+
+    def __init__(self, policy: GuardPolicy, host: str, sdk_ports: SdkPorts) -> None:
         self.policy = policy
         self.host = host
-        self.sdk_port = sdk_port
+        self.sdk_ports = sdk_ports  # read at each connection: the endpoint replaces its servers (replay)
         self.port = 0
         self.counters = GuardCounters()
         self._loop = asyncio.new_event_loop()
@@ -146,7 +160,7 @@ class FoxgloveGuard:
             if len(self._clients) > MAX_CLIENTS:
                 raise Refused(503, f"at most {MAX_CLIENTS} Foxglove clients at once")
             headers = {k.decode("latin-1").lower(): v.decode("latin-1") for k, v in request.headers}
-            self.policy.check(request.target, headers)
+            with_token = self.policy.check(request.target, headers)
         except Refused as refusal:
             self.counters.refused[refusal.status] = self.counters.refused.get(refusal.status, 0) + 1
             writer.write(_response(refusal.status, str(refusal)))
@@ -158,7 +172,9 @@ class FoxgloveGuard:
             await writer.drain()
             return
         self.counters.accepted += 1
-        up_reader, up_writer = await asyncio.open_connection("127.0.0.1", self.sdk_port)
+        self.counters.with_token += with_token
+        port = self.sdk_ports.control if with_token else self.sdk_ports.view
+        up_reader, up_writer = await asyncio.open_connection("127.0.0.1", port)
         _nodelay(up_writer)
         try:
             up_writer.write(head)

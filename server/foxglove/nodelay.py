@@ -19,10 +19,10 @@ FDS = Path("/proc/self/fd")
 
 
 class NoDelayWatch:
-    """Sets TCP_NODELAY on connections accepted on ``port`` by this process, once each."""
+    """Sets TCP_NODELAY on connections accepted on ``ports`` by this process, once each."""
 
-    def __init__(self, port: int) -> None:
-        self.port = port
+    def __init__(self, ports: set[int]) -> None:
+        self.ports = ports  # the caller may change it: the SDK's servers are replaced when a replay opens
         self.known: set[str] = set()  # sockets looked at ("socket:[inode]"), ours or not: each is looked at once
 
     def apply(self) -> int:
@@ -52,7 +52,7 @@ class NoDelayWatch:
         with dup:
             if dup.type != socket.SOCK_STREAM or dup.family not in (socket.AF_INET, socket.AF_INET6):
                 return 0
-            if dup.getsockname()[1] != self.port:
+            if dup.getsockname()[1] not in self.ports:
                 return 0
             try:
                 dup.getpeername()  # an accepted connection, not the listening socket

@@ -14,6 +14,7 @@ from typing import Any
 from schemas import codec
 from schemas.logs import LogError, LogWriter
 from server.hub import Hub, HubMessage, Subscriber
+from server.recording.scene import RecordedScene
 
 log = logging.getLogger(__name__)
 
@@ -38,7 +39,7 @@ class RecordingStatus:
     reason: str  # "manual", "match", "cli"
     started: float  # wall clock
     stopped: float | None = None
-    messages: int = 0  # handed to the writer
+    messages: int = 0  # handed to the writer (the hub messages and the /tf, /tf_static, robot_description of them)
     flushed_messages: int = 0  # known to be on disk (the writer's chunks handed to the OS)
     skipped: int = 0  # messages that cannot be stored (no CDR, unknown type)
     dropped: int = 0  # lost because the writer fell behind
@@ -81,14 +82,16 @@ class HubRecording:
     loop is never blocked by the disk. The LogWriter hands each finished chunk to the OS at once and the
     recording flushes an open chunk after ``IDLE_FLUSH_S`` of quiet: a killed server loses at most one chunk,
     no more than ``CRASH_LOSS_BOUND_S``. ``resume``: the recording at ``path`` was cut off by a crash; go on
-    in the next file of its series.
+    in the next file of its series. ``scene``: also write the robots' /tf, /tf_static and robot_description
+    (server.recording.scene), so the recording shows them in 3D.
     """
 
     def __init__(self, hub: Hub, path: Path, reason: str, *, rotate_bytes: int | None = None,
                  chunk_size: int = 1 << 20, include_sources: frozenset[str] | None = None,
-                 resume: bool = False) -> None:
+                 resume: bool = False, scene: RecordedScene | None = None) -> None:
         self.hub = hub
         self.path = path
+        self.scene = scene
         self.include_sources = include_sources  # None: every source except replay
         self.status = RecordingStatus(path.stem, str(path), reason, time.time(), resumed=resume)
         self._wall_offset = time.time() - time.monotonic()
@@ -142,7 +145,21 @@ class HubRecording:
                 continue
             self.status.messages += 1
             self._unflushed += 1
+            if self.scene is not None:
+                self._write_scene(msg, log_time)
         self.status.files = [str(p) for p in self._writer.paths]
+
+    def _write_scene(self, msg: HubMessage, log_time: int) -> None:
+        assert self.scene is not None
+        for record in self.scene.records(msg, len(self._writer.paths)):
+            try:
+                self._writer.write(record.robot, record.topic, record.cdr, record.typename, log_time_ns=log_time,
+                                   publish_time_ns=int(msg.stamp * 1e9))
+            except (LogError, codec.SchemaError, ValueError) as exc:
+                log.debug("not recorded: %s/%s: %s", record.robot, record.topic, exc)
+                continue
+            self.status.messages += 1  # what the file holds: the robots' streams and their 3D scene
+            self._unflushed += 1
 
     def _flush(self) -> None:
         self._writer.flush()

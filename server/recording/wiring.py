@@ -21,7 +21,8 @@ class RecordingAndReplay:
         config = state.config
         folder = config.recordings_dir
         self.state = state
-        self.recorder = Recorder(state.hub, folder, auto_match=config.auto_record_matches)
+        self.recorder = Recorder(state.hub, folder, auto_match=config.auto_record_matches,
+                                 description_for=config.description_for)
         self.replay = ReplaySource(state.hub, folder, AllowedFolders(config.replay_folders, "logs"))
 
     async def start(self) -> None:

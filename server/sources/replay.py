@@ -240,6 +240,7 @@ class ReplaySource(Source):
         self.delivered = 0
         self.skipped = 0
         self.position_ns = 0
+        self.seeks = 0  # counts seeks, whoever asked: the Foxglove endpoint tells its clients (did_seek)
         self._next_ns = 0  # the next message to play is at or after this log time
         self._generation = 0
         self._wake = threading.Event()
@@ -356,6 +357,7 @@ class ReplaySource(Source):
         # the player is stopped now: say so, or play() below would see "playing" and not start it again
         self.state = "paused"
         self.position_ns = self._next_ns = target
+        self.seeks += 1
         preview = await asyncio.to_thread(self._preview, file, target)
         self.hub.publish_many(preview)
         if was_playing:
