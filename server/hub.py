@@ -165,8 +165,11 @@ class Subscriber:
         if self._queue or self._bulk:
             return True
         self._wakeup.clear()
+        # asyncio.timeout, not wait_for: on Python 3.11 wait_for loses a cancellation that comes as the event is
+        # set (the task goes on waiting, and a server's shutdown hangs on it)
         with contextlib.suppress(TimeoutError):
-            await asyncio.wait_for(self._wakeup.wait(), timeout)
+            async with asyncio.timeout(timeout):
+                await self._wakeup.wait()
         return bool(self._queue or self._bulk)
 
     def close(self) -> None:

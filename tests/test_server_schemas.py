@@ -22,7 +22,8 @@ WEB = REPO / "web"
 T0 = 1_700_000_000_000_000_000  # ns
 CONSTANT = re.compile(r"^\s*(\w+)\s+([A-Z][A-Z0-9_]*)\s*=\s*(\S+)", re.MULTILINE)
 LITERAL = re.compile(r"""["'`]([A-Z][A-Z0-9_]+)["'`]""")
-NOT_MESSAGE_WORDS = {"GET", "POST", "PUT", "DELETE", "INPUT", "LOST", "PENALIZED", "HCM"}  # HTTP, the DOM, the page's own
+# words of HTTP, the DOM and the page's own labels, not message constants
+NOT_MESSAGE_WORDS = {"GET", "POST", "PUT", "DELETE", "INPUT", "LOST", "PENALIZED", "HCM"}
 
 
 def msg_file_constants() -> dict[str, dict[str, int]]:

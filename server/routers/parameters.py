@@ -185,7 +185,8 @@ async def parameter_events(robot: str, node: str, state: ServerState = Depends(r
             yield ": following parameter changes\n\n"
             while True:
                 try:
-                    item = await asyncio.wait_for(queue.get(), EVENTS_KEEPALIVE_S)
+                    async with asyncio.timeout(EVENTS_KEEPALIVE_S):  # not wait_for: it can lose a cancellation
+                        item = await queue.get()
                 except TimeoutError:
                     yield ": keepalive\n\n"
                     continue
