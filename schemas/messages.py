@@ -186,6 +186,7 @@ class humanoid_league_msgs__msg__HeadMode:
     LOOK_DOWN: ClassVar[int] = 5
     LOOK_FORWARD: ClassVar[int] = 6
     LOOK_UP: ClassVar[int] = 7
+    DONT_MOVE: ClassVar[int] = 8
     __msgtype__: ClassVar[str] = 'humanoid_league_msgs/msg/HeadMode'
 
 
@@ -742,6 +743,7 @@ FIELDDEFS: Typesdict = {
             ('LOOK_DOWN', 'uint8', 5),
             ('LOOK_FORWARD', 'uint8', 6),
             ('LOOK_UP', 'uint8', 7),
+            ('DONT_MOVE', 'uint8', 8),
         ],
         [
             ('head_mode', (T.BASE, ('uint8', 0))),
@@ -1116,7 +1118,7 @@ FIELDDEFS: Typesdict = {
 }
 
 
-SOURCES_SHA256 = 'a0dc5bdb7347e87187024b862e8021512a8c9e1a318fc87d5eab98ddbd3afa49'
+SOURCES_SHA256 = 'c384daf30268120f8cae034c502fee05a23b5917040b02ffd77fda19630e3231'
 
 # short names
 AdditionalServoData = humanoid_league_msgs__msg__AdditionalServoData
