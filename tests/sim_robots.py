@@ -13,7 +13,7 @@ import zenoh
 import schemas
 from robot_nodes.catalog import entry
 from robot_nodes.cm730.node import Cm730Node
-from robot_nodes.cm730.sim import Placement, RobotHandle, SimRunner, SimWorld
+from robot_nodes.cm730.sim import PhysicsConfig, Placement, RobotHandle, SimRunner, SimWorld
 from robot_nodes.cm730.sim_backend import MujocoBackend
 from robot_nodes.runtime import BusConfig, Node, open_session
 from schemas.codec import Message
@@ -64,8 +64,12 @@ class SimRobots:
     def __init__(self, bus: BusConfig, n: int = 1, nodes: tuple[str, ...] = ("animation", "hcm"),
                  overrides: dict[str, dict[str, Any]] | None = None,
                  per_robot: Callable[[int], dict[str, dict[str, Any]]] | None = None,
-                 placements: list[Placement] | None = None) -> None:
-        self.world = SimWorld(n_robots=n, placements=placements)
+                 placements: list[Placement] | None = None, physics: PhysicsConfig | None = None,
+                 prepare: Callable[[SimWorld], None] | None = None) -> None:
+        """prepare: changes the world's model before anything runs (a test of other physics)."""
+        self.world = SimWorld(n_robots=n, placements=placements, physics=physics)
+        if prepare is not None:
+            prepare(self.world)
         self.runner = SimRunner(self.world).start()
         self.session = open_session(bus)
         self.client = open_session(bus)
