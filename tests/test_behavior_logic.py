@@ -69,6 +69,7 @@ def test_every_kick_off_position_is_legal(kicking_off: bool) -> None:
 def test_ready_ranks_skip_penalized_teammates() -> None:
     assert ready_rank(1, [mate(2, None), mate(3, None)]) == 0
     assert ready_rank(3, [mate(1, None), mate(2, None)]) == 2
+    assert ready_rank(3, []) == 2  # nobody heard: player 2 is taken to be there
     assert ready_rank(3, [mate(1, None), mate(2, None, state=7)]) == 1
 
 

@@ -72,12 +72,12 @@ class BehaviorParams:
     role_keep_s: float = param(2.0, range=(0.0, 30.0), doc="the striker keeps its role unless another is this faster")
     max_forward: float = param(0.15, range=(0.01, 0.5), doc="fastest walk forward, m/s")
     max_sideways: float = param(0.08, range=(0.01, 0.3), doc="fastest walk sideways, m/s")
-    max_turn: float = param(0.5, range=(0.05, 2.0), doc="fastest turn, rad/s")
+    max_turn: float = param(0.4, range=(0.05, 2.0), doc="fastest turn, rad/s")
     position_tolerance: float = param(0.2, range=(0.02, 2.0), doc="a place counts as reached this close, m")
     heading_tolerance_deg: float = param(20.0, range=(1.0, 180.0), doc="...and facing its way this close, deg")
     goalie_depth: float = param(0.5, range=(0.1, 1.0), doc="the goalie stands this far in front of its goal line, m")
     behind_ball: float = param(0.4, range=(0.2, 1.5), doc="the striker lines up this far behind the ball, m")
-    kick_distance: float = param(0.6, range=(0.2, 1.0), doc="the ball this close in front: kick (the kick walks on)")
+    kick_distance: float = param(0.5, range=(0.2, 1.0), doc="the ball this close in front: kick (the kick walks on)")
     kick_align_deg: float = param(25.0, range=(5.0, 90.0), doc="facing the goal this well: kick")
     kick_retry_s: float = param(2.0, range=(0.0, 30.0), doc="after a failed kick, walk this long before the next")
     ball_timeout_s: float = param(3.0, range=(0.2, 30.0), doc="an own sighting of the ball is trusted this long")
@@ -124,6 +124,7 @@ class BehaviorNode(Node):
         self.head_mode: int | None = None
         self.kick_goal: ClientGoal | None = None
         self.kick_retry_at = -math.inf
+        self.kick_ended_at = -math.inf
         self.kicks = 0
         self.cmd = (math.nan, math.nan, math.nan)
         self.cmd_pub = self.publisher("cmd_vel")
@@ -275,13 +276,16 @@ class BehaviorNode(Node):
         dx, dy = pose.relative(target.x, target.y)
         distance = math.hypot(dx, dy)
         heading_error = _wrap(target.theta - pose.theta)
-        if distance <= p.position_tolerance * 0.6 and abs(heading_error) <= math.radians(p.heading_tolerance_deg) / 2:
+        # there: stop near the middle of the tolerance, start again only when out of it (noise makes no steps)
+        scale = 1.0 if self.cmd == (0.0, 0.0, 0.0) else 0.6
+        if distance <= p.position_tolerance * scale and \
+                abs(heading_error) <= math.radians(p.heading_tolerance_deg) * scale:
             self.walk(0.0, 0.0, 0.0)
         elif distance > 0.5:
             bearing = math.atan2(dy, dx)
             forward = min(p.max_forward, 0.5 * distance) * max(0.0, math.cos(bearing))
             self.walk(forward, _clip(0.5 * dy, p.max_sideways) if abs(bearing) < 0.5 else 0.0,
-                      _clip(1.2 * bearing, p.max_turn))
+                      _clip(0.8 * bearing, p.max_turn))
         else:
             self.walk(_clip(0.6 * dx, p.max_forward), _clip(0.6 * dy, p.max_sideways),
                       _clip(1.0 * heading_error, p.max_turn))
@@ -312,7 +316,9 @@ class BehaviorNode(Node):
 
     def _kick_ready(self, now: float) -> bool:
         p = self.params
-        if self.role != STRIKER or now < self.kick_retry_at or not self.world.sees_ball(now):
+        # a fresh sighting, made after the last kick ended (not where the ball lay before it went)
+        if self.role != STRIKER or now < self.kick_retry_at or now - self.world.ball_at > 0.5 or \
+                self.world.ball_at < self.kick_ended_at:
             return False
         ball = self.world.ball_relative
         if ball is None or not (0.05 < ball[0] < p.kick_distance and abs(ball[1]) < 0.3):
@@ -340,6 +346,7 @@ class BehaviorNode(Node):
                             kick_speed=1.0, unstable=False)
 
         def on_result(status: GoalStatus, _result: Any) -> None:
+            self.kick_ended_at = time.monotonic()
             if status is GoalStatus.SUCCEEDED:
                 self.kicks += 1
                 self.set_diagnostic("kicks", self.kicks)

@@ -53,9 +53,11 @@ def assign_roles(me: Candidate, mates: list[Teammate], keep_margin_s: float) -> 
 
 
 def ready_rank(me: int, mates: list[Teammate]) -> int:
-    """This robot's place in the kick-off line-up: 0 for the goalie, then the field players by player number among
-    those not penalized (so a penalized teammate's place is taken)."""
+    """This robot's place in the kick-off line-up: 0 for the goalie, then the field players by player number. A
+    teammate not heard is taken to be there (each keeps its own place when the network is down); one heard to be
+    penalized is not, so the next takes its place."""
     if me == GOALIE_PLAYER:
         return 0
-    players = sorted({me} | {m.player for m in mates if m.player != GOALIE_PLAYER and not m.penalized})
-    return 1 + players.index(me)
+    penalized = {m.player for m in mates if m.penalized}
+    players = [n for n in range(GOALIE_PLAYER + 1, max([me, *(m.player for m in mates)]) + 1) if n not in penalized]
+    return 1 + players.index(me) if me in players else len(players) + 1

@@ -53,6 +53,8 @@ class WorldModel:
         self.ball_timeout_s = ball_timeout_s
         self.position_timeout_s = position_timeout_s
         self.mate_timeout_s = mate_timeout_s
+        self.fix_weight = 0.3  # of a new position fix against the pose carried on by odometry
+        self.jump_m = 1.0  # a fix this far off is taken as it is (the robot was carried, or the filter was wrong)
         self._fix: Pose2D | None = None
         self._fix_at = -math.inf
         self._fix_odometry: Pose2D | None = None  # the odometry when the fix came
@@ -65,7 +67,15 @@ class WorldModel:
 
     # -- inputs -------------------------------------------------------------------------------------------
     def on_position(self, msg: Position2D, now: float) -> None:
-        self._fix = Pose2D(float(msg.pose.x), float(msg.pose.y), float(msg.pose.theta))
+        """A new fix, blended into the odometry-carried pose (a complementary filter: the localization's noise
+        averages out over a few fixes, its drift-free mean wins in the end)."""
+        fix = Pose2D(float(msg.pose.x), float(msg.pose.y), float(msg.pose.theta))
+        here = self.pose(now)
+        if here is not None and math.hypot(fix.x - here.x, fix.y - here.y) < self.jump_m:
+            a = self.fix_weight
+            turn = math.atan2(math.sin(fix.theta - here.theta), math.cos(fix.theta - here.theta))
+            fix = Pose2D(here.x + a * (fix.x - here.x), here.y + a * (fix.y - here.y), here.theta + a * turn)
+        self._fix = fix
         self._fix_at = now
         self._fix_odometry = self.odometry
 

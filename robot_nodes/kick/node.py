@@ -54,7 +54,7 @@ class KickParams:
     tolerance_y: float = param(0.02, range=(0.005, 0.2), doc="close enough to the spot, sideways, m")
     tolerance_yaw_deg: float = param(6.0, range=(1.0, 45.0), doc="facing the kick direction close enough, deg")
     max_ball_distance: float = param(1.0, range=(0.2, 5.0), doc="goals with the ball farther away are rejected, m")
-    approach_speed: float = param(0.06, range=(0.01, 0.3), doc="fastest approach step, m/s")
+    approach_speed: float = param(0.08, range=(0.01, 0.3), doc="fastest approach step, m/s")
     approach_turn: float = param(0.25, range=(0.05, 1.5), doc="fastest approach turn, rad/s")
     approach_gain: float = param(1.0, range=(0.1, 5.0),
                                  doc="walk command per metre (radian) still to go, 1/s: a step (0.5 s) covers half")
@@ -200,6 +200,9 @@ class KickNode(Node):
         robot = self.odometry
         ball = self.ball.estimate(self.phase_since if self.phase is Phase.SETTLE else -math.inf)
         assert robot is not None and ball is not None
+        if math.hypot(*robot.to_relative(*ball)) > p.max_ball_distance + 0.3:
+            self._finish(goal, GoalStatus.ABORTED, KickResult.RESULT_ABORTED, "the ball went away")
+            return
         target = stand_pose(ball, self.direction, self.foot, self.spot)
         err = error(robot, target)
         self.set_diagnostic("error", f"forward {err.forward:+.3f} left {err.left:+.3f} turn "
