@@ -12,8 +12,9 @@ from robot_nodes.behavior.field import Field, kickoff_positions, ready_legal
 from robot_nodes.behavior.node import BehaviorParams, player_number_of
 from robot_nodes.behavior.roles import DEFENDER, GOALIE, STRIKER, SUPPORTER, Candidate, assign_roles, ready_rank
 from robot_nodes.behavior.state_machine import BehaviorStateMachine, Blackboard, State
-from robot_nodes.behavior.world_model import Pose2D, Teammate, WorldModel
+from robot_nodes.behavior.world_model import Teammate, WorldModel
 from robot_nodes.cm730.sim.field import KID_SIZE
+from robot_nodes.ground_pose import GroundPose
 from schemas.messages import GameState, Position2D, TeamData
 from schemas.std import Pose2D as RosPose2D
 
@@ -23,7 +24,7 @@ PLAYING, READY, SET = GameState.GAMESTATE_PLAYING, GameState.GAMESTATE_READY, Ga
 
 def mate(player: int, time_to_ball: float | None, x: float | None = None, role: int | None = None,
          state: int | None = 0) -> Teammate:
-    return Teammate(player, role, state, Pose2D(x, 0.0, 0.0) if x is not None else None, None, time_to_ball, 0.1)
+    return Teammate(player, role, state, GroundPose(x, 0.0, 0.0) if x is not None else None, None, time_to_ball, 0.1)
 
 
 def test_the_behaviours_field_is_the_simulated_kid_size_field() -> None:
@@ -138,7 +139,7 @@ def test_the_world_model_carries_the_position_on_by_odometry_and_knows_the_team_
     world.on_odometry(5.5, 5.0, 0.1)  # 0.5 m forward in the odometry frame, which is the robot's left on the field
     pose = world.pose(1.0)
     assert pose is not None
-    assert (pose.x, pose.y, pose.theta) == (pytest.approx(-2.0), pytest.approx(1.5), pytest.approx(math.pi / 2 + 0.1))
+    assert (pose.x, pose.y, pose.yaw) == (pytest.approx(-2.0), pytest.approx(1.5), pytest.approx(math.pi / 2 + 0.1))
     assert world.pose(11.0) is None
     team = schemas.make(
         TeamData, robot_ids=[2], role=[STRIKER], action=[0], state=[0], offensive_side=[1],

@@ -14,7 +14,8 @@ import pytest
 import robots
 import schemas
 from robot_nodes.cm730.sim import PhysicsConfig, SimWorld
-from robot_nodes.kick.approach import Error, KickSpot, Pose, choose_foot, error, stand_pose, walk_command
+from robot_nodes.ground_pose import GroundPose
+from robot_nodes.kick.approach import Error, KickSpot, choose_foot, error, stand_pose, walk_command
 from robot_nodes.runtime import BusConfig
 from schemas.messages import HeadMode, KickGoal, KickResult
 from schemas.std import Point, Quaternion
@@ -28,13 +29,13 @@ MIN_DISTANCE, MAX_ANGLE_DEG = 1.5, 20.0
 
 
 def test_the_foot_is_the_one_on_the_balls_side_and_the_stand_pose_puts_the_ball_before_it() -> None:
-    robot = Pose(1.0, 2.0, math.pi / 2)  # facing +y
+    robot = GroundPose(1.0, 2.0, math.pi / 2)  # facing +y
     assert choose_foot(robot, (0.9, 2.3), math.pi / 2) == "left"  # the ball is left of the line ahead
     assert choose_foot(robot, (1.1, 2.3), math.pi / 2) == "right"
     spot = KickSpot()
     for foot, side in (("left", 1.0), ("right", -1.0)):
         stand = stand_pose((0.9, 2.3), 0.3, foot, spot)
-        assert stand.to_relative(0.9, 2.3) == (pytest.approx(spot.x), pytest.approx(side * spot.y))
+        assert stand.relative(0.9, 2.3) == (pytest.approx(spot.x), pytest.approx(side * spot.y))
         assert error(stand, stand).within(spot)
 
 

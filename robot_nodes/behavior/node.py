@@ -31,7 +31,8 @@ from robot_nodes.behavior.state_machine import (
     Blackboard,
     State,
 )
-from robot_nodes.behavior.world_model import Pose2D, WorldModel
+from robot_nodes.behavior.world_model import WorldModel
+from robot_nodes.ground_pose import GroundPose, heading, wrap
 from robot_nodes.runtime import GoalStatus, Node, header, param
 from schemas.messages import (
     BallRelative,
@@ -101,10 +102,6 @@ def _clip(value: float, limit: float) -> float:
     return max(-limit, min(limit, value))
 
 
-def _wrap(angle: float) -> float:
-    return math.atan2(math.sin(angle), math.cos(angle))
-
-
 class BehaviorNode(Node):
     """Plays the game: positions for kick-off, then a role's job (goalie, striker, supporter, defender)."""
 
@@ -168,8 +165,8 @@ class BehaviorNode(Node):
 
     def on_odometry(self, msg: Odometry) -> None:
         q = msg.pose.pose.orientation
-        yaw = math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
-        self.world.on_odometry(float(msg.pose.pose.position.x), float(msg.pose.pose.position.y), yaw)
+        self.world.on_odometry(float(msg.pose.pose.position.x), float(msg.pose.pose.position.y),
+                               heading(q.x, q.y, q.z, q.w))
 
     def on_team_data(self, msg: TeamData) -> None:
         self.world.on_team_data(msg, time.monotonic())
@@ -229,7 +226,7 @@ class BehaviorNode(Node):
             bb.at_ready_position = bb.near_ready_position = False
         else:
             distance = math.hypot(target.x - pose.x, target.y - pose.y)
-            facing = abs(_wrap(target.theta - pose.theta)) <= math.radians(self.params.heading_tolerance_deg)
+            facing = abs(wrap(target.yaw - pose.yaw)) <= math.radians(self.params.heading_tolerance_deg)
             bb.at_ready_position = distance <= self.params.position_tolerance and facing
             bb.near_ready_position = distance <= 2.5 * self.params.position_tolerance
         bb.kick_ready = self._kick_ready(now)
@@ -267,7 +264,7 @@ class BehaviorNode(Node):
         elif state is State.GO_TO_BALL:
             self._go_to_ball(now, pose)
 
-    def walk_to(self, pose: Pose2D | None, target: Pose2D | None) -> None:
+    def walk_to(self, pose: GroundPose | None, target: GroundPose | None) -> None:
         """Towards a place on the field: turn to it and walk when far, sidestep and turn to its heading when near."""
         p = self.params
         if pose is None or target is None:
@@ -275,7 +272,7 @@ class BehaviorNode(Node):
             return
         dx, dy = pose.relative(target.x, target.y)
         distance = math.hypot(dx, dy)
-        heading_error = _wrap(target.theta - pose.theta)
+        heading_error = wrap(target.yaw - pose.yaw)
         # there: stop near the middle of the tolerance, start again only when out of it (noise makes no steps)
         scale = 1.0 if self.cmd == (0.0, 0.0, 0.0) else 0.6
         if distance <= p.position_tolerance * scale and \
@@ -290,7 +287,7 @@ class BehaviorNode(Node):
             self.walk(_clip(0.6 * dx, p.max_forward), _clip(0.6 * dy, p.max_sideways),
                       _clip(1.0 * heading_error, p.max_turn))
 
-    def _go_to_ball(self, now: float, pose: Pose2D | None) -> None:
+    def _go_to_ball(self, now: float, pose: GroundPose | None) -> None:
         """Behind the ball on its line to the opponent goal; around it when standing on the wrong side."""
         p = self.params
         ball = self.world.ball(now)
@@ -312,7 +309,7 @@ class BehaviorNode(Node):
             tx, ty = ball[0] - 0.5 * ux - side * 0.5 * uy, ball[1] - 0.5 * uy + side * 0.5 * ux
         else:
             tx, ty = ball[0] - p.behind_ball * ux, ball[1] - p.behind_ball * uy
-        self.walk_to(pose, Pose2D(tx, ty, to_goal))
+        self.walk_to(pose, GroundPose(tx, ty, to_goal))
 
     def _kick_ready(self, now: float) -> bool:
         p = self.params
@@ -364,15 +361,15 @@ class BehaviorNode(Node):
         self.say("kick")
 
     # -- places -------------------------------------------------------------------------------------------
-    def _ready_target(self, now: float) -> Pose2D | None:
+    def _ready_target(self, now: float) -> GroundPose | None:
         gs = self.gamestate
         if gs is None:
             return None
         spots = kickoff_positions(self.field, bool(gs.has_kick_off))
         x, y, theta = spots[min(ready_rank(self.player, self.world.teammates(now)), len(spots) - 1)]
-        return Pose2D(x, y, theta)
+        return GroundPose(x, y, theta)
 
-    def _goalie_target(self, now: float) -> Pose2D:
+    def _goalie_target(self, now: float) -> GroundPose:
         """On the line from the goal's centre to the ball, ``goalie_depth`` in front of the goal line."""
         gx, gy = self.field.own_goal
         x = gx + self.params.goalie_depth
@@ -381,24 +378,24 @@ class BehaviorNode(Node):
         if ball is not None and ball[0] - gx > 0.1:
             y = gy + (ball[1] - gy) * self.params.goalie_depth / (ball[0] - gx)
         limit = self.field.goal_width / 2 - 0.2
-        return Pose2D(x, _clip(y, limit), 0.0)
+        return GroundPose(x, _clip(y, limit), 0.0)
 
-    def _support_target(self, now: float) -> Pose2D:
+    def _support_target(self, now: float) -> GroundPose:
         ball = self.world.ball(now)
         if ball is None:
-            return Pose2D(-1.0, 1.0, 0.0)
+            return GroundPose(-1.0, 1.0, 0.0)
         side = -1.0 if ball[1] > 0 else 1.0  # beside the ball, towards the field's middle
         x, y = self.field.clamp_inside(ball[0] - 1.0, ball[1] + side * 1.2, 0.4)
-        return Pose2D(min(x, self.field.length / 2 - 1.5), y, math.atan2(ball[1] - y, ball[0] - x))
+        return GroundPose(min(x, self.field.length / 2 - 1.5), y, math.atan2(ball[1] - y, ball[0] - x))
 
-    def _defend_target(self, now: float) -> Pose2D:
+    def _defend_target(self, now: float) -> GroundPose:
         gx, gy = self.field.own_goal
         ball = self.world.ball(now)
         if ball is None:
-            return Pose2D(gx + 1.5, 0.0, 0.0)
+            return GroundPose(gx + 1.5, 0.0, 0.0)
         x = max(gx + self.field.goal_area_length + 0.4, gx + 0.4 * (ball[0] - gx))
         y = gy + 0.4 * (ball[1] - gy)
-        return Pose2D(x, y, math.atan2(ball[1] - y, ball[0] - x))
+        return GroundPose(x, y, math.atan2(ball[1] - y, ball[0] - x))
 
     # -- outputs ------------------------------------------------------------------------------------------
     def walk(self, vx: float, vy: float, vyaw: float) -> None:

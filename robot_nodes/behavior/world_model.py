@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from robot_nodes.ground_pose import GroundPose, wrap
 from schemas.messages import BallRelative, Position2D, TeamData
 
 NOT_TOLD = 255  # team_data's "the teammate did not say"
@@ -13,29 +14,11 @@ PENALIZED_STATES = frozenset({7, 8, 14})  # RobotControlState PENALTY, PENALTY_A
 
 
 @dataclass(frozen=True)
-class Pose2D:
-    x: float
-    y: float
-    theta: float
-
-    def relative(self, x: float, y: float) -> tuple[float, float]:
-        """A field point in this pose's frame (x forward, y left)."""
-        c, s = math.cos(self.theta), math.sin(self.theta)
-        dx, dy = x - self.x, y - self.y
-        return c * dx + s * dy, -s * dx + c * dy
-
-    def field(self, rx: float, ry: float) -> tuple[float, float]:
-        """A point relative to this pose, on the field."""
-        c, s = math.cos(self.theta), math.sin(self.theta)
-        return self.x + c * rx - s * ry, self.y + s * rx + c * ry
-
-
-@dataclass(frozen=True)
 class Teammate:
     player: int
     role: int | None
     state: int | None
-    pose: Pose2D | None
+    pose: GroundPose | None
     ball: tuple[float, float] | None  # on the field
     time_to_ball: float | None
     age: float
@@ -55,10 +38,10 @@ class WorldModel:
         self.mate_timeout_s = mate_timeout_s
         self.fix_weight = 0.3  # of a new position fix against the pose carried on by odometry
         self.jump_m = 1.0  # a fix this far off is taken as it is (the robot was carried, or the filter was wrong)
-        self._fix: Pose2D | None = None
+        self._fix: GroundPose | None = None
         self._fix_at = -math.inf
-        self._fix_odometry: Pose2D | None = None  # the odometry when the fix came
-        self.odometry: Pose2D | None = None
+        self._fix_odometry: GroundPose | None = None  # the odometry when the fix came
+        self.odometry: GroundPose | None = None
         self.ball_relative: tuple[float, float] | None = None
         self.ball_field: tuple[float, float] | None = None
         self.ball_at = -math.inf
@@ -69,33 +52,33 @@ class WorldModel:
     def on_position(self, msg: Position2D, now: float) -> None:
         """A new fix, blended into the odometry-carried pose (a complementary filter: the localization's noise
         averages out over a few fixes, its drift-free mean wins in the end)."""
-        fix = Pose2D(float(msg.pose.x), float(msg.pose.y), float(msg.pose.theta))
+        fix = GroundPose(float(msg.pose.x), float(msg.pose.y), float(msg.pose.theta))
         here = self.pose(now)
         if here is not None and math.hypot(fix.x - here.x, fix.y - here.y) < self.jump_m:
             a = self.fix_weight
-            turn = math.atan2(math.sin(fix.theta - here.theta), math.cos(fix.theta - here.theta))
-            fix = Pose2D(here.x + a * (fix.x - here.x), here.y + a * (fix.y - here.y), here.theta + a * turn)
+            turn = wrap(fix.yaw - here.yaw)
+            fix = GroundPose(here.x + a * (fix.x - here.x), here.y + a * (fix.y - here.y), here.yaw + a * turn)
         self._fix = fix
         self._fix_at = now
         self._fix_odometry = self.odometry
 
     def on_odometry(self, x: float, y: float, theta: float) -> None:
-        self.odometry = Pose2D(x, y, theta)
+        self.odometry = GroundPose(x, y, theta)
 
     def on_ball(self, msg: BallRelative, now: float) -> None:
         self.ball_relative = (float(msg.ball_relative.x), float(msg.ball_relative.y))
         self.ball_at = now
         pose = self.pose(now)
-        self.ball_field = pose.field(*self.ball_relative) if pose is not None else None
+        self.ball_field = pose.absolute(*self.ball_relative) if pose is not None else None
 
     def on_team_data(self, msg: TeamData, now: float) -> None:
         mates = []
         for i, player in enumerate(msg.robot_ids):
             position = msg.robot_positions[i]
-            pose = Pose2D(float(position.pose.x), float(position.pose.y), float(position.pose.theta)) \
+            pose = GroundPose(float(position.pose.x), float(position.pose.y), float(position.pose.theta)) \
                 if position.confidence > 0 else None
             ball = msg.ball_relative[i]
-            ball_field = pose.field(float(ball.pose.x), float(ball.pose.y)) if pose is not None and \
+            ball_field = pose.absolute(float(ball.pose.x), float(ball.pose.y)) if pose is not None and \
                 ball.confidence > 0 else None
             time_to_ball = float(msg.time_to_position_at_ball[i])
             mates.append(Teammate(
@@ -106,7 +89,7 @@ class WorldModel:
         self.mates_at = now
 
     # -- beliefs ------------------------------------------------------------------------------------------
-    def pose(self, now: float) -> Pose2D | None:
+    def pose(self, now: float) -> GroundPose | None:
         """The last position fix, moved on by what the walk odometry measured since; None when too old."""
         fix = self._fix
         if fix is None or now - self._fix_at > self.position_timeout_s:
@@ -115,8 +98,8 @@ class WorldModel:
         if then is None or odo is None or odo is then:
             return fix
         dx, dy = then.relative(odo.x, odo.y)  # travelled since the fix, in the robot's frame then
-        x, y = fix.field(dx, dy)
-        return Pose2D(x, y, fix.theta + (odo.theta - then.theta))
+        x, y = fix.absolute(dx, dy)
+        return GroundPose(x, y, fix.yaw + (odo.yaw - then.yaw))
 
     def position_fresh(self, now: float, within: float = 1.0) -> bool:
         return now - self._fix_at <= within

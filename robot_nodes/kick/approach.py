@@ -10,28 +10,7 @@ import math
 from collections import deque
 from dataclasses import dataclass
 
-
-def wrap(angle: float) -> float:
-    return math.atan2(math.sin(angle), math.cos(angle))
-
-
-@dataclass(frozen=True)
-class Pose:
-    """x, y (m) and heading (rad) in the odometry frame."""
-
-    x: float
-    y: float
-    yaw: float
-
-    def to_world(self, rx: float, ry: float) -> tuple[float, float]:
-        """A point given relative to this pose (x forward, y left) in the odometry frame."""
-        c, s = math.cos(self.yaw), math.sin(self.yaw)
-        return self.x + c * rx - s * ry, self.y + s * rx + c * ry
-
-    def to_relative(self, wx: float, wy: float) -> tuple[float, float]:
-        c, s = math.cos(self.yaw), math.sin(self.yaw)
-        dx, dy = wx - self.x, wy - self.y
-        return c * dx + s * dy, -s * dx + c * dy
+from robot_nodes.ground_pose import GroundPose, wrap
 
 
 @dataclass(frozen=True)
@@ -46,18 +25,18 @@ class KickSpot:
     tolerance_yaw: float = math.radians(6.0)
 
 
-def choose_foot(robot: Pose, ball: tuple[float, float], direction: float) -> str:
+def choose_foot(robot: GroundPose, ball: tuple[float, float], direction: float) -> str:
     """"left" if the ball lies left of the line through the robot along the kick direction, else "right"."""
     c, s = math.cos(direction), math.sin(direction)
     dx, dy = ball[0] - robot.x, ball[1] - robot.y
     return "left" if -s * dx + c * dy >= 0.0 else "right"
 
 
-def stand_pose(ball: tuple[float, float], direction: float, foot: str, spot: KickSpot) -> Pose:
+def stand_pose(ball: tuple[float, float], direction: float, foot: str, spot: KickSpot) -> GroundPose:
     """Where the robot stands to kick the ball along ``direction`` with ``foot``."""
     lateral = spot.y if foot == "left" else -spot.y
     c, s = math.cos(direction), math.sin(direction)
-    return Pose(ball[0] - (c * spot.x - s * lateral), ball[1] - (s * spot.x + c * lateral), direction)
+    return GroundPose(ball[0] - (c * spot.x - s * lateral), ball[1] - (s * spot.x + c * lateral), direction)
 
 
 @dataclass(frozen=True)
@@ -73,8 +52,8 @@ class Error:
                 and abs(self.turn) <= spot.tolerance_yaw * scale)
 
 
-def error(robot: Pose, goal: Pose) -> Error:
-    forward, left = robot.to_relative(goal.x, goal.y)
+def error(robot: GroundPose, goal: GroundPose) -> Error:
+    forward, left = robot.relative(goal.x, goal.y)
     return Error(forward, left, wrap(goal.yaw - robot.yaw))
 
 

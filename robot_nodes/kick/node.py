@@ -18,7 +18,8 @@ from dataclasses import dataclass
 from typing import Any
 
 import schemas
-from robot_nodes.kick.approach import BallTrack, KickSpot, Pose, choose_foot, error, stand_pose, walk_command, wrap
+from robot_nodes.ground_pose import GroundPose, heading, wrap
+from robot_nodes.kick.approach import BallTrack, KickSpot, choose_foot, error, stand_pose, walk_command
 from robot_nodes.runtime import GoalStatus, Node, ServerGoal, param
 from schemas.messages import (
     BallRelative,
@@ -78,7 +79,7 @@ class KickNode(Node):
     def setup(self) -> None:
         self.robot_state: int | None = None
         self.walking = False
-        self.odometry: Pose | None = None
+        self.odometry: GroundPose | None = None
         self.ball = BallTrack()
         self.goal: ServerGoal | None = None
         self.phase = Phase.IDLE
@@ -109,13 +110,13 @@ class KickNode(Node):
     # -- inputs -------------------------------------------------------------------------------------------
     def on_odometry(self, msg: Odometry) -> None:
         q = msg.pose.pose.orientation
-        yaw = math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
-        self.odometry = Pose(float(msg.pose.pose.position.x), float(msg.pose.pose.position.y), yaw)
+        self.odometry = GroundPose(float(msg.pose.pose.position.x), float(msg.pose.pose.position.y),
+                                   heading(q.x, q.y, q.z, q.w))
 
     def on_ball(self, msg: BallRelative) -> None:
         if self.odometry is None or self.goal is None or self.phase is Phase.KICKING:
             return
-        x, y = self.odometry.to_world(float(msg.ball_relative.x), float(msg.ball_relative.y))
+        x, y = self.odometry.absolute(float(msg.ball_relative.x), float(msg.ball_relative.y))
         self.ball.add(time.monotonic(), x, y)
 
     def on_robot_state(self, msg: RobotControlState) -> None:
@@ -133,7 +134,7 @@ class KickNode(Node):
         goal: KickGoal = handle.goal
         bx, by = float(goal.ball_position.x), float(goal.ball_position.y)
         q = goal.kick_direction
-        direction = math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+        direction = heading(q.x, q.y, q.z, q.w)
         if not all(math.isfinite(v) for v in (bx, by, direction)):
             return "ball position and kick direction must be finite"
         if math.hypot(bx, by) > self.params.max_ball_distance:
@@ -148,9 +149,9 @@ class KickNode(Node):
         # the goal's ball and direction are relative to the robot now: keep them in the odometry frame
         self.ball = BallTrack()
         here = self.odometry
-        self.ball.add(time.monotonic(), *here.to_world(bx, by))
+        self.ball.add(time.monotonic(), *here.absolute(bx, by))
         self.direction = wrap(here.yaw + direction)
-        self.foot = choose_foot(here, here.to_world(bx, by), self.direction)
+        self.foot = choose_foot(here, here.absolute(bx, by), self.direction)
         self.goal = handle
         self.tries = 0
         self.started = time.monotonic()
@@ -200,7 +201,7 @@ class KickNode(Node):
         robot = self.odometry
         ball = self.ball.estimate(self.phase_since if self.phase is Phase.SETTLE else -math.inf)
         assert robot is not None and ball is not None
-        if math.hypot(*robot.to_relative(*ball)) > p.max_ball_distance + 0.3:
+        if math.hypot(*robot.relative(*ball)) > p.max_ball_distance + 0.3:
             self._finish(goal, GoalStatus.ABORTED, KickResult.RESULT_ABORTED, "the ball went away")
             return
         target = stand_pose(ball, self.direction, self.foot, self.spot)
@@ -212,7 +213,7 @@ class KickNode(Node):
                 self._walk(0.0, 0.0, 0.0)
                 self._enter(Phase.STOPPING)
                 return
-            ahead = robot.to_relative(*ball)[0]
+            ahead = robot.relative(*ball)[0]
             self._walk(*walk_command(err, ahead, p.approach_speed, p.approach_turn, p.approach_gain))
             self._feedback(min(45.0, 45.0 * 0.1 / max(0.1, math.hypot(err.forward, err.left))))
         elif self.phase is Phase.STOPPING:
@@ -235,7 +236,7 @@ class KickNode(Node):
         p = self.params
         self.struck_at = self.ball.estimate(self.phase_since)
         if self.odometry is not None and self.struck_at is not None:
-            x, y = self.odometry.to_relative(*self.struck_at)
+            x, y = self.odometry.relative(*self.struck_at)
             self.set_diagnostic("strike_ball", f"({x:.3f}, {y:.3f}) {self.foot}")
         name = p.animation_left if self.foot == "left" else p.animation_right
         self._enter(Phase.KICKING)
