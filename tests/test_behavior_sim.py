@@ -6,6 +6,7 @@ game_controller node would send it."""
 from __future__ import annotations
 
 import math
+import socket
 import threading
 import time
 from collections.abc import Iterator
@@ -17,8 +18,9 @@ import schemas
 from robot_nodes.behavior.field import Field, ready_legal
 from robot_nodes.cm730.sim import Placement
 from robot_nodes.runtime import BusConfig
-from schemas.messages import GameState
+from schemas.messages import GameState, Strategy
 from tests.sim_robots import SimRobots
+from tests.support import free_port
 from tests.waiting import wait_for
 
 pytestmark = pytest.mark.slow
@@ -174,5 +176,41 @@ def test_a_penalized_robot_and_one_in_set_stand_still(bus: BusConfig, sims: list
         stands_still("SET", "SET")
         game.set(game_state=GameState.GAMESTATE_PLAYING, allowed_to_move=False)
         stands_still("PLAYING, not allowed to move", "PLAYING_NOT_ALLOWED_TO_MOVE")
+    finally:
+        game.stop()
+
+
+def test_roles_come_from_team_communication(bus: BusConfig, sims: list[SimRobots]) -> None:
+    """Three players with their mitecom nodes (each on its own UDP port, the others as peers): player 1 keeps the
+    goal, the field player nearer the ball strikes, the other defends; move the ball and the two swap."""
+    ports = [free_port(socket.SOCK_DGRAM) for _ in range(3)]
+
+    def team(i: int) -> dict[str, dict[str, Any]]:
+        peers = ",".join(f"127.0.0.1:{p}" for j, p in enumerate(ports) if j != i)
+        return {"mitecom": {"port": ports[i], "listen_address": "127.0.0.1", "peers": peers, "player_id": i + 1,
+                            "team_id": 7}}
+
+    starts = [Placement(-4.0, 0.0, 0.0), Placement(-2.0, 1.5, 0.0), Placement(-2.0, -1.5, 0.0)]
+    sim = SimRobots(bus, 3, nodes=(*NODES, "mitecom"), per_robot=team, placements=starts)
+    sims.append(sim)
+    roles = {robot: sim.listen("strategy", robot) for robot in sim.nodes}
+    for robot in sim.nodes:
+        sim.wait_controllable(robot, 60.0)
+
+    def role(robot: str) -> int | None:
+        last = roles[robot].last()
+        return None if last is None else int(last.role)
+
+    sim.set_ball(-1.2, -1.5)  # in front of robot3
+    game = Game(sim)
+    try:
+        wait_for(lambda: (role("robot1"), role("robot2"), role("robot3")) ==
+                 (Strategy.ROLE_GOALIE, Strategy.ROLE_DEFENDER, Strategy.ROLE_STRIKER), 30, 0.2,
+                 what="goalie, defender, striker")
+        assert len(sim.nodes["robot2"]["behavior"].world.teammates(time.monotonic())) == 2  # type: ignore[attr-defined]
+        sim.set_ball(-1.2, 1.5)  # now in front of robot2
+        wait_for(lambda: (role("robot2"), role("robot3")) == (Strategy.ROLE_STRIKER, Strategy.ROLE_DEFENDER), 30,
+                 0.2, what="robot2 striker, robot3 defender")
+        assert role("robot1") == Strategy.ROLE_GOALIE
     finally:
         game.stop()
