@@ -61,6 +61,7 @@ ACTION_FOR: dict[State, int] = {
     State.SEARCH_BALL: Strategy.ACTION_GOING_TO_BALL, State.GO_TO_BALL: Strategy.ACTION_GOING_TO_BALL,
     State.KICK: Strategy.ACTION_TRYING_TO_SCORE,
 }  # every other state: WAITING
+GRAPH_EVERY_S = 5.0
 
 
 @dataclass
@@ -124,6 +125,7 @@ class BehaviorNode(Node):
         self.kick_ended_at = -math.inf
         self.kicks = 0
         self.cmd = (math.nan, math.nan, math.nan)
+        self.graph_sent_at = -math.inf
         self.cmd_pub = self.publisher("cmd_vel")
         self.head_pub = self.publisher("head_mode")
         self.strategy_pub = self.publisher("strategy")
@@ -412,7 +414,7 @@ class BehaviorNode(Node):
         self.speak_pub.publish(schemas.make(Speak, text=text, priority=Speak.LOW_PRIORITY))
 
     def publish_status(self) -> None:
-        """strategy (the role, for the teammates) and head_mode, on every change and each second."""
+        """strategy (the role, for the teammates) and head_mode on every change and each second; the graph rarer."""
         now = time.monotonic()
         ball = self.world.ball(now)
         side = Strategy.SIDE_MIDDLE
@@ -424,9 +426,12 @@ class BehaviorNode(Node):
         if self.head_mode is not None:
             self.head_pub.publish(schemas.make(HeadMode, head_mode=self.head_mode))
         self.set_diagnostic("role", ROLE_NAMES.get(self.role, str(self.role)))
-        self.publish_graph()
+        # the graph (about 11 kB: 15 states, 162 transitions) on every change and every GRAPH_EVERY_S besides
+        if time.monotonic() - self.graph_sent_at >= GRAPH_EVERY_S:
+            self.publish_graph()
 
     def publish_graph(self) -> None:
+        self.graph_sent_at = time.monotonic()
         states, transitions = self.machine.graph()
         history = list(self.machine.history)
         self.graph_pub.publish(schemas.make(
