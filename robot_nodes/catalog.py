@@ -39,6 +39,9 @@ NODES: dict[str, NodeEntry] = {
                                  "robot_nodes.game_controller.receiver:GameControllerNode"),
     "mitecom": NodeEntry("robot_nodes.mitecom", "robot_nodes.mitecom.node:MitecomNode"),
     "telemetry": NodeEntry("robot_nodes.telemetry", "robot_nodes.telemetry.sender:TelemetryNode"),
+    "head": NodeEntry("robot_nodes.head", "robot_nodes.head.node:HeadNode"),
+    "kick": NodeEntry("robot_nodes.kick", "robot_nodes.kick.node:KickNode"),
+    "behavior": NodeEntry("robot_nodes.behavior", "robot_nodes.behavior.node:BehaviorNode"),
 }
 NODE_MODULES: dict[str, str] = {name: entry.module for name, entry in NODES.items()}
 

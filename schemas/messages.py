@@ -186,6 +186,7 @@ class humanoid_league_msgs__msg__HeadMode:
     LOOK_DOWN: ClassVar[int] = 5
     LOOK_FORWARD: ClassVar[int] = 6
     LOOK_UP: ClassVar[int] = 7
+    DONT_MOVE: ClassVar[int] = 8
     __msgtype__: ClassVar[str] = 'humanoid_league_msgs/msg/HeadMode'
 
 
@@ -759,6 +760,7 @@ FIELDDEFS: Typesdict = {
             ('LOOK_DOWN', 'uint8', 5),
             ('LOOK_FORWARD', 'uint8', 6),
             ('LOOK_UP', 'uint8', 7),
+            ('DONT_MOVE', 'uint8', 8),
         ],
         [
             ('head_mode', (T.BASE, ('uint8', 0))),
@@ -1148,7 +1150,7 @@ FIELDDEFS: Typesdict = {
 }
 
 
-SOURCES_SHA256 = '9388b8003c35e099f803a61e17a1bd68a868dcfc13d6862b485f38d2eeb34354'
+SOURCES_SHA256 = 'be1b70200d70f2c920bb32a201310324843bbae551f55bdcc19b623283e58193'
 
 # short names
 AdditionalServoData = humanoid_league_msgs__msg__AdditionalServoData

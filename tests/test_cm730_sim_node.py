@@ -49,9 +49,15 @@ class Listener:
             s.undeclare()
 
 
+# the perception stand-ins without noise or losses: these tests compare what is published with the ground truth
+EXACT_PERCEPTION = {"detection_relative_noise": 0.0, "detection_noise_per_m": 0.0, "detection_dropout": 0.0,
+                    "position_noise": 0.0, "yaw_noise": 0.0, "position_losses_per_min": 0.0}
+
+
 @pytest.fixture
 def node(bus: BusConfig) -> Iterator[Cm730Node]:
-    n = Cm730Node(robot_id="robot1", bus=bus, overrides={"publish_rate": 100.0, "imu_gyro_noise": 0.0}).start()
+    n = Cm730Node(robot_id="robot1", bus=bus, overrides={"publish_rate": 100.0, "imu_gyro_noise": 0.0,
+                                                         **EXACT_PERCEPTION}).start()
     yield n
     n.shutdown()
 

@@ -50,7 +50,9 @@ def test_animation_loads_and_fits_the_joint_limits(world: SimWorld, name: str) -
     report = validate(anim, joint_limits=limits, joint_names=robot.joint_names, source=name)
     assert report.ok, report.errors
     assert not [w for w in report.warnings if "outside its limits" in w], report.warnings
-    assert set(anim.joints) == set(robot.joint_names), "every animation sets all 20 joints"
+    # the kicks leave the head where it is: it keeps looking at the ball (robot_nodes/kick/animations.py)
+    head = {"HeadPan", "HeadTilt"} if name.startswith("kick_") else set()
+    assert set(anim.joints) == set(robot.joint_names) - head, "every animation sets all 20 joints (kicks: 18)"
 
 
 def test_every_file_is_plain_bitbots_json() -> None:

@@ -62,11 +62,25 @@ class Cm730Params:
     camera_height: int = param(240, range=(16, 480), doc="mujoco: image height, px")
     jpeg_quality: int = param(80, range=(10, 100), doc="mujoco: JPEG quality of camera/image/compressed")
     render_camera: bool = param(True, doc="mujoco: render images (only while someone subscribes)")
+    # the perception stand-ins (robot_nodes/cm730/sim/perception.py): defaults are what a decent robot's vision and
+    # localization give; all 0 (and max distance 100 m) is the exact ground truth of what is in view
     detection_pixel_noise: float = param(0.0, range=(0.0, 50.0), doc="mujoco: std dev of image detections, px")
-    detection_relative_noise: float = param(0.0, range=(0.0, 2.0), doc="mujoco: std dev of relative positions, m")
-    position_noise: float = param(0.0, range=(0.0, 2.0), doc="mujoco: std dev of the own position, m")
-    yaw_noise: float = param(0.0, range=(0.0, 1.0), doc="mujoco: std dev of the own heading, rad")
-    detection_dropout: float = param(0.0, range=(0.0, 1.0), doc="mujoco: probability a detection is missed")
+    detection_relative_noise: float = param(0.02, range=(0.0, 2.0),
+                                            doc="mujoco: std dev of relative positions right at the lens, m")
+    detection_noise_per_m: float = param(0.05, range=(0.0, 1.0),
+                                         doc="mujoco: std dev added per metre of distance (a far ball is noisier)")
+    detection_max_distance: float = param(6.0, range=(0.5, 100.0),
+                                          doc="mujoco: ball and robots farther from the camera are not seen, m")
+    detection_dropout: float = param(0.1, range=(0.0, 1.0),
+                                     doc="mujoco: probability a detection in view is missed (false negative)")
+    position_noise: float = param(0.08, range=(0.0, 2.0), doc="mujoco: std dev of the own position (x, y), m")
+    yaw_noise: float = param(0.05, range=(0.0, 1.0), doc="mujoco: std dev of the own heading, rad")
+    position_losses_per_min: float = param(1.0, range=(0.0, 60.0),
+                                           doc="mujoco: how often the localization is lost (no position)")
+    position_loss_s: float = param(2.0, range=(0.0, 60.0), doc="mujoco: how long each loss lasts, s")
+    own_half: str = param("-x", choices=["-x", "+x"],
+                          doc="mujoco: the half of the simulated field this robot's team defends; position is "
+                              "published in the team's frame (own goal at -x), as a localization gives it")
     ground_truth_rate: float = param(20.0, range=(0.0, 200.0),
                                      doc="mujoco: Hz of ground_truth (every robot's pose: one node of a world sends "
                                          "it, the others have 0)")

@@ -1,9 +1,14 @@
 """What the cm730 node publishes only in simulation: camera image and info, detections, relative positions,
-own position and ground truth (messages built from a SimRunner CameraFrame)."""
+own position and ground truth (messages built from a SimRunner CameraFrame).
+
+The relative positions and the own position are perception stand-ins (robot_nodes/cm730/sim/perception.py): they go
+out on the topics real vision and localization use (ball_relative, goal_relative, obstacles_relative, position), only
+for what the camera sees, with the noise the node's parameters state, so real nodes can take their place."""
 
 from __future__ import annotations
 
 import io
+import math
 import time
 from typing import TYPE_CHECKING
 
@@ -70,12 +75,17 @@ class SimTopics:
         self.frames_published = 0
 
     def apply_params(self) -> None:
-        p = self.node.params
-        self.noise.pixel = p.detection_pixel_noise
-        self.noise.relative = p.detection_relative_noise
-        self.noise.position = p.position_noise
-        self.noise.yaw = p.yaw_noise
-        self.noise.dropout = p.detection_dropout
+        p, noise = self.node.params, self.noise
+        noise.pixel = p.detection_pixel_noise
+        noise.relative = p.detection_relative_noise
+        noise.relative_per_m = p.detection_noise_per_m
+        noise.max_distance = p.detection_max_distance
+        noise.dropout = p.detection_dropout
+        noise.position = p.position_noise
+        noise.yaw = p.yaw_noise
+        noise.position_losses_per_min = p.position_losses_per_min
+        noise.position_loss_s = p.position_loss_s
+        self.flip = p.own_half == "+x"  # the team defends +x: its frame turns the field by half a turn
 
     def wants_image(self) -> bool:
         return bool(self.node.params.render_camera and self.pubs["camera/image/compressed"].has_subscribers)
@@ -129,10 +139,16 @@ class SimTopics:
         pubs["obstacles_relative"].publish(schemas.make(ObstaclesRelative, header=foot, obstacles=relative))
         if obs.position is not None:
             x, y, yaw = obs.position
+            if self.flip:
+                x, y, yaw = -x, -y, math.atan2(-math.sin(yaw), -math.cos(yaw))
             pubs["position"].publish(schemas.make(
                 Position2D, header=_header(stamp, MAP_FRAME),
-                pose=Pose2D(x=float(x), y=float(y), theta=float(yaw)), confidence=1.0))
+                pose=Pose2D(x=float(x), y=float(y), theta=float(yaw)), confidence=self._position_confidence()))
         self.frames_published += 1
+
+    def _position_confidence(self) -> float:
+        """How sure the stand-in localization is: 1 for exact, less the larger its stated noise (0.5 at 0.2 m)."""
+        return 1.0 / (1.0 + (self.noise.position / 0.2) ** 2)
 
     def _camera_info(self, frame: CameraFrame, header: Header) -> CameraInfo:
         from robot_nodes.cm730.sim.perception import Intrinsics

@@ -1,9 +1,14 @@
-"""Ground-truth "vision": what a robot's head camera sees, projected into the image, plus relative positions.
+"""Perception stand-ins: what a robot's head camera could see, from the simulation's ground truth, with stated noise.
 
-Stands in for a vision and a localization node in simulation: the ball, goal posts, other robots and
+Stands in for a vision and a localization node in simulation, and says so: the ball, goal posts, other robots and
 field lines are projected with the same pinhole model MuJoCo renders with, so markers drawn from these
 detections land on the rendered image. Occlusion is tested with rays for the ball and the posts;
 field lines and obstacles are reported without occlusion tests.
+
+Relative positions (ball, goal, obstacles) exist only for what the camera sees: inside the image of the head as its
+joints point it, not hidden, not farther than ``max_distance`` (ball and robots), and not lost to a false negative
+(``dropout``); their noise grows with distance. The own position is the ground truth with Gaussian noise and
+occasional losses of a few seconds, what a decent localization gives. ``DetectionNoise`` holds every number.
 """
 
 from __future__ import annotations
@@ -26,13 +31,22 @@ ROBOT_HEIGHT = 0.70
 
 @dataclass
 class DetectionNoise:
-    """Noise and drop-out of the simulated detections (all zero: exact ground truth)."""
+    """Noise, range and losses of the simulated perception (the defaults: exact ground truth of what is in view).
+
+    The cm730 node's parameters set them (robot_nodes/cm730/node.py: its defaults are a decent robot's)."""
 
     pixel: float = 0.0  # px, std dev on image coordinates
-    relative: float = 0.0  # m, std dev on relative positions
-    position: float = 0.0  # m, std dev on the own field position
+    relative: float = 0.0  # m, std dev (x and y each) of relative positions right in front of the lens
+    relative_per_m: float = 0.0  # m of std dev added per metre of distance: a far ball is noisier
+    position: float = 0.0  # m, std dev (x and y each) on the own field position
     yaw: float = 0.0  # rad, std dev on the own heading
-    dropout: float = 0.0  # probability that one detection is missed
+    dropout: float = 0.0  # probability that one detection is missed (a false negative)
+    max_distance: float = math.inf  # m, ball and robots farther away are not seen
+    position_losses_per_min: float = 0.0  # how often the localization is lost (a Poisson rate)
+    position_loss_s: float = 0.0  # for how long (simulated seconds) it is lost then
+
+    def relative_sigma(self, distance: float) -> float:
+        return self.relative + self.relative_per_m * distance
 
 
 @dataclass(frozen=True, slots=True)
@@ -64,6 +78,7 @@ class PostSeen:
     foot: tuple[float, float]
     top: tuple[float, float]
     width: float  # px
+    index: int = 0  # which post (field.goal_posts order: 0, 1 the +x goal, 2, 3 the -x goal)
 
 
 @dataclass
@@ -85,12 +100,12 @@ class Observation:
     bars: list[tuple[tuple[float, float], tuple[float, float], float]] = field(default_factory=list)
     obstacles: list[ObstacleSeen] = field(default_factory=list)
     lines: list[tuple[tuple[float, float], tuple[float, float], float, float]] = field(default_factory=list)
-    ball_relative: np.ndarray | None = None  # base_footprint frame (x forward, y left, z up), m
+    ball_relative: np.ndarray | None = None  # base_footprint frame (x forward, y left, z up), m; None: not seen
     ball_relative_confidence: float = 0.0
-    goal_relative: tuple[np.ndarray, np.ndarray] | None = None  # (left post, right post)
+    goal_relative: tuple[np.ndarray, np.ndarray] | None = None  # (left post, right post); None: no post seen
     goal_relative_confidence: float = 0.0
-    obstacles_relative: list[tuple[int, np.ndarray]] = field(default_factory=list)
-    position: tuple[float, float, float] | None = None  # x, y, yaw on the field
+    obstacles_relative: list[tuple[int, np.ndarray]] = field(default_factory=list)  # only robots in view
+    position: tuple[float, float, float] | None = None  # x, y, yaw on the field; None: localization lost
 
 
 class GroundTruthVision:
@@ -110,6 +125,8 @@ class GroundTruthVision:
         self._post_geoms = [world.model.geom(f"goal_post{i}").id for i in range(4)]
         self._rays = np.array([1, 1, 0, 1, 1, 1], dtype=np.uint8)
         self._rays[GROUP_LINES] = 0
+        self._lost_until = -math.inf  # simulated time until which the localization is lost
+        self._last_observed: float | None = None
 
     def resize(self, width: int, height: int) -> None:
         self.intrinsics = Intrinsics.from_fovy(width, height, float(self.world.model.cam_fovy[self.robot.camera_id]))
@@ -167,18 +184,22 @@ class GroundTruthVision:
         keep = (lambda: rng.random() >= noise.dropout) if noise.dropout > 0 else (lambda: True)
         k = self.intrinsics
         f = self.world.field
+        x, y, yaw = self._pose2d(d)
+        to_rel = _footprint_transform(x, y, yaw)
 
-        # ball
+        # ball: in the image, not hidden, not too far, not missed
         ball = d.xpos[self.world.model.geom_bodyid[self._ball_geom]].copy()
         ob = self.to_optical(d, ball)[0]
-        if ob[2] > NEAR:
+        dist = float(np.linalg.norm(ob))
+        if ob[2] > NEAR and dist <= noise.max_distance:
             uv = self.project(ob)
             if self._in_image(uv) and self._visible(d, ball, {self._ball_geom}, f.ball_diameter / 2) and keep():
                 radius = f.ball_diameter / 2
-                dist = float(np.linalg.norm(ob))
                 diameter = 2 * k.fx * math.tan(math.asin(min(1.0, radius / dist)))
                 uv = uv + rng.normal(0.0, noise.pixel, 2) if noise.pixel > 0 else uv
                 obs.ball = BallSeen(float(uv[0]), float(uv[1]), diameter)
+                obs.ball_relative = self._noisy(to_rel(ball), dist)
+                obs.ball_relative_confidence = 1.0
 
         # goal posts and crossbars
         top_z = f.goal_height + f.post_diameter
@@ -194,7 +215,8 @@ class GroundTruthVision:
                 continue
             if keep():
                 width = float(k.fx * f.post_diameter / max(NEAR, (z0 + z1) / 2))
-                obs.posts.append(PostSeen((float(foot[0]), float(foot[1])), (float(top[0]), float(top[1])), width))
+                obs.posts.append(PostSeen((float(foot[0]), float(foot[1])), (float(top[0]), float(top[1])), width,
+                                          i))
         for left, right in ((0, 1), (2, 3)):
             a = np.array([*self._posts[left], top_z - f.post_diameter / 2])
             b = np.array([*self._posts[right], top_z - f.post_diameter / 2])
@@ -204,7 +226,7 @@ class GroundTruthVision:
                 obs.bars.append(((float(pa[0]), float(pa[1])), (float(pb[0]), float(pb[1])),
                                  float(k.fx * f.post_diameter / max(NEAR, (z0 + z1) / 2))))
 
-        # other robots as obstacles
+        # other robots as obstacles: those whose box is in the image and not too far
         for other in self.world.robots:
             if other is self.robot:
                 continue
@@ -215,49 +237,87 @@ class GroundTruthVision:
             uv = self.project(opt)
             u0, v0 = np.clip(uv.min(axis=0), 0, [k.width, k.height])
             u1, v1 = np.clip(uv.max(axis=0), 0, [k.width, k.height])
-            if u1 - u0 >= 1 and v1 - v0 >= 1 and keep():
+            centre = d.xpos[other.base_body].copy()
+            distance = float(np.linalg.norm(centre[:2] - d.cam_xpos[self.robot.camera_id][:2]))
+            if u1 - u0 >= 1 and v1 - v0 >= 1 and distance <= noise.max_distance and keep():
                 obs.obstacles.append(ObstacleSeen(other.index + 1, float(u0), float(v0), float(u1 - u0),
                                                   float(v1 - v0)))
+                obs.obstacles_relative.append((other.index + 1, self._noisy(to_rel(centre), distance)))
 
         # field lines
-        for (x0, y0), (x1, y1) in self._lines:
-            seg = self._clip_segment(d, np.array([x0, y0, 0.0]), np.array([x1, y1, 0.0]))
-            if seg is None:
-                continue
-            pa, pb, z0, z1 = seg
-            if np.hypot(*(pb - pa)) < 1.0 or not keep():
-                continue
-            obs.lines.append(((float(pa[0]), float(pa[1])), (float(pb[0]), float(pb[1])),
-                              float(k.fx * f.line_width / max(NEAR, z0)), float(k.fx * f.line_width / max(NEAR, z1))))
+        obs.lines = self._lines_in_image(d)
 
-        # relative positions (base_footprint frame) and the own position
-        x, y, yaw = self._pose2d(d)
-        to_rel = _footprint_transform(x, y, yaw)
-        if keep():
-            obs.ball_relative = self._noisy(to_rel(ball))
-            obs.ball_relative_confidence = 1.0 if obs.ball is not None else 0.3
-        goals = [(self._posts[0], self._posts[1]), (self._posts[2], self._posts[3])]
+        # the goal whose posts are seen (the one with more of them; the nearer if both show as many)
+        seen = [p.index for p in obs.posts]
+        if seen:
+            def distance_to(goal: int) -> float:
+                return float(np.hypot(*(self._posts[2 * goal] - (x, y))))
 
-        def bearing(goal: tuple[np.ndarray, np.ndarray]) -> float:
-            centre = to_rel(np.array([*(goal[0] + goal[1]) / 2, 0.0]))
-            return abs(math.atan2(centre[1], centre[0]))
-
-        best = min(goals, key=bearing)  # the goal the robot faces
-        if keep():
-            one = self._noisy(to_rel(np.array([*best[0], 0.0])))
-            two = self._noisy(to_rel(np.array([*best[1], 0.0])))
+            goal = max((0, 1), key=lambda g: (sum(1 for i in seen if i // 2 == g), -distance_to(g)))
+            a, b = self._posts[2 * goal], self._posts[2 * goal + 1]
+            one = self._noisy(to_rel(np.array([*a, 0.0])), float(np.hypot(*(a - (x, y)))))
+            two = self._noisy(to_rel(np.array([*b, 0.0])), float(np.hypot(*(b - (x, y)))))
             one_is_left = math.atan2(one[1], one[0]) >= math.atan2(two[1], two[0])
-            left_post, right_post = (one, two) if one_is_left else (two, one)
-            obs.goal_relative = (left_post, right_post)
-            obs.goal_relative_confidence = 1.0 if obs.posts else 0.3
-        for other in self.world.robots:
-            if other is not self.robot and keep():
-                obs.obstacles_relative.append((other.index + 1, self._noisy(to_rel(d.xpos[other.base_body].copy()))))
-        if keep():
+            obs.goal_relative = (one, two) if one_is_left else (two, one)
+            obs.goal_relative_confidence = 1.0 if sum(1 for i in seen if i // 2 == goal) == 2 else 0.5
+
+        # the own position: ground truth with noise, unless the localization is lost just now
+        if not self._position_lost(obs.stamp_sim):
             obs.position = (x + rng.normal(0.0, noise.position) if noise.position else x,
                             y + rng.normal(0.0, noise.position) if noise.position else y,
                             _wrap(yaw + rng.normal(0.0, noise.yaw)) if noise.yaw else yaw)
         return obs
+
+    def _position_lost(self, now: float) -> bool:
+        """Losses start at random (a Poisson process in simulated time) and last ``position_loss_s``."""
+        noise = self.noise
+        dt = max(0.0, now - self._last_observed) if self._last_observed is not None else 0.0
+        self._last_observed = now
+        if now < self._lost_until:
+            return True
+        rate = noise.position_losses_per_min / 60.0
+        if rate > 0 and noise.position_loss_s > 0 and self.rng.random() < 1.0 - math.exp(-rate * dt):
+            self._lost_until = now + noise.position_loss_s
+            return True
+        return False
+
+    def _lines_in_image(self, d: mujoco.MjData) -> list[tuple[tuple[float, float], tuple[float, float], float, float]]:
+        """Every field line segment in the image (clipped), with its width in pixels at both ends: all segments at
+        once with numpy, as this runs for every robot at the camera rate."""
+        n = len(self._lines)
+        ends = np.zeros((2 * n, 3))
+        ends[:n, :2] = self._lines[:, 0]
+        ends[n:, :2] = self._lines[:, 1]
+        opt = self.to_optical(d, ends)
+        oa, ob = opt[:n], opt[n:]
+        za, zb = oa[:, 2], ob[:, 2]
+        front = (za >= NEAR) | (zb >= NEAR)
+        # clip to the near plane: the end behind it moves along the segment onto the plane
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = np.where(za != zb, (NEAR - za) / (zb - za), 0.0)
+        cut = oa + t[:, None] * (ob - oa)
+        oa = np.where((za < NEAR)[:, None], cut, oa)
+        ob = np.where((zb < NEAR)[:, None], cut, ob)
+        oa, ob = oa[front], ob[front]
+        if not len(oa):
+            return []
+        pa, pb = self.project(oa), self.project(ob)
+        k = self.intrinsics
+        t0, t1 = _liang_barsky_many(pa, pb, float(k.width), float(k.height))
+        inside = t0 <= t1
+        pa, pb, oa, ob, t0, t1 = pa[inside], pb[inside], oa[inside], ob[inside], t0[inside], t1[inside]
+        a = pa + t0[:, None] * (pb - pa)
+        b = pa + t1[:, None] * (pb - pa)
+        z0 = oa[:, 2] + t0 * (ob[:, 2] - oa[:, 2])
+        z1 = oa[:, 2] + t1 * (ob[:, 2] - oa[:, 2])
+        long_enough = np.hypot(*(b - a).T) >= 1.0
+        width = self.world.field.line_width * k.fx
+        out = []
+        for i in np.nonzero(long_enough)[0]:
+            if self.noise.dropout <= 0 or self.rng.random() >= self.noise.dropout:
+                out.append(((float(a[i, 0]), float(a[i, 1])), (float(b[i, 0]), float(b[i, 1])),
+                            float(width / max(NEAR, z0[i])), float(width / max(NEAR, z1[i]))))
+        return out
 
     # -- helpers -------------------------------------------------------------------------------------------
     def _pose2d(self, d: mujoco.MjData) -> tuple[float, float, float]:
@@ -279,10 +339,12 @@ class GroundTruthVision:
                     corners.append((d.xpos[b, 0] + c * dx - s * dy, d.xpos[b, 1] + s * dx + c * dy, z))
         return np.array(corners)
 
-    def _noisy(self, p: np.ndarray) -> np.ndarray:
-        if self.noise.relative > 0:
+    def _noisy(self, p: np.ndarray, distance: float) -> np.ndarray:
+        """x and y with Gaussian noise whose sigma grows with the distance from the lens."""
+        sigma = self.noise.relative_sigma(distance)
+        if sigma > 0:
             p = p.copy()
-            p[:2] += self.rng.normal(0.0, self.noise.relative, 2)
+            p[:2] += self.rng.normal(0.0, sigma, 2)
         return p
 
 
@@ -317,4 +379,19 @@ def _liang_barsky(a: np.ndarray, b: np.ndarray, xmin: float, ymin: float, xmax: 
             t1 = min(t1, t)
         if t0 > t1:
             return None, 0.0
+    return t0, t1
+
+
+def _liang_barsky_many(a: np.ndarray, b: np.ndarray, width: float, height: float) -> tuple[np.ndarray, np.ndarray]:
+    """_liang_barsky for many segments a->b (n, 2) against [0, width] x [0, height]: t0 > t1 where none is inside."""
+    d = b - a
+    t0 = np.zeros(len(a))
+    t1 = np.ones(len(a))
+    for p, q in ((-d[:, 0], a[:, 0]), (d[:, 0], width - a[:, 0]), (-d[:, 1], a[:, 1]), (d[:, 1], height - a[:, 1])):
+        parallel = np.abs(p) < 1e-12
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = np.where(parallel, 0.0, q / np.where(parallel, 1.0, p))
+        t0 = np.where(~parallel & (p < 0), np.maximum(t0, t), t0)
+        t1 = np.where(~parallel & (p > 0), np.minimum(t1, t), t1)
+        t1 = np.where(parallel & (q < 0), -1.0, t1)
     return t0, t1

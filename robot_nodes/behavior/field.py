@@ -1,0 +1,63 @@
+"""The field as the behaviour sees it: the team's frame (own goal at -x, centre mark at the origin, y to the left)
+and the places of the game: the goals, the goal area, the centre circle, kick-off positions and their legality."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Field:
+    """Humanoid League kid-size dimensions by default (the behaviour's parameters set them)."""
+
+    length: float = 9.0
+    width: float = 6.0
+    goal_width: float = 2.6
+    goal_area_length: float = 1.0
+    goal_area_width: float = 3.0
+    centre_circle_diameter: float = 1.5
+
+    @property
+    def own_goal(self) -> tuple[float, float]:
+        return -self.length / 2, 0.0
+
+    @property
+    def opponent_goal(self) -> tuple[float, float]:
+        return self.length / 2, 0.0
+
+    def in_own_half(self, x: float, margin: float = 0.0) -> bool:
+        return x <= -margin
+
+    def outside_centre_circle(self, x: float, y: float, margin: float = 0.0) -> bool:
+        return math.hypot(x, y) >= self.centre_circle_diameter / 2 + margin
+
+    def in_own_goal_area(self, x: float, y: float) -> bool:
+        return x <= -self.length / 2 + self.goal_area_length and abs(y) <= self.goal_area_width / 2
+
+    def clamp_inside(self, x: float, y: float, margin: float = 0.3) -> tuple[float, float]:
+        """A point inside the field lines, ``margin`` away from them."""
+        hx, hy = self.length / 2 - margin, self.width / 2 - margin
+        return min(max(x, -hx), hx), min(max(y, -hy), hy)
+
+
+def ready_legal(field: Field, x: float, y: float, kicking_off: bool, margin: float = 0.0) -> bool:
+    """A robot's place at the end of READY (Humanoid League rules): in its own half, and outside the centre circle
+    unless its team kicks off (the kicker may stand in its half of the circle)."""
+    return field.in_own_half(x, margin) and (kicking_off or field.outside_centre_circle(x, y, margin))
+
+
+def kickoff_positions(field: Field, kicking_off: bool) -> list[tuple[float, float, float]]:
+    """READY targets (x, y, heading), by rank: the goalie first, then the field players in the order they take them.
+
+    Kicking off, the first field player stands behind the ball in the centre circle; defending, every field player
+    keeps 0.45 m clear of the circle. All stay 0.3 m inside the own half, heading for the opponent goal."""
+    goal_x = -field.length / 2
+    r = field.centre_circle_diameter / 2
+    goalie = (goal_x + 0.5, 0.0, 0.0)
+    if kicking_off:
+        players = [(-0.35, 0.0, 0.0), (-1.0, -1.5, 0.0), (-2.5, 0.8, 0.0), (-1.5, 1.8, 0.0), (-2.5, -1.8, 0.0)]
+    else:
+        players = [(-(r + 0.45), 0.0, 0.0), (-1.6, -1.5, 0.0), (-2.6, 0.8, 0.0), (-1.6, 1.8, 0.0),
+                   (-2.6, -1.8, 0.0)]
+    return [goalie, *players]

@@ -1,0 +1,445 @@
+"""The behaviour node: reads gamestate, robot_state, ball_relative, position, walk_odometry and team_data; writes
+cmd_vel, head_mode, strategy, speak and Kick goals, and publishes its state machine on behavior_graph.
+
+Replaceable like every node: only those topics, the kick action and the parameters below are fixed. The decisions
+live in state_machine.py (which state), roles.py (which role), field.py (which place); this file does what a state
+means: where to walk, where to look, when to kick.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import schemas
+from robot_nodes.behavior.field import Field, kickoff_positions
+from robot_nodes.behavior.roles import (
+    GOALIE,
+    ROLE_NAMES,
+    STRIKER,
+    Candidate,
+    assign_roles,
+    ready_rank,
+    time_to_ball,
+)
+from robot_nodes.behavior.state_machine import (
+    STANDING_STATES,
+    BehaviorStateMachine,
+    Blackboard,
+    State,
+)
+from robot_nodes.behavior.world_model import WorldModel
+from robot_nodes.ground_pose import GroundPose, heading, wrap
+from robot_nodes.runtime import GoalStatus, Node, header, param
+from schemas.messages import (
+    BallRelative,
+    GameState,
+    HeadMode,
+    KickGoal,
+    Position2D,
+    RobotControlState,
+    Speak,
+    StateMachineGraph,
+    Strategy,
+    TeamData,
+)
+from schemas.std import Odometry, Point, Quaternion, Twist, Vector3
+from wire.actions import ClientGoal
+
+MOVING_HCM = (RobotControlState.CONTROLLABLE, RobotControlState.WALKING)
+PENALTY_HCM = (RobotControlState.PENALTY, RobotControlState.PENALTY_ANIMATION)
+HEAD_FOR: dict[State, int] = {
+    State.START: HeadMode.LOOK_FORWARD, State.INITIAL: HeadMode.LOOK_FORWARD, State.FINISHED: HeadMode.LOOK_FORWARD,
+    State.PENALIZED: HeadMode.DONT_MOVE, State.HCM_BUSY: HeadMode.DONT_MOVE,
+}  # every other state: BALL_MODE
+ACTION_FOR: dict[State, int] = {
+    State.READY_GO: Strategy.ACTION_POSITIONING, State.GOALIE: Strategy.ACTION_POSITIONING,
+    State.SUPPORT: Strategy.ACTION_POSITIONING, State.DEFEND: Strategy.ACTION_POSITIONING,
+    State.SEARCH_BALL: Strategy.ACTION_GOING_TO_BALL, State.GO_TO_BALL: Strategy.ACTION_GOING_TO_BALL,
+    State.KICK: Strategy.ACTION_TRYING_TO_SCORE,
+}  # every other state: WAITING
+GRAPH_EVERY_S = 5.0
+
+
+@dataclass
+class BehaviorParams:
+    player_number: int = param(0, range=(0, 20),
+                               doc="this robot's player number (1 keeps the goal); 0: the number its robot id ends in")
+    rate_hz: float = param(10.0, range=(1.0, 50.0), doc="decisions per second while the robot moves")
+    walking_speed: float = param(0.15, range=(0.01, 2.0),
+                                 doc="m/s for the time to the ball (as mitecom's walking_speed_estimate)")
+    role_keep_s: float = param(2.0, range=(0.0, 30.0), doc="the striker keeps its role unless another is this faster")
+    max_forward: float = param(0.15, range=(0.01, 0.5), doc="fastest walk forward, m/s")
+    max_sideways: float = param(0.08, range=(0.01, 0.3), doc="fastest walk sideways, m/s")
+    max_turn: float = param(0.4, range=(0.05, 2.0), doc="fastest turn, rad/s")
+    position_tolerance: float = param(0.2, range=(0.02, 2.0), doc="a place counts as reached this close, m")
+    heading_tolerance_deg: float = param(20.0, range=(1.0, 180.0), doc="...and facing its way this close, deg")
+    goalie_depth: float = param(0.5, range=(0.1, 1.0), doc="the goalie stands this far in front of its goal line, m")
+    behind_ball: float = param(0.4, range=(0.2, 1.5), doc="the striker lines up this far behind the ball, m")
+    kick_distance: float = param(0.5, range=(0.2, 1.0), doc="the ball this close in front: kick (the kick walks on)")
+    kick_align_deg: float = param(25.0, range=(5.0, 90.0), doc="facing the goal this well: kick")
+    kick_retry_s: float = param(2.0, range=(0.0, 30.0), doc="after a failed kick, walk this long before the next")
+    ball_timeout_s: float = param(3.0, range=(0.2, 30.0), doc="an own sighting of the ball is trusted this long")
+    position_timeout_s: float = param(10.0, range=(0.5, 120.0),
+                                      doc="the last position (moved on by odometry) is trusted this long")
+    field_length: float = param(9.0, range=(1.0, 30.0), doc="goal line to goal line, m")
+    field_width: float = param(6.0, range=(1.0, 20.0), doc="touch line to touch line, m")
+    goal_width: float = param(2.6, range=(0.5, 10.0), doc="between the posts, m")
+    goal_area_length: float = param(1.0, range=(0.1, 5.0), doc="m")
+    goal_area_width: float = param(3.0, range=(0.5, 10.0), doc="m")
+    centre_circle_diameter: float = param(1.5, range=(0.1, 5.0), doc="m")
+
+
+def player_number_of(robot_id: str) -> int:
+    """robot3 -> 3; an id without a number at its end is player 1."""
+    match = re.search(r"(\d+)$", robot_id)
+    return int(match.group(1)) if match else 1
+
+
+def _clip(value: float, limit: float) -> float:
+    return max(-limit, min(limit, value))
+
+
+class BehaviorNode(Node):
+    """Plays the game: positions for kick-off, then a role's job (goalie, striker, supporter, defender)."""
+
+    name = "behavior"
+    Params = BehaviorParams
+
+    def setup(self) -> None:
+        p = self.params
+        self.player = p.player_number or player_number_of(self.robot_id)
+        self.field = self._field()
+        self.world = WorldModel(p.ball_timeout_s, p.position_timeout_s)
+        self.machine = BehaviorStateMachine()
+        self.bb = Blackboard()
+        self.gamestate: GameState | None = None
+        self.robot_state: int | None = None
+        self.role = GOALIE if self.player == 1 else STRIKER
+        self.head_mode: int | None = None
+        self.kick_goal: ClientGoal | None = None
+        self.kick_retry_at = -math.inf
+        self.kick_ended_at = -math.inf
+        self.kicks = 0
+        self.cmd = (math.nan, math.nan, math.nan)
+        self.graph_sent_at = -math.inf
+        self.cmd_pub = self.publisher("cmd_vel")
+        self.head_pub = self.publisher("head_mode")
+        self.strategy_pub = self.publisher("strategy")
+        self.speak_pub = self.publisher("speak")
+        self.graph_pub = self.publisher("behavior_graph")
+        self.kick_client = self.action_client("kick")
+        self.subscribe("gamestate", self.on_gamestate)
+        self.subscribe("robot_state", self.on_robot_state)
+        self.subscribe("ball_relative", self.on_ball)
+        self.subscribe("position", self.on_position)
+        self.subscribe("walk_odometry", self.on_odometry)
+        self.subscribe("team_data", self.on_team_data)
+        self.tick_timer = self.timer(p.rate_hz, self.tick, name="decide")
+        self.timer(1.0, self.publish_status, name="status")
+        self.set_diagnostic("player", self.player)
+        self.tick()
+
+    def _field(self) -> Field:
+        p = self.params
+        return Field(p.field_length, p.field_width, p.goal_width, p.goal_area_length, p.goal_area_width,
+                     p.centre_circle_diameter)
+
+    # -- inputs -------------------------------------------------------------------------------------------
+    def on_gamestate(self, msg: GameState) -> None:
+        self.gamestate = msg
+        self.tick()
+
+    def on_robot_state(self, msg: RobotControlState) -> None:
+        changed = msg.state != self.robot_state
+        self.robot_state = int(msg.state)
+        if changed:
+            self.tick()
+
+    def on_ball(self, msg: BallRelative) -> None:
+        self.world.on_ball(msg, time.monotonic())
+
+    def on_position(self, msg: Position2D) -> None:
+        self.world.on_position(msg, time.monotonic())
+
+    def on_odometry(self, msg: Odometry) -> None:
+        q = msg.pose.pose.orientation
+        self.world.on_odometry(float(msg.pose.pose.position.x), float(msg.pose.pose.position.y),
+                               heading(q.x, q.y, q.z, q.w))
+
+    def on_team_data(self, msg: TeamData) -> None:
+        self.world.on_team_data(msg, time.monotonic())
+
+    def on_parameters_changed(self, changed: dict[str, Any]) -> None:
+        p = self.params
+        self.field = self._field()
+        self.world.ball_timeout_s, self.world.position_timeout_s = p.ball_timeout_s, p.position_timeout_s
+        if "player_number" in changed:
+            self.player = p.player_number or player_number_of(self.robot_id)
+        if "rate_hz" in changed:
+            self.tick_timer.set_rate(p.rate_hz)
+
+    # -- the decision -------------------------------------------------------------------------------------
+    def tick(self) -> None:
+        now = time.monotonic()
+        self.role = self._role(now)
+        self._refresh(now)
+        for _ in range(4):  # follow a chain at once (HCM_BUSY -> PLAYING -> the role's state)
+            before = self.machine.state
+            transition = self.machine.step(self.bb)
+            if transition is None:
+                break
+            self._left(before)
+            self._entered(self.machine.state)
+            self.log.info("%s -> %s (%s)", before.value, self.machine.state.value, transition.condition)
+            self.publish_graph()
+            self._refresh(now)
+        self._act(now)
+        # standing states wait for the GameController or the HCM, whose messages step the machine: no ticking
+        if self.machine.state in STANDING_STATES and self.tick_timer.active:
+            self.tick_timer.pause()
+        elif self.machine.state not in STANDING_STATES and not self.tick_timer.active:
+            self.tick_timer.resume(at_once=False)
+
+    def _role(self, now: float) -> int:
+        ball = self.world.ball_from_me(now)
+        me = Candidate(self.player, time_to_ball(math.hypot(*ball) if ball else math.inf, self.params.walking_speed),
+                       pose.x if (pose := self.world.pose(now)) is not None else None, self.role == STRIKER)
+        role = assign_roles(me, self.world.teammates(now), self.params.role_keep_s)
+        if role != self.role:
+            self.say(f"{ROLE_NAMES.get(role, 'other')}")
+        return role
+
+    def _refresh(self, now: float) -> None:
+        bb, gs = self.bb, self.gamestate
+        bb.game_state = int(gs.game_state) if gs is not None else None
+        bb.penalized = bool(gs.penalized) if gs is not None else False
+        bb.penalized = bb.penalized or self.robot_state in PENALTY_HCM
+        bb.controllable = self.robot_state in MOVING_HCM
+        bb.allowed_to_move = bool(gs.allowed_to_move) if gs is not None else False
+        bb.role = self.role
+        bb.ball_known = self.world.ball_from_me(now) is not None
+        target = self._ready_target(now)
+        pose = self.world.pose(now)
+        if target is None or pose is None:
+            bb.at_ready_position = bb.near_ready_position = False
+        else:
+            distance = math.hypot(target.x - pose.x, target.y - pose.y)
+            facing = abs(wrap(target.yaw - pose.yaw)) <= math.radians(self.params.heading_tolerance_deg)
+            bb.at_ready_position = distance <= self.params.position_tolerance and facing
+            bb.near_ready_position = distance <= 2.5 * self.params.position_tolerance
+        bb.kick_ready = self._kick_ready(now)
+        bb.kick_over = self.kick_goal is None or self.kick_goal.done
+
+    # -- what the states do -------------------------------------------------------------------------------
+    def _entered(self, state: State) -> None:
+        if state in STANDING_STATES:
+            self.walk(0.0, 0.0, 0.0)
+        if state is State.KICK:
+            self._send_kick()
+        if state is State.READY_GO:
+            self.say("positioning")
+        self._head(HEAD_FOR.get(state, HeadMode.BALL_MODE))
+        self.publish_status()
+
+    def _left(self, state: State) -> None:
+        if state is State.KICK and self.kick_goal is not None and not self.kick_goal.done:
+            self.kick_goal.cancel(timeout=0.2)  # penalized or the game stopped in the middle of a kick
+
+    def _act(self, now: float) -> None:
+        state, pose = self.machine.state, self.world.pose(now)
+        self.set_diagnostic("state", state.value)
+        if state is State.READY_GO:
+            target = self._ready_target(now)
+            self.walk_to(pose, target)
+        elif state is State.GOALIE:
+            self.walk_to(pose, self._goalie_target(now))
+        elif state is State.SUPPORT:
+            self.walk_to(pose, self._support_target(now))
+        elif state is State.DEFEND:
+            self.walk_to(pose, self._defend_target(now))
+        elif state is State.SEARCH_BALL:
+            self.walk(0.0, 0.0, 0.3)  # turn on the spot while the head sweeps
+        elif state is State.GO_TO_BALL:
+            self._go_to_ball(now, pose)
+
+    def walk_to(self, pose: GroundPose | None, target: GroundPose | None) -> None:
+        """Towards a place on the field: turn to it and walk when far, sidestep and turn to its heading when near."""
+        p = self.params
+        if pose is None or target is None:
+            self.walk(0.0, 0.0, 0.0)  # lost: wait for the localization rather than wander
+            return
+        dx, dy = pose.relative(target.x, target.y)
+        distance = math.hypot(dx, dy)
+        heading_error = wrap(target.yaw - pose.yaw)
+        # there: stop near the middle of the tolerance, start again only when out of it (noise makes no steps)
+        scale = 1.0 if self.cmd == (0.0, 0.0, 0.0) else 0.6
+        if distance <= p.position_tolerance * scale and \
+                abs(heading_error) <= math.radians(p.heading_tolerance_deg) * scale:
+            self.walk(0.0, 0.0, 0.0)
+        elif distance > 0.5:
+            bearing = math.atan2(dy, dx)
+            forward = min(p.max_forward, 0.5 * distance) * max(0.0, math.cos(bearing))
+            self.walk(forward, _clip(0.5 * dy, p.max_sideways) if abs(bearing) < 0.5 else 0.0,
+                      _clip(0.8 * bearing, p.max_turn))
+        else:
+            self.walk(_clip(0.6 * dx, p.max_forward), _clip(0.6 * dy, p.max_sideways),
+                      _clip(1.0 * heading_error, p.max_turn))
+
+    def _go_to_ball(self, now: float, pose: GroundPose | None) -> None:
+        """Behind the ball on its line to the opponent goal; around it when standing on the wrong side."""
+        p = self.params
+        ball = self.world.ball(now)
+        if pose is None or ball is None:
+            rel = self.world.ball_from_me(now)
+            if rel is None:
+                self.walk(0.0, 0.0, 0.0)
+                return
+            bearing = math.atan2(rel[1], rel[0])  # no position: walk straight at the ball
+            self.walk(min(p.max_forward, 0.5 * math.hypot(*rel)) * max(0.0, math.cos(bearing)), 0.0,
+                      _clip(1.2 * bearing, p.max_turn))
+            return
+        gx, gy = self.field.opponent_goal
+        to_goal = math.atan2(gy - ball[1], gx - ball[0])
+        ux, uy = math.cos(to_goal), math.sin(to_goal)
+        behind = (pose.x - ball[0]) * ux + (pose.y - ball[1]) * uy  # > 0: the robot is goal-side of the ball
+        if behind > -0.15:
+            side = 1.0 if (pose.x - ball[0]) * -uy + (pose.y - ball[1]) * ux >= 0 else -1.0
+            tx, ty = ball[0] - 0.5 * ux - side * 0.5 * uy, ball[1] - 0.5 * uy + side * 0.5 * ux
+        else:
+            tx, ty = ball[0] - p.behind_ball * ux, ball[1] - p.behind_ball * uy
+        self.walk_to(pose, GroundPose(tx, ty, to_goal))
+
+    def _kick_ready(self, now: float) -> bool:
+        p = self.params
+        # a fresh sighting, made after the last kick ended (not where the ball lay before it went)
+        if self.role != STRIKER or now < self.kick_retry_at or now - self.world.ball_at > 0.5 or \
+                self.world.ball_at < self.kick_ended_at:
+            return False
+        ball = self.world.ball_relative
+        if ball is None or not (0.05 < ball[0] < p.kick_distance and abs(ball[1]) < 0.3):
+            return False
+        direction = self._goal_direction(now)
+        return direction is None or abs(direction) <= math.radians(p.kick_align_deg)
+
+    def _goal_direction(self, now: float) -> float | None:
+        """The opponent goal's centre relative to the robot's heading (rad); None without a position."""
+        pose = self.world.pose(now)
+        if pose is None:
+            return None
+        gx, gy = pose.relative(*self.field.opponent_goal)
+        return math.atan2(gy, gx)
+
+    def _send_kick(self) -> None:
+        now = time.monotonic()
+        ball = self.world.ball_relative
+        if ball is None:
+            return
+        direction = self._goal_direction(now) or 0.0
+        goal = schemas.make(KickGoal, header=header("base_footprint"), ball_position=Point(x=ball[0], y=ball[1], z=0.0),
+                            kick_direction=Quaternion(x=0.0, y=0.0, z=math.sin(direction / 2),
+                                                      w=math.cos(direction / 2)),
+                            kick_speed=1.0, unstable=False)
+
+        def on_result(status: GoalStatus, _result: Any) -> None:
+            self.kick_ended_at = time.monotonic()
+            if status is GoalStatus.SUCCEEDED:
+                self.kicks += 1
+                self.set_diagnostic("kicks", self.kicks)
+            else:
+                self.kick_retry_at = time.monotonic() + self.params.kick_retry_s
+            self.tick()
+
+        def on_verdict(handle: ClientGoal) -> None:
+            if not handle.accepted:
+                self.set_diagnostic("kick_refused", handle.reason)
+                self.kick_retry_at = time.monotonic() + self.params.kick_retry_s
+                self.tick()
+
+        self.kick_goal = self.kick_client.send_goal(goal, on_result=on_result, on_verdict=on_verdict, timeout=2.0)
+        self.say("kick")
+
+    # -- places -------------------------------------------------------------------------------------------
+    def _ready_target(self, now: float) -> GroundPose | None:
+        gs = self.gamestate
+        if gs is None:
+            return None
+        spots = kickoff_positions(self.field, bool(gs.has_kick_off))
+        x, y, theta = spots[min(ready_rank(self.player, self.world.teammates(now)), len(spots) - 1)]
+        return GroundPose(x, y, theta)
+
+    def _goalie_target(self, now: float) -> GroundPose:
+        """On the line from the goal's centre to the ball, ``goalie_depth`` in front of the goal line."""
+        gx, gy = self.field.own_goal
+        x = gx + self.params.goalie_depth
+        ball = self.world.ball(now)
+        y = 0.0
+        if ball is not None and ball[0] - gx > 0.1:
+            y = gy + (ball[1] - gy) * self.params.goalie_depth / (ball[0] - gx)
+        limit = self.field.goal_width / 2 - 0.2
+        return GroundPose(x, _clip(y, limit), 0.0)
+
+    def _support_target(self, now: float) -> GroundPose:
+        ball = self.world.ball(now)
+        if ball is None:
+            return GroundPose(-1.0, 1.0, 0.0)
+        side = -1.0 if ball[1] > 0 else 1.0  # beside the ball, towards the field's middle
+        x, y = self.field.clamp_inside(ball[0] - 1.0, ball[1] + side * 1.2, 0.4)
+        return GroundPose(min(x, self.field.length / 2 - 1.5), y, math.atan2(ball[1] - y, ball[0] - x))
+
+    def _defend_target(self, now: float) -> GroundPose:
+        gx, gy = self.field.own_goal
+        ball = self.world.ball(now)
+        if ball is None:
+            return GroundPose(gx + 1.5, 0.0, 0.0)
+        x = max(gx + self.field.goal_area_length + 0.4, gx + 0.4 * (ball[0] - gx))
+        y = gy + 0.4 * (ball[1] - gy)
+        return GroundPose(x, y, math.atan2(ball[1] - y, ball[0] - x))
+
+    # -- outputs ------------------------------------------------------------------------------------------
+    def walk(self, vx: float, vy: float, vyaw: float) -> None:
+        command = (round(vx, 3), round(vy, 3), round(vyaw, 3))
+        self.cmd = command
+        self.cmd_pub.publish(schemas.make(Twist, linear=Vector3(x=command[0], y=command[1], z=0.0),
+                                          angular=Vector3(x=0.0, y=0.0, z=command[2])))
+
+    def _head(self, mode: int) -> None:
+        self.head_mode = mode
+        self.head_pub.publish(schemas.make(HeadMode, head_mode=mode))
+
+    def say(self, text: str) -> None:
+        self.speak_pub.publish(schemas.make(Speak, text=text, priority=Speak.LOW_PRIORITY))
+
+    def publish_status(self) -> None:
+        """strategy (the role, for the teammates) and head_mode on every change and each second; the graph rarer."""
+        now = time.monotonic()
+        ball = self.world.ball(now)
+        side = Strategy.SIDE_MIDDLE
+        if ball is not None:
+            side = Strategy.SIDE_LEFT if ball[1] > 1.0 else Strategy.SIDE_RIGHT if ball[1] < -1.0 else side
+        self.strategy_pub.publish(schemas.make(
+            Strategy, role=self.role, action=ACTION_FOR.get(self.machine.state, Strategy.ACTION_WAITING),
+            offensive_side=side))
+        if self.head_mode is not None:
+            self.head_pub.publish(schemas.make(HeadMode, head_mode=self.head_mode))
+        self.set_diagnostic("role", ROLE_NAMES.get(self.role, str(self.role)))
+        # the graph (about 11 kB: 15 states, 162 transitions) on every change and every GRAPH_EVERY_S besides
+        if time.monotonic() - self.graph_sent_at >= GRAPH_EVERY_S:
+            self.publish_graph()
+
+    def publish_graph(self) -> None:
+        self.graph_sent_at = time.monotonic()
+        states, transitions = self.machine.graph()
+        history = list(self.machine.history)
+        self.graph_pub.publish(schemas.make(
+            StateMachineGraph, header=header(), name="behavior", states=states,
+            transition_from=[t[0] for t in transitions], transition_to=[t[1] for t in transitions],
+            transition_condition=[t[2] for t in transitions], current=self.machine.state.value,
+            history_states=[h.state.value for h in history],
+            history_stamps=[schemas.stamp(h.wall_time) for h in history]))
+
+    def on_shutdown(self) -> None:
+        self.walk(0.0, 0.0, 0.0)

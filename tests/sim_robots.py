@@ -1,0 +1,147 @@
+"""Simulated robots for acceptance tests: one MuJoCo world, every robot's real nodes on one session (as a composed
+process runs them), and a separate client session that listens and publishes like a tool on the bus would."""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable
+from typing import Any
+
+import zenoh
+
+import schemas
+from robot_nodes.catalog import entry
+from robot_nodes.cm730.node import Cm730Node
+from robot_nodes.cm730.sim import PhysicsConfig, Placement, RobotHandle, SimRunner, SimWorld
+from robot_nodes.cm730.sim_backend import MujocoBackend
+from robot_nodes.runtime import BusConfig, Node, open_session
+from schemas.codec import Message
+from tests.waiting import wait_for
+from wire.keys import topic_key
+
+# the servo bus as in a match, without images (nobody looks); perception runs for every robot
+CM730 = {"publish_rate": 100.0, "render_camera": False, "camera_rate": 10.0}
+# nodes, MuJoCo and the test share a loaded 2-core machine: a 0.5 s gap in joint_states is no servo failure here
+PATIENT_HCM = {"imu_timeout_s": 2.0, "motor_timeout_s": 2.0}
+
+
+class Listener:
+    """Every message of one robot's topic, decoded, with its arrival time (monotonic)."""
+
+    def __init__(self, session: zenoh.Session, robot: str, topic: str) -> None:
+        self.topic = topic
+        self.messages: list[tuple[float, Any]] = []
+        self._lock = threading.Lock()
+        typename = schemas.topic(topic).type
+
+        def on_sample(sample: zenoh.Sample) -> None:
+            msg = schemas.decode(sample.payload.to_bytes(), typename)
+            with self._lock:
+                self.messages.append((time.monotonic(), msg))
+
+        self._sub = session.declare_subscriber(topic_key(robot, topic), on_sample)
+
+    def last(self) -> Any:
+        with self._lock:
+            return self.messages[-1][1] if self.messages else None
+
+    def since(self, t: float) -> list[Any]:
+        with self._lock:
+            return [m for at, m in self.messages if at >= t]
+
+    def first_time_since(self, t: float) -> float | None:
+        with self._lock:
+            return next((at for at, _ in self.messages if at >= t), None)
+
+    def close(self) -> None:
+        self._sub.undeclare()
+
+
+class SimRobots:
+    """``n`` robots (robot1..robotN) in one world, each with its cm730 and the named nodes of the catalog."""
+
+    def __init__(self, bus: BusConfig, n: int = 1, nodes: tuple[str, ...] = ("animation", "hcm"),
+                 overrides: dict[str, dict[str, Any]] | None = None,
+                 per_robot: Callable[[int], dict[str, dict[str, Any]]] | None = None,
+                 placements: list[Placement] | None = None, physics: PhysicsConfig | None = None,
+                 prepare: Callable[[SimWorld], None] | None = None) -> None:
+        """prepare: changes the world's model before anything runs (a test of other physics)."""
+        self.world = SimWorld(n_robots=n, placements=placements, physics=physics)
+        if prepare is not None:
+            prepare(self.world)
+        self.runner = SimRunner(self.world).start()
+        self.session = open_session(bus)
+        self.client = open_session(bus)
+        self.nodes: dict[str, dict[str, Node]] = {}
+        self._listeners: list[Listener] = []
+        self._publishers: dict[tuple[str, str], Any] = {}
+        overrides = overrides or {}
+        for i, handle in enumerate(self.world.robots):
+            own = per_robot(i) if per_robot else {}
+            params = {"hcm": PATIENT_HCM, **overrides}
+            # the first robot's node alone sends the ground truth (every robot's pose is in it)
+            cm730 = {**CM730, **({} if i == 0 else {"ground_truth_rate": 0.0}), **params.get("cm730", {}),
+                     **own.get("cm730", {})}
+            robot_nodes: dict[str, Node] = {"cm730": Cm730Node(
+                robot_id=handle.robot_id, bus=self.session, overrides=cm730,
+                backend=MujocoBackend(self.world, handle, self.runner))}
+            for name in nodes:
+                cls = entry(name).load()
+                robot_nodes[name] = cls(robot_id=handle.robot_id, bus=self.session,
+                                        overrides={**params.get(name, {}), **own.get(name, {})})
+            self.nodes[handle.robot_id] = robot_nodes
+        for robot_nodes in self.nodes.values():
+            for node in robot_nodes.values():
+                node.start()
+
+    # -- the world ----------------------------------------------------------------------------------------
+    def robot(self, robot_id: str = "robot1") -> RobotHandle:
+        return self.world.robot(robot_id)
+
+    def pose(self, robot_id: str = "robot1") -> tuple[float, float, float]:
+        with self.world.lock:
+            return self.world.robot(robot_id).pose2d()
+
+    def ball(self) -> tuple[float, float]:
+        with self.world.lock:
+            b = self.world.ball_position()
+        return float(b[0]), float(b[1])
+
+    def set_ball(self, x: float, y: float) -> None:
+        with self.world.lock:
+            self.world.set_ball(x, y)
+
+    def upright(self, robot_id: str = "robot1") -> bool:
+        with self.world.lock:
+            return self.world.robot(robot_id).uprightness() > 0.9
+
+    # -- the bus ------------------------------------------------------------------------------------------
+    def listen(self, topic: str, robot_id: str = "robot1") -> Listener:
+        listener = Listener(self.client, robot_id, topic)
+        self._listeners.append(listener)
+        return listener
+
+    def publish(self, topic: str, msg: Message, robot_id: str = "robot1") -> None:
+        key = (robot_id, topic)
+        if key not in self._publishers:
+            self._publishers[key] = self.client.declare_publisher(topic_key(robot_id, topic))
+        self._publishers[key].put(schemas.encode(msg))
+
+    def wait_controllable(self, robot_id: str = "robot1", timeout: float = 40.0) -> None:
+        """Until the HCM has played walkready and says CONTROLLABLE (0) or WALKING (10)."""
+        states = self.listen("robot_state", robot_id)
+        wait_for(lambda: states.last() is not None and states.last().state in (0, 10) and self.upright(robot_id),
+                 timeout, what=f"{robot_id} CONTROLLABLE and upright")
+
+    def close(self) -> None:
+        for listener in self._listeners:
+            listener.close()
+        for pub in self._publishers.values():
+            pub.undeclare()
+        for robot_nodes in self.nodes.values():
+            for node in reversed(list(robot_nodes.values())):
+                node.shutdown()
+        self.runner.stop()
+        self.client.close()
+        self.session.close()

@@ -1,0 +1,153 @@
+"""The behaviour's decisions without a simulation: roles from team data, legal kick-off places, the state machine's
+table (every state reachable, the graph it publishes), the world model's pose and team ball."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+import schemas
+from robot_nodes.behavior.field import Field, kickoff_positions, ready_legal
+from robot_nodes.behavior.node import BehaviorParams, player_number_of
+from robot_nodes.behavior.roles import DEFENDER, GOALIE, STRIKER, SUPPORTER, Candidate, assign_roles, ready_rank
+from robot_nodes.behavior.state_machine import BehaviorStateMachine, Blackboard, State
+from robot_nodes.behavior.world_model import Teammate, WorldModel
+from robot_nodes.cm730.sim.field import KID_SIZE
+from robot_nodes.ground_pose import GroundPose
+from schemas.messages import GameState, Position2D, TeamData
+from schemas.std import Pose2D as RosPose2D
+
+FIELD = Field()
+PLAYING, READY, SET = GameState.GAMESTATE_PLAYING, GameState.GAMESTATE_READY, GameState.GAMESTATE_SET
+
+
+def mate(player: int, time_to_ball: float | None, x: float | None = None, role: int | None = None,
+         state: int | None = 0) -> Teammate:
+    return Teammate(player, role, state, GroundPose(x, 0.0, 0.0) if x is not None else None, None, time_to_ball, 0.1)
+
+
+def test_the_behaviours_field_is_the_simulated_kid_size_field() -> None:
+    p = BehaviorParams()
+    f = KID_SIZE
+    assert (p.field_length, p.field_width, p.goal_width, p.goal_area_length, p.goal_area_width,
+            p.centre_circle_diameter) == (f.length, f.width, f.goal_width, f.goal_area_length, f.goal_area_width,
+                                          f.centre_circle_diameter)
+
+
+def test_player_one_keeps_the_goal_and_the_fastest_field_player_strikes() -> None:
+    assert assign_roles(Candidate(1, 0.5, -4.0), [mate(2, 9.0)], 2.0) == GOALIE
+    me = Candidate(2, 10.0, -1.0)
+    assert assign_roles(me, [mate(3, 4.0, -2.0)], 2.0) == DEFENDER  # 3 strikes, 2 is the one nearer the goal
+    assert assign_roles(me, [mate(3, 4.0, -2.0), mate(4, 12.0, -3.0)], 2.0) == SUPPORTER
+    assert assign_roles(Candidate(2, 3.0, -1.0), [mate(3, 4.0, -2.0)], 2.0) == STRIKER
+    # the goalie and penalized robots do not strike, however near the ball
+    assert assign_roles(me, [mate(1, 0.1, -4.0), mate(3, 0.2, -2.0, state=7)], 2.0) == STRIKER
+    # nobody heard: a field player strikes
+    assert assign_roles(Candidate(3, math.inf, None), [], 2.0) == STRIKER
+
+
+def test_the_striker_keeps_its_role_against_a_near_tie() -> None:
+    striker_now = Candidate(2, 5.0, -1.0, striker_now=True)
+    assert assign_roles(striker_now, [mate(3, 4.0, -2.0)], 2.0) == STRIKER
+    assert assign_roles(striker_now, [mate(3, 2.5, -2.0)], 2.0) != STRIKER
+    # and the teammate agrees: it sees 2 as the striker with its bonus
+    assert assign_roles(Candidate(3, 4.0, -2.0), [mate(2, 5.0, -1.0, role=STRIKER)], 2.0) != STRIKER
+
+
+@pytest.mark.parametrize("kicking_off", [True, False])
+def test_every_kick_off_position_is_legal(kicking_off: bool) -> None:
+    for x, y, heading in kickoff_positions(FIELD, kicking_off):
+        assert ready_legal(FIELD, x, y, kicking_off, margin=0.25), (x, y)
+        assert abs(y) < FIELD.width / 2 - 0.3 and x > -FIELD.length / 2
+        assert heading == 0.0
+    others = kickoff_positions(FIELD, kicking_off)[2:]
+    assert all(FIELD.outside_centre_circle(x, y, 0.3) for x, y, _ in others)
+    if not kicking_off:
+        assert all(FIELD.outside_centre_circle(x, y, 0.3) for x, y, _ in kickoff_positions(FIELD, False))
+
+
+def test_ready_ranks_skip_penalized_teammates() -> None:
+    assert ready_rank(1, [mate(2, None), mate(3, None)]) == 0
+    assert ready_rank(3, [mate(1, None), mate(2, None)]) == 2
+    assert ready_rank(3, []) == 2  # nobody heard: player 2 is taken to be there
+    assert ready_rank(3, [mate(1, None), mate(2, None, state=7)]) == 1
+
+
+def test_player_number_from_the_robot_id() -> None:
+    assert player_number_of("robot3") == 3 and player_number_of("blue12") == 12 and player_number_of("alpha") == 1
+
+
+def step_until_still(machine: BehaviorStateMachine, bb: Blackboard) -> State:
+    for _ in range(10):
+        if machine.step(bb) is None:
+            break
+    return machine.state
+
+
+def test_the_state_machine_follows_the_game() -> None:
+    machine, bb = BehaviorStateMachine(), Blackboard(controllable=True)
+    assert step_until_still(machine, bb) is State.START
+    bb.game_state = GameState.GAMESTATE_INITIAL
+    assert step_until_still(machine, bb) is State.INITIAL
+    bb.game_state = READY
+    assert step_until_still(machine, bb) is State.READY_GO
+    bb.at_ready_position = bb.near_ready_position = True
+    assert step_until_still(machine, bb) is State.READY_WAIT
+    bb.game_state = SET
+    assert step_until_still(machine, bb) is State.SET
+    bb.game_state, bb.allowed_to_move = PLAYING, False
+    assert step_until_still(machine, bb) is State.WAIT
+    bb.allowed_to_move, bb.role = True, STRIKER
+    assert step_until_still(machine, bb) is State.SEARCH_BALL
+    bb.ball_known = True
+    assert step_until_still(machine, bb) is State.GO_TO_BALL
+    bb.kick_ready, bb.kick_over = True, False
+    assert step_until_still(machine, bb) is State.KICK
+    bb.controllable = False  # the kick animation: the HCM has the robot, the kick goes on
+    assert step_until_still(machine, bb) is State.KICK
+    bb.controllable, bb.kick_ready, bb.kick_over = True, False, True
+    assert step_until_still(machine, bb) is State.GO_TO_BALL
+    bb.role = SUPPORTER
+    assert step_until_still(machine, bb) is State.SUPPORT
+    bb.penalized = True
+    assert step_until_still(machine, bb) is State.PENALIZED
+    bb.penalized, bb.controllable = False, False  # unpenalized: the HCM stands the robot up first
+    assert step_until_still(machine, bb) is State.HCM_BUSY
+    bb.controllable, bb.role = True, GOALIE
+    assert step_until_still(machine, bb) is State.GOALIE
+    bb.game_state = GameState.GAMESTATE_FINISHED
+    assert step_until_still(machine, bb) is State.FINISHED
+
+
+def test_every_state_is_reachable_and_the_graph_names_only_states() -> None:
+    machine = BehaviorStateMachine()
+    states, transitions = machine.graph()
+    assert set(states) == {s.value for s in State}
+    targets = {to for _, to, _ in transitions}
+    assert targets | {State.START.value} == set(states)
+    assert all(frm in states and to in states and condition for frm, to, condition in transitions)
+    assert all(frm != to for frm, to, _ in transitions)
+    assert len(transitions) < 2000 and all(len(s) <= 120 for s in states)  # the dashboard's layout limits
+
+
+def test_the_world_model_carries_the_position_on_by_odometry_and_knows_the_team_ball() -> None:
+    world = WorldModel(ball_timeout_s=1.0, position_timeout_s=10.0)
+    world.on_odometry(5.0, 5.0, 0.0)
+    world.on_position(schemas.make(Position2D, pose=RosPose2D(x=-2.0, y=1.0, theta=math.pi / 2), confidence=1.0),
+                      0.0)
+    world.on_odometry(5.5, 5.0, 0.1)  # 0.5 m forward in the odometry frame, which is the robot's left on the field
+    pose = world.pose(1.0)
+    assert pose is not None
+    assert (pose.x, pose.y, pose.yaw) == (pytest.approx(-2.0), pytest.approx(1.5), pytest.approx(math.pi / 2 + 0.1))
+    assert world.pose(11.0) is None
+    team = schemas.make(
+        TeamData, robot_ids=[2], role=[STRIKER], action=[0], state=[0], offensive_side=[1],
+        robot_positions=[schemas.make(Position2D, pose=RosPose2D(x=1.0, y=0.0, theta=math.pi), confidence=1.0)],
+        ball_relative=[schemas.make(Position2D, pose=RosPose2D(x=1.0, y=0.5, theta=0.0), confidence=1.0)],
+        oppgoal_relative=[schemas.make(Position2D)], avg_walking_speeds=[0.1], time_to_position_at_ball=[7.0],
+        max_kicking_distance=[2.0], age=[0.2])
+    world.on_team_data(team, 1.0)
+    assert world.ball(1.5) == (pytest.approx(0.0), pytest.approx(-0.5))  # seen by the teammate facing -x
+    assert world.teammates(1.5)[0].time_to_ball == 7.0
+    assert world.teammates(10.0) == []
