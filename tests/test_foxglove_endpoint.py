@@ -440,6 +440,32 @@ def test_nodelay_watch_sets_tcp_nodelay_on_accepted_connections_of_its_port_only
             assert watch.apply() == 0  # each connection once
 
 
+def test_the_endpoint_sets_tcp_nodelay_when_a_client_connects_and_looks_at_nothing_before() -> None:
+    """An idle endpoint costs nothing: /proc is read only when the guard passes a connection on."""
+    import uvicorn
+    from websockets.sync.client import connect
+    from websockets.typing import Subprotocol
+
+    from server.app import create_app
+    from tests.support import free_port
+
+    port = free_port()
+    app = create_app(ServerConfig(port=port, live_source=False, telemetry_source=False, foxglove_port=0))
+    server = uvicorn.Server(uvicorn.Config(app, host="127.0.0.1", port=port, log_level="warning"))
+    thread = threading.Thread(target=server.run, daemon=True)
+    thread.start()
+    try:
+        wait_for(lambda: server.started and app.state.pitchside.foxglove is not None, 30.0, 0.05, "endpoint up")
+        endpoint = app.state.pitchside.foxglove
+        assert endpoint._nodelay.looks == 0, "nobody connected: nothing looked at"
+        with connect(endpoint.urls[0], subprotocols=[Subprotocol("foxglove.sdk.v1")], open_timeout=10) as ws:
+            ws.recv(timeout=10)  # the server's hello: the SDK has the connection
+            wait_for(lambda: endpoint._nodelay.applied >= 1, 10.0, 0.05, "TCP_NODELAY on the SDK's side")
+    finally:
+        server.should_exit = True
+        thread.join(30)
+
+
 def test_a_replayed_log_is_served_with_the_logs_own_cdr_bytes(tmp_path: Path) -> None:
     from tests.test_replay import _pitchside_log
 

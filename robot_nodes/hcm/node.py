@@ -125,7 +125,7 @@ class HcmNode(Node):
     def on_imu(self, msg: Imu, at: float) -> None:
         self.last_imu = at
         o, g = msg.orientation, msg.angular_velocity
-        self.fall_checker.update(at, np.array([o.x, o.y, o.z, o.w]), np.array([g.x, g.y, g.z]))
+        self.fall_checker.update(at, (o.x, o.y, o.z, o.w), (g.x, g.y, g.z))
 
     def on_joint_states(self, msg: JointState, at: float) -> None:
         # a bus that repeats stale values is as silent as one that says nothing

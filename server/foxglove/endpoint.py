@@ -47,7 +47,9 @@ if TYPE_CHECKING:
 
 log = logging.getLogger(__name__)
 DEFAULT_PORT = 8765  # what Foxglove's and Lichtblick's "Open connection" dialog proposes
-NODELAY_PERIOD_S = 0.25  # how soon a new connection from the guard gets TCP_NODELAY (server.foxglove.nodelay)
+# after the guard passes a connection on, the SDK's side of it is looked for this long later (it accepts in its own
+# time), until found: TCP_NODELAY (server.foxglove.nodelay) without looking at /proc while nobody connects
+NODELAY_LOOKS_S = (0.0, 0.05, 0.2, 1.0, 3.0)
 ROBOTS_PERIOD_S = 1.0  # how often the live robots (their services) are looked for
 GRAPH_DEBOUNCE_S = 0.2  # a node's start declares a dozen tokens: one graph update for them
 SUBSCRIBED_DELAY_S = 0.05
@@ -312,13 +314,24 @@ class FoxgloveEndpoint:
         return time.time()
 
     async def _watch_nodelay(self) -> None:
+        passed = asyncio.Event()
+        loop = asyncio.get_running_loop()
+
+        def on_pass() -> None:  # on the guard's thread
+            loop.call_soon_threadsafe(passed.set)
+
+        self.guard.on_pass = on_pass
         while True:
-            try:
-                await asyncio.to_thread(self._nodelay.apply)
-            except Exception as exc:  # /proc unreadable: slower delivery, nothing worse
-                log.warning("foxglove: TCP_NODELAY not set on the SDK's connections: %r", exc)
-                return
-            await asyncio.sleep(NODELAY_PERIOD_S)
+            await passed.wait()
+            passed.clear()
+            for delay in NODELAY_LOOKS_S:
+                await asyncio.sleep(delay)
+                try:
+                    if await asyncio.to_thread(self._nodelay.apply):
+                        break
+                except Exception as exc:  # /proc unreadable: slower delivery, nothing worse
+                    log.warning("foxglove: TCP_NODELAY not set on the SDK's connections: %r", exc)
+                    return
 
     def banner(self) -> str:
         urls = self.urls

@@ -27,6 +27,7 @@ import contextlib
 import logging
 import socket
 import threading
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from urllib.parse import parse_qs, urlsplit
 
@@ -106,6 +107,7 @@ class FoxgloveGuard:
         self._thread = threading.Thread(target=self._loop.run_forever, name="foxglove guard", daemon=True)
         self._server: asyncio.Server | None = None
         self._clients: set[asyncio.Task[None]] = set()
+        self.on_pass: Callable[[], None] | None = None  # called (on the guard's thread) for each connection passed on
 
     def start(self, port: int) -> None:
         """Binds ``port`` (OSError when taken; 0: any free port)."""
@@ -176,6 +178,8 @@ class FoxgloveGuard:
         port = self.sdk_ports.control if with_token else self.sdk_ports.view
         up_reader, up_writer = await asyncio.open_connection("127.0.0.1", port)
         _nodelay(up_writer)
+        if self.on_pass is not None:
+            self.on_pass()
         try:
             up_writer.write(head)
             upstream = asyncio.create_task(_pass(reader, up_writer))

@@ -3,7 +3,7 @@ written beside the streams.
 
 The same messages the Foxglove endpoint serves live (server.foxglove.transforms: robot_state_publisher's job from
 joint_states and the URDF), so a recorded match opened in Foxglove or Lichtblick shows each robot moving on the field:
-each robot's tf with its frames (``<robot>/<link>``, at most ``max_hz``), and in each file of a series, before a
+each robot's tf with its frames (``<robot>/<link>``, at most RECORDED_TF_HZ), and in each file of a series, before a
 robot's first tf, its fixed joints on its tf_static and its URDF on its robot_description (std_msgs/String, link
 names as its frames). A robot's own tf topics, as ROS 2 namespaces them, keep a replayed recording's robots apart.
 """
@@ -16,11 +16,14 @@ from dataclasses import dataclass
 
 import schemas
 from server.config import RobotDescription
-from server.foxglove.transforms import DEFAULT_MAX_HZ, DESCRIPTION_TYPE, TF_TYPE, TOPICS, RobotStatePublisher
+from server.foxglove.transforms import DESCRIPTION_TYPE, TF_TYPE, TOPICS, RobotStatePublisher
 from server.hub import HubMessage
 
 log = logging.getLogger(__name__)
 TF, TF_STATIC, DESCRIPTION = "tf", "tf_static", "robot_description"
+# a recorded match replays in 3D at this rate: enough to follow play, and a match's recording (every robot's
+# forward kinematics on the server) costs a quarter of the live rate
+RECORDED_TF_HZ = 5.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -36,7 +39,7 @@ class SceneRecord:
 class RecordedScene:
     """Turns recorded hub messages into the 3D scene's messages; used on the recording's writer thread."""
 
-    def __init__(self, description_for: Callable[[str], RobotDescription], max_hz: float = DEFAULT_MAX_HZ) -> None:
+    def __init__(self, description_for: Callable[[str], RobotDescription], max_hz: float = RECORDED_TF_HZ) -> None:
         self.publisher = RobotStatePublisher(description_for, max_hz)
         self.described: set[str] = set()  # robots whose URDF and fixed joints the current file has
         self.file = 0
