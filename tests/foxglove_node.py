@@ -44,7 +44,11 @@ def node_client(mode: str, url: str, *args: str) -> subprocess.Popen[str]:
 
 def run_client(mode: str, url: str, *args: str, timeout: float = 60.0) -> dict[str, Any]:
     """Runs the client to its end and returns what it printed."""
-    proc = node_client(mode, url, *args)
+    return client_result(node_client(mode, url, *args), mode, timeout)
+
+
+def client_result(proc: subprocess.Popen[str], mode: str, timeout: float = 60.0) -> dict[str, Any]:
+    """What a client started with ``node_client`` printed, once it ended."""
     try:
         out, err = proc.communicate(timeout=timeout)
     except subprocess.TimeoutExpired:

@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import signal
 import sys
 import time
 
@@ -23,7 +24,10 @@ from server.protocol import unbatch
 
 
 def watch(url: str, out: str, seconds: float, topics: list[str]) -> None:
+    """Watches for ``seconds``, or until SIGTERM (then it ends as if they were over, exit code 0)."""
     deadline = time.monotonic() + seconds
+    stopped: list[int] = []
+    signal.signal(signal.SIGTERM, lambda signum, frame: stopped.append(signum))
     while True:
         try:
             ws = connect(url, open_timeout=2, max_size=None)
@@ -35,11 +39,11 @@ def watch(url: str, out: str, seconds: float, topics: list[str]) -> None:
     with ws, open(out, "a", buffering=1) as lines:
         for topic in topics:
             ws.send(json.dumps({"op": "subscribe", "robot": "*", "topic": topic}))
-        while time.monotonic() < deadline:
+        while time.monotonic() < deadline and not stopped:
             try:
-                raw = ws.recv(timeout=max(0.01, deadline - time.monotonic()))
+                raw = ws.recv(timeout=max(0.01, min(0.2, deadline - time.monotonic())))
             except TimeoutError:
-                break
+                continue
             now = time.time()
             if not isinstance(raw, str):
                 continue

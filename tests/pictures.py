@@ -46,7 +46,12 @@ def wait_for_moving_plot(shoot: Callable[[], Any], timeout: float) -> None:
 def drawn_share(picture: Any) -> float:
     """Share of the pixels that differ clearly from the picture's most common colour (its background): 0 for a
     panel that draws nothing, a few per cent for a line of text, more for a field, a graph or a 3D view."""
-    colours = picture.getcolors(picture.width * picture.height)
-    background = max(colours)[1]
-    differ = sum(n for n, c in colours if sum(abs(a - b) for a, b in zip(c, background, strict=True)) > 60)
-    return float(differ) / (picture.width * picture.height)
+    import numpy as np
+
+    pixels = np.asarray(picture, dtype=np.int16).reshape(-1, 3)
+    if len(pixels) == 0:
+        return 0.0
+    colours, counts = np.unique(pixels, axis=0, return_counts=True)
+    background = colours[int(np.argmax(counts))]
+    differ = int(np.count_nonzero(np.abs(pixels - background).sum(axis=1) > 60))
+    return differ / len(pixels)

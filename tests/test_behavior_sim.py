@@ -115,7 +115,13 @@ def test_the_goalie_stays_between_ball_and_goal(bus: BusConfig, sims: list[SimRo
         for ball in ((-2.0, 1.6), (-2.6, -1.4), (-1.2, 0.4)):
             sim.set_ball(*ball)
             wait_for(lambda: behaviour_state(sim, "robot1") == "GOALIE_GUARD_GOAL", 20, what="the goalie guarding")
-            time.sleep(12.0)  # it sees the ball, walks sideways, settles
+
+            def on_the_line(ball: tuple[float, float] = ball) -> bool:
+                x, y, _ = sim.pose()
+                return abs(y - (gy + (ball[1] - gy) * (x - gx) / (ball[0] - gx))) < 0.2
+
+            wait_for(on_the_line, 30, 0.2, what=f"the goalie on the line from the goal to the ball at {ball}")
+            time.sleep(2.0)  # the last steps of its walk
             samples = []
             for _ in range(10):  # and stays, while it watches the ball
                 samples.append(sim.pose())
@@ -159,7 +165,7 @@ def test_a_penalized_robot_and_one_in_set_stand_still(bus: BusConfig, sims: list
                                                         (states.last().state == 0 and sim.upright())),
                  30, what=f"{what}: standing or penalized")
         before = sim.pose()
-        time.sleep(5.0)
+        time.sleep(3.0)  # the span it must keep still, not a wait
         after = sim.pose()
         moved = math.hypot(after[0] - before[0], after[1] - before[1])
         assert moved < 0.03, f"{what}: moved {moved:.3f} m from {before} to {after}"

@@ -164,10 +164,11 @@ def test_camera_image_and_detections_are_published(node: Cm730Node, client: zeno
         assert (info.width, info.height) == (320, 240)
         wait_for(lambda: listener.last("ball_in_image") is not None and listener.last("ball_in_image").candidates,
                  timeout=20, what="ball seen")
-        rel = listener.last("ball_relative").ball_relative
+        # the stand-ins for vision and localisation publish after the image topics, on keys of their own
+        rel = wait_for(lambda: listener.last("ball_relative"), timeout=10, what="ball_relative").ball_relative
         assert rel.x == pytest.approx(0.8, abs=0.1) and abs(rel.y) < 0.1
         assert listener.last("line_information_in_image").segments
-        pos = listener.last("position").pose
+        pos = wait_for(lambda: listener.last("position"), timeout=10, what="position").pose
         assert pos.x == pytest.approx(x, abs=0.05)
     finally:
         listener.close()

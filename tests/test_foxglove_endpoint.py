@@ -36,7 +36,7 @@ from server.loopback_ports import BROWSER_BLOCKED_PORTS
 from server.security.credentials import Credentials
 from server.security.hosts import AllowedHosts
 from tests.dashboard_server import RunningServer, dashboard_server
-from tests.foxglove_node import foxglove_url, node_client, run_client, run_session
+from tests.foxglove_node import client_result, foxglove_url, node_client, run_client, run_session
 from tests.support import REPO, free_port
 from tests.waiting import wait_for
 from wire.keys import topic_key
@@ -476,10 +476,13 @@ def test_a_replayed_log_is_served_with_the_logs_own_cdr_bytes(tmp_path: Path) ->
         url = banner_url(server)
         wait_for(lambda: server.http.get(f"{server.url}/api/replay").json().get("state") == "paused", timeout=30,
                  interval=0.2, what="the log open")
-        assert server.http.post(f"{server.url}/api/replay/play").status_code == 200
+        # the client first, so it subscribes as the channels come; at half speed the log lasts 40 s besides
         # the log's robots as the dashboard shows them: apart from live ones (replay.<id>)
-        got = run_client("probe", url, "--topic", "/replay.r1/gamestate", "--topic", "/replay.r2/joint_states",
-                         "--min", "2", "--seconds", "30")
+        probe = node_client("probe", url, "--topic", "/replay.r1/gamestate", "--topic", "/replay.r2/joint_states",
+                            "--min", "2", "--seconds", "30")
+        assert server.http.post(f"{server.url}/api/replay/speed", json={"speed": 0.5}).status_code == 200
+        assert server.http.post(f"{server.url}/api/replay/play").status_code == 200
+        got = client_result(probe, "probe")
         assert got["topics"]["/replay.r2/joint_states"]["last"]["name"] == ["head_pan"]
         written = schemas.encode(schemas.make("humanoid_league_msgs/msg/GameState", game_state=3, own_score=0))
         assert base64.b64decode(got["topics"]["/replay.r1/gamestate"]["lastBytes"]) == written

@@ -173,7 +173,9 @@ def test_startup_goes_to_controllable_standing(make_stack: Callable[..., Stack])
         assert stack.robot.uprightness() > UPRIGHT
 
 
-@pytest.mark.parametrize(("direction", "yaw"), [("front", 0.8), ("back", -2.2)])
+# each fall in one layout of the nodes: the falls are physics, the layouts' message paths the other tests' business
+@pytest.mark.parametrize(("robot_bus", "direction", "yaw"), [("split", "front", 0.8), ("composed", "back", -2.2)],
+                         indirect=["robot_bus"])
 def test_pushed_over_falls_protected_and_gets_up(make_stack: Callable[..., Stack], direction: str,
                                                  yaw: float) -> None:
     stack = make_stack(yaw=yaw)
@@ -393,7 +395,7 @@ def _break_bus(stack: Stack, fault: Callable[[BusReading], BusReading]) -> Calla
     return lambda: setattr(backend, "read", original)
 
 
-@pytest.mark.parametrize("fault", ["imu", "servo"])
+@pytest.mark.parametrize(("robot_bus", "fault"), [("split", "imu"), ("composed", "servo")], indirect=["robot_bus"])
 def test_silent_hardware_is_a_hardware_problem(make_stack: Callable[..., Stack], fault: str) -> None:
     stack = make_stack(hcm={"imu_timeout_s": 0.5, "motor_timeout_s": 0.5})
     stack.wait_controllable_standing()

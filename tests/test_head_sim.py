@@ -81,7 +81,7 @@ def test_the_head_finds_a_ball_anywhere_in_front_within_six_seconds(bus: BusConf
         # the last row of the sweep, its far end: the longest search from looking straight ahead
         fixed = [(0.35, math.radians(40)), (0.7, math.radians(85)), (0.7, math.radians(-85)), (4.0, math.radians(60))]
         found_after = []
-        for trial in range(9):
+        for trial in range(len(fixed) + 2):
             # look up and away; the ball out of sight long enough that the head forgets where it last saw it
             robots_.publish("head_mode", schemas.make(HeadMode, head_mode=HeadMode.LOOK_UP))
             robots_.set_ball(x0 - 1.5, y0)

@@ -128,7 +128,8 @@ def test_a_match_plays_both_halves_under_the_gamecontroller_and_records_them(tmp
         answered = {(r["team"], r["player"]) for r in status["returns"]}
         assert status["return_count"] > 20 and answered == {(1, 1), (1, 2), (2, 1), (2, 2)}
         output = match.output()
-        assert "referee at" in output and "placed team 1 player 1" in output
+        # the referee is in the world; what it calls depends on the play (tests/test_referee.py judges each call)
+        assert "refereed by the simulated GameController" in output
     for half in (True, False):  # every state of both halves, in the Humanoid League order
         order = [s for s, h in states if h == half]
         for state in (INITIAL, READY, SET, PLAYING, FINISHED) if not half else (READY, SET, PLAYING, FINISHED):

@@ -314,6 +314,7 @@ class Node:
         most this many messages a second, the others dropped before they wake the node."""
         sub = Subscription(self, topic, handler, robot or self.robot_id, max_hz)
         self._subscriptions.append(sub)
+        self._node_graph.subscribes(topic, sub.robot)
         return sub
 
     def keep_latest(self, topic: str) -> LatestMessage:

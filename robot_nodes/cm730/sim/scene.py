@@ -40,7 +40,8 @@ class PhysicsConfig:
     mx106: ServoClass = ServoClass(kp=100.0, kv=1.5)
     armature: float = 0.012  # kg m^2, reflected rotor inertia through the servo gearbox
     turf_friction: tuple[float, float, float] = (1.0, 0.005, 0.0001)  # sliding, torsional, rolling
-    ball_friction: tuple[float, float, float] = (0.8, 0.005, 0.03)  # rolling 0.03: turf stops a ball within metres
+    # rolling 0.01 m: artificial turf (FIFA's ball-roll test: 4-10 m from its ramp); a kicked ball rolls metres
+    ball_friction: tuple[float, float, float] = (0.8, 0.005, 0.01)
     foot_friction: float = 1.0
     solver_iterations: int = 30
 
@@ -138,6 +139,8 @@ def _add_field(world: mujoco.MjSpec, f: FieldDimensions, physics: PhysicsConfig)
                   mass=f.ball_mass, contype=1, conaffinity=robots_mask | 1, condim=6,
                   friction=list(physics.ball_friction), priority=1)
     ball.explicitinertial = True
+    ball.ipos = [0.0, 0.0, 0.0]  # unset, MuJoCo put the centre of mass on the surface and the ball wobbled to a stop
+    ball.iquat = [1.0, 0.0, 0.0, 0.0]
     ball.mass = f.ball_mass
     ball.inertia = [inertia, inertia, inertia]
 
