@@ -80,8 +80,9 @@ def sims(bus: BusConfig) -> Iterator[list[SimRobots]]:
 
 @pytest.mark.parametrize("kicking_off", [True, False], ids=["kicking-off", "defending"])
 def test_ready_places_are_legal(bus: BusConfig, sims: list[SimRobots], kicking_off: bool) -> None:
-    # three players of a team start where READY must not end: in the opponent half and in the centre circle
-    starts = [Placement(0.6, 1.2, math.pi), Placement(0.3, -0.4, 0.0), Placement(-0.4, 0.5, -1.0)]
+    # the field players start where READY must not end: in the opponent half (facing away) and in the centre
+    # circle; the goalie near, not in, its goal area
+    starts = [Placement(-3.3, 0.9, 0.0), Placement(0.6, 0.9, math.pi), Placement(0.3, -0.4, 0.0)]
     sim = SimRobots(bus, 3, nodes=NODES, placements=starts)
     sims.append(sim)
     for robot in sim.nodes:
@@ -112,16 +113,18 @@ def test_the_goalie_stays_between_ball_and_goal(bus: BusConfig, sims: list[SimRo
     gx, gy = FIELD.own_goal
     try:
         lowest_y, highest_y = math.inf, -math.inf
-        for ball in ((-2.0, 1.6), (-2.6, -1.4), (-1.2, 0.4)):
+        for ball in ((-2.0, 1.6), (-2.6, -1.4)):  # to one side, then the other
             sim.set_ball(*ball)
             wait_for(lambda: behaviour_state(sim, "robot1") == "GOALIE_GUARD_GOAL", 20, what="the goalie guarding")
 
-            def on_the_line(ball: tuple[float, float] = ball) -> bool:
+            def settled_on_the_line(ball: tuple[float, float] = ball) -> bool:
+                """Near the ball-goal line and no longer walking (it stops within 0.12 m of its place)."""
                 x, y, _ = sim.pose()
-                return abs(y - (gy + (ball[1] - gy) * (x - gx) / (ball[0] - gx))) < 0.2
+                standing = sim.nodes["robot1"]["behavior"].cmd == (0.0, 0.0, 0.0)  # type: ignore[attr-defined]
+                return standing and abs(y - (gy + (ball[1] - gy) * (x - gx) / (ball[0] - gx))) < 0.2
 
-            wait_for(on_the_line, 30, 0.2, what=f"the goalie on the line from the goal to the ball at {ball}")
-            time.sleep(2.0)  # the last steps of its walk
+            wait_for(settled_on_the_line, 40, 0.2, what=f"the goalie settled on the line to the ball at {ball}")
+            time.sleep(1.0)  # the last step of its walk
             samples = []
             for _ in range(10):  # and stays, while it watches the ball
                 samples.append(sim.pose())

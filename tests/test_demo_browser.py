@@ -1,4 +1,4 @@
-"""`pitchside demo` in Debian's chromium: every panel shows the live simulation, and the world keeps real time.
+"""`pitchside demo` in Debian's chromium: every panel shows the live simulation.
 
 Runs the real demo (MuJoCo world, robot nodes, GameController, server with 3D view and plots) as a
 subprocess; an independent WebSocket client reads the same data the page gets, so each panel is checked
@@ -9,26 +9,21 @@ from __future__ import annotations
 
 import contextlib
 import math
-import os
-import statistics
 import time
 from collections.abc import Iterator
 from typing import Any
 
 import httpx
-import psutil
 import pytest
 
 import schemas
-from tests.pictures import picture, wait_for_moving_plot
-from tests.running_demo import DashboardObserver, RunningDemo, cpu_by_process, running_demo
+from tests.running_demo import DashboardObserver, RunningDemo, running_demo
 from tests.support import REPO, launch_chromium
 from tests.waiting import wait_for
 
 OUTPUT = REPO / "test-output" / "demo"
 ROBOT = "robot1"
 HCM_NAMES = schemas.constant_names("humanoid_league_msgs/msg/RobotControlState")
-OVERLOADED = 4.0  # 1-minute load average of this 2-core machine beyond which real time is not asked for
 DATA_PANELS = ("team", "field", "relative", "hcm", "camera", "diagnostics")
 WEBGL_VIEWS = ("robot3d", "plots")
 pytestmark = [pytest.mark.slow, pytest.mark.browser, pytest.mark.timeout(240)]
@@ -150,26 +145,10 @@ def test_every_panel_shows_the_live_demo(demo: RunningDemo, page: Any) -> None:
             src = page.eval_on_selector(f'section[data-panel="{panel}"] iframe', "frame => frame.src")  # absolute
             assert src and httpx.get(src, timeout=10).status_code == 200, (panel, src)
 
-        # the simulation keeps real time while the browser shows every panel; bench/demo.py measures it longer
-        t0 = time.time()
-        stack = demo.processes()
-        browser = [p for p in psutil.Process().children(recursive=True) if p.pid not in {q.pid for q in stack}]
-        cpu = cpu_by_process(stack + browser, 10.0)
-        factors = [f for t, f in observer.real_time_factors if t > t0 + 1.0]
-        load = os.getloadavg()[0]
-        (OUTPUT / "cpu.txt").write_text("".join(f"{pct:6.1f} %  {name}\n" for name, pct in cpu) +
-                                        f"real_time_factor: {factors}\nload average: {load:.1f}\n")
-        assert len(factors) >= 5, observer.real_time_factors
-        # the machine is shared: when other work loads it far beyond its 2 cores, only ask for a running world
-        floor = 0.8 if load < OVERLOADED else 0.2
-        assert statistics.median(factors) > floor, f"simulation slower than real time (load {load:.1f}): " \
-                                                   f"{factors}\n{cpu}"
-        assert not observer.error, observer.error
-
-        # the plots: rerun's viewer draws the lines of what the server logs (coloured pixels), following new data
+        # (the simulation's real time with every panel open: bench/demo.py; rerun's lines following new data:
+        # tests/test_dashboard_firefox.py; every panel drawing: tests/test_readme_pictures_browser.py)
         plots = page.locator('section[data-panel="plots"]')
         plots.scroll_into_view_if_needed()
-        wait_for_moving_plot(lambda: picture(plots.screenshot(path=str(OUTPUT / "plots.png"))), timeout)
         # any topic plotted whole: chosen in the panel's bar, the server logs every number of it
         plots.locator('[data-role="topic"]').select_option("gamestate")
         plots.locator('[data-act="add"]').click()

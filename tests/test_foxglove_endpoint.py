@@ -329,7 +329,7 @@ def handed_to_sdk(server: RunningServer) -> int:
 @pytest.mark.slow
 def test_a_client_that_never_reads_costs_bounded_memory_and_the_others_keep_up(
         router_endpoint: str, client: zenoh.Session, tmp_path: Path) -> None:
-    """Flood 20 KB messages; a stalled client would need ~10x the server's memory; the SDK drops its oldest."""
+    """Flood 20 KB messages; a stalled client would need ~3x the growth allowed; the SDK drops its oldest."""
     with server_with_foxglove(router_endpoint, tmp_path) as (server, url):
         payload = schemas.encode(schemas.make("sensor_msgs/msg/CompressedImage", format="jpeg",
                                               data=np.zeros(20_000, np.uint8)))
@@ -353,8 +353,8 @@ def test_a_client_that_never_reads_costs_bounded_memory_and_the_others_keep_up(
             process = psutil.Process(server.process.pid)
             before, start = process.memory_info().rss, handed_to_sdk(server)
             with RobotFeed(client, "r1", hz=20):
-                wait_for(lambda: (handed_to_sdk(server) - start) * len(payload) > 600 << 20, timeout=120,
-                         interval=0.5, what="600 MB handed to the SDK for the stalled client")
+                wait_for(lambda: (handed_to_sdk(server) - start) * len(payload) > 400 << 20, timeout=120,
+                         interval=0.5, what="400 MB handed to the SDK for the stalled client")
                 got = run_client("probe", url, "--topic", "/r1/joint_states", "--min", "5", "--seconds", "30")
             grown = process.memory_info().rss - before
             assert got["topics"]["/r1/joint_states"]["count"] >= 5  # the other client keeps getting fresh data
@@ -394,7 +394,7 @@ def test_foxglove_decodes_the_demo_robot_live_and_over_one_way_telemetry(tmp_pat
         assert "/robot1/camera/annotations" in channels_of(url)  # the detections, for the Image panel
         # the robot in 3D, in both modes; control only in the lab (and with the token)
         steps: list[dict[str, Any]] = [{"op": "waitChannel", "topic": "/robot1/tf"},
-                                       {"op": "subscribe", "topic": "/robot1/tf", "count": 1}]
+                                       {"op": "subscribe", "topic": "/robot1/tf", "count": 6}]
         if mode == "lab":
             steps += [{"op": "setParameters", "parameters": [{"name": "/robot1/walking/step_frequency",
                                                               "value": 99.0, "type": "float64"}]},
@@ -403,8 +403,9 @@ def test_foxglove_decodes_the_demo_robot_live_and_over_one_way_telemetry(tmp_pat
                       {"op": "callService", "service": "/robot1/manual_penalize", "request": {"penalize": 0}}]
         got = run_session(f"{url}/?token={demo.token}", steps, seconds=60, timeout=120)
         assert got["errors"] == [], got["errors"]
-        [tf] = [r["messages"][0]["message"] for r in got["results"] if r["op"] == "subscribe"]
-        frames = {t["child_frame_id"] for t in tf["transforms"]}
+        # the robot's own tree and the simulation's ground truth come as messages of their own on its /tf
+        [received] = [r["messages"] for r in got["results"] if r["op"] == "subscribe"]
+        frames = {t["child_frame_id"] for m in received for t in m["message"]["transforms"]}
         assert {"robot1/odom", "robot1/base_footprint", "robot1/base_link", "robot1/head"} <= frames
         capabilities = set(got["serverInfo"]["capabilities"])
         if mode == "lab":

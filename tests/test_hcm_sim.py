@@ -241,6 +241,7 @@ def _penalty_round(stack: Stack, penalize: Callable[[bool], None], torque_off: b
     assert stack.robot.torque_enabled.all()
 
 
+@pytest.mark.parametrize("robot_bus", ["split"], indirect=True)
 def test_manual_penalize_service(make_stack: Callable[..., Stack]) -> None:
     stack = make_stack(hcm={"penalty_torque_off": False})
     request = "humanoid_league_msgs/srv/ManualPenalize_Request"
@@ -254,6 +255,7 @@ def test_manual_penalize_service(make_stack: Callable[..., Stack]) -> None:
     _penalty_round(stack, penalize, torque_off=False)
 
 
+@pytest.mark.parametrize("robot_bus", ["composed"], indirect=True)
 def test_gamecontroller_penalty(make_stack: Callable[..., Stack]) -> None:
     stack = make_stack(hcm={"penalty_torque_off": True})
     gamestate = stack.publisher("gamestate")
@@ -347,6 +349,7 @@ def test_joint_mutex_animation_and_record(make_stack: Callable[..., Stack]) -> N
     stack.wait_controllable_standing(15.0)
 
 
+@pytest.mark.parametrize("robot_bus", ["split"], indirect=True)
 def test_real_bitbots_animation_plays_to_the_end(make_stack: Callable[..., Stack], testdata: Path) -> None:
     folder = testdata / "animations"
     # the straight-legged init pose leans forward: fall handling off, so nothing but the animation moves the joints

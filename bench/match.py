@@ -1,0 +1,172 @@
+"""A match in simulation: how the robots play, and whether the laptop keeps real time while they do.
+
+    python bench/match.py [--robots 4v4] [--half-minutes 5] [--seeds 1,2,3] [--quick]
+
+Each seed plays one whole match as ``pitchside match --robots 4v4 --half-minutes 5 --seed S`` starts it: the MuJoCo
+world with both teams and the referee, the simulated GameController running the Humanoid League flow, every
+robot's nodes composed in one process each, the dashboard in match mode over one-way telemetry. ``--quick``: one
+match of 2 x 2 minutes, the same figures.
+
+From the match's own output (every node logs its state changes) and the GameController's status it counts goals
+(the final score), kicks (the kick node's started kicks), falls (HCM into FALLING) and get-ups (HCM into
+GETTING_UP), and the referee's penalties (robots removed). For each fall it takes the time until the robot stands
+again (HCM back to CONTROLLABLE or WALKING) or is penalised; the budget is 20 s. The world's real-time factor is its
+``real_time_factor`` diagnostic as the dashboard receives it over telemetry (each 1 s window), minimum over the
+match; CPU is the time of every process of the match (% of one core) over the match.
+
+The baseline in the same run: the first half's first minute of the first seed against its whole (``rtf_min_first_min``):
+a machine that falls behind only later (memory, a growing queue) shows there.
+
+Budgets (issue "A match in simulation"): goals_per_match >= 1, rtf_min >= 0.98, fall_to_up_max_s <= 20.
+"""
+
+from __future__ import annotations
+
+import argparse
+import re
+import statistics
+import sys
+import tempfile
+import time
+from dataclasses import dataclass, field
+from datetime import datetime
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+import httpx
+import psutil
+
+from tests.running_demo import DashboardObserver, running_demo
+
+GC_URL = re.compile(r"GameController (http://127\.0\.0\.1:\d+)/status")
+LINE = re.compile(r"^(\d{4}-\d\d-\d\d \d\d:\d\d:\d\d,\d{3}) \w+ \[pitchside\.(\w+)\.(\w+)\] (.*)$")
+HCM_CHANGE = re.compile(r"^(\w+) -> (\w+) ")
+UP_AGAIN = {"CONTROLLABLE", "WALKING"}
+PENALISED = {"PENALTY_ANIMATION_IN", "PENALTY"}
+
+
+@dataclass
+class MatchFigures:
+    """One match."""
+
+    seed: int
+    goals: int = 0
+    kicks: int = 0
+    falls: int = 0
+    get_ups: int = 0
+    penalties: int = 0
+    fall_to_up_s: list[float] = field(default_factory=list)  # per fall: until standing again or penalised
+    unresolved_falls: int = 0  # a robot still down when the match ended
+    rtf: list[tuple[float, float]] = field(default_factory=list)  # (wall time, factor)
+    cpu_pct: float = 0.0
+    seconds: float = 0.0
+    started: float = 0.0
+
+    @property
+    def rtf_min(self) -> float:
+        return min((f for _, f in self.rtf), default=0.0)
+
+    def rtf_min_first_minute(self) -> float:
+        return min((f for t, f in self.rtf if t < self.started + 60.0), default=0.0)
+
+
+def read_output(text: str, figures: MatchFigures) -> None:
+    """Counts from the match's log lines: the kick node's kicks, the HCM's falls and get-ups, the referee's calls."""
+    down_since: dict[str, float] = {}
+    for line in text.splitlines():
+        if "referee at" in line and ": removed team" in line:
+            figures.penalties += 1
+        found = LINE.match(line)
+        if found is None:
+            continue
+        stamp, robot, node, message = found.groups()
+        t = datetime.strptime(stamp, "%Y-%m-%d %H:%M:%S,%f").timestamp()
+        if node == "kick" and message.startswith("kick with the"):
+            figures.kicks += 1
+        elif node == "hcm" and (change := HCM_CHANGE.match(message)):
+            after = change.group(2)
+            if after == "FALLING":
+                figures.falls += 1
+                down_since.setdefault(robot, t)
+            elif after == "GETTING_UP":
+                figures.get_ups += 1
+            elif (after in UP_AGAIN or after in PENALISED) and robot in down_since:
+                figures.fall_to_up_s.append(t - down_since.pop(robot))
+    figures.unresolved_falls = len(down_since)
+
+
+def play(robots: str, half_minutes: float, seed: int, out: Path) -> MatchFigures:
+    figures = MatchFigures(seed)
+    args = ("--robots", robots, "--half-minutes", str(half_minutes), "--seed", str(seed))
+    with running_demo(out, *args, command="match") as match:
+        gc = GC_URL.search(match.output())
+        assert gc, match.output()
+        status_url = f"{gc.group(1)}/status"
+        with DashboardObserver(match.ws_url, ("diagnostics",)) as observer:
+            processes = match.processes()
+            for p in processes:
+                p.cpu_percent(None)
+            figures.started = t0 = time.time()
+            last_report = 0.0
+            while True:
+                status = httpx.get(status_url, timeout=10).json()
+                if status["state"] == "FINISHED" and not status["first_half"]:
+                    break
+                if time.time() - last_report > 30:
+                    last_report = time.time()
+                    scores = ":".join(str(t["score"]) for t in status["teams"])
+                    half = "first" if status["first_half"] else "second"
+                    print(f"  seed {seed}: {half} half, {status['state']}, {status['secs_remaining']} s left, "
+                          f"{scores}", flush=True)
+                time.sleep(1.0)
+            figures.seconds = time.time() - t0
+            cpu = 0.0
+            for p in processes:
+                try:
+                    cpu += p.cpu_percent(None)
+                except psutil.Error:
+                    continue
+            figures.cpu_pct = cpu
+            figures.rtf = list(observer.real_time_factors)
+        figures.goals = sum(int(t["score"]) for t in status["teams"])
+        read_output(match.output(), figures)
+    return figures
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--robots", default="4v4")
+    parser.add_argument("--half-minutes", type=float, default=5.0)
+    parser.add_argument("--seeds", default="1,2,3")
+    parser.add_argument("--quick", action="store_true", help="one match of 2 x 2 minutes")
+    args = parser.parse_args()
+    seeds = [int(s) for s in args.seeds.split(",")]
+    half = args.half_minutes
+    if args.quick:
+        seeds, half = seeds[:1], 2.0
+    matches: list[MatchFigures] = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for seed in seeds:
+            print(f"match {args.robots}, 2 x {half:g} min, seed {seed}", flush=True)
+            m = play(args.robots, half, seed, Path(tmp))
+            up = f"{max(m.fall_to_up_s):.1f}" if m.fall_to_up_s else "-"
+            print(f"  goals {m.goals}, kicks {m.kicks}, falls {m.falls}, get-ups {m.get_ups}, penalties "
+                  f"{m.penalties}, longest time down {up} s ({m.unresolved_falls} down at the end), rtf min "
+                  f"{m.rtf_min:.3f} (first minute {m.rtf_min_first_minute():.3f}, {len(m.rtf)} reports), CPU "
+                  f"{m.cpu_pct:.0f} % over {m.seconds:.0f} s", flush=True)
+            matches.append(m)
+    downs = [s for m in matches for s in m.fall_to_up_s]
+    print(f"RESULT match robots={args.robots} half_minutes={half:g} matches={len(matches)} "
+          f"goals_per_match={statistics.mean(m.goals for m in matches):.2f} "
+          f"kicks_per_match={statistics.mean(m.kicks for m in matches):.1f} "
+          f"falls={sum(m.falls for m in matches)} get_ups={sum(m.get_ups for m in matches)} "
+          f"penalties={sum(m.penalties for m in matches)} "
+          f"fall_to_up_max_s={max(downs, default=0.0):.1f} down_at_end={sum(m.unresolved_falls for m in matches)} "
+          f"rtf_min={min(m.rtf_min for m in matches):.3f} "
+          f"rtf_min_first_min={matches[0].rtf_min_first_minute():.3f} "
+          f"cpu_pct={statistics.mean(m.cpu_pct for m in matches):.0f}")
+
+
+if __name__ == "__main__":
+    main()
