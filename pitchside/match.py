@@ -75,7 +75,12 @@ def robot_settings(team: Team, player: int, gc: GameControllerPlan, mitecom_port
                  "--set", "listen_address=127.0.0.1", "--set", f"port={own}"]
     if mates:  # a team of one has nobody to tell (the node's default, its own port, talks to itself)
         team_talk += ["--set", f"peers={mates}"]
+    # the stand-in localization gives both teams the world's frame (the dashboard draws both where they are): the
+    # away team defends its +x half
+    field_side = ["--set", f"own_half={'+x' if team.own_goal > 0 else '-x'}"]
     return {
+        "behavior": field_side,
+        "head": field_side,
         "game_controller": ["--set", f"team_number={team.number}", "--set", f"player_number={player}",
                             "--set", f"listen_address={gc.listen_address}", "--set", f"listen_port={gc.port}",
                             "--set", f"return_port={gc.return_port}"],

@@ -33,3 +33,16 @@ class GroundPose:
         """A point given relative to the pose, in the pose's frame."""
         c, s = math.cos(self.yaw), math.sin(self.yaw)
         return self.x + c * forward - s * left, self.y + s * forward + c * left
+
+
+OWN_HALVES = ["-x", "+x"]
+OWN_HALF_DOC = ("the half the team defends in the frame of `position` and team data: -x (a localization in the team's "
+                "own frame, the RoboCup convention, as the cm730 node's stand-in gives by default) or +x (the away "
+                "team of `pitchside match`, whose stand-ins give both teams the world's frame)")
+
+
+def team_frame(x: float, y: float, yaw: float, own_half: str) -> tuple[float, float, float]:
+    """A field pose in the team's own frame (own goal at -x): turned half round when the team defends +x."""
+    if own_half == "+x":
+        return -x, -y, wrap(yaw + math.pi)
+    return x, y, yaw

@@ -151,3 +151,23 @@ def test_the_world_model_carries_the_position_on_by_odometry_and_knows_the_team_
     assert world.ball(1.5) == (pytest.approx(0.0), pytest.approx(-0.5))  # seen by the teammate facing -x
     assert world.teammates(1.5)[0].time_to_ball == 7.0
     assert world.teammates(10.0) == []
+
+
+def test_an_away_robot_turns_the_shared_field_frame_into_its_own() -> None:
+    """In the simulated match both teams' stand-in localizations give the home team's frame; the away team's own
+    goal is at +x there, so its behaviour reads every position turned half round (own goal at -x, as it plans)."""
+    world = WorldModel()
+    world.own_half = "+x"
+    world.on_position(schemas.make(Position2D, pose=RosPose2D(x=3.5, y=1.0, theta=math.pi), confidence=1.0), 0.0)
+    pose = world.pose(0.1)
+    assert pose is not None  # in front of its own goal (+x in the shared frame), facing the field's centre
+    assert (pose.x, pose.y, math.cos(pose.yaw)) == (pytest.approx(-3.5), pytest.approx(-1.0), pytest.approx(1.0))
+    team = schemas.make(
+        TeamData, robot_ids=[2], role=[STRIKER], action=[0], state=[0], offensive_side=[1],
+        robot_positions=[schemas.make(Position2D, pose=RosPose2D(x=1.0, y=0.0, theta=0.0), confidence=1.0)],
+        ball_relative=[schemas.make(Position2D, pose=RosPose2D(x=1.0, y=0.0, theta=0.0), confidence=1.0)],
+        oppgoal_relative=[schemas.make(Position2D)], avg_walking_speeds=[0.1], time_to_position_at_ball=[7.0],
+        max_kicking_distance=[2.0], age=[0.2])
+    world.on_team_data(team, 0.1)
+    assert world.ball(0.2) == (pytest.approx(-2.0), pytest.approx(0.0))  # the mate's ball, at +2 m shared: own half
+    assert BehaviorParams().own_half == "-x"  # a real team's localization: its own frame

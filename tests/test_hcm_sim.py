@@ -173,9 +173,7 @@ def test_startup_goes_to_controllable_standing(make_stack: Callable[..., Stack])
         assert stack.robot.uprightness() > UPRIGHT
 
 
-# each fall in one layout of the nodes: the falls are physics, the layouts' message paths the other tests' business
-@pytest.mark.parametrize(("robot_bus", "direction", "yaw"), [("split", "front", 0.8), ("composed", "back", -2.2)],
-                         indirect=["robot_bus"])
+@pytest.mark.parametrize(("direction", "yaw"), [("front", 0.8), ("back", -2.2)])
 def test_pushed_over_falls_protected_and_gets_up(make_stack: Callable[..., Stack], direction: str,
                                                  yaw: float) -> None:
     stack = make_stack(yaw=yaw)
@@ -241,7 +239,6 @@ def _penalty_round(stack: Stack, penalize: Callable[[bool], None], torque_off: b
     assert stack.robot.torque_enabled.all()
 
 
-@pytest.mark.parametrize("robot_bus", ["split"], indirect=True)
 def test_manual_penalize_service(make_stack: Callable[..., Stack]) -> None:
     stack = make_stack(hcm={"penalty_torque_off": False})
     request = "humanoid_league_msgs/srv/ManualPenalize_Request"
@@ -255,7 +252,6 @@ def test_manual_penalize_service(make_stack: Callable[..., Stack]) -> None:
     _penalty_round(stack, penalize, torque_off=False)
 
 
-@pytest.mark.parametrize("robot_bus", ["composed"], indirect=True)
 def test_gamecontroller_penalty(make_stack: Callable[..., Stack]) -> None:
     stack = make_stack(hcm={"penalty_torque_off": True})
     gamestate = stack.publisher("gamestate")
@@ -349,7 +345,6 @@ def test_joint_mutex_animation_and_record(make_stack: Callable[..., Stack]) -> N
     stack.wait_controllable_standing(15.0)
 
 
-@pytest.mark.parametrize("robot_bus", ["split"], indirect=True)
 def test_real_bitbots_animation_plays_to_the_end(make_stack: Callable[..., Stack], testdata: Path) -> None:
     folder = testdata / "animations"
     # the straight-legged init pose leans forward: fall handling off, so nothing but the animation moves the joints
@@ -398,7 +393,7 @@ def _break_bus(stack: Stack, fault: Callable[[BusReading], BusReading]) -> Calla
     return lambda: setattr(backend, "read", original)
 
 
-@pytest.mark.parametrize(("robot_bus", "fault"), [("split", "imu"), ("composed", "servo")], indirect=["robot_bus"])
+@pytest.mark.parametrize("fault", ["imu", "servo"])
 def test_silent_hardware_is_a_hardware_problem(make_stack: Callable[..., Stack], fault: str) -> None:
     stack = make_stack(hcm={"imu_timeout_s": 0.5, "motor_timeout_s": 0.5})
     stack.wait_controllable_standing()

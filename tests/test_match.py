@@ -86,6 +86,9 @@ def test_lineup_and_robot_settings() -> None:
     assert "listen_address=127.255.255.255" in home2["game_controller"]  # hears the loopback broadcast only
     assert "team_number=5" in home2["game_controller"] and "player_number=2" in home2["game_controller"]
     assert "peers=127.0.0.1:4000,127.0.0.1:4002" in home2["mitecom"] and "port=4001" in home2["mitecom"]
+    # one field frame for both teams' stand-in localizations: the away team defends its +x half
+    assert home2["behavior"] == home2["head"] == ["--set", "own_half=-x"]
+    assert robot_settings(lineup.away, 1, sim, ports, 5800, None)["behavior"] == ["--set", "own_half=+x"]
     external = GameControllerPlan("external", 3838, 3939, None)
     assert "listen_address=0.0.0.0" in robot_settings(lineup.away, 1, external, ports, 5800, None)["game_controller"]
     assert not any(a.startswith("peers=") for a in robot_settings(Lineup.of((1, 2), (1, 1)).home, 1, sim,

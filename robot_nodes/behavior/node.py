@@ -32,7 +32,7 @@ from robot_nodes.behavior.state_machine import (
     State,
 )
 from robot_nodes.behavior.world_model import WorldModel
-from robot_nodes.ground_pose import GroundPose, heading, wrap
+from robot_nodes.ground_pose import OWN_HALF_DOC, OWN_HALVES, GroundPose, heading, wrap
 from robot_nodes.runtime import GoalStatus, Node, header, param
 from schemas.messages import (
     BallRelative,
@@ -91,6 +91,7 @@ class BehaviorParams:
     goal_area_length: float = param(1.0, range=(0.1, 5.0), doc="m")
     goal_area_width: float = param(3.0, range=(0.5, 10.0), doc="m")
     centre_circle_diameter: float = param(1.5, range=(0.1, 5.0), doc="m")
+    own_half: str = param("-x", choices=OWN_HALVES, doc=OWN_HALF_DOC)
 
 
 def player_number_of(robot_id: str) -> int:
@@ -114,6 +115,7 @@ class BehaviorNode(Node):
         self.player = p.player_number or player_number_of(self.robot_id)
         self.field = self._field()
         self.world = WorldModel(p.ball_timeout_s, p.position_timeout_s)
+        self.world.own_half = p.own_half
         self.machine = BehaviorStateMachine()
         self.bb = Blackboard()
         self.gamestate: GameState | None = None
@@ -177,6 +179,7 @@ class BehaviorNode(Node):
         p = self.params
         self.field = self._field()
         self.world.ball_timeout_s, self.world.position_timeout_s = p.ball_timeout_s, p.position_timeout_s
+        self.world.own_half = p.own_half
         if "player_number" in changed:
             self.player = p.player_number or player_number_of(self.robot_id)
         if "rate_hz" in changed:

@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from robot_nodes.ground_pose import GroundPose, wrap
+from robot_nodes.ground_pose import GroundPose, team_frame, wrap
 from schemas.messages import BallRelative, Position2D, TeamData
 
 NOT_TOLD = 255  # team_data's "the teammate did not say"
@@ -47,12 +47,13 @@ class WorldModel:
         self.ball_at = -math.inf
         self.mates: list[Teammate] = []
         self.mates_at = -math.inf
+        self.own_half = "-x"  # the half the team defends in the frame positions come in (ground_pose.team_frame)
 
     # -- inputs -------------------------------------------------------------------------------------------
     def on_position(self, msg: Position2D, now: float) -> None:
         """A new fix, blended into the odometry-carried pose (a complementary filter: the localization's noise
         averages out over a few fixes, its drift-free mean wins in the end)."""
-        fix = GroundPose(float(msg.pose.x), float(msg.pose.y), float(msg.pose.theta))
+        fix = GroundPose(*team_frame(float(msg.pose.x), float(msg.pose.y), float(msg.pose.theta), self.own_half))
         here = self.pose(now)
         if here is not None and math.hypot(fix.x - here.x, fix.y - here.y) < self.jump_m:
             a = self.fix_weight
@@ -75,8 +76,8 @@ class WorldModel:
         mates = []
         for i, player in enumerate(msg.robot_ids):
             position = msg.robot_positions[i]
-            pose = GroundPose(float(position.pose.x), float(position.pose.y), float(position.pose.theta)) \
-                if position.confidence > 0 else None
+            pose = GroundPose(*team_frame(float(position.pose.x), float(position.pose.y), float(position.pose.theta),
+                                          self.own_half)) if position.confidence > 0 else None
             ball = msg.ball_relative[i]
             ball_field = pose.absolute(float(ball.pose.x), float(ball.pose.y)) if pose is not None and \
                 ball.confidence > 0 else None

@@ -21,6 +21,7 @@ import numpy as np
 
 import robots
 import schemas
+from robot_nodes.ground_pose import OWN_HALF_DOC, OWN_HALVES, team_frame
 from robot_nodes.head.geometry import PAN, TILT, HeadGeometry
 from robot_nodes.head.pattern import SearchPattern
 from robot_nodes.runtime import Node, header, param
@@ -55,6 +56,7 @@ class HeadParams:
     goal_seen_s: float = param(1.0, range=(0.1, 10.0), doc="a goal seen this recently is looked at directly")
     position_age_s: float = param(2.0, range=(0.1, 30.0), doc="the own position is trusted this long")
     field_length: float = param(9.0, range=(1.0, 30.0), doc="goal line to goal line (the opponent goal is at +x/2)")
+    own_half: str = param("-x", choices=OWN_HALVES, doc=OWN_HALF_DOC)
     look_forward_tilt_deg: float = param(-20.0, range=(-110.0, 70.0), doc="LOOK_FORWARD's tilt")
     look_down_tilt_deg: float = param(-65.0, range=(-110.0, 70.0), doc="LOOK_DOWN's tilt")
     look_up_tilt_deg: float = param(0.0, range=(-110.0, 70.0), doc="LOOK_UP's tilt")
@@ -134,7 +136,7 @@ class HeadNode(Node):
         self.goal_seen_at = time.monotonic()
 
     def on_position(self, msg: Position2D) -> None:
-        self.position = (float(msg.pose.x), float(msg.pose.y), float(msg.pose.theta))
+        self.position = team_frame(float(msg.pose.x), float(msg.pose.y), float(msg.pose.theta), self.params.own_half)
         self.position_at = time.monotonic()
 
     def on_joint_states(self, msg: JointState) -> None:
