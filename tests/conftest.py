@@ -109,3 +109,10 @@ def scene(router_endpoint: str, stands: dict[str, SceneStand], tmp_path: Path) -
     """A dashboard server that hears the stand-in robots over the test's Zenoh router."""
     with dashboard_server(["--connect", router_endpoint, "--no-telemetry"], tmp_path) as server:
         yield server
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """Files with slow tests first. The two workers each take whole files in this order, so the long ones start
+    early and the many short ones fill in at the end (the suite lasts until its last file ends)."""
+    slow_files = {item.path for item in items if item.get_closest_marker("slow")}
+    items.sort(key=lambda item: item.path not in slow_files)  # stable: each file's tests stay as collected
