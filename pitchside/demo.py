@@ -8,12 +8,11 @@ from __future__ import annotations
 
 import logging
 import os
-import socket
 import sys
 from pathlib import Path
 
 import robots as descriptions
-from pitchside.local_run import free_port, run_on_this_machine, server_process, telemetry_settings
+from pitchside.local_run import free_port, kernel_port, run_on_this_machine, server_process, telemetry_settings
 from pitchside.robot import MOTION_NODES, available, robot_nodes
 from robot_nodes.launch import COMPOSE_HELP, NodeProcess, process_groups
 from server.security.credentials import ENV_TOKEN, new_token
@@ -75,9 +74,11 @@ def main(argv: list[str] | None = None) -> None:
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s [demo] %(message)s")
     endpoint = f"tcp/127.0.0.1:{free_port(7447)}"
     http_port = free_port(args.port)
-    telemetry_port = free_port(5800, socket.SOCK_DGRAM)
-    gc_ports = [free_port(3838 + i, socket.SOCK_DGRAM) for i in range(args.robots)]
-    gc_return_port = free_port(3939, socket.SOCK_DGRAM)
+    # the robots' telemetry, the simulated GameController and the robots' receivers talk on this machine only: the
+    # kernel's free ports (local_run.kernel_port)
+    telemetry_port = kernel_port()
+    gc_ports = [kernel_port() for _ in range(args.robots)]
+    gc_return_port = kernel_port()
     token = os.environ.get(ENV_TOKEN) or new_token()
     run_on_this_machine("demo", endpoint, http_port, token, lambda key: demo_processes(
         args.robots, endpoint, http_port, telemetry_port, args.model, args.match, gc_ports, gc_return_port, token,

@@ -33,21 +33,27 @@ def port_is_free(port: int, kind: int = socket.SOCK_STREAM, host: str = "127.0.0
 def free_port(preferred: int, kind: int = socket.SOCK_STREAM, host: str = "127.0.0.1") -> int:
     if port_is_free(preferred, kind, host):
         return preferred
+    return kernel_port(kind)
+
+
+def kernel_port(kind: int = socket.SOCK_DGRAM) -> int:
+    """A port the kernel has free now, from its ephemeral range. For wiring inside one run: two runs started together
+    that both look for the first free port from a well-known one pick the same, and one of them loses it."""
     with socket.socket(socket.AF_INET, kind) as s:
         s.bind(("127.0.0.1", 0))
         return int(s.getsockname()[1])
 
 
-def free_ports(first: int, count: int, kind: int = socket.SOCK_DGRAM) -> list[int]:
-    """``count`` different free ports, from ``first`` on where they are free."""
-    ports: list[int] = []
-    candidate = first
-    while len(ports) < count:
-        port = free_port(candidate, kind)
-        if port not in ports:
-            ports.append(port)
-        candidate += 1
-    return ports
+def kernel_ports(count: int, kind: int = socket.SOCK_DGRAM) -> list[int]:
+    """``count`` different ports the kernel has free now (all held open together, so none comes twice)."""
+    sockets = [socket.socket(socket.AF_INET, kind) for _ in range(count)]
+    try:
+        for s in sockets:
+            s.bind(("127.0.0.1", 0))
+        return [int(s.getsockname()[1]) for s in sockets]
+    finally:
+        for s in sockets:
+            s.close()
 
 
 def telemetry_settings(telemetry_port: int, telemetry_key: Path | None) -> list[str]:

@@ -11,13 +11,19 @@ from __future__ import annotations
 import logging
 import math
 import os
-import socket
 import sys
 from dataclasses import dataclass
 from pathlib import Path
 
 import robots as descriptions
-from pitchside.local_run import free_port, free_ports, run_on_this_machine, server_process, telemetry_settings
+from pitchside.local_run import (
+    free_port,
+    kernel_port,
+    kernel_ports,
+    run_on_this_machine,
+    server_process,
+    telemetry_settings,
+)
 from pitchside.robot import MOTION_NODES, available, robot_nodes
 from robot_nodes.catalog import NODES
 from robot_nodes.cm730.sim.lineup import Lineup, LineupError, Team, parse_robots
@@ -154,8 +160,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--half-time-seconds", type=float, default=30.0, help="the half-time break")
     parser.add_argument("--port", type=int, default=8080, help="dashboard port (a free one if taken)")
     parser.add_argument("--gc-port", type=int, default=None,
-                        help=f"UDP port the GameController sends to (default {DATA_PORT}, for the simulated one a "
-                             "free one from there)")
+                        help=f"UDP port the GameController sends to (default {DATA_PORT}; for the simulated one a "
+                             "port the kernel has free)")
     parser.add_argument("--gc-return-port", type=int, default=None,
                         help=f"external: the UDP port the GameController hears return packets on (default "
                              f"{RETURN_PORT})")
@@ -174,12 +180,11 @@ def main(argv: list[str] | None = None) -> None:
                      args.initial_seconds, args.half_time_seconds, args.seed, args.cameras, args.compose, args.model)
     endpoint = f"tcp/127.0.0.1:{free_port(7447)}"
     http_port = free_port(args.port)
-    telemetry_port = free_port(5800, socket.SOCK_DGRAM)
+    telemetry_port = kernel_port()  # ports inside the run: the kernel's free ones (local_run.kernel_port)
     robots = lineup.robot_ids()
-    mitecom_ports = dict(zip(robots, free_ports(3737, len(robots)), strict=True))
+    mitecom_ports = dict(zip(robots, kernel_ports(len(robots)), strict=True))
     if args.gamecontroller == "sim":
-        gc = GameControllerPlan("sim", args.gc_port or free_port(DATA_PORT, socket.SOCK_DGRAM, host="0.0.0.0"),
-                                free_port(RETURN_PORT, socket.SOCK_DGRAM), free_port(8038))
+        gc = GameControllerPlan("sim", args.gc_port or kernel_port(), kernel_port(), free_port(8038))
         where = f"GameController http://127.0.0.1:{gc.http_port}/status"
     else:
         gc = GameControllerPlan("external", args.gc_port or DATA_PORT, args.gc_return_port or RETURN_PORT, None)
