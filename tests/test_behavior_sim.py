@@ -135,7 +135,8 @@ def test_the_goalie_stays_between_ball_and_goal(bus: BusConfig, sims: list[SimRo
                 assert abs(y - line_y) < 0.3, f"ball at {ball}: goalie at ({x:.2f}, {y:.2f}), the line at {line_y:.2f}"
                 assert x < ball[0] - 0.5, "between the ball and the goal"
             lowest_y, highest_y = min(lowest_y, samples[-1][1]), max(highest_y, samples[-1][1])
-        assert highest_y - lowest_y > 0.5, "it moved sideways with the ball"
+        # its two places lie 0.69 m apart (0.32 and -0.37 m); it stops within 0.12 m of each (position_tolerance)
+        assert highest_y - lowest_y > 0.4, "it moved sideways with the ball"
     finally:
         game.stop()
 

@@ -84,8 +84,12 @@ def test_walks_only_when_the_hcm_allows_and_stops_when_it_says_so(walking: tuple
 def test_bad_cmd_vel_is_reported_and_means_stop(walking: tuple[WalkingNode, Probe]) -> None:
     node, probe = walking
     probe.send_state(0)
-    probe.send_cmd(math.nan, 0.0, math.inf)
-    wait_for(lambda: "non-finite" in node.last_error, 5.0, what="the error in diagnostics")
+
+    def bad_command_reported() -> bool:  # cmd_vel is a stream: sent again until the node's subscription has it
+        probe.send_cmd(math.nan, 0.0, math.inf)
+        return "non-finite" in node.last_error
+
+    wait_for(bad_command_reported, 10.0, 0.2, what="the error in diagnostics")
     assert node.engine.command.x == 0.0 and not node.engine.stepping
     probe.send_cmd(0.05)
     wait_for(probe.is_active, 5.0, what="the node still walks after bad input")
