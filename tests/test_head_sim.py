@@ -65,6 +65,7 @@ def test_the_head_finds_a_ball_anywhere_in_front_within_six_seconds(bus: BusConf
     try:
         robots_.wait_controllable()
         ball = robots_.listen("ball_relative")
+        frames = robots_.listen("ball_in_image")  # every camera frame, the ball in it or not
         goals = robots_.listen("head_motor_goals")
         states = robots_.listen("robot_state")
         rng = np.random.default_rng(16)
@@ -105,11 +106,14 @@ def test_the_head_finds_a_ball_anywhere_in_front_within_six_seconds(bus: BusConf
             found_after.append(seen - start)
             # and tracked: the head turns towards it, so it stays in view
             time.sleep(1.5)
-            recent = ball.since(time.monotonic() - 1.0)
+            # in most frames of the last second (counted in frames: on a loaded machine the world runs slower)
+            recent = frames.since(time.monotonic() - 1.0)
+            seen_in = sum(1 for f in recent if f.candidates)
             aims = [np.degrees(g.points[0].positions).round() for g in goals.since(seen)]
-            assert len(recent) >= 5, (f"the ball at {distance:.1f} m, {math.degrees(bearing):.0f} deg not kept in "
-                                      f"view: {len(ball.since(seen))} sightings since found, head goals {aims}, "
-                                      f"HCM states {sorted({m.state for m in states.since(seen)})}")
+            assert len(recent) >= 3 and seen_in >= 0.6 * len(recent), (
+                f"the ball at {distance:.1f} m, {math.degrees(bearing):.0f} deg not kept in view ({seen_in} of "
+                f"{len(recent)} frames): {len(ball.since(seen))} sightings since found, head goals {aims}, "
+                f"HCM states {sorted({m.state for m in states.since(seen)})}")
         print(f"head search: found after {', '.join(f'{t:.1f}' for t in found_after)} s")
         assert max(found_after) <= FIND_WITHIN_S, found_after
         # the head goals reached the motors through the HCM (its joint mutex passes them while the robot stands)
