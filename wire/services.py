@@ -22,6 +22,9 @@ def service_types(service: str) -> tuple[str, str]:
     return f"{base}_Request", f"{base}_Response"
 
 
+ZENOH_TIMEOUT = "Timeout"  # the error reply Zenoh itself gives a query that no queryable answered in time
+
+
 def call_service(session: zenoh.Session, robot: str, service: str, request: Message, timeout: float = 5.0) -> Any:
     """Blocking call; ServiceError with the server's reason on failure.
 
@@ -35,7 +38,10 @@ def call_service(session: zenoh.Session, robot: str, service: str, request: Mess
         for reply in session.get(keys.service_key(robot, service), payload=payload, timeout=remaining):
             if reply.ok is not None:
                 return schemas.decode(reply.ok.payload.to_bytes(), response_type)
-            raise ServiceError(reply.err.payload.to_string() if reply.err is not None else "service error")
+            reason = reply.err.payload.to_string() if reply.err is not None else "service error"
+            if reason == ZENOH_TIMEOUT:  # Zenoh's own reply when nobody answered in time: not the server's reason
+                continue
+            raise ServiceError(reason)
         if time.monotonic() >= deadline:
             break
         time.sleep(0.05)
