@@ -111,23 +111,8 @@ def scene(router_endpoint: str, stands: dict[str, SceneStand], tmp_path: Path) -
         yield server
 
 
-# files whose robots must keep real time in MuJoCo: they run one after another on one worker (the other workers take
-# the rest), so two of them never share the two cores
-REAL_TIME_SIMULATIONS = frozenset({
-    "test_behavior_sim.py", "test_head_sim.py", "test_kick_sim.py", "test_hcm_sim.py", "test_match.py",
-    "test_walking_sim.py", "test_perception_sim.py", "test_cm730_sim_node.py",
-})
-
-
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    """Each file is a group of its own (`--dist loadgroup`: its fixtures and servers stay on one worker), except the
-    real-time simulations, which share one. Files with slow tests first: the long ones start early and the many
-    short ones fill in at the end (the suite lasts until its last file ends)."""
-    for item in items:
-        group = "real-time-simulations" if item.path.name in REAL_TIME_SIMULATIONS else item.path.name
-        item.add_marker(pytest.mark.xdist_group(group))
+    """Files with slow tests first. The two workers each take whole files in this order, so the long ones start
+    early and the many short ones fill in at the end (the suite lasts until its last file ends)."""
     slow_files = {item.path for item in items if item.get_closest_marker("slow")}
-    sims = [item for item in items if item.path.name in REAL_TIME_SIMULATIONS]
-    rest = [item for item in items if item.path.name not in REAL_TIME_SIMULATIONS]
-    rest.sort(key=lambda item: item.path not in slow_files)  # stable: each file's tests stay as collected
-    items[:] = sims + rest
+    items.sort(key=lambda item: item.path not in slow_files)  # stable: each file's tests stay as collected
