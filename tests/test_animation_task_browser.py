@@ -89,8 +89,11 @@ def keyframes(page: Any) -> list[dict[str, Any]]:
 
 
 def status(page: Any, text: str) -> None:
-    """Waits until the editor's status line says text."""
-    page.wait_for_selector(f'{EDITOR} [data-role="status"]:has-text("{text}")', timeout=60_000)
+    """Waits until the editor's status line starts with text (a substring would match an earlier status: "saved "
+    is inside "played lab_wave (unsaved version): done")."""
+    page.wait_for_function(
+        "([sel, text]) => document.querySelector(sel)?.textContent.startsWith(text)",
+        arg=[f'{EDITOR} [data-role="status"]', text], timeout=60_000)
 
 
 def test_new_animation_from_the_robots_pose_played_saved_and_kept_across_a_reload(
