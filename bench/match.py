@@ -9,8 +9,9 @@ match of 2 x 2 minutes, the same figures.
 
 From the match's own output (every node logs its state changes) and the GameController's status it counts goals
 (the final score), kicks (the kick node's started kicks), falls (HCM into FALLING) and get-ups (HCM into
-GETTING_UP), and the referee's penalties (robots removed). For each fall it takes the time until the robot stands
-again (HCM back to CONTROLLABLE or WALKING) or is penalised; the budget is 20 s. The world's real-time factor is its
+GETTING_UP), the referee's penalties (robots removed) and placements (robots not at a legal kick-off place when
+SET began). For each fall it takes the time until the robot stands again (HCM back to CONTROLLABLE or WALKING) or
+is penalised; the budget is 20 s. The world's real-time factor is its
 ``real_time_factor`` diagnostic as the dashboard receives it over telemetry (each 1 s window), minimum over the
 match; CPU is the time of every process of the match (% of one core) over the match.
 
@@ -56,6 +57,7 @@ class MatchFigures:
     falls: int = 0
     get_ups: int = 0
     penalties: int = 0
+    placed: int = 0  # robots the referee had to place at SET (not at a legal kick-off position in time)
     fall_to_up_s: list[float] = field(default_factory=list)  # per fall: until standing again or penalised
     unresolved_falls: int = 0  # a robot still down when the match ended
     rtf: list[tuple[float, float]] = field(default_factory=list)  # (wall time, factor)
@@ -77,6 +79,8 @@ def read_output(text: str, figures: MatchFigures) -> None:
     for line in text.splitlines():
         if "referee at" in line and ": removed team" in line:
             figures.penalties += 1
+        if "referee at" in line and ": placed team" in line:
+            figures.placed += 1
         found = LINE.match(line)
         if found is None:
             continue
@@ -152,7 +156,8 @@ def main() -> None:
             m = play(args.robots, half, seed, Path(tmp))
             up = f"{max(m.fall_to_up_s):.1f}" if m.fall_to_up_s else "-"
             print(f"  goals {m.goals}, kicks {m.kicks}, falls {m.falls}, get-ups {m.get_ups}, penalties "
-                  f"{m.penalties}, longest time down {up} s ({m.unresolved_falls} down at the end), rtf min "
+                  f"{m.penalties}, placed at SET {m.placed}, longest time down {up} s ({m.unresolved_falls} down "
+                  f"at the end), rtf min "
                   f"{m.rtf_min:.3f} (first minute {m.rtf_min_first_minute():.3f}, {len(m.rtf)} reports), CPU "
                   f"{m.cpu_pct:.0f} % over {m.seconds:.0f} s", flush=True)
             matches.append(m)
@@ -161,7 +166,7 @@ def main() -> None:
           f"goals_per_match={statistics.mean(m.goals for m in matches):.2f} "
           f"kicks_per_match={statistics.mean(m.kicks for m in matches):.1f} "
           f"falls={sum(m.falls for m in matches)} get_ups={sum(m.get_ups for m in matches)} "
-          f"penalties={sum(m.penalties for m in matches)} "
+          f"penalties={sum(m.penalties for m in matches)} placed={sum(m.placed for m in matches)} "
           f"fall_to_up_max_s={max(downs, default=0.0):.1f} down_at_end={sum(m.unresolved_falls for m in matches)} "
           f"rtf_min={min(m.rtf_min for m in matches):.3f} "
           f"rtf_min_first_min={matches[0].rtf_min_first_minute():.3f} "

@@ -114,8 +114,7 @@ class BehaviorNode(Node):
         p = self.params
         self.player = p.player_number or player_number_of(self.robot_id)
         self.field = self._field()
-        self.world = WorldModel(p.ball_timeout_s, p.position_timeout_s)
-        self.world.own_half = p.own_half
+        self.world = WorldModel(p.ball_timeout_s, p.position_timeout_s, own_half=p.own_half)
         self.machine = BehaviorStateMachine()
         self.bb = Blackboard()
         self.gamestate: GameState | None = None

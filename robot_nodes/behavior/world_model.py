@@ -31,8 +31,8 @@ class Teammate:
 class WorldModel:
     """Fed by the node's subscriptions; every answer takes ``now`` (monotonic seconds)."""
 
-    def __init__(self, ball_timeout_s: float = 3.0, position_timeout_s: float = 10.0, mate_timeout_s: float = 3.0
-                 ) -> None:
+    def __init__(self, ball_timeout_s: float = 3.0, position_timeout_s: float = 10.0, mate_timeout_s: float = 3.0,
+                 own_half: str = "-x") -> None:
         self.ball_timeout_s = ball_timeout_s
         self.position_timeout_s = position_timeout_s
         self.mate_timeout_s = mate_timeout_s
@@ -47,7 +47,7 @@ class WorldModel:
         self.ball_at = -math.inf
         self.mates: list[Teammate] = []
         self.mates_at = -math.inf
-        self.own_half = "-x"  # the half the team defends in the frame positions come in (ground_pose.team_frame)
+        self.own_half = own_half  # the half the team defends in the frame positions come in (ground_pose.team_frame)
 
     # -- inputs -------------------------------------------------------------------------------------------
     def on_position(self, msg: Position2D, now: float) -> None:
