@@ -29,8 +29,6 @@ import statistics
 import sys
 import tempfile
 import time
-from dataclasses import dataclass, field
-from datetime import datetime
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
@@ -38,66 +36,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import httpx
 import psutil
 
+from tests.match_log import MatchFigures, read_output
 from tests.running_demo import DashboardObserver, running_demo
 
 GC_URL = re.compile(r"GameController (http://127\.0\.0\.1:\d+)/status")
-LINE = re.compile(r"^(\d{4}-\d\d-\d\d \d\d:\d\d:\d\d,\d{3}) \w+ \[pitchside\.(\w+)\.(\w+)\] (.*)$")
-HCM_CHANGE = re.compile(r"^(\w+) -> (\w+) ")
-UP_AGAIN = {"CONTROLLABLE", "WALKING"}
-PENALISED = {"PENALTY_ANIMATION_IN", "PENALTY"}
-
-
-@dataclass
-class MatchFigures:
-    """One match."""
-
-    seed: int
-    goals: int = 0
-    kicks: int = 0
-    falls: int = 0
-    get_ups: int = 0
-    penalties: int = 0
-    placed: int = 0  # robots the referee had to place at SET (not at a legal kick-off position in time)
-    fall_to_up_s: list[float] = field(default_factory=list)  # per fall: until standing again or penalised
-    unresolved_falls: int = 0  # a robot still down when the match ended
-    rtf: list[tuple[float, float]] = field(default_factory=list)  # (wall time, factor)
-    cpu_pct: float = 0.0
-    seconds: float = 0.0
-    started: float = 0.0
-
-    @property
-    def rtf_min(self) -> float:
-        return min((f for _, f in self.rtf), default=0.0)
-
-    def rtf_min_first_minute(self) -> float:
-        return min((f for t, f in self.rtf if t < self.started + 60.0), default=0.0)
-
-
-def read_output(text: str, figures: MatchFigures) -> None:
-    """Counts from the match's log lines: the kick node's kicks, the HCM's falls and get-ups, the referee's calls."""
-    down_since: dict[str, float] = {}
-    for line in text.splitlines():
-        if "referee at" in line and ": removed team" in line:
-            figures.penalties += 1
-        if "referee at" in line and ": placed team" in line:
-            figures.placed += 1
-        found = LINE.match(line)
-        if found is None:
-            continue
-        stamp, robot, node, message = found.groups()
-        t = datetime.strptime(stamp, "%Y-%m-%d %H:%M:%S,%f").timestamp()
-        if node == "kick" and message.startswith("kick with the"):
-            figures.kicks += 1
-        elif node == "hcm" and (change := HCM_CHANGE.match(message)):
-            after = change.group(2)
-            if after == "FALLING":
-                figures.falls += 1
-                down_since.setdefault(robot, t)
-            elif after == "GETTING_UP":
-                figures.get_ups += 1
-            elif (after in UP_AGAIN or after in PENALISED) and robot in down_since:
-                figures.fall_to_up_s.append(t - down_since.pop(robot))
-    figures.unresolved_falls = len(down_since)
 
 
 def play(robots: str, half_minutes: float, seed: int, out: Path) -> MatchFigures:
@@ -154,20 +96,18 @@ def main() -> None:
         for seed in seeds:
             print(f"match {args.robots}, 2 x {half:g} min, seed {seed}", flush=True)
             m = play(args.robots, half, seed, Path(tmp))
-            up = f"{max(m.fall_to_up_s):.1f}" if m.fall_to_up_s else "-"
             print(f"  goals {m.goals}, kicks {m.kicks}, falls {m.falls}, get-ups {m.get_ups}, penalties "
-                  f"{m.penalties}, placed at SET {m.placed}, longest time down {up} s ({m.unresolved_falls} down "
-                  f"at the end), rtf min "
-                  f"{m.rtf_min:.3f} (first minute {m.rtf_min_first_minute():.3f}, {len(m.rtf)} reports), CPU "
+                  f"{m.penalties}, placed at SET {m.placed}, longest time down {m.longest_down_s:.1f} s "
+                  f"({len(m.still_down_s)} down at the end), rtf min {m.rtf_min:.3f} (first minute "
+                  f"{m.rtf_min_first_minute():.3f}, {len(m.rtf)} reports), CPU "
                   f"{m.cpu_pct:.0f} % over {m.seconds:.0f} s", flush=True)
             matches.append(m)
-    downs = [s for m in matches for s in m.fall_to_up_s]
     print(f"RESULT match robots={args.robots} half_minutes={half:g} matches={len(matches)} "
           f"goals_per_match={statistics.mean(m.goals for m in matches):.2f} "
           f"kicks_per_match={statistics.mean(m.kicks for m in matches):.1f} "
           f"falls={sum(m.falls for m in matches)} get_ups={sum(m.get_ups for m in matches)} "
           f"penalties={sum(m.penalties for m in matches)} placed={sum(m.placed for m in matches)} "
-          f"fall_to_up_max_s={max(downs, default=0.0):.1f} down_at_end={sum(m.unresolved_falls for m in matches)} "
+          f"fall_to_up_max_s={max(m.longest_down_s for m in matches):.1f} "
           f"rtf_min={min(m.rtf_min for m in matches):.3f} "
           f"rtf_min_first_min={matches[0].rtf_min_first_minute():.3f} "
           f"cpu_pct={statistics.mean(m.cpu_pct for m in matches):.0f}")

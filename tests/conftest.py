@@ -14,6 +14,11 @@ import zenoh
 from robot_nodes.runtime import BusConfig, open_router, open_session
 from robot_nodes.runtime.local_bus import CHECK_FROZEN_ENV, THAWED
 from tests.dashboard_server import RunningServer, dashboard_server
+from tests.scheduling import (  # noqa: F401 (hooks)
+    pytest_collection_modifyitems,
+    pytest_runtest_setup,
+    pytest_xdist_make_scheduler,
+)
 from tests.support import TESTDATA, free_port, launch_chromium
 from tests.teststand import SceneStand
 
@@ -109,10 +114,3 @@ def scene(router_endpoint: str, stands: dict[str, SceneStand], tmp_path: Path) -
     """A dashboard server that hears the stand-in robots over the test's Zenoh router."""
     with dashboard_server(["--connect", router_endpoint, "--no-telemetry"], tmp_path) as server:
         yield server
-
-
-def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    """Files with slow tests first. The two workers each take whole files in this order, so the long ones start
-    early and the many short ones fill in at the end (the suite lasts until its last file ends)."""
-    slow_files = {item.path for item in items if item.get_closest_marker("slow")}
-    items.sort(key=lambda item: item.path not in slow_files)  # stable: each file's tests stay as collected

@@ -5,6 +5,7 @@ recording each half; the recordings open in the replay source."""
 from __future__ import annotations
 
 import asyncio
+import os
 import re
 import socket
 import threading
@@ -22,6 +23,7 @@ from robot_nodes.game_controller.simulator import SimulatedGame, SimulatedGameCo
 from schemas.logs import LogSeriesReader
 from server.hub import Hub
 from server.sources.replay import ReplaySource
+from tests.match_log import MatchFigures, read_output
 from tests.running_demo import DashboardObserver, running_demo
 from tests.support import free_port
 from tests.waiting import wait_for
@@ -29,6 +31,8 @@ from tests.waiting import wait_for
 GC_URL = re.compile(r"GameController (http://127\.0\.0\.1:\d+)/status")
 INITIAL, READY, SET, PLAYING, FINISHED = range(5)
 ROBOTS = ("home1", "home2", "away1", "away2")
+HALF_MINUTES = float(os.environ.get("PITCHSIDE_MATCH_HALF_MINUTES", "2"))
+FALLEN_LIMIT_S = 20.0  # a robot that fell is up again, or penalised, within this
 
 
 @dataclass
@@ -102,11 +106,15 @@ def test_lineup_and_robot_settings() -> None:
 
 
 @pytest.mark.slow
+@pytest.mark.timeout(900)
 def test_a_match_plays_both_halves_under_the_gamecontroller_and_records_them(tmp_path: Path,
                                                                              recordings_elsewhere: Path) -> None:
+    """2 v 2, two halves of HALF_MINUTES: the GameController's whole flow (a goal pressed in it, as an operator
+    would), every robot's data on the dashboard by telemetry only, each half recorded and replayable, and on the
+    pitch: every robot that fell stood up again or was penalised within FALLEN_LIMIT_S."""
     before = set(recordings_elsewhere.glob("match-*.mcap"))
-    args = ("--robots", "2v2", "--half-minutes", "0.4", "--ready-seconds", "3", "--set-seconds", "1",
-            "--initial-seconds", "2", "--half-time-seconds", "3")
+    args = ("--robots", "2v2", "--half-minutes", str(HALF_MINUTES), "--ready-seconds", "20", "--set-seconds", "2",
+            "--initial-seconds", "2", "--half-time-seconds", "5")
     with running_demo(tmp_path, *args, command="match") as match:
         gc_url = GC_URL.search(match.output())
         assert gc_url, match.output()
@@ -124,7 +132,8 @@ def test_a_match_plays_both_halves_under_the_gamecontroller_and_records_them(tmp
                      what="READY after the goal, seen by the other team")
             assert watch.sees("away1", lambda h: h[5])  # the away team kicks off
             wait_for(lambda: watch.sees("home1", lambda h: h[3] == 1 and not h[5]), 10, what="home's score")
-            wait_for(lambda: watch.states("home1")[-1:] == [(FINISHED, False)], 150, what="the end of the game")
+            wait_for(lambda: watch.states("home1")[-1:] == [(FINISHED, False)], 4 * HALF_MINUTES * 60 + 120,
+                     what="the end of the game")
             states = watch.states("home1")
             assert watch.error == "" and watch.sources == {"telemetry"}  # match mode: one-way telemetry only
         status = httpx.get(f"{api}/status", timeout=10).json()
@@ -133,6 +142,11 @@ def test_a_match_plays_both_halves_under_the_gamecontroller_and_records_them(tmp
         output = match.output()
         # the referee is in the world; what it calls depends on the play (tests/test_referee.py judges each call)
         assert "refereed by the simulated GameController" in output
+    play = MatchFigures(seed=0)
+    read_output(output, play)
+    print(f"match: kicks {play.kicks}, falls {play.falls}, get-ups {play.get_ups}, penalties {play.penalties}, "
+          f"placed at SET {play.placed}, longest time down {play.longest_down_s:.1f} s")
+    assert play.longest_down_s <= FALLEN_LIMIT_S, (play.fall_to_up_s, play.still_down_s)
     for half in (True, False):  # every state of both halves, in the Humanoid League order
         order = [s for s, h in states if h == half]
         for state in (INITIAL, READY, SET, PLAYING, FINISHED) if not half else (READY, SET, PLAYING, FINISHED):

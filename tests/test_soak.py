@@ -22,7 +22,8 @@ ROBOTS = int(os.environ.get("PITCHSIDE_SOAK_ROBOTS", "1"))
 SLOPE_MB_PER_MIN_PER_ROBOT = 0.2
 SAMPLE_S = 30.0
 
-pytestmark = [pytest.mark.slow, pytest.mark.skipif(MINUTES <= 0, reason="opt-in: PITCHSIDE_SOAK_MINUTES=30")]
+pytestmark = [pytest.mark.slow, pytest.mark.skipif(MINUTES <= 0, reason="opt-in: PITCHSIDE_SOAK_MINUTES=30"),
+              pytest.mark.timeout(MINUTES * 60 + 300)]
 
 
 def label(p: psutil.Process) -> str:

@@ -1,0 +1,73 @@
+"""What a match's own output says happened: every node logs its state changes (``[pitchside.<robot>.<node>]``)
+and the referee its calls. Read by tests/test_match.py and bench/match.py."""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from datetime import datetime
+
+LINE = re.compile(r"^(\d{4}-\d\d-\d\d \d\d:\d\d:\d\d,\d{3}) \w+ \[pitchside\.(\w+)\.(\w+)\] (.*)$")
+HCM_CHANGE = re.compile(r"^(\w+) -> (\w+) ")
+UP_AGAIN = {"CONTROLLABLE", "WALKING"}
+PENALISED = {"PENALTY_ANIMATION_IN", "PENALTY"}
+
+
+@dataclass
+class MatchFigures:
+    """One match."""
+
+    seed: int
+    goals: int = 0
+    kicks: int = 0
+    falls: int = 0
+    get_ups: int = 0
+    penalties: int = 0
+    placed: int = 0  # robots the referee had to place at SET (not at a legal kick-off position in time)
+    fall_to_up_s: list[float] = field(default_factory=list)  # per fall: until standing again or penalised
+    still_down_s: list[float] = field(default_factory=list)  # per robot still down when the output ends: how long
+    rtf: list[tuple[float, float]] = field(default_factory=list)  # (wall time, factor)
+    cpu_pct: float = 0.0
+    seconds: float = 0.0
+    started: float = 0.0
+
+    @property
+    def longest_down_s(self) -> float:
+        """The longest time a robot lay (fell until it stood again or was penalised, or until the output ended)."""
+        return max(self.fall_to_up_s + self.still_down_s, default=0.0)
+
+    @property
+    def rtf_min(self) -> float:
+        return min((f for _, f in self.rtf), default=0.0)
+
+    def rtf_min_first_minute(self) -> float:
+        return min((f for t, f in self.rtf if t < self.started + 60.0), default=0.0)
+
+
+def read_output(text: str, figures: MatchFigures) -> None:
+    """Counts from the match's log lines: the kick node's kicks, the HCM's falls and get-ups, the referee's calls."""
+    down_since: dict[str, float] = {}
+    t = 0.0
+    for line in text.splitlines():
+        if "referee at" in line and ": removed team" in line:
+            figures.penalties += 1
+        if "referee at" in line and ": placed team" in line:
+            figures.placed += 1
+        found = LINE.match(line)
+        if found is None:
+            continue
+        stamp, robot, node, message = found.groups()
+        t = datetime.strptime(stamp, "%Y-%m-%d %H:%M:%S,%f").timestamp()
+        if node == "kick" and message.startswith("kick with the"):
+            figures.kicks += 1
+        elif node == "hcm" and (change := HCM_CHANGE.match(message)):
+            after = change.group(2)
+            if after == "FALLING":
+                figures.falls += 1
+                down_since.setdefault(robot, t)
+            elif after == "GETTING_UP":
+                figures.get_ups += 1
+            elif (after in UP_AGAIN or after in PENALISED) and robot in down_since:
+                figures.fall_to_up_s.append(t - down_since.pop(robot))
+    figures.still_down_s = [t - since for since in down_since.values()]
+
