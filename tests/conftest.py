@@ -16,7 +16,6 @@ from robot_nodes.runtime.local_bus import CHECK_FROZEN_ENV, THAWED
 from tests.dashboard_server import RunningServer, dashboard_server
 from tests.scheduling import (  # noqa: F401 (hooks)
     pytest_collection_modifyitems,
-    pytest_runtest_setup,
     pytest_xdist_make_scheduler,
 )
 from tests.support import TESTDATA, free_port, launch_chromium

@@ -1,13 +1,14 @@
-"""How the suite shares two cores: real-time simulations one after another, at the priority a robot's control loop
-would have; everything else around them, on the other workers, yielding to them.
+"""How the suite shares two cores: the simulations that must keep real time one after another, the rest around them.
 
-``./run test`` runs three xdist workers with ``--dist loadfile``, scheduled here: each test file goes whole to one
+``./run test`` runs two xdist workers with ``--dist loadfile``, scheduled here: each test file goes whole to one
 worker (its module fixtures and servers stay together), and the files in ``REALTIME_FILES`` (simulations whose
 outcome needs the world to keep real time: kicks, the head, the HCM, walking, behaviour, the match) count as one
-file, so at most one of them runs at any time, and they start first (they are the longest work). A worker lowers
-its own priority (nice 10, which needs no privilege) before any other test, so browsers, servers and fuzzers give
-way to the simulation; a real-time test puts its worker back to nice 0 where it may (root, as in CI; elsewhere it
-keeps the niceness it has). Their tests carry the ``realtime`` mark (``-m realtime`` selects them).
+file, so two of them never compete for the cores; they start first (together the longest work), then the other
+files with slow tests, then the many short ones. Their tests carry the ``realtime`` mark (``-m realtime``).
+
+Tried and dropped: a third worker, the others at nice 10 to let the simulation keep its core. As root,
+Chromium raises its own GPU process to nice -8; the starved workers lost their 10 to 20 s waits, and the suite took
+no less time (868 s against about 800 s).
 
 (xdist's own ``loadgroup`` cannot do this with pytest 9: its group suffix goes into ``Item._nodeid``, which pytest
 9 no longer reads, so every test became a group of its own.)
@@ -15,7 +16,6 @@ keeps the niceness it has). Their tests carry the ``realtime`` mark (``-m realti
 
 from __future__ import annotations
 
-import os
 from pathlib import PurePosixPath
 
 import pytest
@@ -26,7 +26,6 @@ REALTIME_FILES = frozenset({
     "test_walking_sim.py",
 })
 REALTIME_SCOPE = "real-time simulations"
-YIELDING_NICE = 10
 
 
 def is_realtime(nodeid: str) -> bool:
@@ -56,20 +55,3 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
     for item in items:
         if is_realtime(item.nodeid):
             item.add_marker(pytest.mark.realtime)
-
-
-def _renice_process(nice: int) -> None:
-    """Every thread of this process (Linux keeps the niceness per thread; new threads and child processes take
-    their creator's)."""
-    for tid in os.listdir("/proc/self/task"):
-        try:
-            os.setpriority(os.PRIO_PROCESS, int(tid), nice)
-        except (PermissionError, ProcessLookupError):
-            continue  # lowering niceness needs root; a thread may have ended meanwhile
-
-
-@pytest.hookimpl(tryfirst=True)  # before the test's fixtures start servers, browsers or simulations
-def pytest_runtest_setup(item: pytest.Item) -> None:
-    if "PYTEST_XDIST_WORKER" not in os.environ or not os.path.isdir("/proc/self/task"):
-        return  # one process alone (-n 0, a single test): nothing to give way to
-    _renice_process(0 if is_realtime(item.nodeid) else YIELDING_NICE)
