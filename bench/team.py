@@ -67,10 +67,13 @@ class Figures:
 
     @property
     def server_slope(self) -> float:
-        """MB per minute, least squares over the samples."""
-        if len(self.server_rss) < 3:
+        """MB per minute, least squares over the samples after the warm-up (the window's first third, in which the
+        stated caps fill: the hub's queues, the plots' history, the link-health windows; as tests/test_soak.py)."""
+        end = self.server_rss[-1][0] if self.server_rss else 0.0
+        late = [(t, mb) for t, mb in self.server_rss if t >= end / 3]
+        if len(late) < 3:
             return 0.0
-        xs, ys = zip(*self.server_rss, strict=True)
+        xs, ys = zip(*late, strict=True)
         return float(statistics.linear_regression(xs, ys).slope)
 
 

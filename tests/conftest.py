@@ -14,10 +14,6 @@ import zenoh
 from robot_nodes.runtime import BusConfig, open_router, open_session
 from robot_nodes.runtime.local_bus import CHECK_FROZEN_ENV, THAWED
 from tests.dashboard_server import RunningServer, dashboard_server
-from tests.scheduling import (  # noqa: F401 (hooks)
-    pytest_collection_modifyitems,
-    pytest_xdist_make_scheduler,
-)
 from tests.support import TESTDATA, free_port, launch_chromium
 from tests.teststand import SceneStand
 
