@@ -1,6 +1,6 @@
 """A match in simulation: how the robots play, and whether the laptop keeps real time while they do.
 
-    python bench/match.py [--robots 4v4] [--half-minutes 5] [--seeds 1,2,3] [--quick]
+    python bench/match.py [--robots 4v4] [--half-minutes 5] [--seeds 1,2,3] [--quick] [--logs DIR]
 
 Each seed plays one whole match as ``pitchside match --robots 4v4 --half-minutes 5 --seed S`` starts it: the MuJoCo
 world with both teams and the referee, the simulated GameController running the Humanoid League flow, every
@@ -11,9 +11,10 @@ From the match's own output (every node logs its state changes) and the GameCont
 (the final score), kicks (the kick node's started kicks), falls (HCM into FALLING) and get-ups (HCM into
 GETTING_UP), the referee's penalties (robots removed) and placements (robots not at a legal kick-off place when
 SET began). For each fall it takes the time until the robot stands again (HCM back to CONTROLLABLE or WALKING) or
-is penalised; the budget is 20 s. The world's real-time factor is its
-``real_time_factor`` diagnostic as the dashboard receives it over telemetry (each 1 s window), minimum over the
-match; CPU is the time of every process of the match (% of one core) over the match.
+is penalised; the budget is 20 s. The world's real-time factor is its ``real_time_factor`` diagnostic (each 1 s
+window), read on the match's Zenoh bus, minimum over the match (the simulated GameController runs on the world's
+clock: a world that falls behind makes the match last longer). CPU is the time of every process of the match (%
+of one core) over the match. ``--logs DIR`` keeps each match's output.
 
 The baseline in the same run: the first half's first minute of the first seed against its whole (``rtf_min_first_min``):
 a machine that falls behind only later (memory, a growing queue) shows there.
@@ -36,37 +37,42 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import httpx
 import psutil
 
+from robot_nodes.cm730.sim.lineup import Lineup, parse_robots
 from tests.match_log import MatchFigures, read_output
-from tests.running_demo import DashboardObserver, running_demo
+from tests.real_time_factor import ROUTER, RealTimeFactor
+from tests.running_demo import running_demo
 
 GC_URL = re.compile(r"GameController (http://127\.0\.0\.1:\d+)/status")
 
 
-def play(robots: str, half_minutes: float, seed: int, out: Path) -> MatchFigures:
+def play(robots: str, half_minutes: float, seed: int, out: Path, logs: Path | None) -> MatchFigures:
     figures = MatchFigures(seed)
     args = ("--robots", robots, "--half-minutes", str(half_minutes), "--seed", str(seed))
     with running_demo(out, *args, command="match") as match:
-        gc = GC_URL.search(match.output())
-        assert gc, match.output()
+        gc, router = GC_URL.search(match.output()), ROUTER.search(match.output())
+        assert gc and router, match.output()
         status_url = f"{gc.group(1)}/status"
-        with DashboardObserver(match.ws_url, ("diagnostics",)) as observer:
+        rtf = RealTimeFactor(router.group(1), first_robot(robots))
+        try:
             processes = match.processes()
             for p in processes:
                 p.cpu_percent(None)
-            figures.started = t0 = time.time()
+            figures.started = t0 = time.monotonic()
             last_report = 0.0
             while True:
                 status = httpx.get(status_url, timeout=10).json()
                 if status["state"] == "FINISHED" and not status["first_half"]:
                     break
-                if time.time() - last_report > 30:
-                    last_report = time.time()
+                if time.monotonic() - last_report > 30:
+                    last_report = time.monotonic()
                     scores = ":".join(str(t["score"]) for t in status["teams"])
                     half = "first" if status["first_half"] else "second"
+                    recent = rtf.between(last_report - 30, last_report)
                     print(f"  seed {seed}: {half} half, {status['state']}, {status['secs_remaining']} s left, "
-                          f"{scores}", flush=True)
+                          f"{scores}; real-time factor min {min(recent, default=float('nan')):.3f} over 30 s",
+                          flush=True)
                 time.sleep(1.0)
-            figures.seconds = time.time() - t0
+            figures.seconds = time.monotonic() - t0
             cpu = 0.0
             for p in processes:
                 try:
@@ -74,10 +80,20 @@ def play(robots: str, half_minutes: float, seed: int, out: Path) -> MatchFigures
                 except psutil.Error:
                     continue
             figures.cpu_pct = cpu
-            figures.rtf = list(observer.real_time_factors)
+            figures.rtf = [(t, f) for t, f in rtf.values if t > t0]
+        finally:
+            rtf.close()
         figures.goals = sum(int(t["score"]) for t in status["teams"])
         read_output(match.output(), figures)
+        if logs is not None:
+            logs.mkdir(parents=True, exist_ok=True)
+            (logs / f"match-{robots}-seed{seed}.log").write_text(match.output())
     return figures
+
+
+def first_robot(robots: str) -> str:
+    """The home team's player 1: its cm730 node in the world reports the world's real-time factor."""
+    return Lineup.of((1, 2), parse_robots(robots)).robot_ids()[0]
 
 
 def main() -> None:
@@ -86,6 +102,7 @@ def main() -> None:
     parser.add_argument("--half-minutes", type=float, default=5.0)
     parser.add_argument("--seeds", default="1,2,3")
     parser.add_argument("--quick", action="store_true", help="one match of 2 x 2 minutes")
+    parser.add_argument("--logs", type=Path, default=None, help="keep each match's output in this folder")
     args = parser.parse_args()
     seeds = [int(s) for s in args.seeds.split(",")]
     half = args.half_minutes
@@ -95,7 +112,7 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         for seed in seeds:
             print(f"match {args.robots}, 2 x {half:g} min, seed {seed}", flush=True)
-            m = play(args.robots, half, seed, Path(tmp))
+            m = play(args.robots, half, seed, Path(tmp), args.logs)
             print(f"  goals {m.goals}, kicks {m.kicks}, falls {m.falls}, get-ups {m.get_ups}, penalties "
                   f"{m.penalties}, placed at SET {m.placed}, longest time down {m.longest_down_s:.1f} s "
                   f"({len(m.still_down_s)} down at the end), rtf min {m.rtf_min:.3f} (first minute "

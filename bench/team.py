@@ -23,7 +23,6 @@ from __future__ import annotations
 import argparse
 import contextlib
 import os
-import re
 import statistics
 import sys
 import tempfile
@@ -37,13 +36,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import psutil
 
-import schemas
-from robot_nodes.runtime import BusConfig, open_session
-from schemas.std import DiagnosticArray
+from tests.real_time_factor import ROUTER, RealTimeFactor
 from tests.running_demo import RunningDemo, running_demo
-from wire import keys
 
-ROUTER = re.compile(r"Zenoh router (tcp/[0-9.]+:\d+)")
 WARM_UP_S = 15.0  # after the dashboard answers: every robot stood up, the match recording started
 
 
@@ -75,30 +70,6 @@ class Figures:
             return 0.0
         xs, ys = zip(*late, strict=True)
         return float(statistics.linear_regression(xs, ys).slope)
-
-
-class RealTimeFactor:
-    """The world's real_time_factor reports, read on the demo's bus (robot1's cm730 node speaks for the world)."""
-
-    def __init__(self, endpoint: str) -> None:
-        self.values: list[tuple[float, float]] = []
-        self._session = open_session(BusConfig(connect=[endpoint]))
-        self._sub = self._session.declare_subscriber(keys.topic_key("robot1", "diagnostics"), self._on_sample)
-
-    def _on_sample(self, sample: object) -> None:
-        msg = schemas.decode(sample.payload.to_bytes(), DiagnosticArray)  # type: ignore[attr-defined]
-        for status in msg.status:
-            if status.name.endswith("/cm730"):
-                for kv in status.values:
-                    if kv.key == "real_time_factor":
-                        self.values.append((time.monotonic(), float(kv.value)))
-
-    def between(self, t0: float, t1: float) -> list[float]:
-        return [v for t, v in self.values if t0 < t <= t1]
-
-    def close(self) -> None:
-        self._sub.undeclare()
-        self._session.close()
 
 
 def label(p: psutil.Process) -> str:
