@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import argparse
 import logging
+import os
+import re
 import sys
 from pathlib import Path
 
@@ -14,6 +16,13 @@ from server.security.token_file import remove_token_file, write_token_file
 from wire.bus import add_bus_arguments, bus_from_arguments, load_config_file
 from wire.command_line import CommandParser
 from wire.machine import machine_addresses
+
+
+def plots_memory(text: str) -> str:
+    """A size rerun's --server-memory-limit takes: a number and a unit (B, KB, MB, GB, KiB, MiB, GiB)."""
+    if not re.fullmatch(r"\d+(\.\d+)?\s*(B|KB|MB|GB|KiB|MiB|GiB)", text.strip()):
+        raise argparse.ArgumentTypeError(f"{text!r}: a size such as 256MiB or 1GB")
+    return text.strip().replace(" ", "")
 
 
 def arguments(prog: str = "pitchside serve", description: str = "the pitchside dashboard server") -> CommandParser:
@@ -62,6 +71,9 @@ def arguments(prog: str = "pitchside serve", description: str = "the pitchside d
     p.add_argument("--plots-all-topics", action="store_true",
                    help="plot every numeric field of every topic (heavy on a small laptop; the panel adds topics "
                         "one by one)")
+    p.add_argument("--plots-memory", type=plots_memory, default=os.environ.get("PITCHSIDE_PLOTS_MEMORY", "256MiB"),
+                   help="the most plot history kept for viewers, e.g. 256MiB (the oldest goes first; default "
+                        "$PITCHSIDE_PLOTS_MEMORY, else 256MiB)")
     p.add_argument("--foxglove-port", type=int, default=8765, help="Foxglove WebSocket endpoint (a free one if taken)")
     p.add_argument("--no-foxglove", action="store_true", help="no Foxglove WebSocket endpoint")
     p.add_argument("--recordings", default=None, metavar="DIR", help="recordings folder (default: recordings/)")
@@ -101,7 +113,7 @@ def config_from(args: argparse.Namespace) -> ServerConfig:
                             robot3d_port=args.robot3d_port, descriptions=descriptions, plots=args.plots,
                             plots_web_port=args.plots_port,
                             plots_grpc_port=args.plots_grpc_port, plots_max_hz=args.plots_max_hz,
-                            plots_all_topics=args.plots_all_topics,
+                            plots_all_topics=args.plots_all_topics, plots_memory=args.plots_memory,
                             foxglove_port=None if args.no_foxglove else args.foxglove_port)
     except ValueError as exc:
         raise SystemExit(str(exc)) from None

@@ -61,6 +61,7 @@ class ServerConfig:
     plots_grpc_port: int = 0  # rerun's gRPC server, loopback only (0: as above)
     plots_max_hz: float = 10.0
     plots_all_topics: bool = False  # also every numeric field of every topic, a tab per topic
+    plots_memory: str = "256MiB"  # the most history rerun's server keeps for viewers (oldest dropped first)
     foxglove_port: int | None = None  # the Foxglove WebSocket endpoint (server.foxglove; 0: any port); None: off
     web_dir: Path = WEB_DIR
     # where recordings go and replay looks for bare file names: recordings/ in the folder the server starts in

@@ -6,9 +6,9 @@ and the data over gRPC; the browser reaches both only through the dashboard (ser
 is plotted is decided in server.plot_series; here it is logged, into that server over gRPC. Every numeric stream is
 thinned by the hub to ``plots_max_hz``; the state streams are few messages a second and taken whole, so a short
 state (FALLING) is never thinned away, and only their changes are logged. rerun's gRPC server keeps at most
-``SERVER_MEMORY`` of history for viewers that connect late. rerun's own usage analytics: ``TELEMETRY_ENABLED`` is
-forced off here; the SDK's analytics setting lives in rerun's config file (``rerun analytics disable``) and fails
-harmlessly offline; the server's are off.
+``config.plots_memory`` of history (256 MiB unless ``--plots-memory``) for viewers that connect late. rerun's own
+usage analytics: ``TELEMETRY_ENABLED`` is forced off here; the SDK's analytics setting lives in rerun's config file
+(``rerun analytics disable``) and fails harmlessly offline; the server's are off.
 """
 
 from __future__ import annotations
@@ -28,7 +28,6 @@ from server.plot_series import CURATED_TOPICS, STATE_TOPICS, RobotSeries, Series
 from server.rerun_server import RerunServer
 
 log = logging.getLogger(__name__)
-SERVER_MEMORY = "256MiB"
 BLUEPRINT_EVERY_S = 2.0  # a new robot or topic re-sends the layout, at most this often
 
 
@@ -69,7 +68,7 @@ class PlotFeed:
         self.topics: dict[str, list[str]] = {}  # robot -> topics whose every number is plotted, in order
         self.chosen: set[tuple[str, str]] = set()  # (robot or "*", topic) asked for besides the curated series
         self.rec: Any = None
-        self.server = RerunServer(config.plots_grpc_port, config.plots_web_port, SERVER_MEMORY)
+        self.server = RerunServer(config.plots_grpc_port, config.plots_web_port, config.plots_memory)
         self._robots: dict[str, RobotSeries] = {}
         self._states: dict[str, str] = {}  # entity path -> the state last logged there
         self._names: dict[str, tuple[str, ...]] = {}  # entity path -> the series names logged for it

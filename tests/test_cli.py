@@ -55,3 +55,15 @@ def test_unknown_command_is_refused_with_usage() -> None:
     result = subprocess.run([sys.executable, "-m", "pitchside.cli", "dance"], cwd=REPO, capture_output=True,
                             text=True, timeout=60)
     assert result.returncode == 2 and "unknown command 'dance'" in result.stderr
+
+
+def test_the_plot_history_cap_is_a_size_from_the_option_or_the_environment(monkeypatch: pytest.MonkeyPatch) -> None:
+    from server.__main__ import arguments, config_from
+
+    assert config_from(arguments().parse_args([])).plots_memory == "256MiB"
+    assert config_from(arguments().parse_args(["--plots-memory", "1.5 GB"])).plots_memory == "1.5GB"
+    monkeypatch.setenv("PITCHSIDE_PLOTS_MEMORY", "32MiB")
+    assert config_from(arguments().parse_args([])).plots_memory == "32MiB"
+    result = subprocess.run([sys.executable, "-m", "pitchside.cli", "serve", "--plots-memory", "lots"], cwd=REPO,
+                            capture_output=True, text=True, timeout=60)
+    assert result.returncode == 2 and "'lots': a size such as 256MiB or 1GB" in result.stderr
