@@ -11,7 +11,8 @@ From the match's own output (every node logs its state changes) and the GameCont
 (the final score), kicks (the kick node's started kicks), falls (HCM into FALLING) and get-ups (HCM into
 GETTING_UP), the referee's penalties (robots removed) and placements (robots not at a legal kick-off place when
 SET began). For each fall it takes the time until the robot stands again (HCM back to CONTROLLABLE or WALKING) or
-is penalised; the budget is 20 s. The world's real-time factor is its ``real_time_factor`` diagnostic (each 1 s
+is penalised (its HCM in PENALTY: the referee calls after 20 s lying, the robot hears it with the GameController's
+next packet); the budget is 20 s. The world's real-time factor is its ``real_time_factor`` diagnostic (each 1 s
 window), read on the match's Zenoh bus, minimum over the match (the simulated GameController runs on the world's
 clock: a world that falls behind makes the match last longer). CPU is the time of every process of the match (%
 of one core) over the match. ``--logs DIR`` keeps each match's output.
