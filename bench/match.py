@@ -26,7 +26,6 @@ Budgets (issue "A match in simulation"): goals_per_match >= 1, rtf_min >= 0.98, 
 from __future__ import annotations
 
 import argparse
-import re
 import statistics
 import sys
 import tempfile
@@ -39,11 +38,9 @@ import httpx
 import psutil
 
 from robot_nodes.cm730.sim.lineup import Lineup, parse_robots
-from tests.match_log import MatchFigures, read_output
+from tests.match_log import GC_URL, MatchFigures, read_output
 from tests.real_time_factor import ROUTER, RealTimeFactor
 from tests.running_demo import running_demo
-
-GC_URL = re.compile(r"GameController (http://127\.0\.0\.1:\d+)/status")
 
 
 def play(robots: str, half_minutes: float, seed: int, out: Path, logs: Path | None) -> MatchFigures:

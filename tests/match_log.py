@@ -7,6 +7,7 @@ import re
 from dataclasses import dataclass, field
 from datetime import datetime
 
+GC_URL = re.compile(r"GameController (http://127\.0\.0\.1:\d+)/status")  # where a match says its GC's API is
 LINE = re.compile(r"^(\d{4}-\d\d-\d\d \d\d:\d\d:\d\d,\d{3}) \w+ \[pitchside\.(\w+)\.(\w+)\] (.*)$")
 HCM_CHANGE = re.compile(r"^(\w+) -> (\w+) ")
 UP_AGAIN = {"CONTROLLABLE", "WALKING"}
@@ -26,7 +27,7 @@ class MatchFigures:
     placed: int = 0  # robots the referee had to place at SET (not at a legal kick-off position in time)
     fall_to_up_s: list[float] = field(default_factory=list)  # per fall: until standing again or penalised
     still_down_s: list[float] = field(default_factory=list)  # per robot still down when the output ends: how long
-    rtf: list[tuple[float, float]] = field(default_factory=list)  # (wall time, factor)
+    rtf: list[tuple[float, float]] = field(default_factory=list)  # (time.monotonic(), factor)
     cpu_pct: float = 0.0
     seconds: float = 0.0
     started: float = 0.0

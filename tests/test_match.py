@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import asyncio
 import os
-import re
 import socket
 import threading
 from collections.abc import Callable
@@ -23,12 +22,11 @@ from robot_nodes.game_controller.simulator import SimulatedGame, SimulatedGameCo
 from schemas.logs import LogSeriesReader
 from server.hub import Hub
 from server.sources.replay import ReplaySource
-from tests.match_log import MatchFigures, read_output
+from tests.match_log import GC_URL, MatchFigures, read_output
 from tests.running_demo import DashboardObserver, running_demo
 from tests.support import free_port
 from tests.waiting import wait_for
 
-GC_URL = re.compile(r"GameController (http://127\.0\.0\.1:\d+)/status")
 INITIAL, READY, SET, PLAYING, FINISHED = range(5)
 ROBOTS = ("home1", "home2", "away1", "away2")
 # the suite plays fast halves (2 x 24 s, READY 3 s: the flow, not the play); PITCHSIDE_MATCH_HALF_MINUTES=2 plays
