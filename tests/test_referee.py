@@ -186,6 +186,26 @@ def test_a_robot_lying_twenty_seconds_is_penalised_taken_off_and_brought_back(ma
     assert away1.uprightness() > 0.9
 
 
+def test_the_lying_count_runs_from_the_fall_until_the_robot_has_stood(match: Match) -> None:
+    """A failed get-up (torso up for a moment, then down again) does not restart the 20 s; standing for good does."""
+    stood_s = match.referee.rules.stood_s
+    kick_off(match)
+    away1, home1 = match.robot("away1"), match.robot("home1")
+    away1.set_pose(1.5, 0.5, 0.0, posture="front")
+    home1.set_pose(-1.5, -0.5, 0.0, posture="back")
+    match.play(10.0)
+    away1.set_pose(1.5, 0.5, 0.0)  # lifted up, but not for stood_s: it falls back
+    home1.set_pose(-1.5, -0.5, 0.0)  # up, and stays up
+    match.play(stood_s / 2)
+    away1.set_pose(1.5, 0.5, 0.0, posture="front")
+    match.play(stood_s)
+    home1.set_pose(-1.5, -0.5, 0.0, posture="back")  # falls again: a new count
+    match.play(20.5 - 10.0 - 1.5 * stood_s)
+    assert match.penalty(AWAY, 1) == Penalty.PICKUP_OR_INCAPABLE, "20 s after its fall, a failed get-up between"
+    assert match.penalty(HOME, 1) == Penalty.NONE, "stood for good in between: its count started again"
+    assert [c.team for c in match.calls("penalty")] == [AWAY]
+
+
 def test_a_robot_pushed_out_of_the_field_is_penalised(match: Match) -> None:
     kick_off(match)
     home1 = match.robot("home1")

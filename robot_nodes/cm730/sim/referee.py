@@ -79,6 +79,7 @@ class RefereeRules:
     lying_s: float = 20.0  # a robot down this long is penalised (incapable)
     penalty_s: float = 30.0  # how long the referee's penalties last (the HL GameController's default)
     upright_min: float = 0.5  # torso's up axis z below this: the robot lies
+    stood_s: float = 2.0  # a fallen robot is up again once upright this long (a failed get-up keeps counting)
     out_margin_m: float = 0.2  # a robot whose torso is this far beyond a boundary line has left the field
     touch_m: float = 0.3  # without a contact seen, the robot whose torso is this close to the ball touched it last
     touch_height_m: float = 0.5  # ... if the ball is this low (not flying over it)
@@ -102,9 +103,14 @@ class _RobotWatch:
     handle: RobotHandle
     team: Team
     player: int
-    down_since: float | None = None
+    down_since: float | None = None  # when it fell (simulated s); None: standing
+    up_since: float | None = None  # fallen, now upright again since then: standing once that lasts stood_s
     removed: bool = False
     quiet_until: float = 0.0  # penalised and not yet taken off (a human at a real GameController): not called again
+
+    def count_stopped(self) -> None:
+        """The lying count ends: standing, placed, taken off or not judged in this game state."""
+        self.down_since = self.up_since = None
 
 
 @dataclass
@@ -166,7 +172,7 @@ class Referee:
             self._judge_robots(game)
         else:
             for watch in self._robots:
-                watch.down_since = None
+                watch.count_stopped()
 
     # -- teams and penalties -----------------------------------------------------------------------------
     def _dress(self, game: GameControlData) -> None:
@@ -190,7 +196,8 @@ class Referee:
         for watch in self._robots:
             penalised = self._penalty(game, watch) != Penalty.NONE
             if penalised and not watch.removed:
-                watch.removed, watch.down_since = True, None
+                watch.removed = True
+                watch.count_stopped()
                 self._place(watch, placements.penalty_box(watch.team, watch.player, self.world.field))
                 self._call("removed", watch, f"penalty {self._penalty(game, watch)}")
                 if self._ball.last_touch is watch:
@@ -331,20 +338,29 @@ class Referee:
         for watch in self._robots:
             if watch.removed or self._penalty(game, watch) != Penalty.NONE:
                 continue
-            if watch.handle.uprightness() < self.rules.upright_min:
-                if watch.down_since is None:
-                    watch.down_since = now
-                elif now - watch.down_since >= self.rules.lying_s:
-                    watch.down_since = None
-                    self._penalise(watch, f"lay for {self.rules.lying_s:.0f} s")
-                    continue
-            else:
-                watch.down_since = None
+            if self._down_too_long(watch, now):
+                watch.count_stopped()
+                self._penalise(watch, f"lay for {self.rules.lying_s:.0f} s")
+                continue
             if game.state == GameStateValue.PLAYING:
                 x, y, _ = watch.handle.pose2d()
                 margin = self.rules.out_margin_m
                 if abs(x) > f.length / 2 + margin or abs(y) > f.width / 2 + margin:
                     self._penalise(watch, f"left the field at ({x:.2f}, {y:.2f})")
+
+    def _down_too_long(self, watch: _RobotWatch, now: float) -> bool:
+        """The 20-second count runs from the fall until the robot has stood for ``stood_s``: a get-up that lifts the
+        torso and falls back does not restart it (a robot that cannot get up is incapable)."""
+        if watch.handle.uprightness() < self.rules.upright_min:
+            if watch.down_since is None:
+                watch.down_since = now
+            watch.up_since = None
+        elif watch.down_since is not None:
+            if watch.up_since is None:
+                watch.up_since = now
+            elif now - watch.up_since >= self.rules.stood_s:
+                watch.count_stopped()
+        return watch.down_since is not None and now - watch.down_since >= self.rules.lying_s
 
     def _penalise(self, watch: _RobotWatch, why: str) -> None:
         if self.world.time < watch.quiet_until:
@@ -356,7 +372,7 @@ class Referee:
     # -- helpers ---------------------------------------------------------------------------------------------
     def _place(self, watch: _RobotWatch, spot: Placement) -> None:
         watch.handle.set_pose(spot.x, spot.y, spot.yaw)
-        watch.down_since = None
+        watch.count_stopped()
 
     def _whistle(self, what: str, team: Team, call: Callable[[], None], detail: str, player: int = 0) -> None:
         try:
