@@ -47,10 +47,10 @@ def stamp_now(msg: object) -> None:
     msg.header.stamp.sec, msg.header.stamp.nanosec = t // 1_000_000_000, t % 1_000_000_000  # type: ignore[attr-defined]
 
 
-def stamped(template: JointTrajectory) -> JointTrajectory:
-    """A new message with the send time (a published one is frozen: never stamped again), sharing the point."""
-    return schemas.make(JointTrajectory, header=schemas.header(), joint_names=template.joint_names,
-                        points=template.points)
+def fresh(template: JointTrajectory) -> JointTrajectory:
+    """A new message sharing the template's point: a published one is frozen, never stamped again. It is made
+    before the send time is taken, so the figures time the hop, not building a message."""
+    return schemas.make(JointTrajectory, joint_names=template.joint_names, points=template.points)
 
 
 class Sender(Node):
@@ -71,7 +71,9 @@ class Sender(Node):
         if self.sent >= self.count:
             self.loop.call_soon(self.shutdown)
             return
-        self.pub.publish(stamped(self.msg))
+        msg = fresh(self.msg)
+        stamp_now(msg)
+        self.pub.publish(msg)
         self.sent += 1
 
 

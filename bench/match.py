@@ -15,7 +15,9 @@ is penalised (its HCM in PENALTY: the referee calls after 20 s lying, the robot 
 next packet); the budget is 20 s. The world's real-time factor is its ``real_time_factor`` diagnostic (each 1 s
 window), read on the match's Zenoh bus, minimum over the match (the simulated GameController runs on the world's
 clock: a world that falls behind makes the match last longer). CPU is the time of every process of the match (%
-of one core) over the match. ``--logs DIR`` keeps each match's output.
+of one core) over the match. Both count from the first READY: the start-up (every process importing at once) is
+over by then, as the first INITIAL waits until the GameController hears every robot. ``--logs DIR`` keeps each
+match's output.
 
 The baseline in the same run: the first half's first minute of the first seed against its whole (``rtf_min_first_min``):
 a machine that falls behind only later (memory, a growing queue) shows there.
@@ -41,6 +43,7 @@ from robot_nodes.cm730.sim.lineup import Lineup, parse_robots
 from tests.match_log import GC_URL, MatchFigures, read_output
 from tests.real_time_factor import ROUTER, RealTimeFactor
 from tests.running_demo import running_demo
+from tests.waiting import wait_for
 
 
 def play(robots: str, half_minutes: float, seed: int, out: Path, logs: Path | None) -> MatchFigures:
@@ -52,6 +55,8 @@ def play(robots: str, half_minutes: float, seed: int, out: Path, logs: Path | No
         status_url = f"{gc.group(1)}/status"
         rtf = RealTimeFactor(router.group(1), first_robot(robots))
         try:
+            wait_for(lambda: httpx.get(status_url, timeout=10).json()["state"] != "INITIAL", 300.0, 1.0,
+                     "the first READY (the GameController waits until it hears every robot)")
             processes = match.processes()
             for p in processes:
                 p.cpu_percent(None)

@@ -12,7 +12,14 @@ import sys
 from pathlib import Path
 
 import robots as descriptions
-from pitchside.local_run import free_port, kernel_port, run_on_this_machine, server_process, telemetry_settings
+from pitchside.local_run import (
+    free_port,
+    kernel_port,
+    run_on_this_machine,
+    server_process,
+    telemetry_settings,
+    world_first,
+)
 from pitchside.robot import MOTION_NODES, available, robot_nodes
 from robot_nodes.launch import COMPOSE_HELP, NodeProcess, process_groups
 from server.security.credentials import ENV_TOKEN, new_token
@@ -51,7 +58,7 @@ def demo_processes(robots: int, endpoint: str, http_port: int, telemetry_port: i
         gc += ["--to", f"127.0.0.1:{port}"]
     processes.append(NodeProcess("gamecontroller", gc))
     processes.append(server_process(http_port, telemetry_port, model, [endpoint], match, token, telemetry_key))
-    return processes
+    return world_first(processes)
 
 
 def main(argv: list[str] | None = None) -> None:

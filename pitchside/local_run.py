@@ -79,6 +79,21 @@ def server_process(http_port: int, telemetry_port: int, model: str, connect: lis
     return NodeProcess("server", server, env={ENV_TOKEN: token} if token else {})
 
 
+# A simulation on this machine: the world (physics, referee, simulated GameController) runs at the normal priority,
+# everything else this much lower. When the CPU runs short the robots' computers are slow, as on a real pitch,
+# and the physics keeps real time: robots whose walking and get-ups run on the wall clock fall over in a world
+# that lags behind it.
+BEHIND_THE_WORLD_NICE = 5
+
+
+def world_first(processes: list[NodeProcess], world: str = "world") -> list[NodeProcess]:
+    """Every process but the world at BEHIND_THE_WORLD_NICE."""
+    for process in processes:
+        if process.name != world:
+            process.nice = BEHIND_THE_WORLD_NICE
+    return processes
+
+
 def run_on_this_machine(command: str, zenoh_endpoint: str, http_port: int, token: str,
                         processes: Callable[[Path], list[NodeProcess]], also: str = "") -> None:
     """Starts the router and ``processes(telemetry key file)``, prints the link, runs until a signal stops it."""

@@ -23,6 +23,7 @@ from pitchside.local_run import (
     run_on_this_machine,
     server_process,
     telemetry_settings,
+    world_first,
 )
 from pitchside.robot import MOTION_NODES, available, robot_nodes
 from robot_nodes.catalog import NODES
@@ -132,7 +133,7 @@ def match_processes(plan: MatchPlan, endpoint: str, http_port: int, telemetry_po
             processes += robot_nodes(team.robot_id(player), [endpoint], plan.model, plan.nodes, extra,
                                      compose=plan.compose)
     processes.append(server_process(http_port, telemetry_port, plan.model, [], True, token, telemetry_key))
-    return processes
+    return world_first(processes)
 
 
 def main(argv: list[str] | None = None) -> None:

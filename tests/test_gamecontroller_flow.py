@@ -188,3 +188,34 @@ def test_return_packets_penalise_and_unpenalise_as_the_hl_gamecontroller(gc: Sim
     assert penalty(at(gc, clock, 0), AWAY, 11) == Penalty.SUBSTITUTE
     send(5, 1, ReturnMessage.MAN_PENALISE)  # another team's robot: ignored, the GC goes on
     assert gc.status()["return_count"] == sent and gc.bad_returns == 0
+
+
+def send_return(gc: SimulatedGameController, team: int, player: int) -> None:
+    received = len(gc.returns)
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.sendto(build_return_packet(team, player, ReturnMessage.ALIVE), ("127.0.0.1", gc.return_port))
+    wait_for(lambda: len(gc.returns) > received, 10, what="return packet received")
+
+
+@pytest.mark.parametrize("wait_s", [120.0, 10.0])
+def test_the_first_initial_waits_for_every_player_of_a_simulated_match(clock: Clock, wait_s: float) -> None:
+    """As a referee waits for both teams: READY comes initial_s after the last awaited player is heard, or after
+    wait_for_players_s without the missing ones."""
+    game = SimulatedGame(teams=(HOME, AWAY), players_per_team=2, initial_s=2.0, ready_s=45.0, set_s=5.0, half_s=120,
+                         half_time_s=30.0, wait_for_players=(2, 1), wait_for_players_s=wait_s)
+    gc = SimulatedGameController(game, [("127.0.0.1", free_port(socket.SOCK_DGRAM))], ("127.0.0.1", 0), clock=clock)
+    try:
+        send_return(gc, HOME, 1)
+        send_return(gc, AWAY, 2)  # not awaited: the away team brings one robot
+        assert at(gc, clock, 11).state == (INITIAL if wait_s > 11 else READY)
+        if wait_s < 11:
+            return  # started without home 2
+        send_return(gc, AWAY, 1)
+        send_return(gc, HOME, 2)
+        assert at(gc, clock, 1.5).state == INITIAL  # initial_s counts from the last one heard
+        assert at(gc, clock, 0.5).state == READY
+        data = at(gc, clock, 45 + 5 + 120 + 30 + 0.5)  # the second half's INITIAL waits for nobody
+        assert data.state == INITIAL and not data.first_half
+        assert at(gc, clock, 2.0).state == READY
+    finally:
+        gc.stop()

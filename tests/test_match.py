@@ -14,8 +14,10 @@ from pathlib import Path
 from typing import Any
 
 import httpx
+import psutil
 import pytest
 
+from pitchside.local_run import BEHIND_THE_WORLD_NICE
 from pitchside.match import GameControllerPlan, default_nodes, parse_nodes, robot_settings
 from robot_nodes.cm730.sim.lineup import Lineup, LineupError, parse_robots
 from robot_nodes.game_controller.simulator import SimulatedGame, SimulatedGameController
@@ -109,6 +111,16 @@ def test_lineup_and_robot_settings() -> None:
         parse_nodes("hcm,nosuchnode")
 
 
+def assert_world_first(processes: list[psutil.Process]) -> None:
+    """The world (physics, referee, GameController) at the launcher's priority, every robot's nodes and the
+    dashboard below it (pitchside/local_run.py BEHIND_THE_WORLD_NICE)."""
+    launcher = processes[0].nice()
+    modules = {p.cmdline()[2]: p.nice() for p in processes[1:] if p.cmdline()[1:2] == ["-m"]}
+    assert modules.pop("robot_nodes.cm730.sim.match") == launcher, modules
+    assert modules.keys() >= {"robot_nodes.compose", "server"}, modules
+    assert set(modules.values()) == {launcher + BEHIND_THE_WORLD_NICE}, modules
+
+
 @pytest.mark.slow
 @pytest.mark.timeout(900)
 def test_a_match_plays_both_halves_under_the_gamecontroller_and_records_them(tmp_path: Path,
@@ -126,6 +138,7 @@ def test_a_match_plays_both_halves_under_the_gamecontroller_and_records_them(tmp
         watch = GameWatch(match.ws_url, ("gamestate", "team_comm"))
         with watch:
             wait_for(lambda: all(watch.newest(r) for r in ROBOTS), 60, what="every robot's gamestate on the dashboard")
+            assert_world_first(match.processes())
             wait_for(lambda: watch.heard("home1") == [2] and watch.heard("away2") == [1], 30,
                      what="whom each robot hears (team_comm, by telemetry)")
             colours = {r: watch.get(r, "gamestate")["data"]["team_color"] for r in ROBOTS}  # type: ignore[index]

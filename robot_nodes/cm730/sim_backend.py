@@ -9,8 +9,9 @@ from robot_nodes.cm730.sim import RobotHandle, SimRunner, SimWorld
 
 
 class MujocoBackend:
-    """ServoBackend of one simulated robot. Every call holds the world's lock, so the physics thread
-    (SimRunner) and the node's loop may run at the same time."""
+    """ServoBackend of one simulated robot, called from the node's loop while the physics thread (SimRunner)
+    steps: it reads the copy of the state made after the last step and queues goals and torque switches for the
+    next one (SimWorld.later), in the order sent, without taking the world's lock."""
 
     def __init__(self, world: SimWorld, robot: RobotHandle, runner: SimRunner | None = None,
                  owns_world: bool = False) -> None:
@@ -28,17 +29,16 @@ class MujocoBackend:
         return cls(world, world.robots[0], runner, owns_world=True)
 
     def read(self) -> BusReading:
-        with self.world.lock:
-            return self.robot.read()
+        return self.robot.read(self.world.latest)
 
     def write_goals(self, names: list[str], positions: np.ndarray, velocities: np.ndarray | None = None,
                     efforts: np.ndarray | None = None) -> None:
-        with self.world.lock:
-            self.robot.write_goals(names, positions, velocities, efforts)
+        self.world.later(self.robot.goal_change(names, positions, velocities, efforts))
 
     def set_torque(self, names: list[str], enabled: bool) -> None:
-        with self.world.lock:
-            self.robot.set_torque(names, enabled)
+        self.robot.check_joints(names)  # an unknown joint is refused here, not on the physics thread
+        joints = list(names)
+        self.world.later(lambda: self.robot.set_torque(joints, enabled))
 
     def close(self) -> None:
         if self._owns_world and self.runner is not None:

@@ -75,6 +75,11 @@ class SimulatedGame:
     set_play_position_s: float = 15.0  # sub-phase 1: robots may position
     set_play_freeze_s: float = 1.0  # sub-phase 2: illegally placed robots are removed
     auto_progress: bool = True
+    # the first INITIAL also waits until players 1..n of each team have sent a return packet, as a referee waits
+    # for both teams (a simulated match: robots whose nodes still start up would walk behind a lagging world),
+    # at most wait_for_players_s
+    wait_for_players: tuple[int, int] = (0, 0)
+    wait_for_players_s: float = 120.0
 
 
 @dataclass
@@ -143,6 +148,7 @@ class SimulatedGameController:
         self._last_message: dict[tuple[int, int], int] = {}  # (team, player) -> last return message
         self._phase_started = clock()  # of the game state
         self._set_play_started = clock()  # of the set play's sub-phase
+        self._players_heard = False  # the players the first INITIAL waits for are heard (or waited for long enough)
         self._kicked_off_at: float | None = None  # PLAYING after a kick-off: when (the ball is free 10 s later)
         self._last_tick = clock()
         self._stop = threading.Event()
@@ -260,7 +266,8 @@ class SimulatedGameController:
             return
         if not g.auto_progress:
             return
-        if self.state == GameStateValue.INITIAL and g.initial_s > 0 and in_phase >= g.initial_s:
+        if (self.state == GameStateValue.INITIAL and g.initial_s > 0 and in_phase >= g.initial_s
+                and self._players_ready(now, in_phase)):
             self._enter(GameStateValue.READY)
         elif self.state == GameStateValue.READY and in_phase >= g.ready_s:
             self._enter(GameStateValue.SET)
@@ -268,6 +275,26 @@ class SimulatedGameController:
             self._enter(GameStateValue.PLAYING)
         elif self.state == GameStateValue.FINISHED and self.first_half and in_phase >= g.half_time_s:
             self._enter(GameStateValue.INITIAL)
+
+    def _players_ready(self, now: float, waited: float) -> bool:
+        """Before the first kick-off: once every awaited player has been heard, INITIAL lasts initial_s more (their
+        robots stand up); after wait_for_players_s the game starts without the missing ones (said once)."""
+        if not self.first_half or self._players_heard:
+            return True
+        missing = [(team.number, player) for team, count in zip(self._teams, self.game.wait_for_players, strict=True)
+                   for player in range(1, count + 1) if (team.number, player) not in self._last_message]
+        if missing and waited < self.game.wait_for_players_s:
+            return False
+        self._players_heard = True
+        if missing:
+            log.warning("starting without return packets from %s (waited %.0f s)",
+                        ", ".join(f"team {t} player {p}" for t, p in missing), waited)
+            return True
+        if any(self.game.wait_for_players):
+            log.info("every player heard after %.1f s: READY in %.0f s", waited, self.game.initial_s)
+            self._phase_started = now
+            return False
+        return True
 
     def _advance_set_play(self, now: float) -> None:
         g = self.game

@@ -35,7 +35,8 @@ def simulated_game(lineup: Lineup, half_s: int, ready_s: float = 45.0, set_s: fl
     """The game the simulated GameController runs for this lineup."""
     return SimulatedGame(teams=(lineup.home.number, lineup.away.number), team_colors=colours,
                          players_per_team=max(lineup.home.players, lineup.away.players), initial_s=initial_s,
-                         ready_s=ready_s, set_s=set_s, half_s=half_s, half_time_s=half_time_s)
+                         ready_s=ready_s, set_s=set_s, half_s=half_s, half_time_s=half_time_s,
+                         wait_for_players=(lineup.home.players, lineup.away.players))
 
 
 def main(argv: list[str] | None = None) -> None:

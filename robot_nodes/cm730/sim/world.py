@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import collections
 import math
 import threading
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -49,10 +51,26 @@ class SimError(Exception):
     """Bad input to the simulation (unknown joint, robot or posture)."""
 
 
+@dataclass(frozen=True, slots=True)
+class StateCopy:
+    """What the servo buses read, copied after each step: read without the world's lock (never changed)."""
+
+    time: float
+    qpos: np.ndarray
+    qvel: np.ndarray
+    actuator_force: np.ndarray
+    sensordata: np.ndarray
+    temperatures: np.ndarray
+
+
 class SimWorld:
     """A Humanoid League kid-size field with a ball and ``n_robots`` Minibots (robot1..robotN, or ``robot_ids``).
 
     Not thread-safe by itself: code that steps it from one thread and reads it from another holds ``lock``.
+    The servo buses of its robots need no lock (MujocoBackend): they read ``latest``, a copy the stepping thread
+    makes after each step, and queue their goals and torque switches (``later``) for the next step. With 8
+    robots at 100 Hz, 1600 lock round trips a second held the physics thread back whenever a reader that held
+    the lock lost the CPU or the GIL (up to 38 ms a step, 20-40 % of the wall time, in a 4 v 4 match).
     """
 
     def __init__(self, n_robots: int = 1, placements: list[Placement] | None = None,
@@ -86,6 +104,7 @@ class SimWorld:
         self._max_force = m.actuator_forcerange[:, 1].copy()
         self._slewing = False
         self._pushes: list[tuple[float, int, np.ndarray]] = []  # (end time, body, force)
+        self._later: collections.deque[Callable[[], None]] = collections.deque()  # changes for the next step
         self.robots = [RobotHandle(self, i, prefix) for i, prefix in enumerate(prefixes)]
         self.lineup = lineup
         if lineup is not None:
@@ -95,6 +114,7 @@ class SimWorld:
             self._speed_limit[handle._act] = handle.max_velocity
         self._vmax = self._speed_limit.copy()
         self.temperatures = np.full(m.nu, self.thermal.ambient)
+        self.latest = self._copy_state()
         self._ball_body = m.body("ball").id
         self._ball_qadr = m.jnt_qposadr[m.joint("ball").id]
         self._ball_dadr = m.jnt_dofadr[m.joint("ball").id]
@@ -112,10 +132,16 @@ class SimWorld:
     def timestep(self) -> float:
         return float(self.model.opt.timestep)
 
+    def later(self, change: Callable[[], None]) -> None:
+        """Any thread: ``change`` runs on the stepping thread before the next step, in the order given."""
+        self._later.append(change)
+
     def step(self, n: int = 1) -> None:
         """Advances physics by n steps; servos slew towards their goals at their speed limit."""
         m, d = self.model, self.data
         dt = m.opt.timestep
+        while self._later:
+            self._later.popleft()()
         remaining = n
         while remaining > 0:
             if self._pushes:
@@ -131,6 +157,12 @@ class SimWorld:
             mujoco.mj_step(m, d, nstep=chunk)
             remaining -= chunk
         self._heat(n * dt)
+        self.latest = self._copy_state()
+
+    def _copy_state(self) -> StateCopy:
+        d = self.data
+        return StateCopy(float(d.time), d.qpos.copy(), d.qvel.copy(), d.actuator_force.copy(), d.sensordata.copy(),
+                         self.temperatures.copy())
 
     def step_for(self, seconds: float) -> None:
         self.step(max(1, round(seconds / self.timestep)))
@@ -151,6 +183,7 @@ class SimWorld:
         vz = velocity[2] if len(velocity) > 2 else 0.0
         v[self._ball_dadr:self._ball_dadr + 6] = [velocity[0], velocity[1], vz, 0, 0, 0]
         mujoco.mj_forward(self.model, self.data)
+        self.latest = self._copy_state()
 
     def robot(self, robot_id: str) -> RobotHandle:
         for handle in self.robots:
@@ -218,21 +251,23 @@ class RobotHandle:
         self.player = 0
 
     # -- the ServoBackend calls --------------------------------------------------------------------------
-    def read(self) -> BusReading:
-        w, d = self.world, self.world.data
-        efforts = d.actuator_force[self._act].copy()
+    def read(self, state: StateCopy | mujoco.MjData | None = None) -> BusReading:
+        """The servo bus's reading of ``state`` (default: the live data; hold the world's lock)."""
+        d = state or self.world.data
+        temperatures = state.temperatures if isinstance(state, StateCopy) else self.world.temperatures
+        efforts = d.actuator_force[self._act]  # fancy indexing: a copy
         return BusReading(
-            positions=d.qpos[self._qadr].copy(),
-            velocities=d.qvel[self._dadr].copy(),
+            positions=d.qpos[self._qadr],
+            velocities=d.qvel[self._dadr],
             efforts=efforts,
-            imu=self.imu(),
-            temperatures=w.temperatures[self._act].copy(),
+            imu=self.imu(d),
+            temperatures=temperatures[self._act],
             voltage=float(self.voltage_nominal - 0.02 * np.abs(efforts).sum()),
         )
 
-    def imu(self) -> ImuReading:
+    def imu(self, state: StateCopy | mujoco.MjData | None = None) -> ImuReading:
         """Torso IMU with white noise as configured in world.imu_noise."""
-        d, noise, rng = self.world.data, self.world.imu_noise, self.world.rng
+        d, noise, rng = state or self.world.data, self.world.imu_noise, self.world.rng
         w, x, y, z = d.sensordata[self._quat_adr:self._quat_adr + 4]
         quat = np.array([x, y, z, w])
         if noise.orientation > 0:
@@ -245,24 +280,39 @@ class RobotHandle:
                     efforts: np.ndarray | None = None) -> None:
         """Goal positions (rad), clipped to the joint limits. velocities: rad/s speed limit (0 = the servo's
         maximum); efforts: torque limit in Nm (<= 0 or NaN = the servo's maximum)."""
+        self.goal_change(names, positions, velocities, efforts)()
+
+    def goal_change(self, names: list[str], positions: np.ndarray, velocities: np.ndarray | None = None,
+                    efforts: np.ndarray | None = None) -> Callable[[], None]:
+        """write_goals checked and computed now (SimError for bad input, on the caller's thread), applied when the
+        returned function is called (by the stepping thread: SimWorld.later)."""
         idx = self._indices(names)
         positions = np.asarray(positions, dtype=float)
         if positions.shape != (len(idx),) or not np.all(np.isfinite(positions)):
             raise SimError(f"need {len(idx)} finite goal positions, got {positions!r}")
-        w = self.world
         acts = self._act[idx]
-        w._goal[acts] = np.clip(positions, self.lower[idx], self.upper[idx])
+        goal = np.clip(positions, self.lower[idx], self.upper[idx])
+        speed = None
         if velocities is not None:
             v = np.asarray(velocities, dtype=float)
             top = self.max_velocity[idx]
-            v = np.where(np.isfinite(v) & (v > 0), np.minimum(np.abs(v), top), top)
-            w._vmax[acts] = v
+            speed = np.where(np.isfinite(v) & (v > 0), np.minimum(np.abs(v), top), top)
+        force = None
         if efforts is not None:
             e = np.asarray(efforts, dtype=float)
-            e = np.where(np.isfinite(e) & (e > 0), np.minimum(e, self.max_effort[idx]), self.max_effort[idx])
-            w.model.actuator_forcerange[acts, 0] = -e
-            w.model.actuator_forcerange[acts, 1] = e
-        w._slewing = True
+            force = np.where(np.isfinite(e) & (e > 0), np.minimum(e, self.max_effort[idx]), self.max_effort[idx])
+        w = self.world
+
+        def apply() -> None:
+            w._goal[acts] = goal
+            if speed is not None:
+                w._vmax[acts] = speed
+            if force is not None:
+                w.model.actuator_forcerange[acts, 0] = -force
+                w.model.actuator_forcerange[acts, 1] = force
+            w._slewing = True
+
+        return apply
 
     def set_torque(self, names: list[str], enabled: bool) -> None:
         """Torque off makes a joint really limp (no stiffness, only gearbox damping and friction).
@@ -319,6 +369,7 @@ class RobotHandle:
         w._goal[self._act[idx]] = values
         d.ctrl[self._act[idx]] = values
         mujoco.mj_forward(m, d)
+        w.latest = w._copy_state()
 
     def set_jersey(self, rgba: tuple[float, float, float, float]) -> None:
         """Colours the torso (the team's colour in a match; cameras see it)."""
@@ -344,6 +395,10 @@ class RobotHandle:
         return float(self.world.data.xmat[self.torso_body].reshape(3, 3)[2, 2])
 
     # -- internals ---------------------------------------------------------------------------------------
+    def check_joints(self, names: list[str]) -> None:
+        """SimError for a joint this robot does not have."""
+        self._indices(names)
+
     def _indices(self, names: list[str]) -> np.ndarray:
         unknown = [n for n in names if n not in self._index]
         if unknown:
