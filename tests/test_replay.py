@@ -148,7 +148,8 @@ def test_pitchside_log_seek_speed_step(server: RunningServer, tmp_path: Path) ->
 
 
 def test_crash_cut_log_is_scanned_with_progress(tmp_path: Path) -> None:
-    """A log without its summary (a crashed recorder) is read in one pass; progress goes to 1."""
+    """A log without its summary (a crashed recorder) is read in one pass; progress goes to 1, and while it
+    loads the status names the file (the playback bar shows which log it is)."""
     from server.hub import Hub
     from server.sources.replay import ReplaySource
 
@@ -158,13 +159,14 @@ def test_crash_cut_log_is_scanned_with_progress(tmp_path: Path) -> None:
     data = whole.read_bytes()
     cut.write_bytes(data[: len(data) * 2 // 3])  # the summary and the last chunks are gone
     seen: list[float] = []
+    loading: list[dict[str, Any]] = []
 
     async def main() -> dict[str, Any]:
         hub = Hub()
         hub.bind(asyncio.get_running_loop())
         source = ReplaySource(hub, tmp_path)
         original = source._on_progress
-        source._on_progress = lambda f: (seen.append(f), original(f))  # type: ignore[method-assign]
+        source._on_progress = lambda f: (seen.append(f), loading.append(source.status()), original(f))  # type: ignore[method-assign]
         info = await source.open("cut.mcap")
         status = await source.seek(3.0)
         await source.close()
@@ -173,6 +175,7 @@ def test_crash_cut_log_is_scanned_with_progress(tmp_path: Path) -> None:
     result = asyncio.run(main())
     info = result["info"]
     assert seen and seen[-1] == 1.0 and seen == sorted(seen)
+    assert {(st["state"], st["path"]) for st in loading} == {("loading", str(cut))}
     assert result["status"]["progress"] == 1.0 and abs(result["status"]["position_s"] - 3.0) < 1e-6
     assert 0 < info["messages"] < 2 * 500 + 20 and info["robots"] == ["replay.r1", "replay.r2"]
     assert any("not closed cleanly" in w for w in info["warnings"])

@@ -234,6 +234,7 @@ class ReplaySource(Source):
         self.folder = folder
         self.allowed = allowed
         self.file: ReplayFile | None = None
+        self._loading: Path | None = None  # the log being opened: the status names it before it is read
         self.state = "closed"  # closed, loading, paused, playing, ended
         self.progress = 0.0  # of reading a file without an index
         self.speed = 1.0
@@ -275,13 +276,15 @@ class ReplaySource(Source):
         async with self._open_lock:
             await self.close()
             self._loop = asyncio.get_running_loop()
-            self.state, self.progress, self.error = "loading", 0.0, ""
+            self.state, self.progress, self.error, self._loading = "loading", 0.0, "", path
             try:
                 reader = await asyncio.to_thread(LogSeriesReader, path, on_progress=self._on_progress)
                 self.file = await asyncio.to_thread(ReplayFile, reader, path)
             except LogError as exc:
                 self.state, self.error = "closed", str(exc)
                 raise UnreadableLog(str(exc)) from exc
+            finally:
+                self._loading = None
             self.progress = 1.0
             self.position_ns = self._next_ns = self.file.start_ns
             self.delivered = self.skipped = 0
@@ -480,7 +483,7 @@ class ReplaySource(Source):
         file = self.file
         status.update(state=self.state, progress=round(self.progress, 4), speed=self.speed,
                       delivered=self.delivered, skipped=self.skipped,
-                      path=str(file.path) if file else None)
+                      path=str(file.path) if file else str(self._loading) if self._loading else None)
         if file is not None:
             status.update(position_s=max(0.0, (self.position_ns - file.start_ns) / 1e9),
                           duration_s=(file.end_ns - file.start_ns) / 1e9, position_ns=self.position_ns)
