@@ -338,7 +338,7 @@ class Referee:
         for watch in self._robots:
             if watch.removed or self._penalty(game, watch) != Penalty.NONE:
                 continue
-            if self._down_too_long(watch, now):
+            if self._count_lying(watch, now):
                 watch.count_stopped()
                 self._penalise(watch, f"lay for {self.rules.lying_s:.0f} s")
                 continue
@@ -348,9 +348,10 @@ class Referee:
                 if abs(x) > f.length / 2 + margin or abs(y) > f.width / 2 + margin:
                     self._penalise(watch, f"left the field at ({x:.2f}, {y:.2f})")
 
-    def _down_too_long(self, watch: _RobotWatch, now: float) -> bool:
-        """The 20-second count runs from the fall until the robot has stood for ``stood_s``: a get-up that lifts the
-        torso and falls back does not restart it (a robot that cannot get up is incapable)."""
+    def _count_lying(self, watch: _RobotWatch, now: float) -> bool:
+        """Moves the robot's lying count on; True once it reaches lying_s. It runs from the fall until the robot has
+        stood for ``stood_s``: a get-up that lifts the torso and falls back does not restart it (a robot that cannot
+        get up is incapable)."""
         if watch.handle.uprightness() < self.rules.upright_min:
             if watch.down_since is None:
                 watch.down_since = now

@@ -55,7 +55,6 @@ class SimError(Exception):
 class StateCopy:
     """What the servo buses read, copied after each step: read without the world's lock (never changed)."""
 
-    time: float
     qpos: np.ndarray
     qvel: np.ndarray
     actuator_force: np.ndarray
@@ -114,7 +113,7 @@ class SimWorld:
             self._speed_limit[handle._act] = handle.max_velocity
         self._vmax = self._speed_limit.copy()
         self.temperatures = np.full(m.nu, self.thermal.ambient)
-        self.latest = self._copy_state()
+        self.latest = self.copy_state()
         self._ball_body = m.body("ball").id
         self._ball_qadr = m.jnt_qposadr[m.joint("ball").id]
         self._ball_dadr = m.jnt_dofadr[m.joint("ball").id]
@@ -157,11 +156,12 @@ class SimWorld:
             mujoco.mj_step(m, d, nstep=chunk)
             remaining -= chunk
         self._heat(n * dt)
-        self.latest = self._copy_state()
+        self.latest = self.copy_state()
 
-    def _copy_state(self) -> StateCopy:
+    def copy_state(self) -> StateCopy:
+        """What the servo buses read, as it is now (hold the lock while another thread steps)."""
         d = self.data
-        return StateCopy(float(d.time), d.qpos.copy(), d.qvel.copy(), d.actuator_force.copy(), d.sensordata.copy(),
+        return StateCopy(d.qpos.copy(), d.qvel.copy(), d.actuator_force.copy(), d.sensordata.copy(),
                          self.temperatures.copy())
 
     def step_for(self, seconds: float) -> None:
@@ -183,7 +183,7 @@ class SimWorld:
         vz = velocity[2] if len(velocity) > 2 else 0.0
         v[self._ball_dadr:self._ball_dadr + 6] = [velocity[0], velocity[1], vz, 0, 0, 0]
         mujoco.mj_forward(self.model, self.data)
-        self.latest = self._copy_state()
+        self.latest = self.copy_state()
 
     def robot(self, robot_id: str) -> RobotHandle:
         for handle in self.robots:
@@ -251,23 +251,22 @@ class RobotHandle:
         self.player = 0
 
     # -- the ServoBackend calls --------------------------------------------------------------------------
-    def read(self, state: StateCopy | mujoco.MjData | None = None) -> BusReading:
-        """The servo bus's reading of ``state`` (default: the live data; hold the world's lock)."""
-        d = state or self.world.data
-        temperatures = state.temperatures if isinstance(state, StateCopy) else self.world.temperatures
+    def read(self, state: StateCopy | None = None) -> BusReading:
+        """The servo bus's reading of ``state`` (default: the world now; hold the world's lock)."""
+        d = state if state is not None else self.world.copy_state()
         efforts = d.actuator_force[self._act]  # fancy indexing: a copy
         return BusReading(
             positions=d.qpos[self._qadr],
             velocities=d.qvel[self._dadr],
             efforts=efforts,
             imu=self.imu(d),
-            temperatures=temperatures[self._act],
+            temperatures=d.temperatures[self._act],
             voltage=float(self.voltage_nominal - 0.02 * np.abs(efforts).sum()),
         )
 
-    def imu(self, state: StateCopy | mujoco.MjData | None = None) -> ImuReading:
-        """Torso IMU with white noise as configured in world.imu_noise."""
-        d, noise, rng = state or self.world.data, self.world.imu_noise, self.world.rng
+    def imu(self, d: StateCopy) -> ImuReading:
+        """Torso IMU of state ``d`` with white noise as configured in world.imu_noise."""
+        noise, rng = self.world.imu_noise, self.world.rng
         w, x, y, z = d.sensordata[self._quat_adr:self._quat_adr + 4]
         quat = np.array([x, y, z, w])
         if noise.orientation > 0:
@@ -369,7 +368,7 @@ class RobotHandle:
         w._goal[self._act[idx]] = values
         d.ctrl[self._act[idx]] = values
         mujoco.mj_forward(m, d)
-        w.latest = w._copy_state()
+        w.latest = w.copy_state()
 
     def set_jersey(self, rgba: tuple[float, float, float, float]) -> None:
         """Colours the torso (the team's colour in a match; cameras see it)."""
