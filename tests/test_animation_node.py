@@ -21,6 +21,8 @@ from robot_nodes.animation.node import NO_TORQUE_REQUEST, AnimationNode
 from robot_nodes.runtime import BusConfig, ClientGoal, GoalStatus, Node
 from tests.waiting import wait_for
 
+pytestmark = pytest.mark.realtime
+
 HEAD = {"HeadPan": 0.1, "HeadTilt": -0.2, "LKnee": 0.5}
 NOD = {
     "name": "nod", "author": "test", "keyframes": [

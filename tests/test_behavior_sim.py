@@ -23,7 +23,7 @@ from tests.sim_robots import SimRobots
 from tests.support import free_port
 from tests.waiting import wait_for
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.realtime, pytest.mark.slow]
 
 NODES = ("animation", "hcm", "pause", "walking", "head", "kick", "behavior")
 FIELD = Field()

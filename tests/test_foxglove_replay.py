@@ -8,12 +8,16 @@ import json
 from pathlib import Path
 from typing import Any
 
+import pytest
+
 from schemas.logs import LogSeriesReader, data_start_ns
 from tests.dashboard_server import RunningServer, dashboard_server
 from tests.foxglove_node import foxglove_url, node_client, run_session
 from tests.support import free_port
 from tests.test_replay import T0, _pitchside_log
 from tests.waiting import wait_for
+
+pytestmark = pytest.mark.realtime
 
 STEP_NS = 20_000_000  # the log's joint_states come every 20 ms from T0
 

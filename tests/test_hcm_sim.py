@@ -27,7 +27,7 @@ from tests.waiting import wait_for
 from wire.actions import ActionClient, GoalStatus
 from wire.keys import topic_key
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.realtime, pytest.mark.slow]
 
 CONTROLLABLE, FALLING, FALLEN, GETTING_UP, ANIMATION_RUNNING, STARTUP = 0, 1, 2, 3, 4, 5
 PENALTY, PENALTY_ANIMATION, RECORD, HARDWARE_PROBLEM = 7, 8, 9, 13

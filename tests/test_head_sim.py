@@ -21,6 +21,8 @@ from tests.sim_robots import SimRobots
 from tests.waiting import wait_for
 from wire.animation.animation_file import load_animation
 
+pytestmark = pytest.mark.realtime
+
 FIND_WITHIN_S = 6.0  # the budget for a ball anywhere in front
 
 

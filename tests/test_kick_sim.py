@@ -22,6 +22,8 @@ from tests.waiting import wait_for
 from wire.actions import ActionClient, GoalStatus
 from wire.animation.animation_file import load_animation
 
+pytestmark = pytest.mark.realtime
+
 TRIALS, NEEDED = 10, 8
 MIN_DISTANCE, MAX_ANGLE_DEG = 1.5, 20.0
 
@@ -66,7 +68,7 @@ def kick_trials(bus: BusConfig) -> list[tuple[float, float, float, str, float, f
                 sim.world.set_ball(x0 + dx, y0 + dy)
             sim.wait_controllable()
             since = time.monotonic()
-            wait_for(lambda since=since: ball_seen.first_time_since(since + 1.0), 15,  # type: ignore[misc]
+            wait_for(lambda since=since: ball_seen.first_time_since(since + 0.5), 15,  # type: ignore[misc]
                      what="the head on the ball")
             start_ball = sim.ball()
             half = math.radians(direction) / 2

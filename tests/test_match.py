@@ -31,9 +31,9 @@ from tests.waiting import wait_for
 
 INITIAL, READY, SET, PLAYING, FINISHED = range(5)
 ROBOTS = ("home1", "home2", "away1", "away2")
-# the suite plays fast halves (2 x 24 s, READY 3 s: the flow, not the play); PITCHSIDE_MATCH_HALF_MINUTES=2 plays
+# the suite plays fast halves (2 x 18 s, READY 3 s: the flow, not the play); PITCHSIDE_MATCH_HALF_MINUTES=2 plays
 # the 2 x 2 minutes with READY 20 s (about 6 minutes; the suite's 15-minute budget has no room for it)
-HALF_MINUTES = float(os.environ.get("PITCHSIDE_MATCH_HALF_MINUTES", "0.4"))
+HALF_MINUTES = float(os.environ.get("PITCHSIDE_MATCH_HALF_MINUTES", "0.3"))
 READY_S = 3 if HALF_MINUTES < 1 else 20
 FALLEN_LIMIT_S = 20.0  # a robot that fell is up again, or penalised, within this
 # ... penalised as its HCM says: the referee calls after 20 s lying, the robot hears it with the GameController's

@@ -22,6 +22,8 @@ from robot_nodes.runtime import BusConfig, Node
 from tests.support import free_port
 from tests.waiting import wait_for
 
+pytestmark = pytest.mark.realtime
+
 SPEC_EXAMPLE = bytes.fromhex(
     "43 54 58 4d 01 00 0b 00 00 00 00 00 05 00 03 00"
     "00 00 00 00 02 00 00 00" "01 00 00 00 02 00 00 00" "02 00 00 00 01 00 00 00"

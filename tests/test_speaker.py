@@ -20,6 +20,8 @@ from robot_nodes.speaker import HIGH, LOW, MID, SpeakerNode, SpeechQueue, has_so
 from robot_nodes.speaker.espeak import WAV_NAME, last_sequence, prune_wavs, wav_name
 from tests.waiting import wait_for
 
+pytestmark = pytest.mark.realtime
+
 ESPEAK = "/usr/bin/espeak-ng"
 needs_espeak = pytest.mark.skipif(not Path(ESPEAK).exists(), reason="espeak-ng is missing (apt install espeak-ng)")
 KICKOFF = ("The referee has whistled the start of the second half, our striker walks toward the ball while the "

@@ -22,7 +22,7 @@ from robot_nodes.walking import Phase, WalkEngine, WalkParams
 from robot_nodes.walking.node import WalkingNode, tilt_of
 from tests.waiting import wait_for
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.realtime, pytest.mark.slow]
 
 CYCLE = 0.01  # s, the engine at 100 Hz
 FALLEN_UPRIGHTNESS = 0.5  # torso z axis this far from vertical counts as a fall
