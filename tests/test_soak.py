@@ -35,9 +35,9 @@ def label(p: psutil.Process) -> str:
 
 def test_every_process_of_the_demo_keeps_its_memory_flat(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     # rerun's plot history is capped (256 MiB by default), and one robot's plots take over 50 minutes to fill it.
-    # rerun's server grows to about 35 MB + twice its cap (measured: 8 MiB -> 48 MB within 4 minutes, then flat;
-    # 32 MiB -> 97 MB after 30 minutes), so an 8 MiB cap is full well within the warm-up and the slope after it
-    # shows whether anything grows past its cap
+    # rerun's server grows to about 35 MB + twice its cap (measured: 8 MiB -> 46 MB after 4 minutes, 48 MB from the
+    # 14th, flat; 32 MiB -> 97 MB after 30 minutes, still filling), so an 8 MiB cap is full within the warm-up and
+    # the slope after it shows whether anything grows past its cap
     monkeypatch.setenv("PITCHSIDE_PLOTS_MEMORY", PLOTS_MEMORY)
     samples: dict[str, list[tuple[float, float]]] = {}
     with running_demo(tmp_path, "--robots", str(ROBOTS)) as demo:
