@@ -87,6 +87,9 @@ def test_parameter_panel_changes_the_node(browser: Any, server: RunningServer, b
         params.set("hcm", {"upright_deg": 40.0})
         page.click('[data-panel="parameters"] [data-node="hcm"] button[data-act="diff"]')
         page.wait_for_selector('[data-panel="parameters"] [data-diff="upright_deg"]', timeout=TIMEOUT_MS)
+        # the row shows 40 before the user resets it (the diff is read from the node; the row follows its events)
+        page.wait_for_function("""document.querySelector('[data-panel="parameters"] tr[data-param="hcm/upright_deg"] '
+                               + 'input[data-role="value"]').value === '40'""", timeout=TIMEOUT_MS)
         page.click('[data-panel="parameters"] tr[data-param="hcm/upright_deg"] button[data-act="reset"]')
         wait_for(lambda: params.get("hcm", "upright_deg") == 30.0, 20.0, 0.2, "reset to default")
         page.locator('[data-panel="parameters"] .lab-plot summary').click()
