@@ -46,16 +46,26 @@ def demo(tmp_path_factory: pytest.TempPathFactory) -> Iterator[RunningDemo]:
         yield running
 
 
-@pytest.fixture
-def page(demo: RunningDemo) -> Iterator[Any]:
+@contextlib.contextmanager
+def _chromium_page(**options: Any) -> Iterator[Any]:
+    """A page of its own Chromium (``new_page`` options), its script errors in ``page.errors``; closed after."""
     from playwright.sync_api import sync_playwright
 
     with sync_playwright() as pw:
         browser = launch_chromium(pw)
-        page = browser.new_page(bypass_csp=True, viewport={"width": 1600, "height": 2000})
+        page = browser.new_page(**options)
         page.errors = []
         page.on("pageerror", lambda exc: page.errors.append(str(exc)))
         page.set_default_timeout(60_000)
+        try:
+            yield page
+        finally:
+            browser.close()
+
+
+@pytest.fixture
+def page(demo: RunningDemo) -> Iterator[Any]:
+    with _chromium_page(bypass_csp=True, viewport={"width": 1600, "height": 2000}) as page:
         page.goto(demo.page_url("all"))
         page.wait_for_function("window.pitchside?.layout")
         # the WebGL views (software-rendered here, in the page's own renderer) come in after the data panels
@@ -70,7 +80,6 @@ def page(demo: RunningDemo) -> Iterator[Any]:
             OUTPUT.mkdir(parents=True, exist_ok=True)
             with contextlib.suppress(Exception):  # evidence only: the test's own failure is what counts
                 page.screenshot(path=str(OUTPUT / "last.png"), full_page=True, timeout=10_000)
-            browser.close()
 
 
 def _distance_to_truth(page: Any, observer: DashboardObserver) -> float | None:
@@ -172,20 +181,10 @@ def test_every_panel_shows_the_live_demo(demo: RunningDemo, page: Any) -> None:
 @pytest.fixture
 def wide_page(demo: RunningDemo) -> Iterator[Any]:
     """A 1920x1080 page with the page's own CSP in force and nothing remembered."""
-    from playwright.sync_api import sync_playwright
-
-    with sync_playwright() as pw:
-        browser = launch_chromium(pw)
-        page = browser.new_page(viewport={"width": 1920, "height": 1080})
-        page.errors = []
-        page.on("pageerror", lambda exc: page.errors.append(str(exc)))
-        page.set_default_timeout(60_000)
+    with _chromium_page(viewport={"width": 1920, "height": 1080}) as page:
         page.goto(demo.page_url("match"))
         page.evaluate("localStorage.clear()")
-        try:
-            yield page
-        finally:
-            browser.close()
+        yield page
 
 
 def _record(demo: RunningDemo, seconds: float) -> str:
@@ -235,6 +234,8 @@ def test_each_preset_fits_1920x1080_draws_every_panel_and_is_pictured(demo: Runn
     PICTURES.mkdir(parents=True, exist_ok=True)
     name = _record(demo, 5.0)
     http = httpx.Client(base_url=demo.url, headers=demo.auth, timeout=60.0)
+    for chosen in http.get("/api/plots").json().get("chosen", []):  # the plots as a fresh demo has them
+        assert http.post("/api/plots/topics", json={**chosen, "plotted": False}).status_code == 200
     for preset, panels in PRESETS.items():
         if preset == "replay":  # a replay open and playing: the playback bar, the replayed robot beside the live one
             assert http.post("/api/replay/open", json={"path": name}).status_code == 200
