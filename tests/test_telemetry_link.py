@@ -200,7 +200,8 @@ def test_every_default_topic_arrives_and_decodes(bus: BusConfig, collector: Coll
             assert img.size == (160, 120)  # downscaled on the robot
         overview = wait_for(lambda: next((m.msg for m in reversed(collector.snapshot()) if m.topic == "overview"
                                           and m.msg.pose_known and m.msg.ball_known and m.msg.gamestate_known
-                                          and m.msg.hottest_servo), None), timeout=10, what="a full overview")
+                                          and m.msg.hcm_state != m.msg.UNKNOWN and m.msg.hottest_servo), None),
+                            timeout=10, what="a full overview")
         assert (overview.hcm_state, overview.game_state, overview.own_score) == (10, 3, 2)
         assert overview.pose_x == pytest.approx(1.5) and overview.ball_confidence == pytest.approx(0.9)
         assert (overview.hottest_servo, overview.hottest_servo_temperature) == ("joint19", pytest.approx(59.0))
