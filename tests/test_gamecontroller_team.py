@@ -165,6 +165,15 @@ def test_a_manual_penalty_goes_to_the_gamecontroller_and_back(bus: BusConfig, ga
         assert ReturnMessage.MAN_UNPENALISE in told and told[0] == ReturnMessage.MAN_UNPENALISE
         assert told.count(ReturnMessage.MAN_UNPENALISE) <= 6
 
+        # the button pressed and let go before the GameController's next packet: it penalised the robot on
+        # MAN_PENALISE, so the robot must still say MAN_UNPENALISE, though its last gamestate said not penalised
+        mark = len(game.returns_from(5, 2))
+        for switch in ("ON", "OFF"):
+            call_service(session, "robot2", "manual_penalize", schemas.make(request, penalize=on_off[switch]))
+        wait_for(lambda: ReturnMessage.MAN_UNPENALISE in messages_since(mark), 10, what="MAN_UNPENALISE")
+        wait_for(lambda: messages_since(mark)[-2:] == [ReturnMessage.ALIVE] * 2, 10, what="ALIVE again")
+        assert slot()["penalty"] == Penalty.NONE and not watcher.gamestate.penalized
+
         # a penalty of the referee is not the robot's own: the robot keeps saying ALIVE, its button is not pressed
         mark = len(game.returns_from(5, 2))
         game.penalize(5, 2, seconds=30)

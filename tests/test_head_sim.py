@@ -106,15 +106,23 @@ def test_the_head_finds_a_ball_anywhere_in_front_within_six_seconds(bus: BusConf
             seen = wait_for(lambda start=start: ball.first_time_since(start), FIND_WITHIN_S + 4.0,  # type: ignore[misc]
                             what=f"the ball at {distance:.1f} m, {math.degrees(bearing):.0f} deg seen")
             found_after.append(seen - start)
-            # and tracked: the head turns towards it, so it stays in view
-            time.sleep(1.5)
-            # in most frames of the last second (counted in frames: on a loaded machine the world runs slower)
-            recent = frames.since(time.monotonic() - 1.0)
+            # and tracked: the head turns towards it, so it stays in view. Where the head aims is judged on the ground
+            # truth (in the image, not hidden), sampled over the second after it settled; the camera's detections,
+            # which miss 10 % at random (a seeded stream), over the 1.5 s since: at least half of them see the ball
+            # (a 10 % dropout misses 8 of 15 once in 30,000 trials)
+            time.sleep(0.5)
+            aimed = []
+            until = time.monotonic() + 1.0
+            while time.monotonic() < until:
+                aimed.append(in_view())
+                time.sleep(0.05)
+            recent = frames.since(time.monotonic() - 1.5)  # counted in frames: on a loaded machine the world is slower
             seen_in = sum(1 for f in recent if f.candidates)
             aims = [np.degrees(g.points[0].positions).round() for g in goals.since(seen)]
-            assert len(recent) >= 3 and seen_in >= 0.6 * len(recent), (
-                f"the ball at {distance:.1f} m, {math.degrees(bearing):.0f} deg not kept in view ({seen_in} of "
-                f"{len(recent)} frames): {len(ball.since(seen))} sightings since found, head goals {aims}, "
+            assert sum(aimed) >= 0.9 * len(aimed) and len(recent) >= 5 and seen_in >= 0.5 * len(recent), (
+                f"the ball at {distance:.1f} m, {math.degrees(bearing):.0f} deg not kept in view: in the image in "
+                f"{sum(aimed)} of {len(aimed)} samples, detected in {seen_in} of {len(recent)} frames; "
+                f"{len(ball.since(seen))} sightings since found, head goals {aims}, "
                 f"HCM states {sorted({m.state for m in states.since(seen)})}")
         print(f"head search: found after {', '.join(f'{t:.1f}' for t in found_after)} s")
         assert max(found_after) <= FIND_WITHIN_S, found_after

@@ -17,7 +17,7 @@ from robot_nodes.kick.approach import Error, KickSpot, choose_foot, error, stand
 from robot_nodes.runtime import BusConfig
 from schemas.messages import HeadMode, KickGoal, KickResult
 from schemas.std import Point, Quaternion
-from tests.sim_robots import SimRobots
+from tests.sim_robots import Listener, SimRobots
 from tests.waiting import wait_for
 from wire.actions import ActionClient, GoalStatus
 from wire.animation.animation_file import load_animation
@@ -59,6 +59,7 @@ def kick_trials(bus: BusConfig) -> list[tuple[float, float, float, str, float, f
         sim.wait_controllable()
         sim.publish("head_mode", schemas.make(HeadMode, head_mode=HeadMode.BALL_MODE))
         ball_seen = sim.listen("ball_relative")
+        states = sim.listen("robot_state")
         x0, y0, _ = sim.pose()
         for _ in range(TRIALS):
             dx, dy = float(rng.uniform(0.2, 0.45)), float(rng.uniform(-0.2, 0.2))
@@ -68,8 +69,12 @@ def kick_trials(bus: BusConfig) -> list[tuple[float, float, float, str, float, f
                 sim.world.set_ball(x0 + dx, y0 + dy)
             sim.wait_controllable()
             since = time.monotonic()
-            wait_for(lambda since=since: ball_seen.first_time_since(since + 0.5), 15,  # type: ignore[misc]
-                     what="the head on the ball")
+            if not seen_within(ball_seen, since + 0.5, 15.0):  # a kick that cannot start is a failed kick
+                hcm = sorted({m.state for m in states.since(since)})
+                results.append((dx, dy, direction, f"the ball not seen in 15 s (HCM states {hcm})", 0.0, 0.0))
+                if decided(results):
+                    break
+                continue
             start_ball = sim.ball()
             half = math.radians(direction) / 2
             goal = schemas.make(KickGoal, ball_position=Point(x=dx, y=dy, z=0.0),
@@ -92,15 +97,29 @@ def kick_trials(bus: BusConfig) -> list[tuple[float, float, float, str, float, f
             if status is not GoalStatus.SUCCEEDED:
                 outcome += f" ({sim.nodes['robot1']['kick'].last_result})"  # type: ignore[attr-defined]
             results.append((dx, dy, direction, outcome, travel, angle - direction))
-            misses = sum(1 for r in results if not good(r))
-            if misses > TRIALS - NEEDED or len(results) - misses >= NEEDED:
-                break  # the outcome of 10 trials is decided
+            if decided(results):
+                break
     finally:
         kick.close()
         sim.close()
     print("kicks:", "; ".join(f"({dx:.2f}, {dy:+.2f}) at {d:+.0f} deg: {s} {t:.2f} m, {a:+.0f} deg"
                               for dx, dy, d, s, t, a in results))
     return results
+
+
+def seen_within(sightings: Listener, since: float, timeout: float) -> bool:
+    """Did the robot see the ball after ``since`` within ``timeout`` s from now?"""
+    try:
+        wait_for(lambda: sightings.first_time_since(since), timeout, what="the head on the ball")
+    except AssertionError:
+        return False
+    return True
+
+
+def decided(results: list[tuple[float, float, float, str, float, float]]) -> bool:
+    """Is the outcome of TRIALS trials decided (enough held, or too many missed)?"""
+    misses = sum(1 for r in results if not good(r))
+    return misses > TRIALS - NEEDED or len(results) - misses >= NEEDED
 
 
 def good(trial: tuple[float, float, float, str, float, float]) -> bool:

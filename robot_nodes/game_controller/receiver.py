@@ -1,8 +1,9 @@
 """GameController receiver node: GC state packets on UDP -> `gamestate`, and return packets to the GC.
 
 The return packets say ALIVE; while the robot is manually penalised (`manual_penalty`, from the pause logic: its
-button or the manual_penalize service) they say MAN_PENALISE, and when that ends MAN_UNPENALISE until the GameController
-no longer reports the robot penalised (at most UNPENALISE_PACKETS of them), then ALIVE again. The GameController acts
+button or the manual_penalize service) they say MAN_PENALISE, and when that ends MAN_UNPENALISE (at least
+UNPENALISE_AT_LEAST of them) until the GameController no longer reports the robot penalised (at most
+UNPENALISE_PACKETS of them), then ALIVE again. The GameController acts
 when a robot's message changes, so a lost packet is made good by the next one.
 """
 
@@ -32,6 +33,10 @@ from schemas.messages import GameState
 from schemas.std import Bool
 
 UNPENALISE_PACKETS = 6  # MAN_UNPENALISE packets at most after a manual penalty ends (3 s at the usual 2 Hz)
+# MAN_UNPENALISE packets sent whatever the GameController last said: its state packets tell a penalty it gave only
+# a packet later, so a button pressed and released within that time would otherwise end in ALIVE, and the
+# GameController, acting on MAN_PENALISE, would keep the robot penalised for good
+UNPENALISE_AT_LEAST = 2
 _RECV_SIZE = 2048  # larger than any GC packet, so oversized datagrams arrive whole and are rejected by size
 
 
@@ -200,7 +205,7 @@ class GameControllerNode(Node):
             return ReturnMessage.MAN_PENALISE
         if self._unpenalise_left > 0:
             me = self._own_slot()
-            if me is not None and me.penalized:
+            if UNPENALISE_PACKETS - self._unpenalise_left < UNPENALISE_AT_LEAST or (me is not None and me.penalized):
                 return ReturnMessage.MAN_UNPENALISE
             self._unpenalise_left = 0  # the GameController has let the robot play again
         return ReturnMessage.ALIVE

@@ -40,6 +40,7 @@ SERVER_NAME = "pitchside"
 CLIENT_BACKLOG = 1024
 ENCODINGS = ["cdr", "json"]  # what clients may send (cmd_vel, service requests): ROS 2 CDR, or JSON as Foxglove's
 # Teleop panel sends it
+BIND_ATTEMPTS = 5  # another program (a second dashboard, a test beside) may bind the port we found free first
 
 
 class ServerStartError(RuntimeError):
@@ -85,18 +86,25 @@ class SdkServers:
         self.stop()
         self.offer = offer
         for door in ("view", "control"):
-            # the SDK binds with SO_REUSEADDR: a port its last server left connections on is free for it
-            port = internal_port(0, f"Foxglove endpoint ({door})", reuse_address=True)
-            try:
-                self.servers[door] = foxglove.start_server(
-                    name=SERVER_NAME, host=LOOPBACK, port=port, context=self.context,
-                    capabilities=offer.capabilities(door), server_listener=self.listeners[door],
-                    supported_encodings=ENCODINGS if door == "control" and offer.lab else None,
-                    asset_handler=self.assets, message_backlog_size=CLIENT_BACKLOG,
-                    playback_time_range=offer.replay if door == "control" else None)
-            except RuntimeError as exc:  # the SDK says FoxgloveError: Failed to bind port ...
-                self.stop()
-                raise ServerStartError(f"Foxglove endpoint not started on {LOOPBACK}:{port}: {exc}") from None
+            taken: list[int] = []  # ports another program bound between our look and the SDK's bind
+            while True:
+                # the SDK binds with SO_REUSEADDR: a port its last server left connections on is free for it
+                port = internal_port(0, f"Foxglove endpoint ({door})", avoid=tuple(taken), reuse_address=True)
+                try:
+                    self.servers[door] = foxglove.start_server(
+                        name=SERVER_NAME, host=LOOPBACK, port=port, context=self.context,
+                        capabilities=offer.capabilities(door), server_listener=self.listeners[door],
+                        supported_encodings=ENCODINGS if door == "control" and offer.lab else None,
+                        asset_handler=self.assets, message_backlog_size=CLIENT_BACKLOG,
+                        playback_time_range=offer.replay if door == "control" else None)
+                    break
+                except RuntimeError as exc:  # the SDK says FoxgloveError: Failed to bind port ...
+                    taken.append(port)
+                    if len(taken) < BIND_ATTEMPTS:
+                        continue
+                    self.stop()
+                    raise ServerStartError(f"Foxglove endpoint not started on {LOOPBACK} (ports {taken}): "
+                                           f"{exc}") from None
 
     def has(self, door: str, capability: Capability) -> bool:
         return self.offer is not None and door in self.servers and capability in self.offer.capabilities(door)
