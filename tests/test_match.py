@@ -115,7 +115,14 @@ def assert_world_first(processes: list[psutil.Process]) -> None:
     """The world (physics, referee, GameController) at the launcher's priority, every robot's nodes and the
     dashboard below it (pitchside/local_run.py BEHIND_THE_WORLD_NICE)."""
     launcher = processes[0].nice()
-    modules = {p.cmdline()[2]: p.nice() for p in processes[1:] if p.cmdline()[1:2] == ["-m"]}
+    modules = {}
+    for process in processes[1:]:
+        try:
+            command, nice = process.cmdline(), process.nice()
+        except psutil.NoSuchProcess:  # a short-lived child that ended meanwhile (the server's graphviz layout)
+            continue
+        if command[1:2] == ["-m"]:
+            modules[command[2]] = nice
     assert modules.pop("robot_nodes.cm730.sim.match") == launcher, modules
     assert modules.keys() >= {"robot_nodes.compose", "server"}, modules
     assert set(modules.values()) == {launcher + BEHIND_THE_WORLD_NICE}, modules
