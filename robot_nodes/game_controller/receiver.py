@@ -3,8 +3,8 @@
 The return packets say ALIVE; while the robot is manually penalised (`manual_penalty`, from the pause logic: its
 button or the manual_penalize service) they say MAN_PENALISE, and when that ends MAN_UNPENALISE (at least
 UNPENALISE_AT_LEAST of them) until the GameController no longer reports the robot penalised (at most
-UNPENALISE_PACKETS of them), then ALIVE again. The GameController acts
-when a robot's message changes, so a lost packet is made good by the next one.
+UNPENALISE_PACKETS of them), then ALIVE again. The GameController acts when a robot's message changes, so a lost
+packet is made good by the next one.
 """
 
 from __future__ import annotations
@@ -205,7 +205,8 @@ class GameControllerNode(Node):
             return ReturnMessage.MAN_PENALISE
         if self._unpenalise_left > 0:
             me = self._own_slot()
-            if UNPENALISE_PACKETS - self._unpenalise_left < UNPENALISE_AT_LEAST or (me is not None and me.penalized):
+            sent = UNPENALISE_PACKETS - self._unpenalise_left
+            if sent < UNPENALISE_AT_LEAST or (me is not None and me.penalized):
                 return ReturnMessage.MAN_UNPENALISE
             self._unpenalise_left = 0  # the GameController has let the robot play again
         return ReturnMessage.ALIVE
