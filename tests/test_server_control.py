@@ -78,7 +78,11 @@ def test_a_command_to_a_robot_gone_silent_fails_at_once(server: RunningServer, b
     stand = TestStand("r5", bus, overrides={"rate_hz": 20.0}).start()
     try:
         wait_for(lambda: server.http.get(f"{server.url}/api/robots/r5/params").status_code == 200, 20.0, 0.2,
-                 "the robot answers while it is heard")
+                 "the robot answers")
+        # heard by the server too (a robot never heard is asked as usual, not refused): the params answer can
+        # come before the server's first message from it
+        wait_for(lambda: any(r["robot"] == "r5" and r["status"] == "ok"
+                             for r in server.http.get(f"{server.url}/api/robots").json()), 20.0, 0.1, "r5 heard")
     finally:
         stand.shutdown()
     wait_for(lambda: any(r["robot"] == "r5" and r["status"] != "ok"
