@@ -93,13 +93,15 @@ class Publisher:
     def publish(self, msg: Message) -> None:
         if msg.__msgtype__ != self._typename:
             raise SchemaError(f"{self.topic.name} carries {self._typename}, not {msg.__msgtype__}")
-        freeze(msg)
         cdr = None
         local = self._local.local_subscribers(self.robot, self.topic.name)
         if local:
+            freeze(msg)  # shared with the nodes of this process from now on
             cdr = schemas.encode(msg) if self._local.check_frozen else None
             for subscription in local:
                 subscription.hand_over_local(self.robot, msg, cdr)
+        elif self._local.check_frozen:
+            freeze(msg)  # the tests: a node that changes what it published fails alone as it would composed
         if self._remote.matching:
             self._pub.put(cdr if cdr is not None else schemas.encode(msg))
             self.encoded += 1
@@ -145,6 +147,7 @@ class Subscription:
         self._last_taken = -math.inf
         self._node = node
         self._call_soon = node.loop.call_soon
+        self._check_frozen = node.local_bus.check_frozen
         node.local_bus.add(self)
 
     @property
@@ -172,10 +175,31 @@ class Subscription:
         if isinstance(msg, SchemaError) or self._taken():
             self._call_soon(self._deliver_remote, key, msg)
 
+    def hand_over_cdr(self, key: str, cdr: bytes) -> None:
+        """A sample from outside the process for this subscription alone (a Zenoh thread): decoded on the loop."""
+        if self._taken():
+            self._call_soon(self._deliver_cdr, key, cdr)
+
     def hand_over_local(self, robot: str, msg: Message, cdr: bytes | None) -> None:
         """A message a node of this process published (its thread); cdr: its encoding, to check it stays frozen."""
         if self._taken():
             self._call_soon(self._deliver, robot, msg, cdr)
+
+    def _deliver_cdr(self, key: str, cdr: bytes) -> None:
+        """The lone subscriber's path: decoded here, given to the handler; not shared, so not frozen (but in the
+        tests, where a node that changes a received message fails alone as it would composed)."""
+        try:
+            msg = schemas.decode(cdr, self.topic.type)
+        except SchemaError as exc:
+            self._deliver_remote(key, exc)
+            return
+        if self.any_robot or self._check_frozen:
+            if self._check_frozen:
+                freeze(msg)
+            self._deliver_remote(key, msg)
+            return
+        self.count += 1
+        self.handler(msg)
 
     def _deliver_remote(self, key: str, msg: Message | SchemaError) -> None:
         if isinstance(msg, SchemaError):
@@ -223,6 +247,16 @@ class LatestMessage(Subscription):
         if isinstance(msg, SchemaError):
             super().hand_over(key, msg)  # counted and reported on the node's loop, as for a handler
         else:
+            self._keep(msg)
+
+    def hand_over_cdr(self, key: str, cdr: bytes) -> None:
+        try:
+            msg = schemas.decode(cdr, self.topic.type)
+        except SchemaError as exc:
+            super().hand_over(key, exc)
+        else:
+            if self._check_frozen:
+                freeze(msg)
             self._keep(msg)
 
     def hand_over_local(self, robot: str, msg: Message, cdr: bytes | None) -> None:
