@@ -95,6 +95,8 @@ class _Inbound:
     def __init__(self, session: zenoh.Session, key: str, msgtype: str) -> None:
         self.msgtype = msgtype
         self.subscriptions: list[Subscription] = []
+        # a sample's key is the declared one unless that has a wildcard (robot "*"): not asked of Zenoh then
+        self._key = None if "*" in key else key
         self._zenoh = session.declare_subscriber(key, self._on_sample, allowed_origin=zenoh.Locality.REMOTE)
 
     def _on_sample(self, sample: zenoh.Sample) -> None:
@@ -103,7 +105,7 @@ class _Inbound:
         subscriptions = self.subscriptions
         if not subscriptions:
             return
-        key = str(sample.key_expr)
+        key = self._key or str(sample.key_expr)
         if len(subscriptions) == 1:
             subscriptions[0].hand_over_cdr(key, sample.payload.to_bytes())
             return

@@ -161,8 +161,7 @@ class Subscription:
         self._min_interval = 0.9 / hz if hz else 0.0
 
     def _taken(self) -> bool:
-        if not self._min_interval:
-            return True
+        """max_hz: whether this message is handed on (the caller asks only when a rate is set)."""
         now = time.monotonic()
         if now - self._last_taken < self._min_interval:
             self.skipped += 1
@@ -172,17 +171,17 @@ class Subscription:
 
     def hand_over(self, key: str, msg: Message | SchemaError) -> None:
         """A sample from outside the process (any thread)."""
-        if isinstance(msg, SchemaError) or self._taken():
+        if isinstance(msg, SchemaError) or not self._min_interval or self._taken():
             self._call_soon(self._deliver_remote, key, msg)
 
     def hand_over_cdr(self, key: str, cdr: bytes) -> None:
         """A sample from outside the process for this subscription alone (a Zenoh thread): decoded on the loop."""
-        if self._taken():
+        if not self._min_interval or self._taken():
             self._call_soon(self._deliver_cdr, key, cdr)
 
     def hand_over_local(self, robot: str, msg: Message, cdr: bytes | None) -> None:
         """A message a node of this process published (its thread); cdr: its encoding, to check it stays frozen."""
-        if self._taken():
+        if not self._min_interval or self._taken():
             self._call_soon(self._deliver, robot, msg, cdr)
 
     def _deliver_cdr(self, key: str, cdr: bytes) -> None:
