@@ -28,6 +28,7 @@ Budgets (issue "A match in simulation"): goals_per_match >= 1, rtf_min >= 0.98, 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import statistics
 import sys
 import tempfile
@@ -42,7 +43,7 @@ import psutil
 from robot_nodes.cm730.sim.lineup import Lineup, parse_robots
 from tests.match_log import GC_URL, MatchFigures, read_output
 from tests.real_time_factor import ROUTER, RealTimeFactor
-from tests.running_demo import running_demo
+from tests.running_demo import process_label, running_demo
 from tests.waiting import wait_for
 
 
@@ -76,13 +77,10 @@ def play(robots: str, half_minutes: float, seed: int, out: Path, logs: Path | No
                           flush=True)
                 time.sleep(1.0)
             figures.seconds = time.monotonic() - t0
-            cpu = 0.0
             for p in processes:
-                try:
-                    cpu += p.cpu_percent(None)
-                except psutil.Error:
-                    continue
-            figures.cpu_pct = cpu
+                with contextlib.suppress(psutil.Error):
+                    figures.cpu_by_process.append((process_label(p), p.cpu_percent(None)))
+            figures.cpu_pct = sum(cpu for _, cpu in figures.cpu_by_process)
             figures.rtf = [(t, f) for t, f in rtf.values if t > t0]
         finally:
             rtf.close()
@@ -92,6 +90,21 @@ def play(robots: str, half_minutes: float, seed: int, out: Path, logs: Path | No
             logs.mkdir(parents=True, exist_ok=True)
             (logs / f"match-{robots}-seed{seed}.log").write_text(match.output())
     return figures
+
+
+def cpu_shares(figures: MatchFigures) -> str:
+    """Where the CPU went, by what ran (a robot's processes summed over the robots, with the count)."""
+    shares: dict[str, list[float]] = {}
+    for name, cpu in figures.cpu_by_process:
+        kind = name.split(" ")[0] if " " in name and name.startswith("robot_nodes.") else name
+        shares.setdefault(kind, []).append(cpu)
+    ranked = sorted(shares.items(), key=lambda item: -sum(item[1]))
+    lines = []
+    for kind, cpu in ranked:
+        each = f" (x{len(cpu)}, {sum(cpu) / len(cpu):.1f} % each)" if len(cpu) > 1 else ""
+        if sum(cpu) >= 0.5:
+            lines.append(f"    {sum(cpu):6.1f} %  {kind}{each}")
+    return "\n".join(lines)
 
 
 def first_robot(robots: str) -> str:
@@ -121,6 +134,7 @@ def main() -> None:
                   f"({len(m.still_down_s)} down at the end), rtf min {m.rtf_min:.3f} (first minute "
                   f"{m.rtf_min_first_minute():.3f}, {len(m.rtf)} reports), CPU "
                   f"{m.cpu_pct:.0f} % over {m.seconds:.0f} s", flush=True)
+            print(cpu_shares(m), flush=True)
             matches.append(m)
     print(f"RESULT match robots={args.robots} half_minutes={half:g} matches={len(matches)} "
           f"goals_per_match={statistics.mean(m.goals for m in matches):.2f} "

@@ -37,7 +37,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import psutil
 
 from tests.real_time_factor import ROUTER, RealTimeFactor
-from tests.running_demo import RunningDemo, running_demo
+from tests.running_demo import RunningDemo, process_label, running_demo
 
 WARM_UP_S = 15.0  # after the dashboard answers: every robot stood up, the match recording started
 
@@ -72,15 +72,6 @@ class Figures:
         return float(statistics.linear_regression(xs, ys).slope)
 
 
-def label(p: psutil.Process) -> str:
-    cmd = p.cmdline()
-    if "-m" in cmd:
-        module = cmd[cmd.index("-m") + 1]
-        robot = cmd[cmd.index("--robot-id") + 1] if "--robot-id" in cmd else ""
-        return f"{module} {robot}".strip()
-    return Path(cmd[0]).name if cmd else p.name()
-
-
 @contextlib.contextmanager
 def stack(robots: int, compose: str, lab: bool = False) -> Iterator[RunningDemo]:
     with tempfile.TemporaryDirectory() as tmp:
@@ -101,7 +92,7 @@ def measure(robots: int, compose: str, seconds: float, lab: bool = False) -> Fig
         try:
             time.sleep(WARM_UP_S)
             procs = demo.processes()
-            server = next(p for p in procs if label(p) == "server")
+            server = next(p for p in procs if process_label(p) == "server")
             before = {p.pid: sum(p.cpu_times()[:2]) for p in procs}
             t0 = time.monotonic()
             stop = threading.Event()
@@ -117,14 +108,14 @@ def measure(robots: int, compose: str, seconds: float, lab: bool = False) -> Fig
             stop.set()
             sampler.join(5)
             t1 = time.monotonic()
-            gone = [label(p) for p in procs if not p.is_running()]
+            gone = [process_label(p) for p in procs if not p.is_running()]
             if gone:
                 raise SystemExit(f"{figures.label}: processes died during the measurement: {gone}")
             procs = demo.processes()  # with any started meanwhile (e.g. a layout by graphviz): all their CPU counts
             for p in procs:
                 with contextlib.suppress(psutil.Error):
                     cpu = 100.0 * (sum(p.cpu_times()[:2]) - before.get(p.pid, 0.0)) / (t1 - t0)
-                    figures.by_process.append((label(p), cpu, p.memory_info().rss / 1e6))
+                    figures.by_process.append((process_label(p), cpu, p.memory_info().rss / 1e6))
             figures.seconds = t1 - t0
             figures.cpu_pct = sum(c for _, c, _ in figures.by_process)
             figures.rss_mb = sum(r for _, _, r in figures.by_process)

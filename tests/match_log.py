@@ -29,6 +29,7 @@ class MatchFigures:
     still_down_s: list[float] = field(default_factory=list)  # per robot still down when the output ends: how long
     rtf: list[tuple[float, float]] = field(default_factory=list)  # (time.monotonic(), factor)
     cpu_pct: float = 0.0
+    cpu_by_process: list[tuple[str, float]] = field(default_factory=list)  # (what it runs, % of one core)
     seconds: float = 0.0
     started: float = 0.0
 

@@ -170,11 +170,16 @@ def cpu_by_process(processes: list[psutil.Process], seconds: float) -> list[tupl
 
 
 def _label(p: psutil.Process) -> str:
+    return f"{process_label(p)} [{p.pid}]"
+
+
+def process_label(p: psutil.Process) -> str:
+    """What a process of the stack runs: its module (pitchside.cli with its command) and robot, or its program."""
     cmd = p.cmdline()
     if "-m" in cmd:
         i = cmd.index("-m")
         extra = [a for a in cmd[i + 2:] if not a.startswith("-")][:1] if cmd[i + 1] == "pitchside.cli" else []
         robot = cmd[cmd.index("--robot-id") + 1] if "--robot-id" in cmd else ""
-        return " ".join(x for x in (cmd[i + 1], *extra, robot) if x) + f" [{p.pid}]"
+        return " ".join(x for x in (cmd[i + 1], *extra, robot) if x)
     kind = next((a.split("=", 1)[1] for a in cmd if a.startswith("--type=")), "")
-    return f"{Path(cmd[0]).name if cmd else p.name()} {kind}".strip() + f" [{p.pid}]"
+    return f"{Path(cmd[0]).name if cmd else p.name()} {kind}".strip()

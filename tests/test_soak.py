@@ -15,7 +15,7 @@ from pathlib import Path
 import psutil
 import pytest
 
-from tests.running_demo import running_demo
+from tests.running_demo import process_label, running_demo
 
 MINUTES = float(os.environ.get("PITCHSIDE_SOAK_MINUTES", "0"))
 ROBOTS = int(os.environ.get("PITCHSIDE_SOAK_ROBOTS", "1"))
@@ -25,12 +25,6 @@ PLOTS_MEMORY = "8MiB"
 
 pytestmark = [pytest.mark.slow, pytest.mark.skipif(MINUTES <= 0, reason="opt-in: PITCHSIDE_SOAK_MINUTES=30"),
               pytest.mark.timeout(MINUTES * 60 + 300)]
-
-
-def label(p: psutil.Process) -> str:
-    cmd = p.cmdline()
-    name = cmd[cmd.index("-m") + 1] if "-m" in cmd else Path(cmd[0]).name if cmd else p.name()
-    return f"{name} {cmd[cmd.index('--robot-id') + 1]}" if "--robot-id" in cmd else name
 
 
 def test_every_process_of_the_demo_keeps_its_memory_flat(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
@@ -45,7 +39,8 @@ def test_every_process_of_the_demo_keeps_its_memory_flat(tmp_path: Path, monkeyp
         while (elapsed := time.monotonic() - t0) < MINUTES * 60:
             for p in demo.processes():
                 try:
-                    samples.setdefault(f"{label(p)} [{p.pid}]", []).append((elapsed / 60, p.memory_info().rss / 1e6))
+                    rss_mb = p.memory_info().rss / 1e6
+                    samples.setdefault(f"{process_label(p)} [{p.pid}]", []).append((elapsed / 60, rss_mb))
                 except psutil.Error:
                     continue
             time.sleep(SAMPLE_S)
