@@ -206,6 +206,26 @@ def test_the_lying_count_runs_from_the_fall_until_the_robot_has_stood(match: Mat
     assert [c.team for c in match.calls("penalty")] == [AWAY]
 
 
+def test_a_robot_propped_between_lying_and_standing_is_not_standing(match: Match,
+                                                                    monkeypatch: pytest.MonkeyPatch) -> None:
+    """Robots fallen in a pile, or propped on an arm, lie tilted 40-60 deg, and walk-ready from the side does not
+    tip them over. The count runs from the fall on and is not reset while they lie so: a referee stops it only
+    when the robot is on its feet. The tilt is the robot's torso reading, scripted: a pile does not build itself."""
+    kick_off(match)
+    away1, home1 = match.robot("away1"), match.robot("home1")
+    away1.set_pose(1.5, 0.5, 0.0, posture="front")
+    match.play(5.0)
+    propped = math.cos(math.radians(50.0))  # up axis z at 50 deg
+    monkeypatch.setattr(away1, "uprightness", lambda: propped)  # fell on a teammate: half up, for good
+    monkeypatch.setattr(home1, "uprightness", lambda: propped)  # fell straight into a pile, never lower
+    match.play(14.0)
+    assert match.penalty(AWAY, 1) == Penalty.NONE
+    match.play(1.5)
+    assert match.penalty(AWAY, 1) == Penalty.PICKUP_OR_INCAPABLE, "20 s after its fall, propped for 15"
+    match.play(5.0)
+    assert match.penalty(HOME, 1) == Penalty.PICKUP_OR_INCAPABLE, "20 s in a pile"
+
+
 def test_a_robot_pushed_out_of_the_field_is_penalised(match: Match) -> None:
     kick_off(match)
     home1 = match.robot("home1")

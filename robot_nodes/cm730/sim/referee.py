@@ -78,8 +78,13 @@ class RefereeRules:
     period_s: float = 0.04  # simulated seconds between checks
     lying_s: float = 20.0  # a robot down this long is penalised (incapable)
     penalty_s: float = 30.0  # how long the referee's penalties last (the HL GameController's default)
-    upright_min: float = 0.5  # torso's up axis z below this: the robot lies
-    stood_s: float = 2.0  # a fallen robot is up again once upright this long (a failed get-up keeps counting)
+    upright_min: float = 0.5  # torso's up axis z at least this when SET begins: the robot may stay where it is
+    # the lying count: down once tilted over 45 deg, up again only on its feet (within 26 deg) for stood_s. Robots
+    # fallen in a pile, or propped on an arm, lie at 40-60 deg: a single "upright" line between would let them
+    # reset the count while they cannot stand (seen in a 4 v 4 match: three robots down 40-50 s, none penalised)
+    down_below: float = 0.7  # torso's up axis z below this: the robot is down
+    standing_above: float = 0.9  # ... and once down, stands again only above this
+    stood_s: float = 2.0  # a fallen robot is up again once standing this long (a failed get-up keeps counting)
     out_margin_m: float = 0.2  # a robot whose torso is this far beyond a boundary line has left the field
     touch_m: float = 0.3  # without a contact seen, the robot whose torso is this close to the ball touched it last
     touch_height_m: float = 0.5  # ... if the ball is this low (not flying over it)
@@ -352,15 +357,16 @@ class Referee:
         """Moves the robot's lying count on; True once it reaches lying_s. It runs from the fall until the robot has
         stood for ``stood_s``: a get-up that lifts the torso and falls back does not restart it (a robot that cannot
         get up is incapable)."""
-        if watch.handle.uprightness() < self.rules.upright_min:
-            if watch.down_since is None:
+        uprightness = watch.handle.uprightness()
+        if watch.down_since is None:
+            if uprightness < self.rules.down_below:
                 watch.down_since = now
-            watch.up_since = None
-        elif watch.down_since is not None:
-            if watch.up_since is None:
-                watch.up_since = now
-            elif now - watch.up_since >= self.rules.stood_s:
-                watch.count_stopped()
+        elif uprightness < self.rules.standing_above:
+            watch.up_since = None  # lying, propped, or on the way up: not standing yet
+        elif watch.up_since is None:
+            watch.up_since = now
+        elif now - watch.up_since >= self.rules.stood_s:
+            watch.count_stopped()
         return watch.down_since is not None and now - watch.down_since >= self.rules.lying_s
 
     def _penalise(self, watch: _RobotWatch, why: str) -> None:
