@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+import yaml
 import zenoh
 
 import schemas
@@ -212,6 +213,26 @@ def test_pushed_over_falls_protected_and_gets_up(make_stack: Callable[..., Stack
           f"the torso was below {GROUND_HEIGHT} m; standing {up - pushed:.1f} s after the push; states {seq}; "
           f"goals clamped into the joint-limit margin: {stack.cm730.clamps.by_joint() or 'none'}, worst "
           f"{stack.cm730.clamps.worst() or '-'}")
+
+
+@pytest.mark.parametrize("side", ["left", "right"])
+def test_lying_on_a_side_turns_onto_the_front_and_gets_up(make_stack: Callable[..., Stack], side: str) -> None:
+    """No stand-up starts from a side: the Minibot's params.yaml names the animation that tips it over first
+    (walk-ready, the Bit-Bots default, leaves the Minibot lying on its side for good)."""
+    minibot_hcm = yaml.safe_load((REPO / "robots/minibot/params.yaml").read_text())["hcm"]
+    stack = make_stack(hcm=minibot_hcm)
+    stack.wait_controllable_standing()
+    laid = time.monotonic()
+    with stack.world.lock:
+        x, y, yaw = stack.robot.pose2d()
+        stack.robot.set_pose(x, y, yaw, posture=side)
+    stack.wait(lambda: stack.first_time(GETTING_UP, laid) is not None, 15.0, "GETTING_UP", laid)
+    stack.wait_controllable_standing(25.0, laid)
+    up = time.monotonic()
+    seq = stack.sequence(laid)
+    assert FALLEN in seq and GETTING_UP in seq and seq[-1] == CONTROLLABLE, seq
+    assert up - laid < 20.0, f"standing {up - laid:.1f} s after it was laid on its {side}"  # the referee's 20 s
+    print(f"\n{side}: standing {up - laid:.1f} s after it was laid on its side; states {seq}")
 
 
 def _penalty_round(stack: Stack, penalize: Callable[[bool], None], torque_off: bool) -> None:

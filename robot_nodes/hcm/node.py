@@ -55,6 +55,8 @@ class HcmParams:
     anim_falling_right: str = param("falling_front", doc="")
     anim_stand_up_front: str = param("stand_up_front", doc="")
     anim_stand_up_back: str = param("stand_up_back", doc="")
+    anim_turning_front: str = param("walkready", doc="lying on a side: tips the robot onto its front or back "
+                                                     "(Bit-Bots play walkready; the Minibot has turning_front)")
     anim_penalty_in: str = param("penalty_in", doc="")
     anim_penalty_out: str = param("penalty_out", doc="")
     anim_shutdown: str = param("sit_down", doc="")
@@ -315,7 +317,8 @@ class HcmNode(Node):
         return {"walkready": p.anim_walkready, "falling_front": p.anim_falling_front,
                 "falling_back": p.anim_falling_back, "falling_left": p.anim_falling_left,
                 "falling_right": p.anim_falling_right, "stand_up_front": p.anim_stand_up_front,
-                "stand_up_back": p.anim_stand_up_back, "penalty_in": p.anim_penalty_in,
+                "stand_up_back": p.anim_stand_up_back, "turning_front": p.anim_turning_front,
+                "penalty_in": p.anim_penalty_in,
                 "penalty_out": p.anim_penalty_out, "shutdown": p.anim_shutdown}
 
     def request_shutdown(self) -> None:

@@ -244,8 +244,9 @@ class HcmStateMachine:
             bb.animation_busy = True
         bb.startup_done = self._startup_played and not bb.animation_busy
         if self.state is S.FALLEN and bb.fallen in (Side.LEFT, Side.RIGHT) and not bb.animation_busy:
-            # no stand-up from the side: walk-ready tips the robot onto its front or back
-            self.actions.play(self.anim("walkready"))
+            # no stand-up from the side: tip the robot onto its front or back first (a robot's own animation, or
+            # walk-ready as Bit-Bots do), then a later step finds it lying there and stands up
+            self.actions.play(self.anim("turning_front"))
             bb.animation_busy = True
 
     def _entry(self, state: HcmState, bb: Blackboard) -> None:

@@ -26,7 +26,7 @@ STAND_POSE: dict[str, float] = {
     "RHipYaw": 0.0, "RHipRoll": 0.0, "RHipPitch": -0.35, "RKnee": -0.9618, "RAnklePitch": 0.35, "RAnkleRoll": 0.0,
 }
 
-POSTURES = ("standing", "front", "back")
+POSTURES = ("standing", "front", "back", "left", "right")  # lying on its front, back or a side
 
 
 @dataclass
@@ -345,8 +345,8 @@ class RobotHandle:
 
     def set_pose(self, x: float, y: float, yaw: float = 0.0, posture: str = "standing",
                  joints: dict[str, float] | None = None) -> None:
-        """Puts the robot at rest at (x, y, yaw) on the field: standing on its soles, or lying on its front
-        or back; joints (default STAND_POSE) are also its new goals, with torque on."""
+        """Puts the robot at rest at (x, y, yaw) on the field: standing on its soles, or lying on its front,
+        back or a side; joints (default STAND_POSE) are also its new goals, with torque on."""
         if posture not in POSTURES:
             raise SimError(f"posture must be one of {POSTURES}, got {posture!r}")
         w, m, d = self.world, self.world.model, self.world.data
@@ -358,8 +358,11 @@ class RobotHandle:
         d.qpos[self._qadr[idx]] = values
         d.qvel[self._dadr] = 0.0
         d.qvel[self._root_dadr:self._root_dadr + 6] = 0.0
-        pitch = {"standing": 0.0, "front": math.pi / 2, "back": -math.pi / 2}[posture]
-        quat = _quat_mul_wxyz(_yaw_wxyz(yaw), np.array([math.cos(pitch / 2), 0.0, math.sin(pitch / 2), 0.0]))
+        pitch = {"front": math.pi / 2, "back": -math.pi / 2}.get(posture, 0.0)
+        roll = {"left": -math.pi / 2, "right": math.pi / 2}.get(posture, 0.0)  # the HCM's sides (fused roll)
+        tilt = _quat_mul_wxyz(np.array([math.cos(pitch / 2), 0.0, math.sin(pitch / 2), 0.0]),
+                              np.array([math.cos(roll / 2), math.sin(roll / 2), 0.0, 0.0]))
+        quat = _quat_mul_wxyz(_yaw_wxyz(yaw), tilt)
         d.qpos[self._root_qadr:self._root_qadr + 7] = [x, y, 1.0, *quat]
         mujoco.mj_kinematics(m, d)
         lowest = self._lowest_point()
