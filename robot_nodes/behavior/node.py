@@ -71,7 +71,9 @@ class BehaviorParams:
     rate_hz: float = param(10.0, range=(1.0, 50.0), doc="decisions per second while the robot moves")
     walking_speed: float = param(0.15, range=(0.01, 2.0),
                                  doc="m/s for the time to the ball (as mitecom's walking_speed_estimate)")
-    role_keep_s: float = param(2.0, range=(0.0, 30.0), doc="the striker keeps its role unless another is this faster")
+    # 5 s: at 3 m the stand-in's ball sighting has a 0.17 m sigma, 1.1 s of walking; two robots' estimates differ
+    # by 1.6 s (sigma) from frame to frame, so with 2 s the roles flapped 96 times in a 2 x 2 min 4 v 4 match
+    role_keep_s: float = param(5.0, range=(0.0, 30.0), doc="the striker keeps its role unless another is this faster")
     max_forward: float = param(0.15, range=(0.01, 0.5), doc="fastest walk forward, m/s")
     max_sideways: float = param(0.08, range=(0.01, 0.3), doc="fastest walk sideways, m/s")
     max_turn: float = param(0.4, range=(0.05, 2.0), doc="fastest turn, rad/s")
