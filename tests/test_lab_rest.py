@@ -92,7 +92,8 @@ def test_parameters_set_refuse_conflict_diff_reset_save(server: RunningServer, b
         diff = server.http.get(f"{url}/params/hcm/diff", timeout=20).json()
         assert {"name": "falling_gyro_pitch", "live": 9.5, "yaml": 7.0, "from": "default"} in diff["changes"]
         assert diff["file"] == str(params_file)
-        assert ParameterClient(client, "r1").file("hcm") == (str(params_file), {})
+        model_hcm = yaml.safe_load((MINIBOT / "params.yaml").read_text())["hcm"]  # the robot's own choices
+        assert ParameterClient(client, "r1").file("hcm") == (str(params_file), model_hcm)
 
         saved = server.http.post(f"{url}/params/hcm/save", timeout=20).json()
         assert Path(saved["path"]) == params_file
@@ -110,7 +111,9 @@ def test_parameters_set_refuse_conflict_diff_reset_save(server: RunningServer, b
     hcm = HcmNode("r1", bus).start()
     try:
         diff = server.http.get(f"{url}/params/hcm/diff", timeout=20).json()
-        assert diff["file"] == "robots/minibot/params.yaml" and diff["changes"] == []
+        # what the Minibot's file sets for the HCM differs from the HCM's defaults, and nothing else
+        assert diff["file"] == "robots/minibot/params.yaml"
+        assert {c["name"] for c in diff["changes"]} == set(model_hcm), diff["changes"]
         assert server.http.get(f"{url}/params/hcm/diff?model=../etc", timeout=20).status_code == 404
     finally:
         hcm.shutdown()
