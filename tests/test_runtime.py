@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import subprocess
 import sys
+import threading
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import pytest
 import zenoh
@@ -25,6 +27,7 @@ from robot_nodes.runtime import (
     open_session,
     param,
 )
+from robot_nodes.runtime.node import QUEUE_DEPTH
 from tests.support import REPO
 from tests.waiting import wait_for
 from wire import keys
@@ -329,3 +332,61 @@ def test_session_config_has_no_multicast() -> None:
     conf = BusConfig(connect=["tcp/127.0.0.1:1"]).to_zenoh()
     assert '"enabled":false' in conf.get_json("scouting/multicast").replace(" ", "")
     assert isinstance(conf, zenoh.Config)
+
+
+class StuckNode(Node):
+    """A node whose handler blocks until the test lets it go: it falls behind its topic."""
+
+    name = "stuck"
+
+    def setup(self) -> None:
+        self.release = threading.Event()
+        self.got: list[float] = []
+        self.sub = self.subscribe("joint_states", self.on_joints)
+
+    def on_joints(self, msg: Any) -> None:
+        self.release.wait(30.0)
+        self.got.append(float(msg.position[0]))
+
+
+@pytest.mark.parametrize("layout", ["composed", "split"])
+def test_a_node_that_falls_behind_keeps_at_most_queue_depth_messages_and_counts_the_rest(
+        bus: BusConfig, layout: str) -> None:
+    """A handler that blocks must not make its process grow without end (a ROS 2 subscription's history depth):
+    what waits for the loop is bounded, and what did not fit is counted in the node's diagnostics."""
+    with open_session(bus) as session:
+        stuck = StuckNode(bus=session if layout == "composed" else bus).start()
+        sender = Node("robot1", bus=session if layout == "composed" else bus)
+        try:
+            pub = sender.publisher("joint_states")
+            sent = 0
+
+            def send(n: int) -> None:
+                nonlocal sent
+                for _ in range(n):
+                    sent += 1
+                    pub.publish(schemas.make("sensor_msgs/msg/JointState", name=["seq"], position=[float(sent)]))
+
+            wait_for(lambda: send(1) or stuck.sub.count > 0, 10.0, 0.05, what="the first message in the handler")
+            send(QUEUE_DEPTH + 500)
+            wait_for(lambda: stuck.sub.overflowed >= 400, 10.0, what="messages beyond the depth dropped and counted")
+            assert stuck.sub.queued <= QUEUE_DEPTH
+            stuck.release.set()
+            wait_for(lambda: stuck.sub.queued == 0, 20.0, what="the backlog delivered")
+            assert QUEUE_DEPTH <= len(stuck.got) <= QUEUE_DEPTH + 100 and stuck.got == sorted(stuck.got)
+            reported: list[str] = []
+
+            def on_diagnostics(sample: zenoh.Sample) -> None:
+                msg = schemas.decode(sample.payload.to_bytes(), "diagnostic_msgs/msg/DiagnosticArray")
+                for status in msg.status:
+                    if status.name == "robot1/stuck":
+                        reported.extend(kv.value for kv in status.values if kv.key == "queue_overflows")
+
+            with open_session(bus) as outside:  # the composed nodes' messages leave their session for others only
+                outside.declare_subscriber(keys.topic_key("robot1", "diagnostics"), on_diagnostics)
+                wait_for(lambda: reported and int(reported[-1]) == stuck.sub.overflowed, 5.0,
+                         what="the drops in the node's diagnostics")
+        finally:
+            stuck.release.set()
+            sender.shutdown()
+            stuck.shutdown()

@@ -129,6 +129,9 @@ class Publisher:
         self._pub.undeclare()
 
 
+QUEUE_DEPTH = 1000  # messages of one subscription waiting for the node's loop: 10 s of a 100 Hz topic
+
+
 class Subscription:
     """One topic of the table into a node's loop: from nodes of this process as objects, from elsewhere decoded
     once per process (robot_nodes/runtime/local_bus.py)."""
@@ -143,6 +146,8 @@ class Subscription:
         self.count = 0
         self.decode_errors = 0
         self.skipped = 0  # messages dropped by max_hz before they woke the node
+        self.queued = 0  # handed to the node's loop, not yet delivered
+        self.overflowed = 0  # messages dropped because QUEUE_DEPTH were already waiting (the node fell behind)
         self.max_hz = max_hz
         self._last_taken = -math.inf
         self._node = node
@@ -169,24 +174,42 @@ class Subscription:
         self._last_taken = now
         return True
 
+    def _room(self) -> bool:
+        """Whether one more message may wait for the node's loop: at most QUEUE_DEPTH per subscription, as a ROS 2
+        subscription's history depth, so a node that falls behind drops (and counts) instead of growing."""
+        if self.queued >= QUEUE_DEPTH:
+            self.overflowed += 1
+            return False
+        self.queued += 1
+        return True
+
     def hand_over(self, key: str, msg: Message | SchemaError) -> None:
         """A sample from outside the process (any thread)."""
-        if isinstance(msg, SchemaError) or not self._min_interval or self._taken():
-            self._call_soon(self._deliver_remote, key, msg)
+        if (isinstance(msg, SchemaError) or not self._min_interval or self._taken()) and self._room():
+            self._call_soon(self._queued_remote, key, msg)
 
     def hand_over_cdr(self, key: str, cdr: bytes) -> None:
         """A sample from outside the process for this subscription alone (a Zenoh thread): decoded on the loop."""
-        if not self._min_interval or self._taken():
+        if (not self._min_interval or self._taken()) and self._room():
             self._call_soon(self._deliver_cdr, key, cdr)
 
     def hand_over_local(self, robot: str, msg: Message, cdr: bytes | None) -> None:
         """A message a node of this process published (its thread); cdr: its encoding, to check it stays frozen."""
-        if not self._min_interval or self._taken():
-            self._call_soon(self._deliver, robot, msg, cdr)
+        if (not self._min_interval or self._taken()) and self._room():
+            self._call_soon(self._queued_local, robot, msg, cdr)
+
+    def _queued_remote(self, key: str, msg: Message | SchemaError) -> None:
+        self.queued -= 1
+        self._deliver_remote(key, msg)
+
+    def _queued_local(self, robot: str, msg: Message, cdr: bytes | None) -> None:
+        self.queued -= 1
+        self._deliver(robot, msg, cdr)
 
     def _deliver_cdr(self, key: str, cdr: bytes) -> None:
         """The lone subscriber's path: decoded here, given to the handler; not shared, so not frozen (but in the
         tests, where a node that changes a received message fails alone as it would composed)."""
+        self.queued -= 1
         try:
             msg = schemas.decode(cdr, self.topic.type)
         except SchemaError as exc:
@@ -476,6 +499,7 @@ class Node:
             "errors": str(self.errors),
             "last_error": self.last_error,
             "decode_errors": str(sum(s.decode_errors for s in self._subscriptions)),
+            "queue_overflows": str(sum(s.overflowed for s in self._subscriptions)),
             "rosout_dropped": str(self._rosout.dropped),
         }
         for t in self._timers:
