@@ -8,8 +8,10 @@ import time
 from collections.abc import Callable
 from typing import Any
 
+import yaml
 import zenoh
 
+import robots
 import schemas
 from robot_nodes.catalog import entry
 from robot_nodes.cm730.node import Cm730Node
@@ -24,6 +26,8 @@ from wire.keys import topic_key
 CM730 = {"publish_rate": 100.0, "render_camera": False, "camera_rate": 10.0}
 # nodes, MuJoCo and the test share a loaded 2-core machine: a 0.5 s gap in joint_states is no servo failure here
 PATIENT_HCM = {"imu_timeout_s": 2.0, "motor_timeout_s": 2.0}
+# the simulated robot is the Minibot: its HCM as its params.yaml sets it (getting up from a side)
+MINIBOT_HCM = yaml.safe_load(robots.params_file("minibot").read_text()).get("hcm", {})
 
 
 class Listener:
@@ -79,7 +83,7 @@ class SimRobots:
         overrides = overrides or {}
         for i, handle in enumerate(self.world.robots):
             own = per_robot(i) if per_robot else {}
-            params = {"hcm": PATIENT_HCM, **overrides}
+            params = {"hcm": {**MINIBOT_HCM, **PATIENT_HCM}, **overrides}
             # the first robot's node alone sends the ground truth (every robot's pose is in it)
             cm730 = {**CM730, **({} if i == 0 else {"ground_truth_rate": 0.0}), **params.get("cm730", {}),
                      **own.get("cm730", {})}
