@@ -13,7 +13,6 @@ from typing import Any
 
 import numpy as np
 import pytest
-import yaml
 import zenoh
 
 import schemas
@@ -23,6 +22,7 @@ from robot_nodes.cm730.node import Cm730Node
 from robot_nodes.hcm.node import HcmNode
 from robot_nodes.hcm.pause import PauseNode
 from robot_nodes.runtime import BusConfig, ParameterClient, call_service, open_session
+from tests.sim_robots import MINIBOT_HCM
 from tests.support import REPO
 from tests.waiting import wait_for
 from wire.actions import ActionClient, GoalStatus
@@ -219,8 +219,7 @@ def test_pushed_over_falls_protected_and_gets_up(make_stack: Callable[..., Stack
 def test_lying_on_a_side_turns_onto_the_front_and_gets_up(make_stack: Callable[..., Stack], side: str) -> None:
     """No stand-up starts from a side: the Minibot's params.yaml names the animation that tips it over first
     (walk-ready, the Bit-Bots default, leaves the Minibot lying on its side for good)."""
-    minibot_hcm = yaml.safe_load((REPO / "robots/minibot/params.yaml").read_text())["hcm"]
-    stack = make_stack(hcm=minibot_hcm)
+    stack = make_stack(hcm=MINIBOT_HCM)
     stack.wait_controllable_standing()
     laid = time.monotonic()
     with stack.world.lock:
