@@ -17,6 +17,8 @@ from tests.dashboard_server import RunningServer, dashboard_server
 from tests.support import TESTDATA, free_port, launch_chromium
 from tests.teststand import SceneStand
 
+# a test file that imports mujoco before robot_nodes.cm730.sim must still render offscreen (that module's choice)
+os.environ.setdefault("MUJOCO_GL", "egl")
 # every test checks the in-process bus's rule, in this process and in the nodes it starts: a published message is
 # never changed afterwards (robot_nodes/runtime/local_bus.py)
 os.environ[CHECK_FROZEN_ENV] = "1"

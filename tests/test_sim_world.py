@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 import pytest
@@ -132,3 +133,30 @@ def test_detections_see_goal_posts_lines_and_the_other_robot() -> None:
     assert obs.position[0] == pytest.approx(1.5, abs=0.05)
     for u, v in (p.foot for p in obs.posts):
         assert 0 <= u <= 320 and 0 <= v <= 240
+
+
+def test_cameras_of_several_robots_tick_together_from_one_world_state_at_their_rate() -> None:
+    """The camera thread serves every robot due on the same grid from one copy of the world (one mj_copyData per
+    pass): frames of one pass share a stamp, and each camera still gets its rate."""
+    from robot_nodes.cm730.sim import CameraFrame, SimRunner
+    from tests.waiting import wait_for
+
+    world = SimWorld(n_robots=3)
+    runner = SimRunner(world).start()
+    frames: list[CameraFrame] = []
+    try:
+        for robot in world.robots:
+            runner.add_camera(robot, frames.append, rate_hz=10.0, want_image=lambda: False)
+            time.sleep(0.035)  # added apart, as nodes start apart
+        wait_for(lambda: len(frames) >= 3 * 12, timeout=10.0, what="twelve frames of each camera")
+    finally:
+        runner.stop()
+    by_stamp: dict[float, set[int]] = {}
+    for frame in frames[3:]:  # after each camera's first frame, served at once
+        by_stamp.setdefault(frame.stamp, set()).add(frame.robot.index)
+    together = sum(1 for robots in by_stamp.values() if robots == {0, 1, 2})
+    assert together >= 0.8 * len(by_stamp), f"passes with all three cameras: {together} of {len(by_stamp)}"
+    for robot in world.robots:
+        mine = [f.stamp for f in frames if f.robot is robot]
+        rate = (len(mine) - 1) / (mine[-1] - mine[0])
+        assert 8.0 <= rate <= 11.0, f"camera of {robot.robot_id} at {rate:.1f} Hz, asked 10"

@@ -27,6 +27,7 @@ from robot_nodes.cm730.sim.world import RobotHandle, SimWorld
 NEAR = 0.05  # m, nothing closer to the lens is seen
 ROBOT_HALF_SIZE = (0.08, 0.14)  # m, footprint half extents of a Minibot for obstacle boxes
 ROBOT_HEIGHT = 0.70
+POST_RAYS = 5  # points up a goal post tested for occlusion: a post partly hidden is still seen
 
 
 @dataclass
@@ -119,13 +120,29 @@ class GroundTruthVision:
         self.rng = np.random.default_rng(seed + 1000 * robot.index)
         self.intrinsics = Intrinsics.from_fovy(width, height, float(world.model.cam_fovy[robot.camera_id]))
         f = world.field
-        self._lines = line_segments(f)
+        lines = line_segments(f)
+        self._n_lines = len(lines)
         self._posts = goal_posts(f)
         self._ball_geom = world.model.geom("ball").id
         self._post_geoms = [world.model.geom(f"goal_post{i}").id for i in range(4)]
         self._rays = np.array([1, 1, 0, 1, 1, 1], dtype=np.uint8)
         self._rays[GROUP_LINES] = 0
         self._lost_until = -math.inf  # simulated time until which the localization is lost
+        # goal posts (0-3) and crossbars (4: the +x goal's, 5: the -x goal's) as segments, clipped together
+        top_z = f.goal_height + f.post_diameter
+        bar_z = top_z - f.post_diameter / 2
+        posts = np.asarray(self._posts, dtype=float)
+        feet = np.column_stack([posts, np.zeros(4)])
+        tops = np.column_stack([posts, np.full(4, top_z)])
+        # every segment the camera may see, clipped at once: the field lines, then the goal's parts
+        self._segment_ends = tuple(
+            np.vstack([np.column_stack([lines[:, end], np.zeros(len(lines))]), goal_end])
+            for end, goal_end in ((0, np.vstack([feet, [*posts[0], bar_z], [*posts[2], bar_z]])),
+                                  (1, np.vstack([tops, [*posts[1], bar_z], [*posts[3], bar_z]]))))
+        heights = np.linspace(0.1, top_z - 0.05, POST_RAYS)
+        self._post_points = np.array([[[px, py, h] for h in heights] for px, py in posts])
+        self._others = [o for o in world.robots if o is not robot]
+        self._other_bodies = np.array([o.base_body for o in self._others], dtype=int)
         self._last_observed: float | None = None
 
     def resize(self, width: int, height: int) -> None:
@@ -148,32 +165,50 @@ class GroundTruthVision:
         k = self.intrinsics
         return bool(0 <= uv[0] <= k.width and 0 <= uv[1] <= k.height)
 
-    def _clip_segment(self, d: mujoco.MjData, a: np.ndarray, b: np.ndarray
-                      ) -> tuple[np.ndarray, np.ndarray, float, float] | None:
-        """World segment a-b in pixels, clipped to the near plane and the image; with depths of the ends."""
-        oa, ob = self.to_optical(d, np.array([a, b]))
-        if oa[2] < NEAR and ob[2] < NEAR:
-            return None
-        if oa[2] < NEAR or ob[2] < NEAR:
-            t = (NEAR - oa[2]) / (ob[2] - oa[2])
-            cut = oa + t * (ob - oa)
-            oa, ob = (cut, ob) if oa[2] < NEAR else (oa, cut)
+    def _segments_in_image(self, d: mujoco.MjData, ends_a: np.ndarray, ends_b: np.ndarray
+                           ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """World segments a-b (n, 3) in pixels, clipped to the near plane and the image, all at once with numpy (it
+        runs for every robot at the camera rate): the ends (m, 2), their depths (m,) and which segments (m,)."""
+        n = len(ends_a)
+        opt = self.to_optical(d, np.vstack([ends_a, ends_b]))
+        oa, ob = opt[:n], opt[n:]
+        za, zb = oa[:, 2], ob[:, 2]
+        front = (za >= NEAR) | (zb >= NEAR)
+        # clip to the near plane: the end behind it moves along the segment onto the plane
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = np.where(za != zb, (NEAR - za) / (zb - za), 0.0)
+        cut = oa + t[:, None] * (ob - oa)
+        oa = np.where((za < NEAR)[:, None], cut, oa)
+        ob = np.where((zb < NEAR)[:, None], cut, ob)
+        index = np.nonzero(front)[0]
+        oa, ob = oa[index], ob[index]
         pa, pb = self.project(oa), self.project(ob)
         k = self.intrinsics
-        t0, t1 = _liang_barsky(pa, pb, 0.0, 0.0, float(k.width), float(k.height))
-        if t0 is None:
-            return None
-        za, zb = oa[2], ob[2]
-        return pa + t0 * (pb - pa), pa + t1 * (pb - pa), za + t0 * (zb - za), za + t1 * (zb - za)
+        t0, t1 = _liang_barsky_many(pa, pb, float(k.width), float(k.height))
+        inside = t0 <= t1
+        pa, pb, oa, ob, t0, t1, index = (pa[inside], pb[inside], oa[inside], ob[inside], t0[inside], t1[inside],
+                                         index[inside])
+        return (pa + t0[:, None] * (pb - pa), pa + t1[:, None] * (pb - pa),
+                oa[:, 2] + t0 * (ob[:, 2] - oa[:, 2]), oa[:, 2] + t1 * (ob[:, 2] - oa[:, 2]), index)
 
-    def _visible(self, d: mujoco.MjData, target: np.ndarray, geoms: set[int] | None, distance_slack: float) -> bool:
-        """Nothing but ``geoms`` (or nothing at all) lies between the lens and ``target``."""
+    def _clear(self, d: mujoco.MjData, targets: np.ndarray) -> np.ndarray:
+        """Rays from the lens to each target (n, 3), in one MuJoCo call: per target (distance along the ray to the
+        first thing hit or -1, the target's distance, the geom hit)."""
         start = d.cam_xpos[self.robot.camera_id].copy()
-        vec = target - start
-        dist = float(np.linalg.norm(vec))
-        hit = np.array([-1], dtype=np.int32)
-        along = mujoco.mj_ray(self.world.model, d, start, vec / dist, self._rays, 1, self.robot.head_body, hit)
-        return along < 0 or along >= dist - distance_slack or (geoms is not None and int(hit[0]) in geoms)
+        vecs = targets - start
+        dists = np.linalg.norm(vecs, axis=1)
+        n = len(targets)
+        hit = np.full(n, -1, dtype=np.int32)
+        along = np.full(n, -1.0)
+        mujoco.mj_multiRay(self.world.model, d, start, (vecs / dists[:, None]).ravel(), self._rays, 1,
+                           self.robot.head_body, hit, along, None, n, mujoco.mjMAXVAL)
+        return np.column_stack([along, dists, hit])
+
+    @staticmethod
+    def _seen(ray: np.ndarray, geoms: set[int], distance_slack: float) -> bool:
+        """A ray of _clear reached its target: nothing hit, nothing before it, or one of its ``geoms``."""
+        along, dist, hit = ray
+        return bool(along < 0 or along >= dist - distance_slack or int(hit) in geoms)
 
     # -- the observation ---------------------------------------------------------------------------------
     def observe(self, d: mujoco.MjData | None = None) -> Observation:
@@ -187,65 +222,52 @@ class GroundTruthVision:
         x, y, yaw = self._pose2d(d)
         to_rel = _footprint_transform(x, y, yaw)
 
-        # ball: in the image, not hidden, not too far, not missed
+        # where rays must go (ball, and five points up each goal post in the image): one batch of rays for all
         ball = d.xpos[self.world.model.geom_bodyid[self._ball_geom]].copy()
         ob = self.to_optical(d, ball)[0]
         dist = float(np.linalg.norm(ob))
-        if ob[2] > NEAR and dist <= noise.max_distance:
-            uv = self.project(ob)
-            if self._in_image(uv) and self._visible(d, ball, {self._ball_geom}, f.ball_diameter / 2) and keep():
-                radius = f.ball_diameter / 2
-                diameter = 2 * k.fx * math.tan(math.asin(min(1.0, radius / dist)))
-                uv = uv + rng.normal(0.0, noise.pixel, 2) if noise.pixel > 0 else uv
-                obs.ball = BallSeen(float(uv[0]), float(uv[1]), diameter)
-                obs.ball_relative = self._noisy(to_rel(ball), dist)
-                obs.ball_relative_confidence = 1.0
+        ball_uv = self.project(ob) if ob[2] > NEAR and dist <= noise.max_distance else None
+        if ball_uv is not None and not self._in_image(ball_uv):
+            ball_uv = None
+        a, b, z0, z1, index = self._segments_in_image(d, *self._segment_ends)
+        is_line = index < self._n_lines
+        lines = (a[is_line], b[is_line], z0[is_line], z1[is_line])
+        goal_parts = (a[~is_line], b[~is_line], z0[~is_line], z1[~is_line], index[~is_line] - self._n_lines)
+        posts_in_image = [(int(i), a, b, z0, z1) for a, b, z0, z1, i in zip(*goal_parts, strict=True) if i < 4]
+        targets = [ball] if ball_uv is not None else []
+        for i, *_ in posts_in_image:
+            targets += [self._post_points[i, j] for j in range(POST_RAYS)]
+        clear = self._clear(d, np.array(targets)) if targets else np.zeros((0, 3))
 
-        # goal posts and crossbars
-        top_z = f.goal_height + f.post_diameter
-        for i, (px, py) in enumerate(self._posts):
-            seg = self._clip_segment(d, np.array([px, py, 0.0]), np.array([px, py, top_z]))
-            if seg is None:
-                continue
-            foot, top, z0, z1 = seg
-            # a post partly hidden (by a robot in front) is still seen: any of five points along it will do
-            heights = np.linspace(0.1, top_z - 0.05, 5)
-            if not any(self._visible(d, np.array([px, py, h]), {self._post_geoms[i]}, f.post_diameter)
-                       for h in heights):
+        # ball: in the image, not hidden, not too far, not missed
+        if ball_uv is not None and self._seen(clear[0], {self._ball_geom}, f.ball_diameter / 2) and keep():
+            radius = f.ball_diameter / 2
+            diameter = 2 * k.fx * math.tan(math.asin(min(1.0, radius / dist)))
+            uv = ball_uv + rng.normal(0.0, noise.pixel, 2) if noise.pixel > 0 else ball_uv
+            obs.ball = BallSeen(float(uv[0]), float(uv[1]), diameter)
+            obs.ball_relative = self._noisy(to_rel(ball), dist)
+            obs.ball_relative_confidence = 1.0
+
+        # goal posts (a post partly hidden, by a robot in front, is still seen: any of its points will do) and bars
+        rays = clear[1:] if ball_uv is not None else clear
+        for n, (i, foot, top, z0, z1) in enumerate(posts_in_image):
+            hits = rays[n * POST_RAYS:(n + 1) * POST_RAYS]
+            if not any(self._seen(hit, {self._post_geoms[i]}, f.post_diameter) for hit in hits):
                 continue
             if keep():
                 width = float(k.fx * f.post_diameter / max(NEAR, (z0 + z1) / 2))
                 obs.posts.append(PostSeen((float(foot[0]), float(foot[1])), (float(top[0]), float(top[1])), width,
                                           i))
-        for left, right in ((0, 1), (2, 3)):
-            a = np.array([*self._posts[left], top_z - f.post_diameter / 2])
-            b = np.array([*self._posts[right], top_z - f.post_diameter / 2])
-            seg = self._clip_segment(d, a, b)
-            if seg is not None and keep():
-                pa, pb, z0, z1 = seg
-                obs.bars.append(((float(pa[0]), float(pa[1])), (float(pb[0]), float(pb[1])),
+        for a, b, z0, z1, i in zip(*goal_parts, strict=True):
+            if i >= 4 and keep():
+                obs.bars.append(((float(a[0]), float(a[1])), (float(b[0]), float(b[1])),
                                  float(k.fx * f.post_diameter / max(NEAR, (z0 + z1) / 2))))
 
         # other robots as obstacles: those whose box is in the image and not too far
-        for other in self.world.robots:
-            if other is self.robot:
-                continue
-            box = self._robot_box(d, other)
-            opt = self.to_optical(d, box)
-            if np.any(opt[:, 2] < NEAR):
-                continue
-            uv = self.project(opt)
-            u0, v0 = np.clip(uv.min(axis=0), 0, [k.width, k.height])
-            u1, v1 = np.clip(uv.max(axis=0), 0, [k.width, k.height])
-            centre = d.xpos[other.base_body].copy()
-            distance = float(np.linalg.norm(centre[:2] - d.cam_xpos[self.robot.camera_id][:2]))
-            if u1 - u0 >= 1 and v1 - v0 >= 1 and distance <= noise.max_distance and keep():
-                obs.obstacles.append(ObstacleSeen(other.index + 1, float(u0), float(v0), float(u1 - u0),
-                                                  float(v1 - v0)))
-                obs.obstacles_relative.append((other.index + 1, self._noisy(to_rel(centre), distance)))
+        self._obstacles(d, obs, to_rel, keep)
 
         # field lines
-        obs.lines = self._lines_in_image(d)
+        obs.lines = self._lines(*lines)
 
         # the goal whose posts are seen (the one with more of them; the nearer if both show as many)
         seen = [p.index for p in obs.posts]
@@ -281,43 +303,40 @@ class GroundTruthVision:
             return True
         return False
 
-    def _lines_in_image(self, d: mujoco.MjData) -> list[tuple[tuple[float, float], tuple[float, float], float, float]]:
-        """Every field line segment in the image (clipped), with its width in pixels at both ends: all segments at
-        once with numpy, as this runs for every robot at the camera rate."""
-        n = len(self._lines)
-        ends = np.zeros((2 * n, 3))
-        ends[:n, :2] = self._lines[:, 0]
-        ends[n:, :2] = self._lines[:, 1]
-        opt = self.to_optical(d, ends)
-        oa, ob = opt[:n], opt[n:]
-        za, zb = oa[:, 2], ob[:, 2]
-        front = (za >= NEAR) | (zb >= NEAR)
-        # clip to the near plane: the end behind it moves along the segment onto the plane
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t = np.where(za != zb, (NEAR - za) / (zb - za), 0.0)
-        cut = oa + t[:, None] * (ob - oa)
-        oa = np.where((za < NEAR)[:, None], cut, oa)
-        ob = np.where((zb < NEAR)[:, None], cut, ob)
-        oa, ob = oa[front], ob[front]
-        if not len(oa):
-            return []
-        pa, pb = self.project(oa), self.project(ob)
+    def _obstacles(self, d: mujoco.MjData, obs: Observation, to_rel: Callable[[np.ndarray], np.ndarray],
+                   keep: Callable[[], bool]) -> None:
+        """The other robots whose boxes are in the image and not too far, all boxes projected at once."""
+        if not self._others:
+            return
         k = self.intrinsics
-        t0, t1 = _liang_barsky_many(pa, pb, float(k.width), float(k.height))
-        inside = t0 <= t1
-        pa, pb, oa, ob, t0, t1 = pa[inside], pb[inside], oa[inside], ob[inside], t0[inside], t1[inside]
-        a = pa + t0[:, None] * (pb - pa)
-        b = pa + t1[:, None] * (pb - pa)
-        z0 = oa[:, 2] + t0 * (ob[:, 2] - oa[:, 2])
-        z1 = oa[:, 2] + t1 * (ob[:, 2] - oa[:, 2])
+        boxes = self._robot_boxes(d)  # (n, 8, 3)
+        opt = self.to_optical(d, boxes.reshape(-1, 3)).reshape(boxes.shape)
+        in_front = np.all(opt[:, :, 2] >= NEAR, axis=1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            uv = self.project(opt)  # (n, 8, 2)
+        size = np.array([k.width, k.height])
+        low = np.clip(uv.min(axis=1), 0, size)
+        high = np.clip(uv.max(axis=1), 0, size)
+        centres = d.xpos[self._other_bodies]
+        distance = np.hypot(*(centres[:, :2] - d.cam_xpos[self.robot.camera_id][:2]).T)
+        shown = in_front & np.all(high - low >= 1, axis=1) & (distance <= self.noise.max_distance)
+        for i in np.nonzero(shown)[0]:
+            if keep():
+                number = self._others[i].index + 1
+                (u0, v0), (u1, v1) = low[i].tolist(), high[i].tolist()
+                obs.obstacles.append(ObstacleSeen(number, u0, v0, u1 - u0, v1 - v0))
+                obs.obstacles_relative.append((number, self._noisy(to_rel(centres[i].copy()), float(distance[i]))))
+
+    def _lines(self, a: np.ndarray, b: np.ndarray, z0: np.ndarray, z1: np.ndarray
+               ) -> list[tuple[tuple[float, float], tuple[float, float], float, float]]:
+        """The field lines in the image (clipped ends a, b and their depths) at least a pixel long, with their widths
+        in pixels at both ends; less those a false negative drops."""
         long_enough = np.hypot(*(b - a).T) >= 1.0
-        width = self.world.field.line_width * k.fx
-        out = []
-        for i in np.nonzero(long_enough)[0]:
-            if self.noise.dropout <= 0 or self.rng.random() >= self.noise.dropout:
-                out.append(((float(a[i, 0]), float(a[i, 1])), (float(b[i, 0]), float(b[i, 1])),
-                            float(width / max(NEAR, z0[i])), float(width / max(NEAR, z1[i]))))
-        return out
+        width = self.world.field.line_width * self.intrinsics.fx
+        rows = np.column_stack([a, b, width / np.maximum(NEAR, z0), width / np.maximum(NEAR, z1)])[long_enough]
+        if self.noise.dropout > 0 and len(rows):
+            rows = rows[self.rng.random(len(rows)) >= self.noise.dropout]
+        return [((ua, va), (ub, vb), wa, wb) for ua, va, ub, vb, wa, wb in rows.tolist()]
 
     # -- helpers -------------------------------------------------------------------------------------------
     def _pose2d(self, d: mujoco.MjData) -> tuple[float, float, float]:
@@ -325,19 +344,21 @@ class GroundTruthVision:
         xmat = d.xmat[b].reshape(3, 3)
         return float(d.xpos[b, 0]), float(d.xpos[b, 1]), math.atan2(xmat[1, 0], xmat[0, 0])
 
-    def _robot_box(self, d: mujoco.MjData, other: RobotHandle) -> np.ndarray:
-        b = other.base_body
-        xmat = d.xmat[b].reshape(3, 3)
-        yaw = math.atan2(xmat[1, 0], xmat[0, 0])
-        c, s = math.cos(yaw), math.sin(yaw)
+    def _robot_boxes(self, d: mujoco.MjData) -> np.ndarray:
+        """The other robots' boxes (n, 8, 3): footprint turned with each robot's yaw, as high as it stands."""
+        bodies = self._other_bodies
+        xmat = d.xmat[bodies]  # (n, 9)
+        yaw = np.arctan2(xmat[:, 3], xmat[:, 0])
+        c, s = np.cos(yaw), np.sin(yaw)
         hx, hy = ROBOT_HALF_SIZE
-        height = min(ROBOT_HEIGHT, float(d.xpos[b, 2]) + 0.33)
-        corners = []
-        for dx in (-hx, hx):
-            for dy in (-hy, hy):
-                for z in (0.0, max(height, 0.15)):
-                    corners.append((d.xpos[b, 0] + c * dx - s * dy, d.xpos[b, 1] + s * dx + c * dy, z))
-        return np.array(corners)
+        dx = np.array([-hx, -hx, -hx, -hx, hx, hx, hx, hx])
+        dy = np.array([-hy, -hy, hy, hy, -hy, -hy, hy, hy])
+        top = np.maximum(np.minimum(ROBOT_HEIGHT, d.xpos[bodies, 2] + 0.33), 0.15)
+        boxes = np.empty((len(bodies), 8, 3))
+        boxes[:, :, 0] = d.xpos[bodies, 0][:, None] + c[:, None] * dx - s[:, None] * dy
+        boxes[:, :, 1] = d.xpos[bodies, 1][:, None] + s[:, None] * dx + c[:, None] * dy
+        boxes[:, :, 2] = np.where(np.arange(8) % 2 == 0, 0.0, top[:, None])
+        return boxes
 
     def _noisy(self, p: np.ndarray, distance: float) -> np.ndarray:
         """x and y with Gaussian noise whose sigma grows with the distance from the lens."""
@@ -362,36 +383,15 @@ def _wrap(a: float) -> float:
     return (a + math.pi) % (2 * math.pi) - math.pi
 
 
-def _liang_barsky(a: np.ndarray, b: np.ndarray, xmin: float, ymin: float, xmax: float, ymax: float
-                  ) -> tuple[float | None, float]:
-    """Parameters (t0, t1) of the part of a->b inside the rectangle, or (None, 0) if none is."""
-    dx, dy = b[0] - a[0], b[1] - a[1]
-    t0, t1 = 0.0, 1.0
-    for p, q in ((-dx, a[0] - xmin), (dx, xmax - a[0]), (-dy, a[1] - ymin), (dy, ymax - a[1])):
-        if abs(p) < 1e-12:
-            if q < 0:
-                return None, 0.0
-            continue
-        t = q / p
-        if p < 0:
-            t0 = max(t0, t)
-        else:
-            t1 = min(t1, t)
-        if t0 > t1:
-            return None, 0.0
-    return t0, t1
-
-
 def _liang_barsky_many(a: np.ndarray, b: np.ndarray, width: float, height: float) -> tuple[np.ndarray, np.ndarray]:
-    """_liang_barsky for many segments a->b (n, 2) against [0, width] x [0, height]: t0 > t1 where none is inside."""
+    """Parameters (t0, t1) of the part of each segment a->b (n, 2) inside [0, width] x [0, height] (Liang-Barsky,
+    the four edges at once): t0 > t1 where none is."""
     d = b - a
-    t0 = np.zeros(len(a))
-    t1 = np.ones(len(a))
-    for p, q in ((-d[:, 0], a[:, 0]), (d[:, 0], width - a[:, 0]), (-d[:, 1], a[:, 1]), (d[:, 1], height - a[:, 1])):
-        parallel = np.abs(p) < 1e-12
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t = np.where(parallel, 0.0, q / np.where(parallel, 1.0, p))
-        t0 = np.where(~parallel & (p < 0), np.maximum(t0, t), t0)
-        t1 = np.where(~parallel & (p > 0), np.minimum(t1, t), t1)
-        t1 = np.where(parallel & (q < 0), -1.0, t1)
-    return t0, t1
+    p = np.stack([-d[:, 0], d[:, 0], -d[:, 1], d[:, 1]])  # (4, n): one row per edge
+    q = np.stack([a[:, 0], width - a[:, 0], a[:, 1], height - a[:, 1]])
+    parallel = np.abs(p) < 1e-12
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = q / np.where(parallel, 1.0, p)
+    t0 = np.max(np.where(~parallel & (p < 0), t, 0.0), axis=0)
+    t1 = np.min(np.where(~parallel & (p > 0), t, 1.0), axis=0)
+    return t0, np.where(np.any(parallel & (q < 0), axis=0), -1.0, t1)
