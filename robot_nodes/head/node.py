@@ -100,7 +100,7 @@ class HeadNode(Node):
         self.subscribe("ball_relative", self.on_ball)
         self.subscribe("goal_relative", self.on_goal)
         self.subscribe("position", self.on_position)
-        self.subscribe("joint_states", self.on_joint_states)
+        self.joints = self.keep_latest("joint_states")  # read by the tick: 100 messages a second never wake it
         self.tick_timer = self.timer(p.rate_hz, self.tick, name="head")
         self._update_activity()
 
@@ -139,14 +139,8 @@ class HeadNode(Node):
         self.position = team_frame(float(msg.pose.x), float(msg.pose.y), float(msg.pose.theta), self.params.own_half)
         self.position_at = time.monotonic()
 
-    def on_joint_states(self, msg: JointState) -> None:
-        # kept as it comes (100 Hz); looked into only when the tick needs the head's position
-        self._joints = msg
-
-    _joints: JointState | None = None
-
     def _head_position(self) -> tuple[float, float] | None:
-        msg = self._joints
+        msg: JointState | None = self.joints.message
         if msg is None:
             return self.present
         names = list(msg.name)
