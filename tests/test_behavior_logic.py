@@ -9,7 +9,7 @@ import pytest
 
 import schemas
 from robot_nodes.behavior.field import Field, kickoff_positions, ready_legal
-from robot_nodes.behavior.node import BehaviorParams, player_number_of
+from robot_nodes.behavior.node import BehaviorParams, player_number_of, rivals_kick_off
 from robot_nodes.behavior.roles import DEFENDER, GOALIE, STRIKER, SUPPORTER, Candidate, assign_roles, ready_rank
 from robot_nodes.behavior.state_machine import BehaviorStateMachine, Blackboard, State
 from robot_nodes.behavior.world_model import Teammate, WorldModel
@@ -72,6 +72,19 @@ def test_ready_ranks_skip_penalized_teammates() -> None:
     assert ready_rank(3, [mate(1, None), mate(2, None)]) == 2
     assert ready_rank(3, []) == 2  # nobody heard: player 2 is taken to be there
     assert ready_rank(3, [mate(1, None), mate(2, None, state=7)]) == 1
+
+
+def test_the_defending_team_waits_until_the_ball_of_the_rivals_kick_off_is_in_play() -> None:
+    def state(**fields: object) -> GameState:
+        base = {"game_state": PLAYING, "has_kick_off": False, "secondary_state": GameState.STATE_NORMAL,
+                "secondary_seconds_remaining": 7, "allowed_to_move": True}
+        return schemas.make(GameState, **{**base, **fields})
+
+    assert rivals_kick_off(state())
+    assert not rivals_kick_off(state(secondary_seconds_remaining=0)), "10 s after the kick-off the ball is free"
+    assert not rivals_kick_off(state(has_kick_off=True)), "the team kicking off plays at once"
+    assert not rivals_kick_off(state(secondary_state=GameState.STATE_CORNER_KICK)), "a set play has its own rules"
+    assert not rivals_kick_off(state(game_state=READY, secondary_seconds_remaining=30)), "READY's clock is not it"
 
 
 def test_player_number_from_the_robot_id() -> None:

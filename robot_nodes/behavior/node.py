@@ -106,6 +106,14 @@ def _clip(value: float, limit: float) -> float:
     return max(-limit, min(limit, value))
 
 
+def rivals_kick_off(gs: GameState) -> bool:
+    """The rivals' kick-off, the ball not yet in play: the GameController's secondary clock counts the 10 s after
+    which it is (Humanoid League rules: until then the defending team stays outside the centre circle, so it stands
+    where READY put it). Robots of the team kicking off, and set plays, are not held."""
+    return (gs.game_state == GameState.GAMESTATE_PLAYING and not gs.has_kick_off
+            and gs.secondary_state == GameState.STATE_NORMAL and gs.secondary_seconds_remaining > 0)
+
+
 class BehaviorNode(Node):
     """Plays the game: positions for kick-off, then a role's job (goalie, striker, supporter, defender)."""
 
@@ -223,7 +231,7 @@ class BehaviorNode(Node):
         bb.penalized = bool(gs.penalized) if gs is not None else False
         bb.penalized = bb.penalized or self.robot_state in PENALTY_HCM
         bb.controllable = self.robot_state in MOVING_HCM
-        bb.allowed_to_move = bool(gs.allowed_to_move) if gs is not None else False
+        bb.allowed_to_move = bool(gs.allowed_to_move) and not rivals_kick_off(gs) if gs is not None else False
         bb.role = self.role
         bb.ball_known = self.world.ball_from_me(now) is not None
         target = self._ready_target(now)
