@@ -9,6 +9,7 @@ import pytest
 
 import schemas
 from robot_nodes.behavior.field import Field, kickoff_positions, ready_legal
+from robot_nodes.behavior.kick_direction import SIDE_ANGLE, kick_direction
 from robot_nodes.behavior.node import BehaviorParams, player_number_of, rivals_kick_off
 from robot_nodes.behavior.roles import DEFENDER, GOALIE, STRIKER, SUPPORTER, Candidate, assign_roles, ready_rank
 from robot_nodes.behavior.state_machine import BehaviorStateMachine, Blackboard, State
@@ -85,6 +86,23 @@ def test_the_defending_team_waits_until_the_ball_of_the_rivals_kick_off_is_in_pl
     assert not rivals_kick_off(state(has_kick_off=True)), "the team kicking off plays at once"
     assert not rivals_kick_off(state(secondary_state=GameState.STATE_CORNER_KICK)), "a set play has its own rules"
     assert not rivals_kick_off(state(game_state=READY, secondary_seconds_remaining=30)), "READY's clock is not it"
+
+
+def test_a_kick_goes_at_the_goal_unless_a_robot_stands_on_the_line_then_past_it() -> None:
+    ball = (0.2, 0.0)
+    assert kick_direction(ball, 0.1, []) == 0.1
+    assert kick_direction(ball, 0.0, [(1.8, 0.0), (0.6, 0.6)]) == 0.0, "too far away, and beside the line"
+    assert kick_direction(ball, 0.0, [(0.0, 0.0)]) == 0.0, "behind the ball: the kicker itself or a teammate"
+    # a rival 0.35 m beyond the ball, a little left of the line: past him on the right
+    assert kick_direction(ball, 0.0, [(0.55, 0.05)]) == pytest.approx(-SIDE_ANGLE)
+    assert kick_direction(ball, 0.0, [(0.55, -0.05)]) == pytest.approx(SIDE_ANGLE)
+    # a rival on the line: past him on his right, unless a robot stands there too; every side blocked: at the goal
+    rival = (0.55, -0.02)
+    assert kick_direction(ball, 0.0, [rival]) == pytest.approx(SIDE_ANGLE)
+    on_left = (0.2 + 0.5 * math.cos(SIDE_ANGLE), 0.5 * math.sin(SIDE_ANGLE))
+    on_right = (0.2 + 0.5 * math.cos(SIDE_ANGLE), -0.5 * math.sin(SIDE_ANGLE))
+    assert kick_direction(ball, 0.0, [rival, on_left]) == pytest.approx(-SIDE_ANGLE)
+    assert kick_direction(ball, 0.0, [rival, on_left, on_right]) == 0.0
 
 
 def test_player_number_from_the_robot_id() -> None:

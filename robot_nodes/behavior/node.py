@@ -16,6 +16,7 @@ from typing import Any
 
 import schemas
 from robot_nodes.behavior.field import Field, kickoff_positions
+from robot_nodes.behavior.kick_direction import kick_direction
 from robot_nodes.behavior.roles import (
     GOALIE,
     ROLE_NAMES,
@@ -39,6 +40,7 @@ from schemas.messages import (
     GameState,
     HeadMode,
     KickGoal,
+    ObstaclesRelative,
     Position2D,
     RobotControlState,
     Speak,
@@ -62,6 +64,7 @@ ACTION_FOR: dict[State, int] = {
     State.KICK: Strategy.ACTION_TRYING_TO_SCORE,
 }  # every other state: WAITING
 GRAPH_EVERY_S = 5.0
+OBSTACLES_FRESH_S = 0.5  # s: older obstacles_relative no longer say where the robots around the ball stand
 
 
 @dataclass
@@ -149,6 +152,7 @@ class BehaviorNode(Node):
         self.subscribe("position", self.on_position)
         self.subscribe("walk_odometry", self.on_odometry)
         self.subscribe("team_data", self.on_team_data)
+        self.obstacles = self.keep_latest("obstacles_relative")  # read when a kick starts, never woken by it
         self.tick_timer = self.timer(p.rate_hz, self.tick, name="decide")
         self.timer(1.0, self.publish_status, name="status")
         self.set_diagnostic("player", self.player)
@@ -345,12 +349,19 @@ class BehaviorNode(Node):
         gx, gy = pose.relative(*self.field.opponent_goal)
         return math.atan2(gy, gx)
 
+    def _obstacles_seen(self, now: float) -> list[tuple[float, float]]:
+        """The robots in view now (relative, m), from the newest obstacles_relative if it is fresh."""
+        msg: ObstaclesRelative | None = self.obstacles.message
+        if msg is None or now - self.obstacles.received_at > OBSTACLES_FRESH_S:
+            return []
+        return [(float(o.position.x), float(o.position.y)) for o in msg.obstacles]
+
     def _send_kick(self) -> None:
         now = time.monotonic()
         ball = self.world.ball_relative
         if ball is None:
             return
-        direction = self._goal_direction(now) or 0.0
+        direction = kick_direction(ball, self._goal_direction(now) or 0.0, self._obstacles_seen(now))
         goal = schemas.make(KickGoal, header=header("base_footprint"), ball_position=Point(x=ball[0], y=ball[1], z=0.0),
                             kick_direction=Quaternion(x=0.0, y=0.0, z=math.sin(direction / 2),
                                                       w=math.cos(direction / 2)),
