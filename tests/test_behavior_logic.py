@@ -9,7 +9,7 @@ import pytest
 
 import schemas
 from robot_nodes.behavior.field import Field, kickoff_positions, ready_legal
-from robot_nodes.behavior.kick_direction import SIDE_ANGLE, kick_direction
+from robot_nodes.behavior.kick_direction import SIDE_ANGLE, aim_in_goal, clearance, kick_direction
 from robot_nodes.behavior.node import BehaviorParams, player_number_of, rivals_kick_off
 from robot_nodes.behavior.roles import DEFENDER, GOALIE, STRIKER, SUPPORTER, Candidate, assign_roles, ready_rank
 from robot_nodes.behavior.state_machine import BehaviorStateMachine, Blackboard, State
@@ -103,6 +103,22 @@ def test_a_kick_goes_at_the_goal_unless_a_robot_stands_on_the_line_then_past_it(
     on_right = (0.2 + 0.5 * math.cos(SIDE_ANGLE), -0.5 * math.sin(SIDE_ANGLE))
     assert kick_direction(ball, 0.0, [rival, on_left]) == pytest.approx(-SIDE_ANGLE)
     assert kick_direction(ball, 0.0, [rival, on_left, on_right]) == 0.0
+
+
+def test_the_aim_in_the_goal_passes_the_goalie_on_the_side_he_leaves_open() -> None:
+    ball = (0.2, 0.0)
+    mouth = [(3.0, 0.0), (3.0, 0.45), (3.0, -0.45), (3.0, 0.9), (3.0, -0.9)]  # the middle first
+    assert clearance(ball, (3.0, 0.0), []) == math.inf
+    assert clearance(ball, (3.0, 0.0), [(1.0, 0.3), (4.0, 0.0), (-1.0, 0.0)]) == pytest.approx(0.3), \
+        "only robots between the ball and the target count"
+    assert aim_in_goal(ball, mouth, []) == 0.0, "nobody in the way: the middle"
+    assert aim_in_goal(ball, mouth, [(1.5, 2.0)]) == 0.0, "a robot far beside every line"
+    goalie = (2.6, 0.1)  # a little left of the middle: the kick goes to the right post's side
+    assert aim_in_goal(ball, mouth, [goalie]) == pytest.approx(math.atan2(-0.9, 2.8))
+    assert aim_in_goal(ball, mouth, [(2.6, -0.1)]) == pytest.approx(math.atan2(0.9, 2.8))
+    # the goalie a little right, a defender left of the middle line: the right post's line keeps farthest from both
+    # (0.47 m from the goalie) where the middle passes 0.3 m from him and the left lines pass the defender
+    assert aim_in_goal(ball, mouth, [(2.6, -0.3), (1.5, 0.4)]) == pytest.approx(math.atan2(-0.9, 2.8))
 
 
 def test_player_number_from_the_robot_id() -> None:

@@ -17,7 +17,7 @@ import httpx
 import psutil
 import pytest
 
-from pitchside.local_run import BEHIND_THE_WORLD_NICE
+from pitchside.local_run import DASHBOARD_IN_MATCH_NICE, ROBOTS_IN_MATCH_NICE
 from pitchside.match import GameControllerPlan, default_nodes, parse_nodes, robot_settings
 from robot_nodes.cm730.sim.lineup import Lineup, LineupError, parse_robots
 from robot_nodes.game_controller.simulator import SimulatedGame, SimulatedGameController
@@ -112,8 +112,8 @@ def test_lineup_and_robot_settings() -> None:
 
 
 def assert_world_first(processes: list[psutil.Process]) -> None:
-    """The world (physics, referee, GameController) at the launcher's priority, every robot's nodes and the
-    dashboard below it (pitchside/local_run.py BEHIND_THE_WORLD_NICE)."""
+    """The world (physics, referee, GameController) at the launcher's priority, every robot's nodes below it, the
+    dashboard lowest (pitchside/local_run.py ROBOTS_IN_MATCH_NICE, DASHBOARD_IN_MATCH_NICE)."""
     launcher = processes[0].nice()
     modules = {}
     for process in processes[1:]:
@@ -124,8 +124,9 @@ def assert_world_first(processes: list[psutil.Process]) -> None:
         if command[1:2] == ["-m"]:
             modules[command[2]] = nice
     assert modules.pop("robot_nodes.cm730.sim.match") == launcher, modules
-    assert modules.keys() >= {"robot_nodes.compose", "server"}, modules
-    assert set(modules.values()) == {launcher + BEHIND_THE_WORLD_NICE}, modules
+    assert modules.pop("server") == min(19, launcher + DASHBOARD_IN_MATCH_NICE), modules
+    assert "robot_nodes.compose" in modules, modules
+    assert set(modules.values()) == {launcher + ROBOTS_IN_MATCH_NICE}, modules
 
 
 @pytest.mark.slow

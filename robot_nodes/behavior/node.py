@@ -16,7 +16,7 @@ from typing import Any
 
 import schemas
 from robot_nodes.behavior.field import Field, kickoff_positions
-from robot_nodes.behavior.kick_direction import kick_direction
+from robot_nodes.behavior.kick_direction import aim_in_goal, kick_direction
 from robot_nodes.behavior.roles import (
     GOALIE,
     ROLE_NAMES,
@@ -64,6 +64,7 @@ ACTION_FOR: dict[State, int] = {
     State.KICK: Strategy.ACTION_TRYING_TO_SCORE,
 }  # every other state: WAITING
 GRAPH_EVERY_S = 5.0
+GOAL_POST_MARGIN = 0.35  # m: the aim stays this far inside a post (the ball's radius and the kick's spread)
 OBSTACLES_FRESH_S = 0.5  # s: older obstacles_relative no longer say where the robots around the ball stand
 
 
@@ -349,6 +350,16 @@ class BehaviorNode(Node):
         gx, gy = pose.relative(*self.field.opponent_goal)
         return math.atan2(gy, gx)
 
+    def _goal_mouth(self, now: float) -> list[tuple[float, float]]:
+        """Points of the opponent goal's mouth relative to the robot, the middle first, then ever nearer the posts
+        (a ball's width and a margin inside them); none without a position."""
+        pose = self.world.pose(now)
+        if pose is None:
+            return []
+        gx, gy = self.field.opponent_goal
+        inside = max(0.0, self.field.goal_width / 2 - GOAL_POST_MARGIN)
+        return [pose.relative(gx, gy + k * inside) for k in (0.0, 0.5, -0.5, 1.0, -1.0)]
+
     def _obstacles_seen(self, now: float) -> list[tuple[float, float]]:
         """The robots in view now (relative, m), from the newest obstacles_relative if it is fresh."""
         msg: ObstaclesRelative | None = self.obstacles.message
@@ -361,7 +372,10 @@ class BehaviorNode(Node):
         ball = self.world.ball_relative
         if ball is None:
             return
-        direction = kick_direction(ball, self._goal_direction(now) or 0.0, self._obstacles_seen(now))
+        obstacles = self._obstacles_seen(now)
+        mouth = self._goal_mouth(now)
+        toward = aim_in_goal(ball, mouth, obstacles) if mouth else 0.0
+        direction = kick_direction(ball, toward, obstacles)
         goal = schemas.make(KickGoal, header=header("base_footprint"), ball_position=Point(x=ball[0], y=ball[1], z=0.0),
                             kick_direction=Quaternion(x=0.0, y=0.0, z=math.sin(direction / 2),
                                                       w=math.cos(direction / 2)),
