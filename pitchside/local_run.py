@@ -83,23 +83,21 @@ def server_process(http_port: int, telemetry_port: int, model: str, connect: lis
 # everything else lower. When the CPU runs short the robots' computers are slow, as on a real pitch, and the physics
 # keeps real time: robots whose walking and get-ups run on the wall clock fall over in a world that lags behind it.
 BEHIND_THE_WORLD_NICE = 5
-# A match is where the CPU runs short, and there the dashboard only watches: the robots lower still, the dashboard
-# lowest. Niceness weighs each thread, and a robot's process has a dozen busy ones: with everything at nice 5, a
-# 4 v 4 match on a 2-core machine short of CPU (192 % asked) left the world 65 % of a core and a real-time factor
-# down to 0.15; at 10 and 19, 75 % and 0.32 (same seed). The demo keeps its dashboard at 5: a browser beside it on
-# the same machine (software WebGL) would starve a dashboard at 19.
+# A match is where the CPU runs short: its robots lower still. Niceness weighs each thread, and a robot's process
+# has a dozen busy ones: with everything at nice 5, a 4 v 4 match on a 2-core machine short of CPU (192 % asked)
+# left the world 65 % of a core and a real-time factor down to 0.15; with the robots at 10 and the dashboard at 19,
+# 75 % and 0.32 (same seed). The dashboard stays at 5: at 19 it started so late on a busy machine that it missed
+# the first READY of a match (tests/test_match.py).
 ROBOTS_IN_MATCH_NICE = 10
-DASHBOARD_IN_MATCH_NICE = 19
 
 
 def world_first(processes: list[NodeProcess], world: str = "world", dashboard: str = "server",
-                others_nice: int = BEHIND_THE_WORLD_NICE, dashboard_nice: int = BEHIND_THE_WORLD_NICE
-                ) -> list[NodeProcess]:
-    """The world at the launcher's priority, the dashboard at ``dashboard_nice``, every other process at
+                others_nice: int = BEHIND_THE_WORLD_NICE) -> list[NodeProcess]:
+    """The world at the launcher's priority, the dashboard at BEHIND_THE_WORLD_NICE, every other process at
     ``others_nice``."""
     for process in processes:
         if process.name == dashboard:
-            process.nice = dashboard_nice
+            process.nice = BEHIND_THE_WORLD_NICE
         elif process.name != world:
             process.nice = others_nice
     return processes

@@ -17,7 +17,6 @@ from pathlib import Path
 
 import robots as descriptions
 from pitchside.local_run import (
-    DASHBOARD_IN_MATCH_NICE,
     ROBOTS_IN_MATCH_NICE,
     free_port,
     kernel_port,
@@ -135,7 +134,7 @@ def match_processes(plan: MatchPlan, endpoint: str, http_port: int, telemetry_po
             processes += robot_nodes(team.robot_id(player), [endpoint], plan.model, plan.nodes, extra,
                                      compose=plan.compose)
     processes.append(server_process(http_port, telemetry_port, plan.model, [], True, token, telemetry_key))
-    return world_first(processes, others_nice=ROBOTS_IN_MATCH_NICE, dashboard_nice=DASHBOARD_IN_MATCH_NICE)
+    return world_first(processes, others_nice=ROBOTS_IN_MATCH_NICE)
 
 
 def main(argv: list[str] | None = None) -> None:

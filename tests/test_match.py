@@ -17,7 +17,7 @@ import httpx
 import psutil
 import pytest
 
-from pitchside.local_run import DASHBOARD_IN_MATCH_NICE, ROBOTS_IN_MATCH_NICE
+from pitchside.local_run import BEHIND_THE_WORLD_NICE, ROBOTS_IN_MATCH_NICE
 from pitchside.match import GameControllerPlan, default_nodes, parse_nodes, robot_settings
 from robot_nodes.cm730.sim.lineup import Lineup, LineupError, parse_robots
 from robot_nodes.game_controller.simulator import SimulatedGame, SimulatedGameController
@@ -113,7 +113,7 @@ def test_lineup_and_robot_settings() -> None:
 
 def assert_world_first(processes: list[psutil.Process]) -> None:
     """The world (physics, referee, GameController) at the launcher's priority, every robot's nodes below it, the
-    dashboard lowest (pitchside/local_run.py ROBOTS_IN_MATCH_NICE, DASHBOARD_IN_MATCH_NICE)."""
+    dashboard between (pitchside/local_run.py ROBOTS_IN_MATCH_NICE, BEHIND_THE_WORLD_NICE)."""
     launcher = processes[0].nice()
     modules = {}
     for process in processes[1:]:
@@ -124,7 +124,7 @@ def assert_world_first(processes: list[psutil.Process]) -> None:
         if command[1:2] == ["-m"]:
             modules[command[2]] = nice
     assert modules.pop("robot_nodes.cm730.sim.match") == launcher, modules
-    assert modules.pop("server") == min(19, launcher + DASHBOARD_IN_MATCH_NICE), modules
+    assert modules.pop("server") == launcher + BEHIND_THE_WORLD_NICE, modules
     assert "robot_nodes.compose" in modules, modules
     assert set(modules.values()) == {launcher + ROBOTS_IN_MATCH_NICE}, modules
 
