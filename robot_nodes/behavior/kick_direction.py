@@ -14,7 +14,6 @@ from collections.abc import Sequence
 SIDE_ANGLE = math.radians(40.0)  # how far past a blocking robot the ball is sent
 CLEARANCE = 0.2  # m: a robot's centre nearer than this to the ball's line blocks it (half a Minibot + the ball)
 REACH = 1.2  # m beyond the ball: robots farther away are not in the way of a kick yet
-# a goalie stands on the line from the ball to the goal's centre (its job): a kick at the centre goes to its feet
 
 
 def blocked(ball: tuple[float, float], direction: float, obstacles: Sequence[tuple[float, float]]) -> bool:
@@ -63,6 +62,7 @@ def clearance(ball: tuple[float, float], target: tuple[float, float],
 def aim_in_goal(ball: tuple[float, float], mouth: Sequence[tuple[float, float]],
                 obstacles: Sequence[tuple[float, float]]) -> float:
     """The direction (rad) from the ball to the point of the goal mouth (``mouth``: points between the posts, the
-    middle first) whose line passes farthest from every robot seen; the middle when none is in the way."""
+    middle first) whose line passes farthest from every robot seen; the middle when none is in the way. A goalie
+    stands on the line from the ball to the goal's centre (its job): a kick at the centre goes to its feet."""
     best = max(mouth, key=lambda point: min(clearance(ball, point, obstacles), 1.0))
     return math.atan2(best[1] - ball[1], best[0] - ball[0])
