@@ -85,9 +85,9 @@ def server_process(http_port: int, telemetry_port: int, model: str, connect: lis
 BEHIND_THE_WORLD_NICE = 5
 # A match is where the CPU runs short: its robots lower still. Niceness weighs each thread, and a robot's process
 # has a dozen busy ones: with everything at nice 5, a 4 v 4 match on a 2-core machine short of CPU (192 % asked)
-# left the world 65 % of a core and a real-time factor down to 0.15; with the robots at 10 and the dashboard at 19,
-# 75 % and 0.32 (same seed). The dashboard stays at 5: at 19 it started so late on a busy machine that it missed
-# the first READY of a match (tests/test_match.py).
+# left the world 65 % of a core and a real-time factor down to 0.15; with the robots at 10, 70 % and 0.25; with the
+# dashboard at 19 as well, 75 % and 0.32 (same seed). The dashboard stays at 5: at 19 it started so late on a busy
+# machine that it missed the first READY of a match (tests/test_match.py).
 ROBOTS_IN_MATCH_NICE = 10
 
 
