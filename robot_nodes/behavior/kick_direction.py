@@ -16,27 +16,31 @@ CLEARANCE = 0.2  # m: a robot's centre nearer than this to the ball's line block
 REACH = 1.2  # m beyond the ball: robots farther away are not in the way of a kick yet
 
 
+def _along_across(ball: tuple[float, float], direction: float,
+                  obstacles: Sequence[tuple[float, float]]) -> list[tuple[float, float]]:
+    """Each robot's place on the line from the ball along ``direction``: (how far along it, how far beside it), m."""
+    c, s = math.cos(direction), math.sin(direction)
+    return [(c * (ox - ball[0]) + s * (oy - ball[1]), -s * (ox - ball[0]) + c * (oy - ball[1]))
+            for ox, oy in obstacles]
+
+
+def _in_way(along: float, across: float) -> bool:
+    return 0.0 < along < REACH and abs(across) < CLEARANCE
+
+
 def blocked(ball: tuple[float, float], direction: float, obstacles: Sequence[tuple[float, float]]) -> bool:
     """A robot stands on the line from the ball along ``direction``, within REACH beyond it."""
-    c, s = math.cos(direction), math.sin(direction)
-    for ox, oy in obstacles:
-        dx, dy = ox - ball[0], oy - ball[1]
-        along, across = c * dx + s * dy, -s * dx + c * dy
-        if 0.0 < along < REACH and abs(across) < CLEARANCE:
-            return True
-    return False
+    return any(_in_way(along, across) for along, across in _along_across(ball, direction, obstacles))
 
 
 def kick_direction(ball: tuple[float, float], toward: float, obstacles: Sequence[tuple[float, float]]) -> float:
     """``toward`` (the goal's direction, rad) if that line is clear; else SIDE_ANGLE to the side away from the
     nearest blocking robot, or to the other side; ``toward`` again when every line is blocked."""
-    if not blocked(ball, toward, obstacles):
+    in_way = [place for place in _along_across(ball, toward, obstacles) if _in_way(*place)]
+    if not in_way:
         return toward
-    c, s = math.cos(toward), math.sin(toward)
-    in_way = [(ox, oy) for ox, oy in obstacles if blocked(ball, toward, [(ox, oy)])]
-    nearest = min(in_way, key=lambda o: math.hypot(o[0] - ball[0], o[1] - ball[1]))
-    left_of_line = -s * (nearest[0] - ball[0]) + c * (nearest[1] - ball[1]) > 0.0
-    sides = (-SIDE_ANGLE, SIDE_ANGLE) if left_of_line else (SIDE_ANGLE, -SIDE_ANGLE)
+    _, nearest_across = min(in_way, key=lambda place: math.hypot(*place))
+    sides = (-SIDE_ANGLE, SIDE_ANGLE) if nearest_across > 0.0 else (SIDE_ANGLE, -SIDE_ANGLE)
     for side in sides:
         if not blocked(ball, toward + side, obstacles):
             return toward + side
@@ -46,17 +50,10 @@ def kick_direction(ball: tuple[float, float], toward: float, obstacles: Sequence
 def clearance(ball: tuple[float, float], target: tuple[float, float],
               obstacles: Sequence[tuple[float, float]]) -> float:
     """How far (m) the nearest robot between the ball and ``target`` stands from that line (inf: none there)."""
-    dx, dy = target[0] - ball[0], target[1] - ball[1]
-    length = math.hypot(dx, dy)
-    if length < 1e-6:
-        return math.inf
-    c, s = dx / length, dy / length
-    nearest = math.inf
-    for ox, oy in obstacles:
-        rx, ry = ox - ball[0], oy - ball[1]
-        if 0.0 < c * rx + s * ry < length:
-            nearest = min(nearest, abs(-s * rx + c * ry))
-    return nearest
+    length = math.hypot(target[0] - ball[0], target[1] - ball[1])
+    direction = math.atan2(target[1] - ball[1], target[0] - ball[0])
+    return min((abs(across) for along, across in _along_across(ball, direction, obstacles) if 0.0 < along < length),
+               default=math.inf)
 
 
 def aim_in_goal(ball: tuple[float, float], mouth: Sequence[tuple[float, float]],
