@@ -31,6 +31,7 @@ from robot_nodes.catalog import NODES
 from robot_nodes.cm730.sim.lineup import Lineup, LineupError, Team, parse_robots
 from robot_nodes.game_controller.packets import DATA_PORT, RETURN_PORT
 from robot_nodes.launch import COMPOSE_HELP, NodeProcess, process_groups
+from robot_nodes.runtime.clock import SIM_TIME_ENV
 from server.security.credentials import ENV_TOKEN, new_token
 from wire.command_line import CommandParser
 
@@ -110,6 +111,7 @@ class MatchPlan:
     cameras: int
     compose: str
     model: str
+    sim_time: bool = True
 
 
 def match_processes(plan: MatchPlan, endpoint: str, http_port: int, telemetry_port: int, gc: GameControllerPlan,
@@ -125,14 +127,20 @@ def match_processes(plan: MatchPlan, endpoint: str, http_port: int, telemetry_po
              "--initial-seconds", str(plan.initial_s), "--half-time-seconds", str(plan.half_time_s),
              "--seed", str(plan.seed), "--cameras", str(plan.cameras), "--connect", endpoint,
              "--params", str(descriptions.params_file(plan.model))]
+    if plan.sim_time:
+        world.append("--sim-time")
     if gc.http_port is not None:
         world += ["--gc-http-port", str(gc.http_port)]
     processes = [NodeProcess("world", world)]
     for team in lineup.teams:
         for player in range(1, team.players + 1):
             extra = robot_settings(team, player, gc, mitecom_ports, telemetry_port, telemetry_key)
-            processes += robot_nodes(team.robot_id(player), [endpoint], plan.model, plan.nodes, extra,
-                                     compose=plan.compose)
+            robot = robot_nodes(team.robot_id(player), [endpoint], plan.model, plan.nodes, extra,
+                                compose=plan.compose)
+            for process in robot:
+                if plan.sim_time:
+                    process.env[SIM_TIME_ENV] = "1"
+            processes += robot
     processes.append(server_process(http_port, telemetry_port, plan.model, [], True, token, telemetry_key))
     return world_first(processes, others_nice=ROBOTS_IN_MATCH_NICE)
 
@@ -168,6 +176,9 @@ def main(argv: list[str] | None = None) -> None:
                         help=f"external: the UDP port the GameController hears return packets on (default "
                              f"{RETURN_PORT})")
     parser.add_argument("--model", default="minibot")
+    parser.add_argument("--wall-clock", action="store_true",
+                        help="the robots' nodes run on the wall clock instead of the simulation's (a world that falls "
+                             "behind real time then breaks walking and get-ups instead of slowing the game)")
     args = parser.parse_args(argv)
     try:
         lineup = Lineup.of((args.teams[0], args.teams[1]), parse_robots(args.robots))
@@ -179,7 +190,8 @@ def main(argv: list[str] | None = None) -> None:
         parser.error(f"--half-minutes must be in (0, 60], got {args.half_minutes}")
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s [match] %(message)s")
     plan = MatchPlan(lineup, nodes, max(1, round(args.half_minutes * 60)), args.ready_seconds, args.set_seconds,
-                     args.initial_seconds, args.half_time_seconds, args.seed, args.cameras, args.compose, args.model)
+                     args.initial_seconds, args.half_time_seconds, args.seed, args.cameras, args.compose, args.model,
+                     sim_time=not args.wall_clock)
     endpoint = f"tcp/127.0.0.1:{free_port(7447)}"
     http_port = free_port(args.port)
     telemetry_port = kernel_port()  # ports inside the run: the kernel's free ones (local_run.kernel_port)

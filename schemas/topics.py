@@ -81,6 +81,9 @@ _TABLE: tuple[Topic, ...] = (
               Priority.PERCEPTION),
         Topic("position", _HL + "Position2D", "own position on the field"),
         Topic("ground_truth", "pitchside_msgs/msg/GroundTruth", "simulation ground truth poses"),
+        Topic("clock", "rosgraph_msgs/msg/Clock",
+              "the simulation's time, every 10 ms of it; simulation -> the robot's nodes when they follow simulated "
+              "time (ROS 2's use_sim_time)"),
         Topic("diagnostics", "diagnostic_msgs/msg/DiagnosticArray", "node health, every node -> dashboard"),
         Topic("rosout", "rcl_interfaces/msg/Log",
               "every node's log records (INFO and above, rate-limited per node); every node -> dashboard, recordings",

@@ -10,6 +10,8 @@ from datetime import datetime
 GC_URL = re.compile(r"GameController (http://127\.0\.0\.1:\d+)/status")  # where a match says its GC's API is
 LINE = re.compile(r"^(\d{4}-\d\d-\d\d \d\d:\d\d:\d\d,\d{3}) \w+ \[pitchside\.(\w+)\.(\w+)\] (.*)$")
 HCM_CHANGE = re.compile(r"^(\w+) -> (\w+) ")
+SIM_TIME = re.compile(r" at sim (\d+(?:\.\d+)?) s$")  # an HCM on simulated time says when, in it
+REFEREE_TIME = re.compile(r"referee at (\d+(?:\.\d+)?) s:")
 UP_AGAIN = {"CONTROLLABLE", "WALKING"}
 PENALISED = {"PENALTY_ANIMATION_IN", "PENALTY"}
 
@@ -47,19 +49,28 @@ class MatchFigures:
 
 
 def read_output(text: str, figures: MatchFigures) -> None:
-    """Counts from the match's log lines: the kick node's kicks, the HCM's falls and get-ups, the referee's calls."""
+    """Counts from the match's log lines: the kick node's kicks, the HCM's falls and get-ups, the referee's calls.
+    Times down are in the simulation's seconds when the HCMs follow it (their lines say "at sim T s"), else in the
+    wall clock's of the lines' stamps."""
     down_since: dict[str, float] = {}
     t = 0.0
-    for line in text.splitlines():
+    lines = text.splitlines()
+    simulated = any(SIM_TIME.search(line) for line in lines)
+    for line in lines:
         if "referee at" in line and ": removed team" in line:
             figures.penalties += 1
         if "referee at" in line and ": placed team" in line:
             figures.placed += 1
+        if simulated and (called := REFEREE_TIME.search(line)):
+            t = max(t, float(called.group(1)))  # the simulation's time goes on while a robot lies
         found = LINE.match(line)
         if found is None:
             continue
         stamp, robot, node, message = found.groups()
-        t = datetime.strptime(stamp, "%Y-%m-%d %H:%M:%S,%f").timestamp()
+        if not simulated:
+            t = datetime.strptime(stamp, "%Y-%m-%d %H:%M:%S,%f").timestamp()
+        elif at := SIM_TIME.search(message):
+            t = max(t, float(at.group(1)))
         if node == "kick" and message.startswith("kick with the"):
             figures.kicks += 1
         elif node == "hcm" and (change := HCM_CHANGE.match(message)):

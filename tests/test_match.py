@@ -80,6 +80,27 @@ class GameWatch(DashboardObserver):
         return newest is not None and condition(newest)
 
 
+def test_times_down_are_counted_in_the_simulations_seconds_when_the_robots_follow_it() -> None:
+    """Wall stamps a minute apart, simulated times 12 s apart: a slow world's robot lay 12 s, not 60."""
+    output = "\n".join([
+        "2026-11-27 16:00:00,000 INFO [pitchside.home1.hcm] CONTROLLABLE -> FALLING (falling) at sim 30.00 s",
+        "2026-11-27 16:00:01,000 INFO [pitchside.home1.hcm] FALLING -> FALLEN (fallen) at sim 30.40 s",
+        "2026-11-27 16:00:02,000 INFO [pitchside.home1.hcm] FALLEN -> GETTING_UP (get up) at sim 30.60 s",
+        "2026-11-27 16:00:20,000 INFO [pitchside.home1.kick] kick with the left foot: ball at (0.3, 0.0)",
+        "2026-11-27 16:01:00,000 INFO [pitchside.home1.hcm] GETTING_UP -> CONTROLLABLE (up) at sim 42.00 s",
+        "2026-11-27 16:01:01,000 INFO [pitchside.away2.hcm] WALKING -> FALLING (falling) at sim 42.50 s",
+        "2026-11-27 16:02:00,000 INFO [match world] referee at 55.5 s: removed team 2 player 2 (lay 20 s)",
+    ])
+    play = MatchFigures(seed=0)
+    read_output(output, play)
+    assert (play.falls, play.get_ups, play.kicks, play.penalties) == (2, 1, 1, 1)
+    assert play.fall_to_up_s == pytest.approx([12.0])
+    assert play.still_down_s == pytest.approx([13.0])  # until the referee's last call, in simulated time
+    wall = MatchFigures(seed=0)
+    read_output(output.replace(" at sim", " at wall"), wall)  # an HCM on the wall clock: the lines' stamps
+    assert wall.fall_to_up_s == pytest.approx([60.0])
+
+
 def test_lineup_and_robot_settings() -> None:
     assert parse_robots("4v4") == (4, 4) and parse_robots("2V3") == (2, 3)
     for bad in ("4", "0v1", "12v1", "av b"):

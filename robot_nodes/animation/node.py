@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import math
 import os
-import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -143,7 +142,7 @@ class AnimationNode(Node):
             return str(exc)
         if running is not None and not running.handle.done and hcm and not running.hcm:
             self.pub.publish(self._ended(running))  # the HCM's goal takes over: the external stream is over
-        playback = Playback(handle, anim, source, hcm, time.monotonic())
+        playback = Playback(handle, anim, source, hcm, self.now())
         if self.joint_positions is not None:
             self._begin(playback)
         self.playback = playback
@@ -179,7 +178,7 @@ class AnimationNode(Node):
         if playback.handle.done:  # ended by the action server (preempted) or by cancel
             self._end(playback)
             return
-        now = time.monotonic()
+        now = self.now()
         if playback.player is None and not self._start_when_ready(playback, now):
             return
         player = playback.player

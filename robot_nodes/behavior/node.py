@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import math
 import re
-import time
 from dataclasses import dataclass
 from typing import Any
 
@@ -176,10 +175,10 @@ class BehaviorNode(Node):
             self.tick()
 
     def on_ball(self, msg: BallRelative) -> None:
-        self.world.on_ball(msg, time.monotonic())
+        self.world.on_ball(msg, self.now())
 
     def on_position(self, msg: Position2D) -> None:
-        self.world.on_position(msg, time.monotonic())
+        self.world.on_position(msg, self.now())
 
     def on_odometry(self, msg: Odometry) -> None:
         q = msg.pose.pose.orientation
@@ -187,7 +186,7 @@ class BehaviorNode(Node):
                                heading(q.x, q.y, q.z, q.w))
 
     def on_team_data(self, msg: TeamData) -> None:
-        self.world.on_team_data(msg, time.monotonic())
+        self.world.on_team_data(msg, self.now())
 
     def on_parameters_changed(self, changed: dict[str, Any]) -> None:
         p = self.params
@@ -201,7 +200,7 @@ class BehaviorNode(Node):
 
     # -- the decision -------------------------------------------------------------------------------------
     def tick(self) -> None:
-        now = time.monotonic()
+        now = self.now()
         self.role = self._role(now)
         self._refresh(now)
         for _ in range(4):  # follow a chain at once (HCM_BUSY -> PLAYING -> the role's state)
@@ -368,7 +367,7 @@ class BehaviorNode(Node):
         return [(float(o.position.x), float(o.position.y)) for o in msg.obstacles]
 
     def _send_kick(self) -> None:
-        now = time.monotonic()
+        now = self.now()
         ball = self.world.ball_relative
         if ball is None:
             return
@@ -382,18 +381,18 @@ class BehaviorNode(Node):
                             kick_speed=1.0, unstable=False)
 
         def on_result(status: GoalStatus, _result: Any) -> None:
-            self.kick_ended_at = time.monotonic()
+            self.kick_ended_at = self.now()
             if status is GoalStatus.SUCCEEDED:
                 self.kicks += 1
                 self.set_diagnostic("kicks", self.kicks)
             else:
-                self.kick_retry_at = time.monotonic() + self.params.kick_retry_s
+                self.kick_retry_at = self.now() + self.params.kick_retry_s
             self.tick()
 
         def on_verdict(handle: ClientGoal) -> None:
             if not handle.accepted:
                 self.set_diagnostic("kick_refused", handle.reason)
-                self.kick_retry_at = time.monotonic() + self.params.kick_retry_s
+                self.kick_retry_at = self.now() + self.params.kick_retry_s
                 self.tick()
 
         self.kick_goal = self.kick_client.send_goal(goal, on_result=on_result, on_verdict=on_verdict, timeout=2.0)
@@ -452,7 +451,7 @@ class BehaviorNode(Node):
 
     def publish_status(self) -> None:
         """strategy (the role, for the teammates) and head_mode on every change and each second; the graph rarer."""
-        now = time.monotonic()
+        now = self.now()
         ball = self.world.ball(now)
         side = Strategy.SIDE_MIDDLE
         if ball is not None:
@@ -464,11 +463,11 @@ class BehaviorNode(Node):
             self.head_pub.publish(schemas.make(HeadMode, head_mode=self.head_mode))
         self.set_diagnostic("role", ROLE_NAMES.get(self.role, str(self.role)))
         # the graph (about 11 kB: 15 states, 162 transitions) on every change and every GRAPH_EVERY_S besides
-        if time.monotonic() - self.graph_sent_at >= GRAPH_EVERY_S:
+        if self.now() - self.graph_sent_at >= GRAPH_EVERY_S:
             self.publish_graph()
 
     def publish_graph(self) -> None:
-        self.graph_sent_at = time.monotonic()
+        self.graph_sent_at = self.now()
         states, transitions = self.machine.graph()
         history = list(self.machine.history)
         self.graph_pub.publish(schemas.make(

@@ -9,7 +9,6 @@ packet is made good by the next one.
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass
 from typing import Any
 
@@ -162,7 +161,7 @@ class GameControllerNode(Node):
         self.packets += 1
         self.gc_address = sender
         self.last_data = packet
-        self._last_packet_time = time.monotonic()
+        self._last_packet_time = self.now()
         self._keepalive_timer.resume(at_once=False)
         self._return_timer.resume(at_once=False)
         if fields != self._last_fields:
@@ -175,11 +174,11 @@ class GameControllerNode(Node):
             return
         self.gamestate_pub.publish(schemas.make(GameState, header=header(),
                                                 **self._last_fields))
-        self._last_publish_time = time.monotonic()
+        self._last_publish_time = self.now()
 
     def _keepalive(self) -> None:
         """Republish an unchanged state so late joiners learn it; stop once the GC is lost."""
-        now = time.monotonic()
+        now = self.now()
         if self._last_fields is None or now - self._last_packet_time > self.params.gc_timeout_s:
             self._idle()
             return
@@ -218,7 +217,7 @@ class GameControllerNode(Node):
     def _send_return(self) -> None:
         if self.gc_address is None or self._udp is None:
             return
-        if time.monotonic() - self._last_packet_time > self.params.gc_timeout_s:
+        if self.now() - self._last_packet_time > self.params.gc_timeout_s:
             return
         message = self.return_message()
         packet = build_return_packet(self.params.team_number, self.params.player_number, message)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import time
+import threading
 from dataclasses import dataclass
 from typing import Any
 
@@ -26,6 +26,8 @@ from schemas.messages import (
 )
 from schemas.std import Bool, Imu, JointState, JointTrajectory
 from wire.actions import ClientGoal
+
+SHUTDOWN_DEADLINE_S = 4.0  # wall seconds from a stop request to the process's end, sat down or not
 
 
 @dataclass
@@ -69,7 +71,7 @@ class HcmNode(Node):
     Params = HcmParams
 
     def setup(self) -> None:
-        self.bb = Blackboard(now=time.monotonic())
+        self.bb = Blackboard(now=self.now())
         self.fall_checker = FallChecker()
         self.machine = HcmStateMachine(actions=self, animations=self._animation_names(),
                                        penalty_torque_off=self.params.penalty_torque_off)
@@ -78,7 +80,7 @@ class HcmNode(Node):
         self.last_imu = -math.inf
         self.last_joints = -math.inf
         self.last_joint_positions: np.ndarray | None = None
-        self.last_motion = time.monotonic()
+        self.last_motion = self.now()
         self.last_external_animation = -math.inf
         self.external_animation_over = True
         self.last_walk_goal = -math.inf
@@ -163,7 +165,7 @@ class HcmNode(Node):
             self.step()
 
     def on_goals(self, source: GoalSource, trajectory: JointTrajectory) -> None:
-        self.last_motion = time.monotonic()
+        self.last_motion = self.now()
         if source is GoalSource.WALKING:
             self.last_walk_goal = self.last_motion
         if self.machine.state is HcmState.MOTOR_OFF:
@@ -172,7 +174,7 @@ class HcmNode(Node):
             self._forward(source, trajectory)
 
     def on_animation(self, msg: Animation) -> None:
-        now = time.monotonic()
+        now = self.now()
         if msg.hcm:
             if self.own_goal is not None and passes(GoalSource.HCM_ANIMATION, self.machine.state):
                 self._forward(GoalSource.HCM_ANIMATION, msg.position)
@@ -207,7 +209,7 @@ class HcmNode(Node):
     # -- the decision -------------------------------------------------------------------------------------
     def step(self) -> None:
         self.take_sensors()
-        now = time.monotonic()
+        now = self.now()
         bb, p, checker = self.bb, self.params, self.fall_checker
         bb.now = now
         bb.hardware_ok = (now - self.last_imu < p.imu_timeout_s and now - self.last_joints < p.motor_timeout_s
@@ -231,8 +233,9 @@ class HcmNode(Node):
             changed = True
             if self.machine.state is not HcmState.MOTOR_OFF:
                 bb.motion_requested = False
-            self.log.info("%s -> %s (%s)", before.value, self.machine.state.value,
-                          self.machine.history[-1].condition)
+            self.log.info("%s -> %s (%s)%s", before.value, self.machine.state.value,
+                          self.machine.history[-1].condition,
+                          f" at sim {self.now():.2f} s" if self.clock.simulated else "")
             self.publish_state()  # every state of a chain goes out (FALLING -> FALLEN -> GETTING_UP)
         if changed:
             self.publish_graph()
@@ -325,13 +328,12 @@ class HcmNode(Node):
         """First SHUTDOWN with its animation, then HCM_OFF, then the process ends (at most 4 s later)."""
         if self._shutdown_requested_at is not None:
             return
-        self._shutdown_requested_at = time.monotonic()
+        self._shutdown_requested_at = self.now()
         self.step()
-        self.timer(2.0, self._shutdown_deadline)
-
-    def _shutdown_deadline(self) -> None:
-        if self._shutdown_requested_at is not None and time.monotonic() - self._shutdown_requested_at > 4.0:
-            self.shutdown()
+        # on the wall clock: a simulated clock stands still once the world has stopped
+        deadline = threading.Timer(SHUTDOWN_DEADLINE_S, self.loop.call_soon, (self.shutdown,))
+        deadline.daemon = True
+        deadline.start()
 
     def on_shutdown(self) -> None:
         self.torque(False)

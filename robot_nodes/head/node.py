@@ -12,7 +12,6 @@ through (falling, animations, penalty), and never faster than ``rate_hz``.
 from __future__ import annotations
 
 import math
-import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -79,7 +78,7 @@ class HeadNode(Node):
         p = self.params
         self.geometry = HeadGeometry.from_urdf(Path(p.urdf) if p.urdf else robots.urdf(p.model))
         self.mode = HeadMode.BALL_MODE
-        self.mode_since = time.monotonic()
+        self.mode_since = self.now()
         self.robot_state: int | None = None
         self.ball: tuple[float, float] | None = None  # last seen, base_footprint
         self.ball_seen_at = -math.inf
@@ -109,7 +108,7 @@ class HeadNode(Node):
         mode = int(msg.head_mode)
         if mode != self.mode:
             self.mode = mode
-            self.mode_since = time.monotonic()
+            self.mode_since = self.now()
             self.pattern_index = None
             self.sent = None  # a new mode sends its first goal at once
             self.set_diagnostic("mode", mode)
@@ -121,7 +120,7 @@ class HeadNode(Node):
 
     def on_ball(self, msg: BallRelative) -> None:
         seen = (float(msg.ball_relative.x), float(msg.ball_relative.y))
-        now = time.monotonic()
+        now = self.now()
         # a noisy vision makes a jittering head: smooth while the ball stays where it was, jump where it moved
         old = self.ball
         if old is not None and now - self.ball_seen_at < self.params.ball_lost_s and \
@@ -133,11 +132,11 @@ class HeadNode(Node):
 
     def on_goal(self, msg: GoalRelative) -> None:
         self.goal = ((msg.left_post.x + msg.right_post.x) / 2, (msg.left_post.y + msg.right_post.y) / 2)
-        self.goal_seen_at = time.monotonic()
+        self.goal_seen_at = self.now()
 
     def on_position(self, msg: Position2D) -> None:
         self.position = team_frame(float(msg.pose.x), float(msg.pose.y), float(msg.pose.theta), self.params.own_half)
-        self.position_at = time.monotonic()
+        self.position_at = self.now()
 
     def _head_position(self) -> tuple[float, float] | None:
         msg: JointState | None = self.joints.message
@@ -168,7 +167,7 @@ class HeadNode(Node):
 
     # -- the decision -------------------------------------------------------------------------------------
     def tick(self) -> None:
-        now = time.monotonic()
+        now = self.now()
         p = self.params
         mode = self.mode
         if mode in (HeadMode.BALL_MODE, HeadMode.BALL_GOAL_TRACKING):
@@ -218,7 +217,7 @@ class HeadNode(Node):
     def _look(self, pan: float, tilt: float, speed: float) -> None:
         """Sends the goal if it differs from the last one sent by more than resend_deg (or every second)."""
         pan, tilt = self.geometry.clamp(pan, tilt, math.radians(self.params.limit_margin_deg))
-        now = time.monotonic()
+        now = self.now()
         if self.sent is not None and now - self.sent_at < 1.0 and \
                 math.hypot(pan - self.sent[0], tilt - self.sent[1]) < math.radians(self.params.resend_deg):
             return

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import enum
 import math
-import time
 from dataclasses import dataclass
 from typing import Any
 
@@ -117,7 +116,7 @@ class KickNode(Node):
         if self.odometry is None or self.goal is None or self.phase is Phase.KICKING:
             return
         x, y = self.odometry.absolute(float(msg.ball_relative.x), float(msg.ball_relative.y))
-        self.ball.add(time.monotonic(), x, y)
+        self.ball.add(self.now(), x, y)
 
     def on_robot_state(self, msg: RobotControlState) -> None:
         self.robot_state = int(msg.state)
@@ -149,12 +148,12 @@ class KickNode(Node):
         # the goal's ball and direction are relative to the robot now: keep them in the odometry frame
         self.ball = BallTrack()
         here = self.odometry
-        self.ball.add(time.monotonic(), *here.absolute(bx, by))
+        self.ball.add(self.now(), *here.absolute(bx, by))
         self.direction = wrap(here.yaw + direction)
         self.foot = choose_foot(here, here.absolute(bx, by), self.direction)
         self.goal = handle
         self.tries = 0
-        self.started = time.monotonic()
+        self.started = self.now()
         self._enter(Phase.APPROACH)
         self.tick_timer.resume()
         self.log.info("kick with the %s foot: ball at (%.2f, %.2f), direction %.0f deg", self.foot, bx, by,
@@ -173,7 +172,7 @@ class KickNode(Node):
         if goal is None or goal.done:
             self.tick_timer.pause()
             return
-        now = time.monotonic()
+        now = self.now()
         p = self.params
         if now - self.started > p.timeout_s:
             self._finish(goal, GoalStatus.ABORTED, KickResult.RESULT_ABORTED, f"not done within {p.timeout_s} s")
@@ -272,9 +271,9 @@ class KickNode(Node):
                                           for t, x, y in self.ball.sightings if t >= self.phase_since)
 
     def _enter(self, phase: Phase) -> None:
-        self.log.debug("kick phase %s after %.1f s", phase.value, time.monotonic() - self.started)
+        self.log.debug("kick phase %s after %.1f s", phase.value, self.now() - self.started)
         self.phase = phase
-        self.phase_since = time.monotonic()
+        self.phase_since = self.now()
         self.set_diagnostic("phase", phase.value)
 
     def _walk(self, vx: float, vy: float, vyaw: float) -> None:

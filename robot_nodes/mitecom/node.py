@@ -9,7 +9,6 @@ during competition".
 from __future__ import annotations
 
 import math
-import time
 from collections import deque
 from dataclasses import dataclass, field
 from typing import Any
@@ -120,13 +119,13 @@ class MitecomNode(Node):
 
     # -- inputs ---------------------------------------------------------------------------------------------
     def _remember(self, topic: str, msg: Message) -> None:
-        self.latest[topic] = (time.monotonic(), msg)
+        self.latest[topic] = (self.now(), msg)
 
     def _fresh(self, topic: str, max_age: float | None = None) -> Any:  # Any: the topic's own class
         item = self.latest.get(topic)
         if item is None:
             return None
-        if max_age is not None and time.monotonic() - item[0] > max_age:
+        if max_age is not None and self.now() - item[0] > max_age:
             return None
         return item[1]
 
@@ -260,7 +259,7 @@ class MitecomNode(Node):
         if report.robot_id == self.params.player_id:
             return  # our own message, back through broadcast or a peer list that names us
         is_new = report.robot_id not in self.mates
-        now = time.monotonic()
+        now = self.now()
         self.mates[report.robot_id] = (now, report)
         self.links.setdefault(report.robot_id, MateLink(now, now)).heard(now, self.params.loss_window_s)
         self.received += 1
@@ -269,7 +268,7 @@ class MitecomNode(Node):
             self._publish_team_data()
 
     def _publish_team_data(self) -> None:
-        now = time.monotonic()
+        now = self.now()
         timeout = self.params.teammate_timeout_s
         self.mates = {rid: item for rid, item in self.mates.items() if now - item[0] <= timeout}
         self.set_diagnostic("teammates", len(self.mates))
@@ -278,7 +277,7 @@ class MitecomNode(Node):
 
     def _publish_team_comm(self) -> None:
         p = self.params
-        now = time.monotonic()
+        now = self.now()
         self.links = {rid: link for rid, link in self.links.items() if now - link.newest <= p.status_memory_s}
         ids = sorted(self.links)
         for rid in ids:

@@ -1,15 +1,18 @@
-"""The node's event loop: Zenoh threads hand work in, one thread runs it, timers keep their rate."""
+"""The node's event loop: Zenoh threads hand work in, one thread runs it, timers keep their rate (in the time of
+the node's clock: the wall clock, or the simulation's, robot_nodes/runtime/clock.py)."""
 
 from __future__ import annotations
 
 import heapq
 import itertools
 import logging
+import math
 import queue
 import threading
-import time
 from collections.abc import Callable
 from typing import Any
+
+from robot_nodes.runtime.clock import WALL_CLOCK, Clock
 
 log = logging.getLogger(__name__)
 
@@ -24,7 +27,7 @@ class Timer:
         self.period = period
         self.callback = callback
         self.name = name
-        self.next_due = time.monotonic() + period
+        self.next_due = loop.clock.now() + period
         self.cancelled = False
         self.active = True
         self.ticks = 0
@@ -46,14 +49,16 @@ class Timer:
         if self.active or self.cancelled:
             return
         self.active = True
-        self.next_due = time.monotonic() + (0.0 if at_once else self.period)
+        self.next_due = self._loop.clock.now() + (0.0 if at_once else self.period)
         self._loop.add_timer(self)
 
 
 class EventLoop:
     """Runs callbacks one at a time on one thread, so node code needs no locks."""
 
-    def __init__(self, on_error: Callable[[str, BaseException], None]) -> None:
+    def __init__(self, on_error: Callable[[str, BaseException], None], clock: Clock = WALL_CLOCK) -> None:
+        self.clock = clock
+        self.next_due = math.inf  # of its first timer, for a simulated clock to wake the loop (clock.py)
         self._queue: queue.SimpleQueue[tuple[Callable[..., Any], tuple[Any, ...]] | None] = queue.SimpleQueue()
         self._timers: list[tuple[float, int, Timer]] = []
         self._counter = itertools.count()
@@ -70,6 +75,10 @@ class EventLoop:
         timer.entry = next(self._counter)
         heapq.heappush(self._timers, (timer.next_due, timer.entry, timer))
 
+    def wake(self) -> None:
+        """Thread-safe: look at the timers again (the simulated clock passed the next one)."""
+        self._queue.put(_WAKE)
+
     def stop(self) -> None:
         self._stop.set()
         self._queue.put(None)
@@ -81,20 +90,24 @@ class EventLoop:
     def run(self) -> None:
         self.thread = threading.current_thread()
         get = self._queue.get
-        while not self._stop.is_set():
-            timeout = self._run_due_timers()
-            try:
-                item = get(timeout=timeout)
-            except queue.Empty:
-                continue
-            while item is not None:
-                self._call(item[0], item[1])
+        self.clock.watch(self)
+        try:
+            while not self._stop.is_set():
+                timeout = self._run_due_timers()
                 try:
-                    item = self._queue.get_nowait()
+                    item = get(timeout=timeout)
                 except queue.Empty:
-                    break
-                if self._stop.is_set():
-                    return
+                    continue
+                while item is not None:
+                    self._call(item[0], item[1])
+                    try:
+                        item = self._queue.get_nowait()
+                    except queue.Empty:
+                        break
+                    if self._stop.is_set():
+                        return
+        finally:
+            self.clock.unwatch(self)
 
     def _call(self, fn: Callable[..., Any], args: tuple[Any, ...]) -> None:
         try:
@@ -103,8 +116,11 @@ class EventLoop:
             self._on_error(getattr(fn, "__qualname__", repr(fn)), exc)
 
     def _run_due_timers(self) -> float | None:
-        """Fires due timers; returns seconds until the next one (None: no timer, wait for work or stop())."""
-        now = time.monotonic()
+        """Fires due timers; returns wall seconds until the next one (None: no timer, or a simulated clock that
+        wakes the loop when it gets there; wait for work or stop())."""
+        clock = self.clock
+        slack = clock.slack
+        now = clock.now() + slack
         while self._timers and self._timers[0][0] <= now:
             _, entry, timer = heapq.heappop(self._timers)
             if entry != timer.entry:
@@ -115,11 +131,20 @@ class EventLoop:
             self._call(timer.callback, ())
             timer.ticks += 1
             timer.next_due += timer.period
-            now = time.monotonic()
+            now = clock.now() + slack
             if timer.next_due < now - timer.period:  # fell behind by more than a period: skip, don't burst
                 timer.next_due = now + timer.period
             if timer.active and not timer.cancelled:  # the callback may have paused or cancelled it
                 self.add_timer(timer)
         if not self._timers:
+            self.next_due = math.inf
             return None
-        return max(0.0, self._timers[0][0] - time.monotonic())
+        self.next_due = self._timers[0][0]  # before the clock is read again: see SimClock
+        return clock.wall_timeout(self.next_due)
+
+
+def _nothing() -> None:
+    """What wake() puts in the queue: the loop looks at its timers after it."""
+
+
+_WAKE: tuple[Callable[..., Any], tuple[Any, ...]] = (_nothing, ())

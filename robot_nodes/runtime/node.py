@@ -10,7 +10,6 @@ import logging
 import math
 import signal
 import threading
-import time
 import traceback
 import typing
 from collections.abc import Callable
@@ -22,6 +21,7 @@ import zenoh
 
 import schemas
 from robot_nodes.runtime.action_server import ActionServer, ServerGoal
+from robot_nodes.runtime.clock import WALL_CLOCK, Clock, RobotSimClock, sim_time_wanted
 from robot_nodes.runtime.graph import GraphAnnouncer
 from robot_nodes.runtime.local_bus import LocalBus, RemoteInterest, freeze, thawed
 from robot_nodes.runtime.loop import EventLoop, Timer
@@ -151,6 +151,7 @@ class Subscription:
         self.max_hz = max_hz
         self._last_taken = -math.inf
         self._node = node
+        self._clock = node.clock
         self._call_soon = node.loop.call_soon
         self._check_frozen = node.local_bus.check_frozen
         node.local_bus.add(self)
@@ -167,7 +168,7 @@ class Subscription:
 
     def _taken(self) -> bool:
         """max_hz: whether this message is handed on (the caller asks only when a rate is set)."""
-        now = time.monotonic()
+        now = self._clock.now()
         if now - self._last_taken < self._min_interval:
             self.skipped += 1
             return False
@@ -258,7 +259,7 @@ class LatestMessage(Subscription):
     """The newest message of one of this robot's topics, kept without waking the node: for a node that reads a
     topic when it ticks (walking reads the IMU each cycle) rather than acting on every message.
 
-    ``message`` is None until the first arrives; ``received_at`` is when it arrived (time.monotonic)."""
+    ``message`` is None until the first arrives; ``received_at`` is when it arrived (``Node.now()``)."""
 
     def __init__(self, node: Node, topic: str, robot: str) -> None:
         super().__init__(node, topic, _kept, robot)
@@ -285,7 +286,7 @@ class LatestMessage(Subscription):
         self._keep(msg)
 
     def _keep(self, msg: Message) -> None:
-        self.message, self.received_at = msg, time.monotonic()  # one reference: atomic for the reading loop
+        self.message, self.received_at = msg, self._clock.now()  # one reference: atomic for the reading loop
         self.count += 1
 
 
@@ -298,7 +299,8 @@ class Node:
 
     Subclasses set ``name`` and ``Params`` (a dataclass of ``param`` fields), and build their
     publishers, subscriptions and timers in ``setup``. All callbacks run on the node's one loop
-    thread, so node code needs no locks.
+    thread, so node code needs no locks. Its timers and ``now()`` follow its clock: the wall clock, or its robot's
+    simulated clock when the process simulates (robot_nodes/runtime/clock.py).
     """
 
     name: ClassVar[str] = "node"
@@ -311,14 +313,19 @@ class Node:
         bus: BusConfig | zenoh.Session | None = None,
         params_file: Path | None = None,
         overrides: dict[str, Any] | None = None,
+        clock: Clock | None = None,
     ) -> None:
         self.robot_id = robot_id
         # one logger per node instance (two robots' HCMs in one process log apart); its records also go on rosout
         self.log = logging.getLogger(f"pitchside.{robot_id}.{self.name}")
         self._own_session = not isinstance(bus, zenoh.Session)
         self.session: zenoh.Session = bus if isinstance(bus, zenoh.Session) else open_session(bus)
-        self.loop = EventLoop(self._on_callback_error)
         self.local_bus = LocalBus.join(self.session)  # nodes of this process hand messages over as objects
+        self._robot_clock: RobotSimClock | None = None
+        if clock is None and sim_time_wanted():
+            clock = self._robot_clock = RobotSimClock.join(self.local_bus, robot_id)
+        self.clock: Clock = clock or WALL_CLOCK
+        self.loop = EventLoop(self._on_callback_error, self.clock)
         self.parameters = ParameterStore(self.name, self.Params, params_file, overrides)
         self.params = self.parameters.values
         self.parameters.on_change(lambda changed: self.loop.call_soon(self.on_parameters_changed, changed))
@@ -330,7 +337,7 @@ class Node:
         self.last_error = ""
         self._diag_values: dict[str, str] = {}
         self._thread: threading.Thread | None = None
-        self._started = time.monotonic()
+        self._started = self.clock.now()
         self._closed = False
         self._node_graph = GraphAnnouncer(self.session, robot_id, self.name)  # its entries in the node graph
         self._diag_pub = self.publisher("diagnostics")
@@ -349,6 +356,10 @@ class Node:
             raise
 
     # -- for subclasses -------------------------------------------------------------------------------
+    def now(self) -> float:
+        """Seconds of the node's clock (monotonic; simulated time in a simulation): for ages and durations."""
+        return self.clock.now()
+
     def setup(self) -> None:
         """Declare publishers, subscriptions and timers here."""
 
@@ -483,6 +494,8 @@ class Node:
             with contextlib.suppress(Exception):
                 declared.close() if hasattr(declared, "close") else declared.undeclare()
         self._node_graph.close()
+        if self._robot_clock is not None:
+            self._robot_clock.leave()
         self.local_bus.leave()
         if self._own_session:
             self.session.close()
@@ -493,7 +506,7 @@ class Node:
         self.log.debug("".join(traceback.format_exception(exc)))
 
     def _publish_diagnostics(self) -> None:
-        uptime = time.monotonic() - self._started
+        uptime = self.clock.now() - self._started
         values = {
             "uptime_s": f"{uptime:.1f}",
             "errors": str(self.errors),

@@ -55,7 +55,7 @@ class WalkingNode(Node):
         self.robot_state: int | None = None
         self.paused = False
         self.last_active: bool | None = None
-        self.last_tick = time.monotonic()
+        self.last_tick = self.now()
         self.last_odometry = -math.inf
         self.cycle_s = 0.0
         self.goals_pub = self.publisher("walk_motor_goals")
@@ -115,7 +115,7 @@ class WalkingNode(Node):
         self.publish_active()
 
     def tick(self) -> None:
-        now = time.monotonic()
+        now = self.now()
         dt, self.last_tick = now - self.last_tick, now
         started = time.perf_counter()
         was_stepping = self.engine.stepping

@@ -10,7 +10,7 @@ from __future__ import annotations
 import logging
 import signal
 import threading
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -18,6 +18,7 @@ from robot_nodes.cm730.node import Cm730Node
 from robot_nodes.cm730.sim import SimRunner, SimWorld
 from robot_nodes.cm730.sim_backend import MujocoBackend
 from robot_nodes.runtime import BusConfig, Node, open_session
+from robot_nodes.runtime.clock import CLOCK_PERIOD_S, ClockPublisher, SimClock
 from robot_nodes.runtime.node import parse_overrides
 from wire.bus import add_bus_arguments, bus_from_arguments
 from wire.command_line import CommandParser
@@ -42,11 +43,15 @@ class ServedWorld:
     runner: SimRunner
     nodes: list[Node]
     session: Any
+    clock: SimClock | None = None  # the simulated time the robots follow, if they do
+    clock_publishers: list[ClockPublisher] = field(default_factory=list)
 
     def close(self) -> None:
         for node in self.nodes:
             node.shutdown()
         self.runner.stop()
+        for publisher in self.clock_publishers:
+            publisher.close()
         self.session.close()
 
 
@@ -58,17 +63,31 @@ def serve(n_robots: int, bus: BusConfig, params: Path | None = None, overrides: 
 
 
 def serve_world(world: SimWorld, bus: BusConfig, params: Path | None = None, overrides: dict | None = None,
-                real_time_factor: float = 1.0, cameras: int | None = None) -> ServedWorld:
-    """A runner stepping ``world`` and one cm730 node per robot, on one Zenoh session."""
+                real_time_factor: float = 1.0, cameras: int | None = None, sim_time: bool = False) -> ServedWorld:
+    """A runner stepping ``world`` and one cm730 node per robot, on one Zenoh session. sim_time: the world sends
+    its time on every robot's ``clock`` topic and its cm730 nodes follow it, as the robots' nodes do when they
+    run with PITCHSIDE_SIM_TIME (robot_nodes/runtime/clock.py)."""
     runner = SimRunner(world, real_time_factor).start()
     session = open_session(bus)
     overrides = dict(overrides or {})
     overrides.setdefault("real_time_factor", real_time_factor)
     cameras = len(world.robots) if cameras is None else cameras
+    clock = SimClock() if sim_time else None
+    publishers = [ClockPublisher(session, r.robot_id) for r in world.robots] if sim_time else []
+    if clock is not None:
+        clock.advance(world.time)
+
+        def tick(seconds: float) -> None:
+            clock.advance(seconds)
+            for publisher in publishers:
+                publisher.publish(seconds)
+
+        runner.tick_clock(CLOCK_PERIOD_S, tick)
     nodes: list[Node] = [Cm730Node(robot_id=r.robot_id, bus=session, params_file=params,
                                    overrides=robot_overrides(i, overrides, cameras),
-                                   backend=MujocoBackend(world, r, runner)).start() for i, r in enumerate(world.robots)]
-    return ServedWorld(runner, nodes, session)
+                                   backend=MujocoBackend(world, r, runner), clock=clock).start()
+                         for i, r in enumerate(world.robots)]
+    return ServedWorld(runner, nodes, session, clock, publishers)
 
 
 def main(argv: list[str] | None = None) -> None:

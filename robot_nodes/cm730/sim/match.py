@@ -56,6 +56,9 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--half-time-seconds", type=float, default=30.0)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--cameras", type=int, default=0, help="how many robots render head camera images")
+    parser.add_argument("--sim-time", action="store_true",
+                        help="send the world's time on each robot's clock topic for nodes that follow it "
+                             "(PITCHSIDE_SIM_TIME=1); this world's cm730 nodes follow it too")
     add_bus_arguments(parser)
     parser.add_argument("--params", type=Path, default=None)
     parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE", help="cm730 parameters")
@@ -67,7 +70,7 @@ def main(argv: list[str] | None = None) -> None:
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s [match world] %(message)s")
     world = SimWorld(lineup=lineup, placements=lineup_start(lineup), seed=args.seed)
     served = serve_world(world, bus_from_arguments(args), args.params, parse_overrides(args.set),
-                         cameras=args.cameras)
+                         cameras=args.cameras, sim_time=args.sim_time)
     stop = threading.Event()
     signal.signal(signal.SIGINT, lambda *_: stop.set())
     signal.signal(signal.SIGTERM, lambda *_: stop.set())

@@ -92,6 +92,10 @@ class SimRunner:
         self.render_error: str = ""
         self._periodic: list[_Periodic] = []
         self.periodic_errors = 0
+        self._clock_period = 0.0
+        self._clock_due: float | None = None  # simulated time of the next clock tick (tick_clock)
+        self._clock_tick: Callable[[float], None] | None = None
+        self.clock_errors = 0
 
     # -- control -----------------------------------------------------------------------------------------
     def start(self) -> SimRunner:
@@ -120,6 +124,15 @@ class SimRunner:
             raise ValueError(f"period must be > 0 s, got {seconds}")
         self._periodic.append(_Periodic(seconds, work, self.world.time + seconds))
 
+    def tick_clock(self, period: float, tick: Callable[[float], None]) -> None:
+        """Calls ``tick(simulated seconds)`` on the physics thread, without the world's lock, each time simulated
+        time reaches a multiple of ``period``; the runner steps to those times exactly. This is the simulated clock
+        the robots' nodes follow (robot_nodes/runtime/clock.py)."""
+        if period <= 0:
+            raise ValueError(f"period must be > 0 s, got {period}")
+        self._clock_period, self._clock_tick = period, tick
+        self._clock_due = (math.floor(self.world.time / period + 1e-6) + 1) * period
+
     def add_camera(self, robot: RobotHandle, on_frame: Callable[[CameraFrame], None], width: int = 320,
                    height: int = 240, rate_hz: float = 10.0, want_image: Callable[[], bool] = lambda: True,
                    noise: DetectionNoise | None = None) -> CameraClient:
@@ -143,13 +156,18 @@ class SimRunner:
         while not self._stop.is_set():
             if self._rebase:
                 wall0, sim0, self._rebase = time.monotonic(), world.time, False
+            steps, clock_due = self.chunk_steps, self._clock_due
             with world.lock:
-                world.step(self.chunk_steps)
+                if clock_due is not None:  # a chunk ends on the clock's next tick
+                    steps = max(1, min(steps, math.ceil((clock_due - world.time) / world.timestep - 1e-6)))
+                world.step(steps)
                 sim_now = world.time
                 for job in self._periodic:
                     if sim_now >= job.due:
                         job.due = max(job.due + job.period, sim_now)
                         self._run_periodic(job)
+            if clock_due is not None and sim_now >= clock_due - 1e-9:
+                self._tick_clock(clock_due, sim_now)
             factor = self.real_time_factor
             if factor <= 0:
                 time.sleep(0)  # let the node threads in
@@ -161,6 +179,16 @@ class SimRunner:
             elif ahead < -MAX_LAG:
                 self.lag_resets += 1
                 self._rebase = True
+
+    def _tick_clock(self, due: float, sim_now: float) -> None:
+        period = self._clock_period
+        self._clock_due = due + period * max(1, math.floor((sim_now - due) / period + 1e-6) + 1)
+        try:
+            self._clock_tick(due if sim_now - due < 1e-6 else sim_now)  # type: ignore[misc]
+        except Exception:  # a clock that cannot be sent (the session closing) must not stop the world
+            self.clock_errors += 1
+            if self.clock_errors in (1, 100) or self.clock_errors % 10000 == 0:
+                log.exception("the simulated clock's tick failed (%d times)", self.clock_errors)
 
     def _run_periodic(self, job: _Periodic) -> None:
         try:

@@ -1,0 +1,110 @@
+"""Simulated time (robot_nodes/runtime/clock.py): nodes that follow a simulation's clock tick by it, over real
+Zenoh sessions and with the real MuJoCo runner that sends it."""
+
+from __future__ import annotations
+
+import itertools
+import math
+import threading
+
+import pytest
+
+from robot_nodes.cm730.sim import SimRunner, SimWorld
+from robot_nodes.runtime import BusConfig, Node, open_session
+from robot_nodes.runtime.clock import SIM_TIME_ENV, ClockPublisher, RobotSimClock, SimClock, clock_cdr, clock_seconds
+from tests.waiting import wait_for
+from wire import keys
+
+
+class Ticker(Node):
+    name = "ticker"
+
+    def setup(self) -> None:
+        self.ticks: list[float] = []
+        self.timer(100.0, lambda: self.ticks.append(self.now()), "tick")
+
+    def on_loop(self) -> float:
+        """now() as the loop sees it, after everything queued before (the loop has caught up)."""
+        seen: list[float] = []
+        done = threading.Event()
+        self.loop.call_soon(lambda: (seen.append(self.now()), done.set()))
+        assert done.wait(5), "the node's loop did not answer"
+        return seen[0]
+
+
+def test_a_node_on_simulated_time_ticks_once_per_simulated_period_whatever_the_wall_clock_does(
+        bus: BusConfig) -> None:
+    clock = SimClock()
+    node = Ticker(bus=bus, clock=clock).start()
+    try:
+        assert node.on_loop() == 0.0
+        assert node.ticks == []  # the clock has not moved: a 100 Hz timer has not ticked, however long that took
+        for step in range(1, 51):
+            clock.advance(step * 0.01)
+            wait_for(lambda step=step: len(node.ticks) >= step, timeout=5, what=f"tick {step} at {step * 0.01} s")
+        assert node.on_loop() == pytest.approx(0.5)
+        assert len(node.ticks) == 50
+        assert node.ticks == pytest.approx([step * 0.01 for step in range(1, 51)])
+        clock.advance(0.3)  # a clock that goes back (a late message) is not followed
+        assert node.now() == pytest.approx(0.5)
+        clock.advance(10.0)  # a jump: the timer skips what it missed rather than firing 950 times at once
+        wait_for(lambda: len(node.ticks) > 50, timeout=5, what="the tick after the jump")
+        assert node.on_loop() == 10.0
+        assert 51 <= len(node.ticks) <= 52
+    finally:
+        node.shutdown()
+
+
+def test_nodes_of_a_process_follow_their_robots_clock_topic_from_another_session(
+        bus: BusConfig, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv(SIM_TIME_ENV, "1")
+    node = Ticker(robot_id="home1", bus=bus).start()
+    other = Ticker(robot_id="away1", bus=bus).start()
+    try:
+        clock = node.clock
+        assert isinstance(clock, RobotSimClock) and clock.robot == "home1"
+        with open_session(bus) as world_session:
+            publisher = ClockPublisher(world_session, "home1")
+            wait_for(lambda: publisher.publish(0.005) or clock.now() == pytest.approx(0.005), timeout=10,
+                     what="the first clock message")
+            for step in range(1, 21):  # one at a time: a burst is one jump, and the timer would skip the rest
+                publisher.publish(step * 0.01)
+                wait_for(lambda step=step: len(node.ticks) >= step, timeout=5, what=f"tick {step}")
+            assert node.on_loop() == pytest.approx(0.2)
+            assert len(node.ticks) == 20
+            assert other.now() == 0.0 and other.ticks == []  # another robot's clock is not this one's
+            world_session.put(keys.topic_key("home1", "clock"), b"\x00\x01\x00\x00 not a clock")
+            wait_for(lambda: clock.bad_messages, timeout=5, what="the bad clock message counted")
+            assert "rosgraph_msgs/msg/Clock" in clock.bad_messages[-1]
+            assert clock.now() == pytest.approx(0.2)
+            publisher.close()
+    finally:
+        node.shutdown()
+        other.shutdown()
+
+
+def test_the_clocks_cdr_is_a_ros2_clock_message() -> None:
+    import schemas
+
+    for seconds in (0.0, 0.01, 12.345678901, 3600.5):
+        cdr = clock_cdr(seconds)
+        msg = schemas.decode(cdr, "rosgraph_msgs/msg/Clock")
+        assert msg.clock.sec + msg.clock.nanosec * 1e-9 == pytest.approx(seconds, abs=1e-9)
+        assert clock_seconds(cdr) == pytest.approx(seconds, abs=1e-9)
+        assert clock_seconds(schemas.encode(msg)) == pytest.approx(seconds, abs=1e-9)
+
+
+def test_the_runner_steps_to_each_clock_tick_and_sends_every_one() -> None:
+    world = SimWorld(n_robots=1)
+    runner = SimRunner(world, real_time_factor=0.0)
+    ticks: list[float] = []
+    runner.tick_clock(0.01, ticks.append)
+    runner.start()
+    try:
+        wait_for(lambda: len(ticks) >= 30, timeout=30, what="30 clock ticks")
+    finally:
+        runner.stop()
+    got = ticks[:30]
+    assert all(math.isclose(t / 0.01, round(t / 0.01), abs_tol=1e-6) for t in got), got
+    assert [round(b - a, 9) for a, b in itertools.pairwise(got)] == [0.01] * 29
+    assert runner.clock_errors == 0
