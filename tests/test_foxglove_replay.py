@@ -67,7 +67,8 @@ def test_foxglove_plays_pauses_seeks_and_sets_the_speed_of_the_replay_in_step_wi
     # the log's own timestamps, not the wall clock's
     [subscribed] = [r for r in got["results"] if r["op"] == "subscribe"]
     stamps = [m["timestamp"] for m in subscribed["messages"]]
-    assert len(stamps) == 10 and all(start <= t <= end and (t - T0) % STEP_NS == 0 for t in stamps), stamps
+    assert len(stamps) == 10 and all(start <= t <= end and (t - T0) % STEP_NS == 0 for t in stamps), \
+        (stamps, got["statuses"])
     # the panel's play and seek reached Foxglove by themselves
     pushed_play, pushed_seek = [r["state"] for r in got["results"] if r["op"] == "waitPlayback"]
     assert pushed_play["status"] == "playing" and not pushed_play["didSeek"]

@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import math
 import os
-import struct
 import threading
 import time
 from typing import TYPE_CHECKING, Protocol
@@ -32,8 +31,7 @@ if TYPE_CHECKING:
 SIM_TIME_ENV = "PITCHSIDE_SIM_TIME"
 CLOCK_TOPIC = "clock"
 CLOCK_PERIOD_S = 0.01  # simulated seconds between two clock messages: the fastest node timer (100 Hz) ticks on each
-_CLOCK_CDR = struct.Struct("<4siI")  # CDR little-endian header, then builtin_interfaces/Time (sec, nanosec)
-_CDR_HEADER = b"\x00\x01\x00\x00"
+CLOCK_TYPE = "rosgraph_msgs/msg/Clock"
 
 
 def sim_time_wanted() -> bool:
@@ -42,17 +40,13 @@ def sim_time_wanted() -> bool:
 
 
 def clock_cdr(seconds: float) -> bytes:
-    """The CDR of a rosgraph_msgs/Clock at ``seconds`` (the world sends one every period: no message object)."""
-    ns = round(seconds * 1e9)
-    return _CLOCK_CDR.pack(_CDR_HEADER, ns // 1_000_000_000, ns % 1_000_000_000)
+    """The CDR of a rosgraph_msgs/Clock at ``seconds`` (the world encodes one a tick for all its robots)."""
+    return schemas.encode(schemas.make(CLOCK_TYPE, clock=schemas.stamp(seconds)))
 
 
 def clock_seconds(cdr: bytes) -> float:
     """The time a rosgraph_msgs/Clock's CDR carries; SchemaError for anything else."""
-    if len(cdr) != _CLOCK_CDR.size or cdr[:4] != _CDR_HEADER:
-        return _seconds_of(schemas.decode(cdr, "rosgraph_msgs/msg/Clock"))
-    _, sec, nanosec = _CLOCK_CDR.unpack(cdr)
-    return sec + nanosec * 1e-9
+    return _seconds_of(schemas.decode(cdr, CLOCK_TYPE))
 
 
 def _seconds_of(msg: Message) -> float:
@@ -197,8 +191,8 @@ class RobotSimClock(SimClock):
 
 
 class ClockPublisher:
-    """The world's side: a robot's ``clock`` topic, put as ready-made CDR (no message object per tick); nodes of the
-    world's own process that follow it get it through the local bus, as any topic."""
+    """The world's side: a robot's ``clock`` topic, put as CDR encoded once a tick for every robot (clock_cdr);
+    nodes of the world's own process that follow it get it through the local bus, as any topic."""
 
     def __init__(self, session: zenoh.Session, robot: str) -> None:
         from robot_nodes.runtime.local_bus import LocalBus
@@ -212,8 +206,7 @@ class ClockPublisher:
                                               allowed_destination=zenoh.Locality.REMOTE)
         self._local = LocalBus.join(session)
 
-    def publish(self, seconds: float) -> None:
-        cdr = clock_cdr(seconds)
+    def publish(self, cdr: bytes) -> None:
         for subscription in self._local.local_subscribers(self.robot, CLOCK_TOPIC):
             subscription.hand_over_cdr(self._key, cdr)
         self._pub.put(cdr)

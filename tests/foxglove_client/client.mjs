@@ -388,13 +388,27 @@ async function session(url, opts) {
       } else if (step.op === "subscribe") {
         const channel = [...channels.values()].find((c) => c.topic === step.topic);
         if (!channel) throw new Error(`no channel ${step.topic}`);
-        const subscription = client.subscribe(channel.id);
-        readers.set(subscription, new MessageReader(parse(channel.schema, { ros2: true })));
+        const reader = new MessageReader(parse(channel.schema, { ros2: true }));
+        const subscriptions = new Set([client.subscribe(channel.id)]);
+        for (const id of subscriptions) readers.set(id, reader);
         const got = [];
+        let resubscribed = false;
         await new Promise((resolve, reject) => {
           const waiter = { test: (e, m) => {
-            if (e !== "message" || m.subscriptionId !== subscription) return false;
-            const message = plain(readers.get(subscription).readMessage(m.data));
+            // the SDK's refusal of a subscription to a channel it has just advertised (see the watch mode
+            // above): asked for again, once
+            const refused = e === "status" && /Unknown channel ID: (\d+)/.exec(m.message);
+            if (refused && Number(refused[1]) === channel.id && !resubscribed) {
+              resubscribed = true;
+              setTimeout(() => {
+                if (!channels.has(channel.id)) return;
+                const again = client.subscribe(channel.id);
+                readers.set(again, reader);
+                subscriptions.add(again);
+              }, 100);
+            }
+            if (e !== "message" || !subscriptions.has(m.subscriptionId)) return false;
+            const message = plain(reader.readMessage(m.data));
             got.push({ timestamp: Number(m.timestamp), message });
             const matches = step.until && Object.entries(step.until).every(([field, value]) => message[field] === value);
             return got.length >= step.count || Boolean(matches);
@@ -403,8 +417,8 @@ async function session(url, opts) {
           setTimeout(() => { const i = waiters.indexOf(waiter); if (i >= 0) { waiters.splice(i, 1); resolve(); } },
                      opts.seconds * 1000);
         });
-        client.unsubscribe(subscription);
-        out.results.push({ op: step.op, topic: step.topic, messages: got });
+        for (const id of subscriptions) client.unsubscribe(id);
+        out.results.push({ op: step.op, topic: step.topic, messages: got, resubscribed });
       } else if (step.op === "waitPlayback") {
         const pushed = (m) => !m.requestId && m.status === step.status && (!step.didSeek || m.didSeek);
         const known = out.playback.length;

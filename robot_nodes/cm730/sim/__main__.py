@@ -18,7 +18,7 @@ from robot_nodes.cm730.node import Cm730Node
 from robot_nodes.cm730.sim import SimRunner, SimWorld
 from robot_nodes.cm730.sim_backend import MujocoBackend
 from robot_nodes.runtime import BusConfig, Node, open_session
-from robot_nodes.runtime.clock import CLOCK_PERIOD_S, ClockPublisher, SimClock
+from robot_nodes.runtime.clock import CLOCK_PERIOD_S, ClockPublisher, SimClock, clock_cdr
 from robot_nodes.runtime.node import parse_overrides
 from wire.bus import add_bus_arguments, bus_from_arguments
 from wire.command_line import CommandParser
@@ -56,10 +56,10 @@ class ServedWorld:
 
 
 def serve(n_robots: int, bus: BusConfig, params: Path | None = None, overrides: dict | None = None,
-          real_time_factor: float = 1.0, cameras: int | None = None) -> ServedWorld:
+          real_time_factor: float = 1.0, cameras: int | None = None, sim_time: bool = False) -> ServedWorld:
     """Starts a world of ``n_robots`` and its nodes, for the caller to close. cameras: how many robots render
     images (default all)."""
-    return serve_world(SimWorld(n_robots=n_robots), bus, params, overrides, real_time_factor, cameras)
+    return serve_world(SimWorld(n_robots=n_robots), bus, params, overrides, real_time_factor, cameras, sim_time)
 
 
 def serve_world(world: SimWorld, bus: BusConfig, params: Path | None = None, overrides: dict | None = None,
@@ -79,8 +79,9 @@ def serve_world(world: SimWorld, bus: BusConfig, params: Path | None = None, ove
 
         def tick(seconds: float) -> None:
             clock.advance(seconds)
+            cdr = clock_cdr(seconds)
             for publisher in publishers:
-                publisher.publish(seconds)
+                publisher.publish(cdr)
 
         runner.tick_clock(CLOCK_PERIOD_S, tick)
     nodes: list[Node] = [Cm730Node(robot_id=r.robot_id, bus=session, params_file=params,
@@ -100,13 +101,17 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--cameras", type=int, default=None,
                         help="how many robots (the first ones) render their head camera images (default all); "
                              "the others still see the ball, goals and robots (detections, relative positions)")
+    parser.add_argument("--sim-time", action="store_true",
+                        help="send the world's time on each robot's clock topic, for robots whose nodes run with "
+                             "PITCHSIDE_SIM_TIME=1 (this world's cm730 nodes follow it too)")
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s [sim] %(message)s")
     bus = bus_from_arguments(args)
     stop = threading.Event()
     signal.signal(signal.SIGINT, lambda *_: stop.set())
     signal.signal(signal.SIGTERM, lambda *_: stop.set())
-    served = serve(args.robots, bus, args.params, parse_overrides(args.set), args.real_time_factor, args.cameras)
+    served = serve(args.robots, bus, args.params, parse_overrides(args.set), args.real_time_factor, args.cameras,
+                   args.sim_time)
     logging.info("simulating %d robot(s): %s", len(served.nodes), ", ".join(n.robot_id for n in served.nodes))
     stop.wait()
     served.close()
