@@ -121,6 +121,19 @@ def test_the_aim_in_the_goal_passes_the_goalie_on_the_side_he_leaves_open() -> N
     assert aim_in_goal(ball, mouth, [(2.6, -0.3), (1.5, 0.4)]) == pytest.approx(math.atan2(-0.9, 2.8))
 
 
+def test_a_ball_just_short_of_the_goal_line_is_aimed_into_the_goal_not_along_the_line() -> None:
+    field = Field()
+    gx, gy = field.shot_target
+    assert gx > field.length / 2, "the target lies behind the goal line, inside the goal"
+    ball = (field.length / 2 - 0.05, 0.76)  # 5 cm short of the line, between the posts
+    mouth = [(gx, gy + k * 0.95) for k in (0.0, 0.5, -0.5, 1.0, -1.0)]
+    direction = aim_in_goal(ball, mouth, [])
+    assert abs(direction) < math.radians(60), math.degrees(direction)  # at the line's own centre: -86 deg
+    goalie = (field.length / 2 + 0.1, 0.5)  # on his line, towards the middle: past him on the post's side
+    direction = aim_in_goal(ball, mouth, [goalie])
+    assert 0.0 < direction < math.radians(60), math.degrees(direction)
+
+
 def test_player_number_from_the_robot_id() -> None:
     assert player_number_of("robot3") == 3 and player_number_of("blue12") == 12 and player_number_of("alpha") == 1
 

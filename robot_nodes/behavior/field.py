@@ -6,6 +6,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+GOAL_AIM_BEYOND = 0.5  # m behind the goal line (a kid-size goal is 0.6 m deep)
+
 
 @dataclass(frozen=True)
 class Field:
@@ -25,6 +27,14 @@ class Field:
     @property
     def opponent_goal(self) -> tuple[float, float]:
         return self.length / 2, 0.0
+
+    @property
+    def shot_target(self) -> tuple[float, float]:
+        """Where a shot at the opponent goal is meant to end: inside it, GOAL_AIM_BEYOND behind the line. Aimed at
+        the line itself, a ball near the line was kicked along it (a match's ball lay 5 cm short of a goal for 45 s
+        while the striker lined up sideways to it)."""
+        gx, gy = self.opponent_goal
+        return gx + GOAL_AIM_BEYOND, gy
 
     def in_own_half(self, x: float, margin: float = 0.0) -> bool:
         return x <= -margin

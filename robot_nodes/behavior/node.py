@@ -318,7 +318,7 @@ class BehaviorNode(Node):
             self.walk(min(p.max_forward, 0.5 * math.hypot(*rel)) * max(0.0, math.cos(bearing)), 0.0,
                       _clip(1.2 * bearing, p.max_turn))
             return
-        gx, gy = self.field.opponent_goal
+        gx, gy = self.field.shot_target
         to_goal = math.atan2(gy - ball[1], gx - ball[0])
         ux, uy = math.cos(to_goal), math.sin(to_goal)
         behind = (pose.x - ball[0]) * ux + (pose.y - ball[1]) * uy  # > 0: the robot is goal-side of the ball
@@ -342,20 +342,22 @@ class BehaviorNode(Node):
         return direction is None or abs(direction) <= math.radians(p.kick_align_deg)
 
     def _goal_direction(self, now: float) -> float | None:
-        """The opponent goal's centre relative to the robot's heading (rad); None without a position."""
+        """The opponent goal's centre (its shot target, inside it) relative to the robot's heading (rad); None
+        without a position."""
         pose = self.world.pose(now)
         if pose is None:
             return None
-        gx, gy = pose.relative(*self.field.opponent_goal)
+        gx, gy = pose.relative(*self.field.shot_target)
         return math.atan2(gy, gx)
 
     def _goal_mouth(self, now: float) -> list[tuple[float, float]]:
-        """Points of the opponent goal's mouth relative to the robot, the middle first, then ever nearer the posts
-        (a ball's width and a margin inside them); none without a position."""
+        """Points across the opponent goal relative to the robot, the middle first, then ever nearer the posts
+        (a ball's width and a margin inside them), behind the goal line (``Field.shot_target``); none without a
+        position."""
         pose = self.world.pose(now)
         if pose is None:
             return []
-        gx, gy = self.field.opponent_goal
+        gx, gy = self.field.shot_target
         inside = max(0.0, self.field.goal_width / 2 - GOAL_POST_MARGIN)
         return [pose.relative(gx, gy + k * inside) for k in (0.0, 0.5, -0.5, 1.0, -1.0)]
 
