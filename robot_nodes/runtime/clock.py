@@ -18,15 +18,14 @@ import math
 import os
 import threading
 import time
-from typing import TYPE_CHECKING, Protocol
+from typing import Protocol
 
 import zenoh
 
 import schemas
+from robot_nodes.runtime.local_bus import LocalBus
 from schemas.codec import Message, SchemaError
-
-if TYPE_CHECKING:
-    from robot_nodes.runtime.local_bus import LocalBus
+from wire import keys
 
 SIM_TIME_ENV = "PITCHSIDE_SIM_TIME"
 CLOCK_TOPIC = "clock"
@@ -98,7 +97,6 @@ class SimClock(Clock):
 
     def __init__(self) -> None:
         self.time = 0.0
-        self.advances = 0
         self._wakers: list[Waker] = []  # swapped, never changed in place: advance reads it without the lock
         self._lock = threading.Lock()
 
@@ -113,7 +111,6 @@ class SimClock(Clock):
         if not seconds > self.time or not math.isfinite(seconds):
             return
         self.time = seconds
-        self.advances += 1
         due = seconds + self.slack
         for waker in self._wakers:
             if waker.next_due <= due:
@@ -140,19 +137,23 @@ class _ClockSubscription:
 
     def hand_over(self, key: str, msg: Message | SchemaError) -> None:
         if isinstance(msg, SchemaError):
-            self.errors.append(str(msg))
+            self._bad(msg)
         else:
             self.clock.advance(_seconds_of(msg))
 
     def hand_over_cdr(self, key: str, cdr: bytes) -> None:
         try:
             self.clock.advance(clock_seconds(cdr))
-        except SchemaError as exc:  # someone else's bytes on the robot's clock key: counted, the clock stays
-            self.errors.append(str(exc))
-            del self.errors[:-10]
+        except SchemaError as exc:
+            self._bad(exc)
 
     def hand_over_local(self, robot: str, msg: Message, cdr: bytes | None) -> None:
         self.clock.advance(_seconds_of(msg))
+
+    def _bad(self, error: SchemaError) -> None:
+        """Someone else's bytes on the robot's clock key: kept (the newest ten) for a look, the clock stays."""
+        self.errors.append(str(error))
+        del self.errors[:-10]
 
 
 class RobotSimClock(SimClock):
@@ -195,9 +196,6 @@ class ClockPublisher:
     nodes of the world's own process that follow it get it through the local bus, as any topic."""
 
     def __init__(self, session: zenoh.Session, robot: str) -> None:
-        from robot_nodes.runtime.local_bus import LocalBus
-        from wire import keys
-
         self.robot = robot
         topic = schemas.topic(CLOCK_TOPIC)
         encoding = zenoh.Encoding("application/cdr").with_schema(topic.type)
