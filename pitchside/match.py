@@ -137,8 +137,8 @@ def match_processes(plan: MatchPlan, endpoint: str, http_port: int, telemetry_po
             extra = robot_settings(team, player, gc, mitecom_ports, telemetry_port, telemetry_key)
             robot = robot_nodes(team.robot_id(player), [endpoint], plan.model, plan.nodes, extra,
                                 compose=plan.compose)
-            for process in robot:
-                if plan.sim_time:
+            if plan.sim_time:
+                for process in robot:
                     process.env[SIM_TIME_ENV] = "1"
             processes += robot
     processes.append(server_process(http_port, telemetry_port, plan.model, [], True, token, telemetry_key))

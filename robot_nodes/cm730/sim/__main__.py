@@ -43,7 +43,6 @@ class ServedWorld:
     runner: SimRunner
     nodes: list[Node]
     session: Any
-    clock: SimClock | None = None  # the simulated time the robots follow, if they do
     clock_publishers: list[ClockPublisher] = field(default_factory=list)
 
     def close(self) -> None:
@@ -88,7 +87,7 @@ def serve_world(world: SimWorld, bus: BusConfig, params: Path | None = None, ove
                                    overrides=robot_overrides(i, overrides, cameras),
                                    backend=MujocoBackend(world, r, runner), clock=clock).start()
                          for i, r in enumerate(world.robots)]
-    return ServedWorld(runner, nodes, session, clock, publishers)
+    return ServedWorld(runner, nodes, session, publishers)
 
 
 def main(argv: list[str] | None = None) -> None:
