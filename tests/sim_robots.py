@@ -1,5 +1,9 @@
 """Simulated robots for acceptance tests: one MuJoCo world, every robot's real nodes on one session (as a composed
-process runs them), and a separate client session that listens and publishes like a tool on the bus would."""
+process runs them), and a separate client session that listens and publishes like a tool on the bus would.
+
+The nodes follow the world's clock in lockstep (robot_nodes/runtime/clock.py): the world waits for them every
+10 ms of simulated time, so a test sees the same play on an idle machine and on a CI machine running two workers
+beside it; the test's own timeouts stay on the wall clock and its judgements of time use ``sim_time()``."""
 
 from __future__ import annotations
 
@@ -18,6 +22,7 @@ from robot_nodes.cm730.node import Cm730Node
 from robot_nodes.cm730.sim import PhysicsConfig, Placement, RobotHandle, SimRunner, SimWorld
 from robot_nodes.cm730.sim_backend import MujocoBackend
 from robot_nodes.runtime import BusConfig, Node, open_session
+from robot_nodes.runtime.clock import CLOCK_PERIOD_S, SimClock
 from schemas.codec import Message
 from tests.waiting import wait_for
 from wire.keys import topic_key
@@ -31,9 +36,11 @@ MINIBOT_HCM = yaml.safe_load(robots.params_file("minibot").read_text()).get("hcm
 
 
 class Listener:
-    """Every message of one robot's topic, decoded, with its arrival time (monotonic)."""
+    """Every message of one robot's topic, decoded, with its arrival time (by ``clock``: the simulated seconds of
+    SimRobots' listeners)."""
 
-    def __init__(self, session: zenoh.Session, robot: str, topic: str) -> None:
+    def __init__(self, session: zenoh.Session, robot: str, topic: str,
+                 clock: Callable[[], float] = time.monotonic) -> None:
         self.topic = topic
         self.messages: list[tuple[float, Any]] = []
         self._lock = threading.Lock()
@@ -42,7 +49,7 @@ class Listener:
         def on_sample(sample: zenoh.Sample) -> None:
             msg = schemas.decode(sample.payload.to_bytes(), typename)
             with self._lock:
-                self.messages.append((time.monotonic(), msg))
+                self.messages.append((clock(), msg))
 
         self._sub = session.declare_subscriber(topic_key(robot, topic), on_sample)
 
@@ -74,7 +81,11 @@ class SimRobots:
         self.world = SimWorld(n_robots=n, placements=placements, physics=physics)
         if prepare is not None:
             prepare(self.world)
-        self.runner = SimRunner(self.world).start()
+        self.clock = SimClock(lockstep=True)
+        self._started = time.monotonic()
+        self.runner = SimRunner(self.world)
+        self.runner.tick_clock(CLOCK_PERIOD_S, self.clock.advance)
+        self.runner.start()
         self.session = open_session(bus)
         self.client = open_session(bus)
         self.nodes: dict[str, dict[str, Node]] = {}
@@ -89,10 +100,10 @@ class SimRobots:
                      **own.get("cm730", {})}
             robot_nodes: dict[str, Node] = {"cm730": Cm730Node(
                 robot_id=handle.robot_id, bus=self.session, overrides=cm730,
-                backend=MujocoBackend(self.world, handle, self.runner))}
+                backend=MujocoBackend(self.world, handle, self.runner), clock=self.clock)}
             for name in nodes:
                 cls = entry(name).load()
-                robot_nodes[name] = cls(robot_id=handle.robot_id, bus=self.session,
+                robot_nodes[name] = cls(robot_id=handle.robot_id, bus=self.session, clock=self.clock,
                                         overrides={**params.get(name, {}), **own.get(name, {})})
             self.nodes[handle.robot_id] = robot_nodes
         for robot_nodes in self.nodes.values():
@@ -102,6 +113,16 @@ class SimRobots:
     # -- the world ----------------------------------------------------------------------------------------
     def robot(self, robot_id: str = "robot1") -> RobotHandle:
         return self.world.robot(robot_id)
+
+    def sim_time(self) -> float:
+        """The world's simulated seconds: the time the robots' nodes live in."""
+        return self.clock.now()
+
+    def pass_time(self, seconds: float) -> None:
+        """Until ``seconds`` of simulated time have passed (the world may be slower than the wall clock)."""
+        until = self.clock.now() + seconds
+        wait_for(lambda: self.clock.now() >= until, 20.0 + 20.0 * seconds, 0.01,
+                 what=f"{seconds} s of simulated time to pass")
 
     def pose(self, robot_id: str = "robot1") -> tuple[float, float, float]:
         with self.world.lock:
@@ -122,7 +143,8 @@ class SimRobots:
 
     # -- the bus ------------------------------------------------------------------------------------------
     def listen(self, topic: str, robot_id: str = "robot1") -> Listener:
-        listener = Listener(self.client, robot_id, topic)
+        """Arrival times in simulated seconds (sim_time)."""
+        listener = Listener(self.client, robot_id, topic, self.clock.now)
         self._listeners.append(listener)
         return listener
 
@@ -147,5 +169,8 @@ class SimRobots:
             for node in reversed(list(robot_nodes.values())):
                 node.shutdown()
         self.runner.stop()
+        wall = time.monotonic() - self._started
+        print(f"\nworld: {self.clock.now():.1f} s simulated in {wall:.1f} s ({self.clock.now() / wall:.2f} x real "
+              f"time), {self.clock.lockstep_timeouts} lockstep waits given up")
         self.client.close()
         self.session.close()

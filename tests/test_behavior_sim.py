@@ -8,7 +8,6 @@ from __future__ import annotations
 import math
 import socket
 import threading
-import time
 from collections.abc import Iterator
 from typing import Any
 
@@ -91,7 +90,7 @@ def test_ready_places_are_legal(bus: BusConfig, sims: list[SimRobots], kicking_o
     try:
         wait_for(lambda: all(behaviour_state(sim, r) == "READY_AT_POSITION" for r in sim.nodes), 150.0, 0.5,
                  what="every robot at its kick-off place")
-        time.sleep(2.0)  # and staying there
+        sim.pass_time(2.0)  # and staying there
         places = {robot: sim.pose(robot) for robot in sim.nodes}
     finally:
         game.stop()
@@ -124,11 +123,11 @@ def test_the_goalie_stays_between_ball_and_goal(bus: BusConfig, sims: list[SimRo
                 return standing and abs(y - (gy + (ball[1] - gy) * (x - gx) / (ball[0] - gx))) < 0.2
 
             wait_for(settled_on_the_line, 40, 0.2, what=f"the goalie settled on the line to the ball at {ball}")
-            time.sleep(1.0)  # the last step of its walk
+            sim.pass_time(1.0)  # the last step of its walk
             samples = []
             for _ in range(10):  # and stays, while it watches the ball
                 samples.append(sim.pose())
-                time.sleep(0.3)
+                sim.pass_time(0.3)
             for x, y, _ in samples:
                 assert FIELD.in_own_goal_area(x, y), f"the goalie left its goal area: ({x:.2f}, {y:.2f})"
                 line_y = gy + (ball[1] - gy) * (x - gx) / (ball[0] - gx)  # the ball-goal line at the goalie's x
@@ -163,13 +162,13 @@ def test_a_penalized_robot_and_one_in_set_stand_still(bus: BusConfig, sims: list
 
     def stands_still(what: str, state: str) -> None:
         wait_for(lambda: behaviour_state(sim, "robot1") == state, 10, what=f"{what}: behaviour in {state}")
-        time.sleep(3.0)  # the walk's last steps and the penalty animation
+        sim.pass_time(3.0)  # the walk's last steps and the penalty animation
         # standing, or limp in the HCM's PENALTY (it switches the torque off)
         wait_for(lambda: states.last() is not None and (states.last().state == 7 or
                                                         (states.last().state == 0 and sim.upright())),
                  30, what=f"{what}: standing or penalized")
         before = sim.pose()
-        time.sleep(3.0)  # the span it must keep still, not a wait
+        sim.pass_time(3.0)  # the span it must keep still, not a wait
         after = sim.pose()
         moved = math.hypot(after[0] - before[0], after[1] - before[1])
         assert moved < 0.03, f"{what}: moved {moved:.3f} m from {before} to {after}"
@@ -217,7 +216,7 @@ def test_roles_come_from_team_communication(bus: BusConfig, sims: list[SimRobots
         wait_for(lambda: (role("robot1"), role("robot2"), role("robot3")) ==
                  (Strategy.ROLE_GOALIE, Strategy.ROLE_DEFENDER, Strategy.ROLE_STRIKER), 30, 0.2,
                  what="goalie, defender, striker")
-        assert len(sim.nodes["robot2"]["behavior"].world.teammates(time.monotonic())) == 2  # type: ignore[attr-defined]
+        assert len(sim.nodes["robot2"]["behavior"].world.teammates(sim.sim_time())) == 2  # type: ignore[attr-defined]
         sim.set_ball(-1.2, 1.5)  # now in front of robot2
         wait_for(lambda: (role("robot2"), role("robot3")) == (Strategy.ROLE_STRIKER, Strategy.ROLE_DEFENDER), 30,
                  0.2, what="robot2 striker, robot3 defender")

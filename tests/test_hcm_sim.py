@@ -22,6 +22,7 @@ from robot_nodes.cm730.node import Cm730Node
 from robot_nodes.hcm.node import HcmNode
 from robot_nodes.hcm.pause import PauseNode
 from robot_nodes.runtime import BusConfig, ParameterClient, call_service, open_session
+from robot_nodes.runtime.clock import CLOCK_PERIOD_S, SimClock
 from tests.sim_robots import MINIBOT_HCM
 from tests.support import REPO
 from tests.waiting import wait_for
@@ -43,12 +44,13 @@ PATIENT_HCM = {"imu_timeout_s": 2.0, "motor_timeout_s": 2.0}
 
 class Stack:
     """cm730 (MuJoCo), animation, HCM and pause nodes in this process (composed on one session, or a session each),
-    plus a client session that watches."""
+    plus a client session that watches. The nodes follow the world's clock in lockstep (tests/sim_robots.py says
+    why), and every time the test takes or judges is the world's simulated time (``now``)."""
 
     def __init__(self, bus: BusConfig, robot_bus: BusConfig | zenoh.Session, hcm: dict[str, Any] | None = None,
                  animation: dict[str, Any] | None = None, yaw: float = 0.0) -> None:
-        self.t0 = time.monotonic()
-        self.cm730 = Cm730Node(bus=robot_bus, overrides=CM730)
+        self.clock = SimClock(lockstep=True)
+        self.cm730 = Cm730Node(bus=robot_bus, overrides=CM730, clock=self.clock)
         self.robot = self.cm730.backend.robot  # type: ignore[attr-defined]
         self.world = self.cm730.backend.world  # type: ignore[attr-defined]
         with self.world.lock:
@@ -66,12 +68,13 @@ class Stack:
             self._listen("animation", self.animation_msgs, lambda m: m),
             self._listen("motor_goals", self.motor_goals, lambda m: m),
         ]
-        self._stop = threading.Event()
-        self._sampler = threading.Thread(target=self._sample_height, daemon=True)
-        self._sampler.start()
-        self.nodes = [self.cm730.start(), AnimationNode(bus=robot_bus, overrides=animation or {}).start(),
-                      HcmNode(bus=robot_bus, overrides={**PATIENT_HCM, **(hcm or {})}).start(),
-                      PauseNode(bus=robot_bus).start()]
+        runner = self.cm730.backend.runner  # type: ignore[attr-defined]
+        runner.every(0.005, self._sample_height)  # 5 ms resolution is plenty against a fall of about a second
+        runner.tick_clock(CLOCK_PERIOD_S, self.clock.advance)
+        self.nodes = [self.cm730.start(),
+                      AnimationNode(bus=robot_bus, overrides=animation or {}, clock=self.clock).start(),
+                      HcmNode(bus=robot_bus, overrides={**PATIENT_HCM, **(hcm or {})}, clock=self.clock).start(),
+                      PauseNode(bus=robot_bus, clock=self.clock).start()]
         self.hcm: HcmNode = self.nodes[2]  # type: ignore[assignment]
         self.animation: AnimationNode = self.nodes[1]  # type: ignore[assignment]
         self.actions = ActionClient(self.session, "robot1", "animation")
@@ -82,19 +85,25 @@ class Stack:
         def on_sample(sample: zenoh.Sample) -> None:
             msg = schemas.decode(sample.payload.to_bytes(), typename)
             with self.lock:
-                into.append((time.monotonic(), pick(msg)))
+                into.append((self.now(), pick(msg)))
 
         return self.session.declare_subscriber(topic_key("robot1", topic), on_sample)
 
     def _sample_height(self) -> None:
-        while not self._stop.is_set():
-            with self.world.lock:
-                z = float(self.robot.torso_pose()[0][2])
-            with self.lock:
-                self.heights.append((time.monotonic(), z))
-            time.sleep(0.005)  # 5 ms resolution is plenty against a fall of about a second
+        """On the physics thread, holding the world's lock."""
+        z = float(self.robot.torso_pose()[0][2])
+        with self.lock:
+            self.heights.append((self.world.time, z))
 
     # -- what the test looks at --------------------------------------------------------------------------
+    def now(self) -> float:
+        """The world's simulated seconds, the nodes' time."""
+        return self.clock.now()
+
+    def pass_time(self, seconds: float) -> None:
+        """Until ``seconds`` of simulated time have passed."""
+        until = self.now() + seconds
+        wait_for(lambda: self.now() >= until, 20.0 + 20.0 * seconds, 0.01, what=f"{seconds} s of simulated time")
     def state(self) -> int | None:
         with self.lock:
             return self.states[-1][1] if self.states else None
@@ -126,7 +135,7 @@ class Stack:
 
     def wait_state(self, state: int, timeout: float, what: str = "") -> float:
         self.wait(lambda: self.state() == state, timeout, what or f"state {state}")
-        return time.monotonic()
+        return self.now()
 
     def wait_controllable_standing(self, timeout: float = 30.0, since: float = 0.0) -> None:
         self.wait(lambda: self.state() == CONTROLLABLE and self.standing(), timeout, "CONTROLLABLE and standing",
@@ -136,7 +145,6 @@ class Stack:
         return self.session.declare_publisher(topic_key("robot1", topic))
 
     def close(self) -> None:
-        self._stop.set()
         for node in reversed(self.nodes):
             node.shutdown()
         self.actions.close()
@@ -179,9 +187,9 @@ def test_pushed_over_falls_protected_and_gets_up(make_stack: Callable[..., Stack
                                                  yaw: float) -> None:
     stack = make_stack(yaw=yaw)
     stack.wait_controllable_standing()
-    time.sleep(0.5)  # a moment of quiet stance before the push
+    stack.pass_time(0.5)  # a moment of quiet stance before the push
     sign = 1.0 if direction == "front" else -1.0
-    pushed = time.monotonic()
+    pushed = stack.now()
     with stack.world.lock:
         _, _, heading = stack.robot.pose2d()
         stack.robot.apply_push((sign * 60.0 * math.cos(heading), sign * 60.0 * math.sin(heading), 0.0), 0.15)
@@ -193,7 +201,7 @@ def test_pushed_over_falls_protected_and_gets_up(make_stack: Callable[..., Stack
     hit = wait_for(on_the_ground, 10.0, what="the torso on the ground")
     stack.wait(lambda: stack.first_time(GETTING_UP, pushed) is not None, 15.0, "GETTING_UP", pushed)
     stack.wait_controllable_standing(20.0, pushed)
-    up = time.monotonic()
+    up = stack.now()
     seq = stack.sequence(pushed)
     while seq and seq[0] == CONTROLLABLE:  # robot_state of before the push, still on its way
         seq.pop(0)
@@ -221,13 +229,13 @@ def test_lying_on_a_side_turns_onto_the_front_and_gets_up(make_stack: Callable[.
     (walk-ready, the Bit-Bots default, leaves the Minibot lying on its side for good)."""
     stack = make_stack(hcm=MINIBOT_HCM)
     stack.wait_controllable_standing()
-    laid = time.monotonic()
+    laid = stack.now()
     with stack.world.lock:
         x, y, yaw = stack.robot.pose2d()
         stack.robot.set_pose(x, y, yaw, posture=side)
     stack.wait(lambda: stack.first_time(GETTING_UP, laid) is not None, 15.0, "GETTING_UP", laid)
     stack.wait_controllable_standing(25.0, laid)
-    up = time.monotonic()
+    up = stack.now()
     seq = stack.sequence(laid)
     assert FALLEN in seq and GETTING_UP in seq and seq[-1] == CONTROLLABLE, seq
     assert up - laid < 20.0, f"standing {up - laid:.1f} s after it was laid on its {side}"  # the referee's 20 s
@@ -236,7 +244,7 @@ def test_lying_on_a_side_turns_onto_the_front_and_gets_up(make_stack: Callable[.
 
 def _penalty_round(stack: Stack, penalize: Callable[[bool], None], torque_off: bool) -> None:
     stack.wait_controllable_standing()
-    asked = time.monotonic()
+    asked = stack.now()
     penalize(True)
     stack.wait(lambda: stack.first_time(PENALTY, asked) is not None, 5.0, "PENALTY", asked)
     first = stack.first_time(PENALTY_ANIMATION, asked) or stack.first_time(PENALTY, asked)
@@ -251,9 +259,9 @@ def _penalty_round(stack: Stack, penalize: Callable[[bool], None], torque_off: b
         enabled = stack.robot.torque_enabled.copy()
     wait_for(lambda: not stack.robot.torque_enabled.any() if torque_off else stack.robot.torque_enabled.all(), 2.0,
              what=f"torque {'off' if torque_off else 'on'} in PENALTY (was {enabled})")
-    time.sleep(0.3)
+    stack.pass_time(0.3)
     assert stack.state() == PENALTY
-    freed = time.monotonic()
+    freed = stack.now()
     penalize(False)
     stack.wait_controllable_standing(25.0, freed)
     assert stack.robot.torque_enabled.all()
@@ -314,7 +322,7 @@ def test_joint_mutex_animation_and_record(make_stack: Callable[..., Stack]) -> N
                     and m.points and abs(m.points[0].positions[0] - value) < 1e-9]
 
     # walking goals pass while CONTROLLABLE (the check that the marker can be seen at all)
-    start = time.monotonic()
+    start = stack.now()
     wait_for(lambda: walk.put(schemas.encode(trajectory(["HeadPan"], [walk_marker]))) or marked(walk_marker, start),
              5.0, what="walk goals forwarded while CONTROLLABLE")
     wait_for(lambda: stack.state() == CONTROLLABLE, 5.0, what="back to CONTROLLABLE after the walk goals")
@@ -324,14 +332,14 @@ def test_joint_mutex_animation_and_record(make_stack: Callable[..., Stack]) -> N
     assert goal.wait_accepted(10.0), goal.reason
     running = stack.wait_state(ANIMATION_RUNNING, 5.0)
     sent = 0
-    while stack.state() == ANIMATION_RUNNING and time.monotonic() - running < 1.5:
+    while stack.state() == ANIMATION_RUNNING and stack.now() - running < 1.5:
         walk.put(schemas.encode(trajectory(["HeadPan"], [walk_marker])))
         sent += 1
         time.sleep(0.02)
     assert sent > 20 and stack.state() == ANIMATION_RUNNING
     assert not marked(walk_marker, running + 0.05), "walking goals reached motor_goals during ANIMATION_RUNNING"
     with stack.lock:
-        from_animation = [m for t, m in stack.motor_goals if t > running and "LKnee" in list(m.joint_names)]
+        from_animation = [m for t, m in stack.motor_goals if t >= running and "LKnee" in list(m.joint_names)]
     assert from_animation, "the animation's own goals reach motor_goals"
     assert goal.wait_result(10.0)[0] == GoalStatus.SUCCEEDED
     stack.wait_state(CONTROLLABLE, 5.0)
@@ -341,10 +349,10 @@ def test_joint_mutex_animation_and_record(make_stack: Callable[..., Stack]) -> N
                                                 animation="init", hcm=False))
     assert goal.wait_accepted(10.0), goal.reason
     stack.wait_state(ANIMATION_RUNNING, 5.0)
-    canceled = time.monotonic()
+    canceled = stack.now()
     assert goal.cancel(5.0)
     with_last = wait_for(lambda: [t for t, m in list(stack.animation_msgs)
-                                  if t > canceled and m.last and not m.hcm and not list(m.position.joint_names)],
+                                  if t >= canceled and m.last and not m.hcm and not list(m.position.joint_names)],
                          5.0, what="the last=True message of the canceled animation")
     stack.wait_state(CONTROLLABLE, 5.0)
     print(f"\ncanceled animation: CONTROLLABLE {stack.first_time(CONTROLLABLE, canceled) - canceled:.3f} s after "
@@ -354,7 +362,7 @@ def test_joint_mutex_animation_and_record(make_stack: Callable[..., Stack]) -> N
     params.set("hcm", {"record_mode": True})
     recording = stack.wait_state(RECORD, 5.0)
     end = recording + 1.0
-    while time.monotonic() < end:
+    while stack.now() < end:
         walk.put(schemas.encode(trajectory(["HeadPan"], [walk_marker])))
         record.put(schemas.encode(trajectory(["HeadPan"], [record_marker])))
         time.sleep(0.02)
@@ -421,17 +429,17 @@ def test_silent_hardware_is_a_hardware_problem(make_stack: Callable[..., Stack],
         undo = _break_bus(stack, lambda r: dataclasses.replace(r, imu=None))
     else:
         undo = _break_bus(stack, lambda r: dataclasses.replace(r, missing=["LKnee"]))
-    broken = time.monotonic()
+    broken = stack.now()
     try:
         problem = stack.wait_state(HARDWARE_PROBLEM, 5.0)
     finally:
         undo()
-    back = time.monotonic()
+    back = stack.now()
     assert problem - broken < 1.0, f"HARDWARE_PROBLEM {problem - broken:.2f} s after the {fault} fell silent"
     stack.wait_controllable_standing(15.0)
     assert STARTUP in stack.sequence(back), stack.sequence(back)
     print(f"\n{fault}: HARDWARE_PROBLEM {problem - broken:.3f} s after it fell silent; "
-          f"CONTROLLABLE {time.monotonic() - back:.1f} s after it returned")
+          f"CONTROLLABLE {stack.now() - back:.1f} s after it returned")
 
 
 def test_an_animation_with_torque_switches_reaches_the_servos_as_published(make_stack: Callable[..., Stack],

@@ -5,7 +5,6 @@ the asked direction in at least 8 of 10 trials with different ball offsets."""
 from __future__ import annotations
 
 import math
-import time
 
 import numpy as np
 import pytest
@@ -68,7 +67,7 @@ def kick_trials(bus: BusConfig) -> list[tuple[float, float, float, str, float, f
                 sim.robot().set_pose(x0, y0, 0.0, joints=walkready)  # a standing start, facing +x
                 sim.world.set_ball(x0 + dx, y0 + dy)
             sim.wait_controllable()
-            since = time.monotonic()
+            since = sim.sim_time()
             if not seen_within(ball_seen, since + 0.5, 15.0):  # a kick that cannot start is a failed kick
                 hcm = sorted({m.state for m in states.since(since)})
                 results.append((dx, dy, direction, f"the ball not seen in 15 s (HCM states {hcm})", 0.0, 0.0))
@@ -83,7 +82,7 @@ def kick_trials(bus: BusConfig) -> list[tuple[float, float, float, str, float, f
             status, result = kick.send_goal(goal).wait_result(60)
             stopped = sim.ball()
             for _ in range(100):  # until the ball lies still or has gone far enough (at most 10 s)
-                time.sleep(0.1)
+                sim.pass_time(0.1)
                 now = sim.ball()
                 if math.hypot(now[0] - stopped[0], now[1] - stopped[1]) < 0.002 or \
                         math.hypot(now[0] - start_ball[0], now[1] - start_ball[1]) > MIN_DISTANCE + 0.1:

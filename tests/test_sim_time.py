@@ -6,9 +6,11 @@ from __future__ import annotations
 import itertools
 import math
 import threading
+import time
 
 import pytest
 
+import schemas
 from robot_nodes.cm730.sim import SimRunner, SimWorld
 from robot_nodes.runtime import BusConfig, Node, open_session
 from robot_nodes.runtime.clock import SIM_TIME_ENV, ClockPublisher, RobotSimClock, SimClock, clock_cdr, clock_seconds
@@ -53,6 +55,52 @@ def test_a_node_on_simulated_time_ticks_once_per_simulated_period_whatever_the_w
         assert 51 <= len(node.ticks) <= 52
     finally:
         node.shutdown()
+
+
+class SlowTalker(Node):
+    """At 100 Hz of its clock it works 20 ms of wall time, then tells the listener the time it ticked at."""
+
+    name = "slow_talker"
+
+    def setup(self) -> None:
+        self.out = self.publisher("cmd_vel")
+        self.timer(100.0, self.tick, "tick")
+
+    def tick(self) -> None:
+        time.sleep(0.02)  # a loaded machine: the node takes longer than the world's step
+        msg = schemas.make("geometry_msgs/msg/Twist")
+        msg.linear.x = self.now()
+        self.out.publish(msg)
+
+
+class Listening(Node):
+    name = "listening"
+
+    def setup(self) -> None:
+        self.heard: list[float] = []
+        self.subscribe("cmd_vel", lambda m: self.heard.append(m.linear.x))
+
+
+def test_a_lockstep_clock_moves_on_only_when_every_node_has_done_its_work_messages_included(bus: BusConfig) -> None:
+    clock = SimClock(lockstep=True)
+    session = open_session(bus)  # composed, as a simulated robot's nodes in a test: one session, the local bus
+    talker = SlowTalker(bus=session, clock=clock).start()
+    listener = Listening(bus=session, clock=clock).start()
+    try:
+        wait_for(lambda: talker.loop.thread is not None and listener.loop.thread is not None, 5, what="loops")
+        started = time.monotonic()
+        for step in range(1, 26):
+            clock.advance(step * 0.01)
+            # no waiting here: advance returned after the talker ticked and the listener handled what it said
+            assert listener.heard[-1:] == [pytest.approx(step * 0.01)], f"step {step}: heard {listener.heard[-3:]}"
+        assert time.monotonic() - started >= 25 * 0.02  # the clock waited for the slow node every step
+        assert len(listener.heard) == 25 and clock.lockstep_timeouts == 0
+    finally:
+        listener.shutdown()
+        talker.shutdown()
+        session.close()
+    clock.advance(1.0)  # nobody left to wait for: the clock moves on at once
+    assert clock.lockstep_timeouts == 0
 
 
 def test_nodes_of_a_process_follow_their_robots_clock_topic_from_another_session(

@@ -18,6 +18,7 @@ from robot_nodes.cm730.sim import SimWorld
 from robot_nodes.cm730.sim_backend import MujocoBackend
 from robot_nodes.hcm.node import HcmNode
 from robot_nodes.runtime import BusConfig, Node
+from robot_nodes.runtime.clock import CLOCK_PERIOD_S, SimClock
 from robot_nodes.walking import Phase, WalkEngine, WalkParams
 from robot_nodes.walking.node import WalkingNode, tilt_of
 from tests.waiting import wait_for
@@ -181,15 +182,18 @@ class Probe(Node):
 @pytest.fixture
 def chain(bus: BusConfig, robot_bus: BusConfig | zenoh.Session
           ) -> Iterator[tuple[MujocoBackend, Probe, Listener, Cm730Node]]:
-    """The robot's nodes composed or split (robot_bus), and a probe of the test's own, outside them."""
+    """The robot's nodes composed or split (robot_bus), on the world's clock in lockstep (tests/sim_robots.py says
+    why), and a probe of the test's own, outside them."""
     backend = MujocoBackend.standalone(real_time_factor=1.0)
+    clock = SimClock(lockstep=True)
+    backend.runner.tick_clock(CLOCK_PERIOD_S, clock.advance)  # type: ignore[union-attr]
     nodes: list[Node] = []
     try:
-        nodes.append(Cm730Node("robot1", robot_bus, backend=backend, overrides={"publish_rate": 100.0,
-                                                                                "render_camera": False}).start())
-        nodes.append(AnimationNode("robot1", robot_bus).start())
-        nodes.append(HcmNode("robot1", robot_bus).start())
-        nodes.append(WalkingNode("robot1", robot_bus).start())
+        nodes.append(Cm730Node("robot1", robot_bus, backend=backend, clock=clock,
+                               overrides={"publish_rate": 100.0, "render_camera": False}).start())
+        nodes.append(AnimationNode("robot1", robot_bus, clock=clock).start())
+        nodes.append(HcmNode("robot1", robot_bus, clock=clock).start())
+        nodes.append(WalkingNode("robot1", robot_bus, clock=clock).start())
         probe = Probe("robot1", bus)
         listener = Listener(probe, ["robot_state", "walking_active", "walk_odometry", "walk_motor_goals"])
         probe.start()

@@ -59,11 +59,16 @@ class Waker(Protocol):
 
     def wake(self) -> None: ...
 
+    def quiet(self, until: float) -> bool:
+        """Nothing left to do up to ``until``: no timer due, no message waiting (a lockstep clock asks)."""
+        ...
+
 
 class Clock:
     """The wall clock (time.monotonic): what every node follows unless it simulates."""
 
     simulated = False
+    lockstep = False
     slack = 0.0  # a timer due this much after now is due now
 
     def now(self) -> float:
@@ -79,6 +84,9 @@ class Clock:
     def unwatch(self, waker: Waker) -> None:
         """See watch."""
 
+    def settled(self) -> None:
+        """A loop is about to wait for work (a lockstep clock looks again whether every loop is done)."""
+
 
 WALL_CLOCK = Clock()
 
@@ -88,17 +96,27 @@ class SimClock(Clock):
 
     ``advance`` runs on the world's physics thread or a Zenoh thread; loops read ``now`` from theirs. A loop
     publishes its next due time before it sleeps and the clock reads it after it moved: one of the two always sees
-    the other's new value, so no timer is missed (robot_nodes/runtime/loop.py)."""
+    the other's new value, so no timer is missed (robot_nodes/runtime/loop.py).
+
+    lockstep: ``advance`` returns only when every loop that follows the clock has done all it had to up to the new
+    time, messages the others sent it included (Gazebo's lockstep): the world waits for its robots' nodes, so a
+    busy machine slows the simulation down instead of leaving the nodes behind it. For tests whose robots must act
+    the same under any load. Only loops of this process count; ``lockstep_timeout_s`` (wall) bounds the wait for one
+    that hangs, and each such wait is counted in ``lockstep_timeouts``."""
 
     simulated = True
     # a timer's due time adds its period up (0.01 + 0.01 + ...) and the clock's time is stepped up: the two miss
     # each other by a rounding error, and a timer would tick a whole clock period late
     slack = 1e-6
 
-    def __init__(self) -> None:
+    def __init__(self, lockstep: bool = False, lockstep_timeout_s: float = 2.0) -> None:
         self.time = 0.0
+        self.lockstep = lockstep
+        self.lockstep_timeout_s = lockstep_timeout_s
+        self.lockstep_timeouts = 0
         self._wakers: list[Waker] = []  # swapped, never changed in place: advance reads it without the lock
         self._lock = threading.Lock()
+        self._settled = threading.Condition()
 
     def now(self) -> float:
         return self.time
@@ -115,6 +133,23 @@ class SimClock(Clock):
         for waker in self._wakers:
             if waker.next_due <= due:
                 waker.wake()
+        if self.lockstep:
+            self._wait_for_loops(due)
+
+    def _wait_for_loops(self, until: float) -> None:
+        deadline = time.monotonic() + self.lockstep_timeout_s
+        with self._settled:
+            while not all(waker.quiet(until) for waker in self._wakers):
+                left = deadline - time.monotonic()
+                if left <= 0:
+                    self.lockstep_timeouts += 1
+                    return
+                self._settled.wait(left)
+
+    def settled(self) -> None:
+        if self.lockstep:
+            with self._settled:
+                self._settled.notify_all()
 
     def watch(self, waker: Waker) -> None:
         with self._lock:
@@ -123,6 +158,7 @@ class SimClock(Clock):
     def unwatch(self, waker: Waker) -> None:
         with self._lock:
             self._wakers = [w for w in self._wakers if w is not waker]
+        self.settled()  # a stopped loop is not waited for
 
 
 class _ClockSubscription:

@@ -65,19 +65,31 @@ class EventLoop:
         self._stop = threading.Event()
         self._on_error = on_error
         self.thread: threading.Thread | None = None
+        # a lockstep clock asks whether anything waits (clock.py): the items queued and not yet done
+        self._counted = clock.lockstep
+        self._pending = 0
+        self._pending_lock = threading.Lock()
 
     def call_soon(self, fn: Callable[..., Any], *args: Any) -> None:
         """Thread-safe: schedule fn(*args) on the loop thread."""
+        if self._counted:
+            with self._pending_lock:
+                self._pending += 1
         self._queue.put((fn, args))
 
     def add_timer(self, timer: Timer) -> None:
         """Only from the loop thread or before the loop runs."""
         timer.entry = next(self._counter)
         heapq.heappush(self._timers, (timer.next_due, timer.entry, timer))
+        self.next_due = min(self.next_due, timer.next_due)
 
     def wake(self) -> None:
         """Thread-safe: look at the timers again (the simulated clock passed the next one)."""
-        self._queue.put(_WAKE)
+        self.call_soon(_nothing)
+
+    def quiet(self, until: float) -> bool:
+        """No message waiting or being handled, no timer due up to ``until`` (a lockstep clock asks)."""
+        return self._pending == 0 and self.next_due > until
 
     def stop(self) -> None:
         self._stop.set()
@@ -94,12 +106,16 @@ class EventLoop:
         try:
             while not self._stop.is_set():
                 timeout = self._run_due_timers()
+                self.clock.settled()
                 try:
                     item = get(timeout=timeout)
                 except queue.Empty:
                     continue
                 while item is not None:
                     self._call(item[0], item[1])
+                    if self._counted:
+                        with self._pending_lock:
+                            self._pending -= 1
                     try:
                         item = self._queue.get_nowait()
                     except queue.Empty:
@@ -146,5 +162,3 @@ class EventLoop:
 def _nothing() -> None:
     """What wake() puts in the queue: the loop looks at its timers after it."""
 
-
-_WAKE: tuple[Callable[..., Any], tuple[Any, ...]] = (_nothing, ())
