@@ -377,6 +377,9 @@ class BehaviorNode(Node):
         mouth = self._goal_mouth(now)
         toward = aim_in_goal(ball, mouth, obstacles) if mouth else 0.0
         direction = kick_direction(ball, toward, obstacles)
+        self.log.info("kick at %+.0f deg (goal %+.0f deg), ball at (%.2f, %.2f) m, robots seen at %s",
+                      math.degrees(direction), math.degrees(toward), ball[0], ball[1],
+                      ", ".join(f"({x:.2f}, {y:.2f})" for x, y in obstacles) or "none")
         goal = schemas.make(KickGoal, header=header("base_footprint"), ball_position=Point(x=ball[0], y=ball[1], z=0.0),
                             kick_direction=Quaternion(x=0.0, y=0.0, z=math.sin(direction / 2),
                                                       w=math.cos(direction / 2)),

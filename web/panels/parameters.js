@@ -139,15 +139,16 @@ function chooseRobot(pp, robot) {
   load(pp); follow(pp);
 }
 
-/** Every node's parameters, read and shown anew. */
-async function load(pp) {
+/** Every node's parameters, read and shown anew. quiet: a reading the user did not ask for (a node that came
+ * later) leaves the status line alone, which may say what the user's last change did. */
+async function load(pp, { quiet = false } = {}) {
   const { state } = pp;
   if (!state.robot) return;
-  pp.status("reading…");
+  if (!quiet) pp.status("reading…");
   try {
     state.nodes = await api("GET", paramsPath(pp));
     render(pp);
-    pp.status(`${Object.keys(state.nodes).length} nodes`);
+    if (!quiet) pp.status(`${Object.keys(state.nodes).length} nodes`);
   } catch (err) {
     pp.status(String(err.message), true);
   }
@@ -298,7 +299,7 @@ function editing(pp, node, name) {
 function applyEvent(pp, event, { authoritative = false } = {}) {
   const { state } = pp;
   const params = state.nodes[event.node];
-  if (!params) { load(pp); return; } // a node we have not seen yet
+  if (!params) { load(pp, { quiet: true }); return; } // a node we have not seen yet
   for (const [name, value] of Object.entries(event.changed || {})) {
     const p = params.find((x) => x.name === name);
     const revision = event.revisions?.[name];
