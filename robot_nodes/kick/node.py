@@ -238,6 +238,8 @@ class KickNode(Node):
             x, y = self.odometry.relative(*self.struck_at)
             self.set_diagnostic("strike_ball", f"({x:.3f}, {y:.3f}) {self.foot}")
         name = p.animation_left if self.foot == "left" else p.animation_right
+        self.log.info("strike with the %s foot %.1f s after the goal came (%d approaches)", self.foot,
+                      self.now() - self.started, self.tries + 1)
         self._enter(Phase.KICKING)
         self._feedback(50.0)
         goal = self.goal
