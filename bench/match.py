@@ -8,7 +8,8 @@ robot's nodes composed in one process each, the dashboard in match mode over one
 match of 2 x 2 minutes, the same figures.
 
 From the match's own output (every node logs its state changes) and the GameController's status it counts goals
-(the final score), kicks (the kick node's started kicks), falls (HCM into FALLING) and get-ups (HCM into
+(the final score), kicks (the kick node's started kicks; also how many reached the strike, and how the others
+ended, from the kick node's result lines: where a team's play loses the ball), falls (HCM into FALLING) and get-ups (HCM into
 GETTING_UP), the referee's penalties (robots removed) and placements (robots not at a legal kick-off place when
 SET began). For each fall it takes the time until the robot stands again (HCM back to CONTROLLABLE or WALKING) or
 is penalised (its HCM in PENALTY: the referee calls after 20 s lying, the robot hears it with the GameController's
@@ -138,6 +139,8 @@ def main() -> None:
                   f"({len(m.still_down_s)} down at the end), rtf min {m.rtf_min:.3f} (first minute "
                   f"{m.rtf_min_first_minute():.3f}, {len(m.rtf)} reports), CPU "
                   f"{m.cpu_pct:.0f} % over {m.seconds:.0f} s", flush=True)
+            print(f"  kicks: {m.strikes} of {m.kicks} struck; how they ended: "
+                  f"{', '.join(f'{why} {n}' for why, n in m.kick_outcomes.most_common()) or '-'}", flush=True)
             print(cpu_shares(m), flush=True)
             matches.append(m)
     print(f"RESULT match robots={args.robots} half_minutes={half:g} matches={len(matches)} "

@@ -4,6 +4,7 @@ and the referee its calls. Read by tests/test_match.py and bench/match.py."""
 from __future__ import annotations
 
 import re
+from collections import Counter
 from dataclasses import dataclass, field
 from datetime import datetime
 
@@ -12,6 +13,7 @@ LINE = re.compile(r"^(\d{4}-\d\d-\d\d \d\d:\d\d:\d\d,\d{3}) \w+ \[pitchside\.(\w
 HCM_CHANGE = re.compile(r"^(\w+) -> (\w+) ")
 SIM_TIME = re.compile(r" at sim (\d+(?:\.\d+)?) s$")  # an HCM on simulated time says when, in it
 REFEREE_TIME = re.compile(r"referee at (\d+(?:\.\d+)?) s:")
+KICK_END = re.compile(r"^kick (succeeded|aborted|canceled): ([^:(]*)")  # the kick node's result and why
 UP_AGAIN = {"CONTROLLABLE", "WALKING"}
 PENALISED = {"PENALTY_ANIMATION_IN", "PENALTY"}
 
@@ -23,6 +25,8 @@ class MatchFigures:
     seed: int
     goals: int = 0
     kicks: int = 0
+    strikes: int = 0  # kicks that got as far as the kicking motion
+    kick_outcomes: Counter[str] = field(default_factory=Counter)  # "aborted: the ball did not go" -> how often
     falls: int = 0
     get_ups: int = 0
     penalties: int = 0
@@ -73,6 +77,11 @@ def read_output(text: str, figures: MatchFigures) -> None:
             t = max(t, float(at.group(1)))
         if node == "kick" and message.startswith("kick with the"):
             figures.kicks += 1
+        elif node == "kick" and message.startswith("strike with the"):
+            figures.strikes += 1
+        elif node == "kick" and (end := KICK_END.match(message)):
+            why = re.sub(r"\d+(\.\d+)?", "N", end.group(2).strip())
+            figures.kick_outcomes[f"{end.group(1)}: {why}"] += 1
         elif node == "hcm" and (change := HCM_CHANGE.match(message)):
             after = change.group(2)
             if after == "FALLING":

@@ -87,13 +87,18 @@ def test_times_down_are_counted_in_the_simulations_seconds_when_the_robots_follo
         "2026-11-27 16:00:01,000 INFO [pitchside.home1.hcm] FALLING -> FALLEN (fallen) at sim 30.40 s",
         "2026-11-27 16:00:02,000 INFO [pitchside.home1.hcm] FALLEN -> GETTING_UP (get up) at sim 30.60 s",
         "2026-11-27 16:00:20,000 INFO [pitchside.home1.kick] kick with the left foot: ball at (0.3, 0.0)",
+        "2026-11-27 16:00:25,000 INFO [pitchside.home1.kick] strike with the left foot 5.1 s after the goal came",
+        "2026-11-27 16:00:28,000 INFO [pitchside.home1.kick] kick aborted: the ball did not go: seen within 0.25 m",
+        "2026-11-27 16:00:40,000 INFO [pitchside.away1.kick] kick with the right foot: ball at (0.4, 0.1)",
+        "2026-11-27 16:00:45,000 INFO [pitchside.away1.kick] kick aborted: ball not seen for 3.0 s",
         "2026-11-27 16:01:00,000 INFO [pitchside.home1.hcm] GETTING_UP -> CONTROLLABLE (up) at sim 42.00 s",
         "2026-11-27 16:01:01,000 INFO [pitchside.away2.hcm] WALKING -> FALLING (falling) at sim 42.50 s",
         "2026-11-27 16:02:00,000 INFO [match world] referee at 55.5 s: removed team 2 player 2 (lay 20 s)",
     ])
     play = MatchFigures(seed=0)
     read_output(output, play)
-    assert (play.falls, play.get_ups, play.kicks, play.penalties) == (2, 1, 1, 1)
+    assert (play.falls, play.get_ups, play.kicks, play.strikes, play.penalties) == (2, 1, 2, 1, 1)
+    assert play.kick_outcomes == {"aborted: the ball did not go": 1, "aborted: ball not seen for N s": 1}
     assert play.fall_to_up_s == pytest.approx([12.0])
     assert play.still_down_s == pytest.approx([13.0])  # until the referee's last call, in simulated time
     wall = MatchFigures(seed=0)

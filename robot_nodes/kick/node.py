@@ -300,8 +300,7 @@ class KickNode(Node):
         {GoalStatus.SUCCEEDED: goal.succeed, GoalStatus.CANCELED: goal.canceled}.get(status, goal.abort)(outcome)
         self.last_result = why
         self.set_diagnostic("last_result", why)
-        if status is not GoalStatus.SUCCEEDED:
-            self.log.info("kick %s: %s", status.name.lower(), why)
+        self.log.info("kick %s: %s", status.name.lower(), why)
         if self.goal is goal:
             self.goal = None
             self._enter(Phase.IDLE)
