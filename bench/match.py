@@ -7,18 +7,17 @@ world with both teams and the referee, the simulated GameController running the 
 robot's nodes composed in one process each, the dashboard in match mode over one-way telemetry. ``--quick``: one
 match of 2 x 2 minutes, the same figures.
 
-From the match's own output (every node logs its state changes) and the GameController's status it counts goals
-(the final score), kicks (the kick node's started kicks; also how many reached the strike, and how the others
-ended, from the kick node's result lines: where a team's play loses the ball), falls (HCM into FALLING) and get-ups (HCM into
-GETTING_UP), the referee's penalties (robots removed) and placements (robots not at a legal kick-off place when
-SET began). For each fall it takes the time until the robot stands again (HCM back to CONTROLLABLE or WALKING) or
-is penalised (its HCM in PENALTY: the referee calls after 20 s lying, the robot hears it with the GameController's
-next packet); the budget is 20 s. The world's real-time factor is its ``real_time_factor`` diagnostic (each 1 s
-window), read on the match's Zenoh bus, minimum over the match (the simulated GameController runs on the world's
-clock: a world that falls behind makes the match last longer). CPU is the time of every process of the match (%
-of one core) over the match. Both count from the first READY: the start-up (every process importing at once) is
-over by then, as the first INITIAL waits until the GameController hears every robot. ``--logs DIR`` keeps each
-match's output.
+From the match's own output (every node logs its state changes) and the GameController's status it counts goals (the
+final score), kicks (the kick node's started kicks; also how many reached the strike, and how the others ended, from
+the kick node's result lines: where a team's play loses the ball), falls (HCM into FALLING) and get-ups (HCM into
+GETTING_UP), the referee's penalties (robots removed) and placements (robots not at a legal kick-off place when SET
+began). For each fall it takes the time until the robot stands again (HCM back to CONTROLLABLE or WALKING) or is
+penalised (its HCM in PENALTY: the referee calls after 20 s lying, the robot hears it with the GameController's next
+packet); the budget is 20 s. The world's real-time factor is its ``real_time_factor`` diagnostic (each 1 s window),
+read on the match's Zenoh bus, minimum over the match (the simulated GameController runs on the world's clock: a
+world that falls behind makes the match last longer). CPU is the time of every process of the match (% of one core)
+over the match. Both count from the first READY: the start-up (every process importing at once) is over by then, as
+the first INITIAL waits until the GameController hears every robot. ``--logs DIR`` keeps each match's output.
 
 The baseline in the same run: the first half's first minute of the first seed against its whole (``rtf_min_first_min``):
 a machine that falls behind only later (memory, a growing queue) shows there.
