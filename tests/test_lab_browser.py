@@ -134,7 +134,8 @@ def _wait_pose(server: RunningServer, robot: str, goals: dict[str, float], toler
 
 
 # Known flaky under heavy load (about 1 run in 6): a recorded pose is sometimes not reached because shoulder goals
-# sent in RECORD do not arrive; to be found and fixed, until then one rerun.
+# sent in RECORD do not arrive; to be found and fixed, until then one rerun (the summary's RERUN line keeps the first
+# failure's message, with the editor's state: what it held and sent, and the HCM's state).
 @pytest.mark.flaky(reruns=1)
 def test_record_save_reload_and_play_on_the_simulated_robot(browser: Any, server: RunningServer,
                                                            bus: BusConfig, tmp_path: Path) -> None:
