@@ -87,6 +87,8 @@ class BehaviorParams:
     kick_distance: float = param(0.5, range=(0.2, 1.0), doc="the ball this close in front: kick (the kick walks on)")
     kick_align_deg: float = param(25.0, range=(5.0, 90.0), doc="facing the goal this well: kick")
     kick_retry_s: float = param(2.0, range=(0.0, 30.0), doc="after a failed kick, walk this long before the next")
+    hurry_radius: float = param(0.8, range=(0.0, 3.0),
+                                doc="a robot seen this near the ball: the kick hurries (its goal's unstable flag), m")
     ball_timeout_s: float = param(3.0, range=(0.2, 30.0), doc="an own sighting of the ball is trusted this long")
     position_timeout_s: float = param(10.0, range=(0.5, 120.0),
                                       doc="the last position (moved on by odometry) is trusted this long")
@@ -377,13 +379,14 @@ class BehaviorNode(Node):
         mouth = self._goal_mouth(now)
         toward = aim_in_goal(ball, mouth, obstacles) if mouth else 0.0
         direction = kick_direction(ball, toward, obstacles)
-        self.log.info("kick at %+.0f deg (goal %+.0f deg), ball at (%.2f, %.2f) m, robots seen at %s",
-                      math.degrees(direction), math.degrees(toward), ball[0], ball[1],
+        hurry = any(math.hypot(x - ball[0], y - ball[1]) < self.params.hurry_radius for x, y in obstacles)
+        self.log.info("kick at %+.0f deg (goal %+.0f deg)%s, ball at (%.2f, %.2f) m, robots seen at %s",
+                      math.degrees(direction), math.degrees(toward), " in a hurry" if hurry else "", ball[0], ball[1],
                       ", ".join(f"({x:.2f}, {y:.2f})" for x, y in obstacles) or "none")
         goal = schemas.make(KickGoal, header=header("base_footprint"), ball_position=Point(x=ball[0], y=ball[1], z=0.0),
                             kick_direction=Quaternion(x=0.0, y=0.0, z=math.sin(direction / 2),
                                                       w=math.cos(direction / 2)),
-                            kick_speed=1.0, unstable=False)
+                            kick_speed=1.0, unstable=hurry)
 
         def on_result(status: GoalStatus, _result: Any) -> None:
             self.kick_ended_at = self.now()

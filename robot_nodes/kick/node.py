@@ -65,6 +65,10 @@ class KickParams:
     ball_lost_s: float = param(3.0, range=(0.5, 30.0), doc="no sighting of the ball this long aborts the kick")
     timeout_s: float = param(25.0, range=(2.0, 120.0), doc="a kick that takes longer is aborted")
     max_tries: int = param(4, range=(1, 20), doc="how often the approach may start over after settling")
+    hurry_tolerance: float = param(1.5, range=(1.0, 3.0),
+                                   doc="a goal marked unstable (a rival at the ball): close enough at this multiple "
+                                       "of the tolerances")
+    hurry_settle_sightings: int = param(2, range=(1, 50), doc="...and strike after this many sightings standing")
     animation_left: str = param("kick_left", doc="animation of a kick with the left foot")
     animation_right: str = param("kick_right", doc="animation of a kick with the right foot")
 
@@ -87,6 +91,7 @@ class KickNode(Node):
         self.direction = 0.0  # the kick direction in the odometry frame
         self.foot = "left"
         self.tries = 0
+        self.hurry = False
         self.kicks = 0
         self.last_result = ""  # why the last goal ended, as its diagnostics say
         self.animation_goal: ClientGoal | None = None
@@ -151,13 +156,14 @@ class KickNode(Node):
         self.ball.add(self.now(), *here.absolute(bx, by))
         self.direction = wrap(here.yaw + direction)
         self.foot = choose_foot(here, here.absolute(bx, by), self.direction)
+        self.hurry = bool(goal.unstable)  # the thesis's flag: strike sooner, less exactly (a rival is near)
         self.goal = handle
         self.tries = 0
         self.started = self.now()
         self._enter(Phase.APPROACH)
         self.tick_timer.resume()
-        self.log.info("kick with the %s foot: ball at (%.2f, %.2f), direction %.0f deg", self.foot, bx, by,
-                      math.degrees(direction))
+        self.log.info("kick with the %s foot: ball at (%.2f, %.2f), direction %.0f deg%s", self.foot, bx, by,
+                      math.degrees(direction), ", in a hurry" if self.hurry else "")
         return None
 
     def on_cancel(self, handle: ServerGoal) -> None:
@@ -208,7 +214,7 @@ class KickNode(Node):
         self.set_diagnostic("error", f"forward {err.forward:+.3f} left {err.left:+.3f} turn "
                                      f"{math.degrees(err.turn):+.1f}")
         if self.phase is Phase.APPROACH:
-            if err.within(self.spot):
+            if err.within(self.spot, p.hurry_tolerance if self.hurry else 1.0):
                 self._walk(0.0, 0.0, 0.0)
                 self._enter(Phase.STOPPING)
                 return
@@ -219,9 +225,10 @@ class KickNode(Node):
             if not self.walking and self.robot_state == RobotControlState.CONTROLLABLE:
                 self._enter(Phase.SETTLE)
         elif self.phase is Phase.SETTLE:
-            if self.ball.count_since(self.phase_since) < p.settle_sightings:
+            if self.ball.count_since(self.phase_since) < (p.hurry_settle_sightings if self.hurry else
+                                                          p.settle_sightings):
                 return
-            if err.within(self.spot, 1.25):
+            if err.within(self.spot, 1.25 * (p.hurry_tolerance if self.hurry else 1.0)):
                 self._strike()
             elif self.tries + 1 >= p.max_tries:
                 self._finish(goal, GoalStatus.ABORTED, KickResult.RESULT_ABORTED,
