@@ -35,6 +35,12 @@ PATIENT_HCM = {"imu_timeout_s": 2.0, "motor_timeout_s": 2.0}
 MINIBOT_HCM = yaml.safe_load(robots.params_file("minibot").read_text()).get("hcm", {})
 
 
+def pass_time(clock: SimClock, seconds: float) -> None:
+    """Until ``seconds`` of ``clock``'s simulated time have passed (the world may be slower than the wall clock)."""
+    until = clock.now() + seconds
+    wait_for(lambda: clock.now() >= until, 20.0 + 20.0 * seconds, 0.01, what=f"{seconds} s of simulated time to pass")
+
+
 class Listener:
     """Every message of one robot's topic, decoded, with its arrival time (by ``clock``: the simulated seconds of
     SimRobots' listeners)."""
@@ -119,10 +125,7 @@ class SimRobots:
         return self.clock.now()
 
     def pass_time(self, seconds: float) -> None:
-        """Until ``seconds`` of simulated time have passed (the world may be slower than the wall clock)."""
-        until = self.clock.now() + seconds
-        wait_for(lambda: self.clock.now() >= until, 20.0 + 20.0 * seconds, 0.01,
-                 what=f"{seconds} s of simulated time to pass")
+        pass_time(self.clock, seconds)
 
     def pose(self, robot_id: str = "robot1") -> tuple[float, float, float]:
         with self.world.lock:

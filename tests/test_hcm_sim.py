@@ -23,7 +23,7 @@ from robot_nodes.hcm.node import HcmNode
 from robot_nodes.hcm.pause import PauseNode
 from robot_nodes.runtime import BusConfig, ParameterClient, call_service, open_session
 from robot_nodes.runtime.clock import CLOCK_PERIOD_S, SimClock
-from tests.sim_robots import MINIBOT_HCM
+from tests.sim_robots import MINIBOT_HCM, pass_time
 from tests.support import REPO
 from tests.waiting import wait_for
 from wire.actions import ActionClient, GoalStatus
@@ -101,9 +101,7 @@ class Stack:
         return self.clock.now()
 
     def pass_time(self, seconds: float) -> None:
-        """Until ``seconds`` of simulated time have passed."""
-        until = self.now() + seconds
-        wait_for(lambda: self.now() >= until, 20.0 + 20.0 * seconds, 0.01, what=f"{seconds} s of simulated time")
+        pass_time(self.clock, seconds)
     def state(self) -> int | None:
         with self.lock:
             return self.states[-1][1] if self.states else None
