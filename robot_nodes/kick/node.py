@@ -213,8 +213,11 @@ class KickNode(Node):
         err = error(robot, target)
         self.set_diagnostic("error", f"forward {err.forward:+.3f} left {err.left:+.3f} turn "
                                      f"{math.degrees(err.turn):+.1f}")
+        # a goal in a hurry (its unstable flag) is close enough farther off and settles on fewer sightings
+        scale, settle_sightings = ((p.hurry_tolerance, p.hurry_settle_sightings) if self.hurry else
+                                   (1.0, p.settle_sightings))
         if self.phase is Phase.APPROACH:
-            if err.within(self.spot, p.hurry_tolerance if self.hurry else 1.0):
+            if err.within(self.spot, scale):
                 self._walk(0.0, 0.0, 0.0)
                 self._enter(Phase.STOPPING)
                 return
@@ -225,10 +228,9 @@ class KickNode(Node):
             if not self.walking and self.robot_state == RobotControlState.CONTROLLABLE:
                 self._enter(Phase.SETTLE)
         elif self.phase is Phase.SETTLE:
-            if self.ball.count_since(self.phase_since) < (p.hurry_settle_sightings if self.hurry else
-                                                          p.settle_sightings):
+            if self.ball.count_since(self.phase_since) < settle_sightings:
                 return
-            if err.within(self.spot, 1.25 * (p.hurry_tolerance if self.hurry else 1.0)):
+            if err.within(self.spot, 1.25 * scale):
                 self._strike()
             elif self.tries + 1 >= p.max_tries:
                 self._finish(goal, GoalStatus.ABORTED, KickResult.RESULT_ABORTED,

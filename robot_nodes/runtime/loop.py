@@ -106,7 +106,8 @@ class EventLoop:
         try:
             while not self._stop.is_set():
                 timeout = self._run_due_timers()
-                self.clock.settled()
+                if self._counted:
+                    self.clock.settled()
                 try:
                     item = get(timeout=timeout)
                 except queue.Empty:
