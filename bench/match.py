@@ -46,12 +46,13 @@ from tests.real_time_factor import ROUTER, RealTimeFactor
 from tests.running_demo import process_label, running_demo
 from tests.waiting import wait_for
 
+CLOCKS = {"lockstep": (), "sim": ("--no-lockstep",), "wall": ("--wall-clock",)}  # pitchside match's options
 
-def play(robots: str, half_minutes: float, seed: int, out: Path, logs: Path | None, wall_clock: bool = False
+
+def play(robots: str, half_minutes: float, seed: int, out: Path, logs: Path | None, clock: str = "lockstep"
          ) -> MatchFigures:
     figures = MatchFigures(seed)
-    args = ("--robots", robots, "--half-minutes", str(half_minutes), "--seed", str(seed),
-            *(("--wall-clock",) if wall_clock else ()))
+    args = ("--robots", robots, "--half-minutes", str(half_minutes), "--seed", str(seed), *CLOCKS[clock])
     with running_demo(out, *args, command="match") as match:
         gc, router = GC_URL.search(match.output()), ROUTER.search(match.output())
         assert gc and router, match.output()
@@ -121,8 +122,10 @@ def main() -> None:
     parser.add_argument("--seeds", default="1,2,3")
     parser.add_argument("--quick", action="store_true", help="one match of 2 x 2 minutes")
     parser.add_argument("--logs", type=Path, default=None, help="keep each match's output in this folder")
-    parser.add_argument("--wall-clock", action="store_true",
-                        help="the robots' nodes on the wall clock, not the simulation's (as before simulated time)")
+    parser.add_argument("--clock", choices=list(CLOCKS), default="lockstep",
+                        help="lockstep (the default): the world waits for every robot's nodes each 10 ms of "
+                             "simulated time; sim: the robots follow the simulation's time but the world keeps its "
+                             "own pace; wall: the robots on the wall clock")
     args = parser.parse_args()
     seeds = [int(s) for s in args.seeds.split(",")]
     half = args.half_minutes
@@ -132,7 +135,7 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         for seed in seeds:
             print(f"match {args.robots}, 2 x {half:g} min, seed {seed}", flush=True)
-            m = play(args.robots, half, seed, Path(tmp), args.logs, args.wall_clock)
+            m = play(args.robots, half, seed, Path(tmp), args.logs, args.clock)
             print(f"  goals {m.goals}, kicks {m.kicks}, falls {m.falls}, get-ups {m.get_ups}, penalties "
                   f"{m.penalties}, placed at SET {m.placed}, longest time down {m.longest_down_s:.1f} s "
                   f"({len(m.still_down_s)} down at the end), rtf min {m.rtf_min:.3f} (first minute "
@@ -143,7 +146,7 @@ def main() -> None:
             print(cpu_shares(m), flush=True)
             matches.append(m)
     print(f"RESULT match robots={args.robots} half_minutes={half:g} matches={len(matches)} "
-          f"clock={'wall' if args.wall_clock else 'sim'} "
+          f"clock={args.clock} "
           f"goals_per_match={statistics.mean(m.goals for m in matches):.2f} "
           f"kicks_per_match={statistics.mean(m.kicks for m in matches):.1f} "
           f"falls={sum(m.falls for m in matches)} get_ups={sum(m.get_ups for m in matches)} "

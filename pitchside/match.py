@@ -31,7 +31,7 @@ from robot_nodes.catalog import NODES
 from robot_nodes.cm730.sim.lineup import Lineup, LineupError, Team, parse_robots
 from robot_nodes.game_controller.packets import DATA_PORT, RETURN_PORT
 from robot_nodes.launch import COMPOSE_HELP, NodeProcess, process_groups
-from robot_nodes.runtime.clock import SIM_TIME_ENV
+from robot_nodes.runtime.clock import LOCKSTEP, SIM_TIME_ENV
 from server.security.credentials import ENV_TOKEN, new_token
 from wire.command_line import CommandParser
 
@@ -112,6 +112,7 @@ class MatchPlan:
     compose: str
     model: str
     sim_time: bool = True
+    lockstep: bool = True  # with sim_time: the world waits for every robot's nodes each tick
 
 
 def match_processes(plan: MatchPlan, endpoint: str, http_port: int, telemetry_port: int, gc: GameControllerPlan,
@@ -129,6 +130,8 @@ def match_processes(plan: MatchPlan, endpoint: str, http_port: int, telemetry_po
              "--params", str(descriptions.params_file(plan.model))]
     if plan.sim_time:
         world.append("--sim-time")
+        if plan.lockstep:
+            world.append("--lockstep")
     if gc.http_port is not None:
         world += ["--gc-http-port", str(gc.http_port)]
     processes = [NodeProcess("world", world)]
@@ -139,7 +142,7 @@ def match_processes(plan: MatchPlan, endpoint: str, http_port: int, telemetry_po
                                 compose=plan.compose)
             if plan.sim_time:
                 for process in robot:
-                    process.env[SIM_TIME_ENV] = "1"
+                    process.env[SIM_TIME_ENV] = LOCKSTEP if plan.lockstep else "1"
             processes += robot
     processes.append(server_process(http_port, telemetry_port, plan.model, [], True, token, telemetry_key))
     return world_first(processes, others_nice=ROBOTS_IN_MATCH_NICE)
@@ -179,6 +182,10 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--wall-clock", action="store_true",
                         help="the robots' nodes run on the wall clock instead of the simulation's (a world that falls "
                              "behind real time then breaks walking and get-ups instead of slowing the game)")
+    parser.add_argument("--no-lockstep", action="store_true",
+                        help="the world keeps its own pace instead of waiting for every robot's nodes each 10 ms of "
+                             "simulated time: on a machine short of CPU their control then lags behind the physics "
+                             "and they fall more, as robots with too slow a computer would")
     args = parser.parse_args(argv)
     try:
         lineup = Lineup.of((args.teams[0], args.teams[1]), parse_robots(args.robots))
@@ -191,7 +198,7 @@ def main(argv: list[str] | None = None) -> None:
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s [match] %(message)s")
     plan = MatchPlan(lineup, nodes, max(1, round(args.half_minutes * 60)), args.ready_seconds, args.set_seconds,
                      args.initial_seconds, args.half_time_seconds, args.seed, args.cameras, args.compose, args.model,
-                     sim_time=not args.wall_clock)
+                     sim_time=not args.wall_clock, lockstep=not (args.wall_clock or args.no_lockstep))
     endpoint = f"tcp/127.0.0.1:{free_port(7447)}"
     http_port = free_port(args.port)
     telemetry_port = kernel_port()  # ports inside the run: the kernel's free ones (local_run.kernel_port)

@@ -84,6 +84,9 @@ _TABLE: tuple[Topic, ...] = (
         Topic("clock", "rosgraph_msgs/msg/Clock",
               "the simulation's time, every 10 ms of it; simulation -> the robot's nodes when they follow simulated "
               "time (ROS 2's use_sim_time)"),
+        Topic("clock_done", "std_msgs/msg/Header",
+              "a process of the robot's nodes is done with the simulation's time in stamp (frame_id: which "
+              "process); the robot's nodes -> the simulation, when it waits for them (a lockstep match)"),
         Topic("diagnostics", "diagnostic_msgs/msg/DiagnosticArray", "node health, every node -> dashboard"),
         Topic("rosout", "rcl_interfaces/msg/Log",
               "every node's log records (INFO and above, rate-limited per node); every node -> dashboard, recordings",

@@ -13,7 +13,16 @@ import pytest
 import schemas
 from robot_nodes.cm730.sim import SimRunner, SimWorld
 from robot_nodes.runtime import BusConfig, Node, open_session
-from robot_nodes.runtime.clock import SIM_TIME_ENV, ClockPublisher, RobotSimClock, SimClock, clock_cdr, clock_seconds
+from robot_nodes.runtime.clock import (
+    LOCKSTEP,
+    SIM_TIME_ENV,
+    ClockPublisher,
+    RobotSimClock,
+    SimClock,
+    WorldClock,
+    clock_cdr,
+    clock_seconds,
+)
 from tests.waiting import wait_for
 from wire import keys
 
@@ -101,6 +110,39 @@ def test_a_lockstep_clock_moves_on_only_when_every_node_has_done_its_work_messag
         session.close()
     clock.advance(1.0)  # nobody left to wait for: the clock moves on at once
     assert clock.lockstep_timeouts == 0
+
+
+def test_a_lockstep_world_waits_for_the_robot_processes_and_lets_go_of_one_that_stops(
+        bus: BusConfig, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The world's clock (WorldClock) and a robot's nodes in another Zenoh session, as in a match: the robot's
+    process says on clock_done when its nodes are done with a time, and the world ticks on only then."""
+    monkeypatch.setenv(SIM_TIME_ENV, LOCKSTEP)
+    with open_session(bus) as world_session, open_session(bus) as robot_session:
+        world = WorldClock(world_session, ["home1"], lockstep=True, done_timeout_s=0.5)
+        listener = Listening(robot_id="home1", bus=world_session, clock=world.clock).start()  # the world's side
+        talker = SlowTalker(robot_id="home1", bus=robot_session).start()  # 20 ms of work per 10 ms tick
+        try:
+            assert isinstance(talker.clock, RobotSimClock) and talker.clock.lockstep
+            wait_for(lambda: world.tick(world.clock.now() + 0.01) or world.done.processes, timeout=10,
+                     what="the robot's process answering the clock")  # type: ignore[union-attr]
+            started, first = time.monotonic(), world.clock.now()
+            for step in range(1, 26):
+                t = first + step * 0.01
+                world.tick(t)
+                # no waiting here: the robot's nodes ticked at t and what they sent then is with the world's nodes
+                assert listener.heard[-1:] == [pytest.approx(t)], f"step {step}: heard {listener.heard[-3:]}"
+            assert time.monotonic() - started >= 25 * 0.02  # the world waited for the slow robot every tick
+            assert world.done.timeouts == 0  # type: ignore[union-attr]
+            talker.shutdown()
+            world.tick(first + 0.3)  # a robot that stopped is waited for once, at most done_timeout_s...
+            assert world.done.timeouts == 1 and world.done.processes == []  # type: ignore[union-attr]
+            started = time.monotonic()
+            world.tick(first + 0.31)  # ...and then no more
+            assert time.monotonic() - started < 0.25
+        finally:
+            talker.shutdown()
+            listener.shutdown()
+            world.close()
 
 
 def test_nodes_of_a_process_follow_their_robots_clock_topic_from_another_session(

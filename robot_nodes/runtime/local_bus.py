@@ -92,12 +92,13 @@ def freeze(msg: Any) -> None:
 class _Inbound:
     """One Zenoh subscriber of the process for one key, shared by every local subscription of that key."""
 
-    def __init__(self, session: zenoh.Session, key: str, msgtype: str) -> None:
+    def __init__(self, session: zenoh.Session, key: str, msgtype: str, in_order: bool = False) -> None:
         self.msgtype = msgtype
         self.subscriptions: list[Subscription] = []
         # a sample's key is the declared one unless that has a wildcard (robot "*"): not asked of Zenoh then
         self._key = None if "*" in key else key
-        self._zenoh = session.declare_subscriber(key, self._on_sample, allowed_origin=zenoh.Locality.REMOTE)
+        handler = zenoh.handlers.Callback(self._on_sample, indirect=not in_order)
+        self._zenoh = session.declare_subscriber(key, handler, allowed_origin=zenoh.Locality.REMOTE)
 
     def _on_sample(self, sample: zenoh.Sample) -> None:
         """On a Zenoh thread: the CDR to a lone subscriber (decoded on its loop, the Zenoh thread is free at
@@ -131,6 +132,10 @@ class LocalBus:
     def __init__(self, session: zenoh.Session) -> None:
         self.session = session
         self.users = 0
+        # False (Zenoh's default): each key's samples are handed over on a thread of its own, Zenoh's network thread
+        # is never held by Python. True: on the network thread, in the order they came from a sender; a lockstep
+        # simulation sets it before its nodes subscribe (clock.py: a robot's clock_done comes after what it sent)
+        self.in_order = False
         self.check_frozen = os.environ.get(CHECK_FROZEN_ENV, "") not in ("", "0")
         self._lock = threading.Lock()
         self._inbound: dict[str, _Inbound] = {}
@@ -162,7 +167,7 @@ class LocalBus:
         with self._lock:
             inbound = self._inbound.get(key)
             if inbound is None:
-                inbound = self._inbound[key] = _Inbound(self.session, key, subscription.topic.type)
+                inbound = self._inbound[key] = _Inbound(self.session, key, subscription.topic.type, self.in_order)
             inbound.subscriptions = [*inbound.subscriptions, subscription]
             self._subscriptions.append(subscription)
             self._local = {}

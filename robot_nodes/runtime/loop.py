@@ -150,7 +150,7 @@ class EventLoop:
             timer.next_due += timer.period
             now = clock.now() + slack
             if timer.next_due < now - timer.period:  # fell behind by more than a period: skip, don't burst
-                timer.next_due = now + timer.period
+                timer.next_due = clock.now() + timer.period  # on the clock's grid (slack added would straddle it)
             if timer.active and not timer.cancelled:  # the callback may have paused or cancelled it
                 self.add_timer(timer)
         if not self._timers:

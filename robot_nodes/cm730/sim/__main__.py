@@ -10,7 +10,7 @@ from __future__ import annotations
 import logging
 import signal
 import threading
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -18,7 +18,7 @@ from robot_nodes.cm730.node import Cm730Node
 from robot_nodes.cm730.sim import SimRunner, SimWorld
 from robot_nodes.cm730.sim_backend import MujocoBackend
 from robot_nodes.runtime import BusConfig, Node, open_session
-from robot_nodes.runtime.clock import CLOCK_PERIOD_S, ClockPublisher, SimClock, clock_cdr
+from robot_nodes.runtime.clock import CLOCK_PERIOD_S, WorldClock
 from robot_nodes.runtime.node import parse_overrides
 from wire.bus import add_bus_arguments, bus_from_arguments
 from wire.command_line import CommandParser
@@ -43,51 +43,49 @@ class ServedWorld:
     runner: SimRunner
     nodes: list[Node]
     session: Any
-    clock_publishers: list[ClockPublisher] = field(default_factory=list)
+    clock: WorldClock | None = None
 
     def close(self) -> None:
         for node in self.nodes:
             node.shutdown()
         self.runner.stop()
-        for publisher in self.clock_publishers:
-            publisher.close()
+        if self.clock is not None:
+            self.clock.close()
         self.session.close()
 
 
 def serve(n_robots: int, bus: BusConfig, params: Path | None = None, overrides: dict | None = None,
-          real_time_factor: float = 1.0, cameras: int | None = None, sim_time: bool = False) -> ServedWorld:
+          real_time_factor: float = 1.0, cameras: int | None = None, sim_time: bool = False,
+          lockstep: bool = False) -> ServedWorld:
     """Starts a world of ``n_robots`` and its nodes, for the caller to close. cameras: how many robots render
     images (default all)."""
-    return serve_world(SimWorld(n_robots=n_robots), bus, params, overrides, real_time_factor, cameras, sim_time)
+    return serve_world(SimWorld(n_robots=n_robots), bus, params, overrides, real_time_factor, cameras, sim_time,
+                       lockstep)
 
 
 def serve_world(world: SimWorld, bus: BusConfig, params: Path | None = None, overrides: dict | None = None,
-                real_time_factor: float = 1.0, cameras: int | None = None, sim_time: bool = False) -> ServedWorld:
+                real_time_factor: float = 1.0, cameras: int | None = None, sim_time: bool = False,
+                lockstep: bool = False) -> ServedWorld:
     """A runner stepping ``world`` and one cm730 node per robot, on one Zenoh session. sim_time: the world sends
     its time on every robot's ``clock`` topic and its cm730 nodes follow it, as the robots' nodes do when they
-    run with PITCHSIDE_SIM_TIME (robot_nodes/runtime/clock.py)."""
+    run with PITCHSIDE_SIM_TIME (robot_nodes/runtime/clock.py). lockstep (with sim_time): each tick the world
+    waits until its cm730 nodes have sent the sensors, then until every robot process that answers on
+    ``clock_done`` has done its work (PITCHSIDE_SIM_TIME=lockstep), then until its nodes took the motor goals."""
     runner = SimRunner(world, real_time_factor).start()
     session = open_session(bus)
     overrides = dict(overrides or {})
     overrides.setdefault("real_time_factor", real_time_factor)
     cameras = len(world.robots) if cameras is None else cameras
-    clock = SimClock() if sim_time else None
-    publishers = [ClockPublisher(session, r.robot_id) for r in world.robots] if sim_time else []
-    if clock is not None:
-        clock.advance(world.time)
-
-        def tick(seconds: float) -> None:
-            clock.advance(seconds)
-            cdr = clock_cdr(seconds)
-            for publisher in publishers:
-                publisher.publish(cdr)
-
-        runner.tick_clock(CLOCK_PERIOD_S, tick)
+    world_clock = WorldClock(session, [r.robot_id for r in world.robots], lockstep) if sim_time else None
+    if world_clock is not None:
+        world_clock.clock.advance(world.time)
+        runner.tick_clock(CLOCK_PERIOD_S, world_clock.tick)
     nodes: list[Node] = [Cm730Node(robot_id=r.robot_id, bus=session, params_file=params,
                                    overrides=robot_overrides(i, overrides, cameras),
-                                   backend=MujocoBackend(world, r, runner), clock=clock).start()
+                                   backend=MujocoBackend(world, r, runner),
+                                   clock=world_clock.clock if world_clock else None).start()
                          for i, r in enumerate(world.robots)]
-    return ServedWorld(runner, nodes, session, publishers)
+    return ServedWorld(runner, nodes, session, world_clock)
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -103,6 +101,9 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--sim-time", action="store_true",
                         help="send the world's time on each robot's clock topic, for robots whose nodes run with "
                              "PITCHSIDE_SIM_TIME=1 (this world's cm730 nodes follow it too)")
+    parser.add_argument("--lockstep", action="store_true",
+                        help="with --sim-time: wait each tick for the robots' nodes that run with "
+                             "PITCHSIDE_SIM_TIME=lockstep")
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s [sim] %(message)s")
     bus = bus_from_arguments(args)
@@ -110,7 +111,7 @@ def main(argv: list[str] | None = None) -> None:
     signal.signal(signal.SIGINT, lambda *_: stop.set())
     signal.signal(signal.SIGTERM, lambda *_: stop.set())
     served = serve(args.robots, bus, args.params, parse_overrides(args.set), args.real_time_factor, args.cameras,
-                   args.sim_time)
+                   args.sim_time, args.lockstep)
     logging.info("simulating %d robot(s): %s", len(served.nodes), ", ".join(n.robot_id for n in served.nodes))
     stop.wait()
     served.close()

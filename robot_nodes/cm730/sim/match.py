@@ -59,6 +59,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--sim-time", action="store_true",
                         help="send the world's time on each robot's clock topic for nodes that follow it "
                              "(PITCHSIDE_SIM_TIME=1); this world's cm730 nodes follow it too")
+    parser.add_argument("--lockstep", action="store_true",
+                        help="with --sim-time: wait each tick for the robots' nodes (PITCHSIDE_SIM_TIME=lockstep)")
     add_bus_arguments(parser)
     parser.add_argument("--params", type=Path, default=None)
     parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE", help="cm730 parameters")
@@ -70,7 +72,7 @@ def main(argv: list[str] | None = None) -> None:
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s [match world] %(message)s")
     world = SimWorld(lineup=lineup, placements=lineup_start(lineup), seed=args.seed)
     served = serve_world(world, bus_from_arguments(args), args.params, parse_overrides(args.set),
-                         cameras=args.cameras, sim_time=args.sim_time)
+                         cameras=args.cameras, sim_time=args.sim_time, lockstep=args.lockstep)
     stop = threading.Event()
     signal.signal(signal.SIGINT, lambda *_: stop.set())
     signal.signal(signal.SIGTERM, lambda *_: stop.set())
