@@ -199,8 +199,10 @@ def _expected_ticks(jc: JointConfig, lower: float, upper: float) -> tuple[int, i
 
 
 def _backend(emu: ServoBusEmulator) -> DynamixelBackend:
+    # every servo answers here: a long probe timeout costs nothing, and on a loaded CI machine the emulator's thread
+    # waited longer than 100 ms for the CPU once ("servo silent")
     return DynamixelBackend.from_config(emu.port, emu.protocol, 1_000_000, joints=_joints(emu.protocol),
-                                        cm730=emu.protocol == 1, probe_timeout_ms=100.0)
+                                        cm730=emu.protocol == 1, probe_timeout_ms=1000.0)
 
 
 def _goals(names: list[str], positions: np.ndarray, velocities: np.ndarray | None = None) -> bytes:
