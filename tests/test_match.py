@@ -9,7 +9,7 @@ import os
 import socket
 import threading
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -18,9 +18,10 @@ import psutil
 import pytest
 
 from pitchside.local_run import BEHIND_THE_WORLD_NICE, ROBOTS_IN_MATCH_NICE
-from pitchside.match import GameControllerPlan, default_nodes, parse_nodes, robot_settings
+from pitchside.match import GameControllerPlan, MatchPlan, default_nodes, match_processes, parse_nodes, robot_settings
 from robot_nodes.cm730.sim.lineup import Lineup, LineupError, parse_robots
 from robot_nodes.game_controller.simulator import SimulatedGame, SimulatedGameController
+from robot_nodes.runtime.clock import SIM_TIME_ENV
 from schemas.logs import LogSeriesReader
 from server.hub import Hub
 from server.sources.replay import ReplaySource
@@ -135,6 +136,26 @@ def test_lineup_and_robot_settings() -> None:
         parse_nodes("cm730,hcm")
     with pytest.raises(ValueError, match="nosuchnode"):
         parse_nodes("hcm,nosuchnode")
+
+
+def test_the_world_waits_for_every_robot_unless_told_not_to() -> None:
+    """pitchside match: lockstep by default (the world's --lockstep, the robots' PITCHSIDE_SIM_TIME=lockstep);
+    --no-lockstep keeps simulated time without it; --wall-clock has neither."""
+    lineup = Lineup.of((1, 2), (2, 1))
+    plan = MatchPlan(lineup, ["hcm", "walking"], 60, 45.0, 5.0, 5.0, 30.0, 1, 0, "all", "minibot")
+    ports = {r: 4000 + i for i, r in enumerate(lineup.robot_ids())}
+
+    def clocks(plan: MatchPlan) -> tuple[list[str], set[str | None]]:
+        processes = match_processes(plan, "tcp/127.0.0.1:7447", 8080, 5800, GameControllerPlan("sim", 3838, 3939, 1),
+                                    ports, "token", None)
+        world = next(p for p in processes if p.name == "world")
+        robots = [p for p in processes if p.name not in ("world", "server")]
+        assert len(robots) == 3  # composed: one process a robot
+        return [a for a in world.argv if a in ("--sim-time", "--lockstep")], {p.env.get(SIM_TIME_ENV) for p in robots}
+
+    assert clocks(plan) == (["--sim-time", "--lockstep"], {"lockstep"})
+    assert clocks(replace(plan, lockstep=False)) == (["--sim-time"], {"1"})
+    assert clocks(replace(plan, sim_time=False, lockstep=False)) == ([], {None})
 
 
 def assert_world_first(processes: list[psutil.Process]) -> None:
