@@ -30,6 +30,7 @@ import zenoh
 
 import schemas
 from robot_nodes.runtime.local_bus import LocalBus
+from schemas import stamps
 from schemas.codec import Message, SchemaError
 from wire import keys
 
@@ -65,7 +66,7 @@ def clock_seconds(cdr: bytes) -> float:
 
 
 def _seconds_of(msg: Message) -> float:
-    return float(msg.clock.sec) + float(msg.clock.nanosec) * 1e-9  # type: ignore[attr-defined]
+    return stamps.seconds(msg.clock)  # type: ignore[attr-defined]
 
 
 class Waker(Protocol):
@@ -329,7 +330,7 @@ class ClockDone:
             msg = schemas.decode(sample.payload.to_bytes(), "std_msgs/msg/Header")
         except SchemaError:
             return  # not a process of robot nodes: nothing to wait for
-        seconds = float(msg.stamp.sec) + float(msg.stamp.nanosec) * 1e-9
+        seconds = stamps.seconds(msg.stamp)
         process = str(msg.frame_id)
         with self._changed:
             if process not in self._done:
@@ -373,7 +374,8 @@ class WorldClock:
         self.clock = SimClock(lockstep=lockstep)
         self._publishers = [ClockPublisher(session, robot) for robot in robots]
         self._bus = LocalBus.join(session)
-        self._bus.in_order = lockstep  # before the world's nodes subscribe
+        if lockstep:
+            self._bus.in_order = True  # before the world's nodes subscribe
         self.done = ClockDone(session, robots, done_timeout_s) if lockstep else None
 
     def tick(self, seconds: float) -> None:
