@@ -31,9 +31,10 @@ from server.rerun_server import RerunServer
 
 log = logging.getLogger(__name__)
 BLUEPRINT_EVERY_S = 2.0  # a new robot or topic re-sends the layout, at most this often
-# numbers gathered this long go to rerun as one column per entity: a row per message and entity cost the server
-# a rerun call each (a third of its CPU with 8 robots), and a plot a tenth of a second late is not noticed
-BATCH_S = 0.1
+# numbers gathered this long go to rerun as one column per entity: a call per message and entity was a third of the
+# server's CPU with 8 robots (each entity gets plots_max_hz rows a second, so a shorter batch saves little); the
+# viewer's lines grow in steps of half a second, behind rerun's own latency of seconds
+BATCH_S = 0.5
 
 
 def palette(n: int, start: int = 0) -> list[tuple[int, int, int]]:
@@ -165,7 +166,7 @@ class PlotFeed:
         assert self._sub is not None
         while True:
             await self._sub.wait()
-            await asyncio.sleep(BATCH_S)  # a tenth of a second of every robot's numbers goes to rerun at once
+            await asyncio.sleep(BATCH_S)  # half a second of every robot's numbers goes to rerun at once
             rows = PlotRows()
             while batch := self._sub.drain(limit=4096):
                 for msg in batch:

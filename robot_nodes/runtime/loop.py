@@ -9,6 +9,7 @@ import logging
 import math
 import queue
 import threading
+import time
 from collections.abc import Callable
 from typing import Any
 
@@ -54,9 +55,13 @@ class Timer:
 
 
 class EventLoop:
-    """Runs callbacks one at a time on one thread, so node code needs no locks."""
+    """Runs callbacks one at a time on one thread, so node code needs no locks.
 
-    def __init__(self, on_error: Callable[[str, BaseException], None], clock: Clock = WALL_CLOCK) -> None:
+    on_error(callback, exception): a callback that raised (the loop goes on). timed: keep the longest callback's
+    duration (``longest_call_s``), for a loop that several nodes share (robot_nodes/runtime/one_loop.py)."""
+
+    def __init__(self, on_error: Callable[[Callable[..., Any], BaseException], None], clock: Clock = WALL_CLOCK,
+                 timed: bool = False) -> None:
         self.clock = clock
         self.next_due = math.inf  # of its first timer, for a simulated clock to wake the loop (clock.py)
         self._queue: queue.SimpleQueue[tuple[Callable[..., Any], tuple[Any, ...]] | None] = queue.SimpleQueue()
@@ -64,6 +69,9 @@ class EventLoop:
         self._counter = itertools.count()
         self._stop = threading.Event()
         self._on_error = on_error
+        self._timed = timed
+        self.longest_call_s = 0.0
+        self.longest_call = ""
         self.thread: threading.Thread | None = None
         # a lockstep clock asks whether anything waits (clock.py): the items queued and not yet done
         self._counted = clock.lockstep
@@ -127,10 +135,14 @@ class EventLoop:
             self.clock.unwatch(self)
 
     def _call(self, fn: Callable[..., Any], args: tuple[Any, ...]) -> None:
+        started = time.perf_counter() if self._timed else 0.0
         try:
             fn(*args)
         except Exception as exc:  # a failing callback must not take the node down
-            self._on_error(getattr(fn, "__qualname__", repr(fn)), exc)
+            self._on_error(fn, exc)
+        if self._timed and time.perf_counter() - started > self.longest_call_s:
+            self.longest_call_s = time.perf_counter() - started
+            self.longest_call = getattr(fn, "__qualname__", repr(fn))
 
     def _run_due_timers(self) -> float | None:
         """Fires due timers; returns wall seconds until the next one (None: no timer, or a simulated clock that

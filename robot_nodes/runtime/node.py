@@ -314,6 +314,7 @@ class Node:
         params_file: Path | None = None,
         overrides: dict[str, Any] | None = None,
         clock: Clock | None = None,
+        loop: EventLoop | None = None,
     ) -> None:
         self.robot_id = robot_id
         # one logger per node instance (two robots' HCMs in one process log apart); its records also go on rosout
@@ -325,7 +326,11 @@ class Node:
         if clock is None and sim_time_wanted():
             clock = self._robot_clock = RobotSimClock.join(self.local_bus, robot_id)
         self.clock: Clock = clock or WALL_CLOCK
-        self.loop = EventLoop(self._on_callback_error, self.clock)
+        # a loop of its own, or one it shares with other nodes of the process (NodesOnOneLoop, one_loop.py)
+        self._loop_shared = loop is not None
+        if loop is not None and loop.clock is not self.clock:
+            raise ValueError(f"{self.name}: a shared loop runs on its own clock; give the node that clock")
+        self.loop = loop if loop is not None else EventLoop(self._on_callback_error, self.clock)
         self.parameters = ParameterStore(self.name, self.Params, params_file, overrides)
         self.params = self.parameters.values
         self.parameters.on_change(lambda changed: self.loop.call_soon(self.on_parameters_changed, changed))
@@ -433,9 +438,18 @@ class Node:
     # -- running --------------------------------------------------------------------------------------
     def spin(self) -> None:
         """Runs the loop on this thread until shutdown()."""
-        # the first report goes out as soon as the node runs, not a period later: a restarted node that only
-        # reports (speaker, an idle animation player) shows it is back at once. A second follows shortly: a new
-        # session's first puts can leave before its routes to the subscribers are known, and are then lost.
+        if self._loop_shared:
+            raise RuntimeError(f"{self.name} shares a loop: its NodesOnOneLoop runs it")
+        self.schedule_first_reports()
+        try:
+            self.loop.run()
+        finally:
+            self._close()
+
+    def schedule_first_reports(self) -> None:
+        """The first report goes out as soon as the node runs, not a period later: a restarted node that only
+        reports (speaker, an idle animation player) shows it is back at once. A second follows shortly: a new
+        session's first puts can leave before its routes to the subscribers are known, and are then lost."""
         self.loop.call_soon(self._publish_diagnostics)
 
         def report_again() -> None:
@@ -443,14 +457,12 @@ class Node:
             self._publish_diagnostics()
 
         again = Timer(self.loop, FIRST_REPORT_AGAIN_S, report_again, "first_diagnostics")
-        self.loop.add_timer(again)
-        try:
-            self.loop.run()
-        finally:
-            self._close()
+        self.loop.add_timer(again) if self.loop.thread is None else self.loop.call_soon(self.loop.add_timer, again)
 
     def start(self) -> Node:
         """Runs the loop on a background thread (tests, several nodes in one process)."""
+        if self._loop_shared:
+            raise RuntimeError(f"{self.name} shares a loop: its NodesOnOneLoop starts it")
         self._thread = threading.Thread(target=self.spin, name=f"node-{self.name}", daemon=True)
         self._thread.start()
         return self
@@ -460,6 +472,9 @@ class Node:
         self.shutdown()
 
     def shutdown(self) -> None:
+        if self._loop_shared:
+            self._leave_shared_loop()
+            return
         if self.loop.stopped:
             return
         done = threading.Event()
@@ -481,6 +496,27 @@ class Node:
             if self._thread is not None:
                 self._thread.join(5.0)
 
+    def _leave_shared_loop(self) -> None:
+        """Last words, timers off and entities closed, on the shared loop; the loop runs on for the others."""
+        if self._closed:
+            return
+        done = threading.Event()
+
+        def leave() -> None:
+            try:
+                self.on_shutdown()
+            finally:
+                for timer in self._timers:
+                    timer.cancel()
+                self._close()
+                done.set()
+
+        if self.loop.thread is None or self.loop.stopped or threading.current_thread() is self.loop.thread:
+            leave()
+            return
+        self.loop.call_soon(leave)
+        done.wait(5.0)
+
     def _close(self) -> None:
         if self._closed:
             return
@@ -501,7 +537,8 @@ class Node:
             self.session.close()
 
     # -- internals ------------------------------------------------------------------------------------
-    def _on_callback_error(self, where: str, exc: BaseException) -> None:
+    def _on_callback_error(self, callback: Callable[..., Any], exc: BaseException) -> None:
+        where = getattr(callback, "__qualname__", repr(callback))
         self.record_error(f"{where}: {type(exc).__name__}: {exc}")
         self.log.debug("".join(traceback.format_exception(exc)))
 

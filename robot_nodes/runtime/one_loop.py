@@ -1,0 +1,83 @@
+"""Several nodes of one process on one loop thread: what one thread per node costs, saved where it counts.
+
+Each node keeps its name, parameters, timers, diagnostics and subscriptions; only the thread is shared, so a
+callback of one node waits while another's runs. Use it for nodes whose every callback is short and known, such as
+the simulated world's cm730 nodes (one per robot, each tick well under a millisecond: with 8 robots one loop took a
+tenth of a core less than 8 loops, bench/world.py), never for a node that may block (a serial port, a file, a
+speaker). The bound: the loop keeps its longest callback (``longest_call_s``); a node waits at most the sum of the
+other nodes' callbacks due at the same time, which the owner states and reports (robot_nodes/cm730/sim/__main__.py:
+each of its nodes' diagnostics say ``loop_longest_call_ms``).
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import traceback
+from collections.abc import Callable
+from typing import Any
+
+from robot_nodes.runtime.clock import WALL_CLOCK, Clock
+from robot_nodes.runtime.loop import EventLoop, Timer
+from robot_nodes.runtime.node import Node
+
+log = logging.getLogger(__name__)
+REPORT_PERIOD_S = 1.0
+
+
+class NodesOnOneLoop:
+    """Make each node with ``loop=group.loop`` and ``group.add`` it; ``start`` runs them all, ``shutdown`` ends
+    them all (a node's own ``shutdown`` takes it off the loop and leaves the others running)."""
+
+    def __init__(self, name: str, clock: Clock = WALL_CLOCK) -> None:
+        self.name = name
+        self.loop = EventLoop(self._on_error, clock, timed=True)
+        self.nodes: list[Node] = []
+        self._thread: threading.Thread | None = None
+
+    def add(self, node: Node) -> Node:
+        if node.loop is not self.loop:
+            raise ValueError(f"{node.name} of {node.robot_id} was not made with this group's loop")
+        self.nodes.append(node)
+        return node
+
+    def start(self) -> NodesOnOneLoop:
+        for node in self.nodes:
+            node.schedule_first_reports()
+        self.loop.add_timer(Timer(self.loop, REPORT_PERIOD_S, self._report, "one_loop_report"))
+        self._thread = threading.Thread(target=self.loop.run, name=f"loop-{self.name}", daemon=True)
+        self._thread.start()
+        return self
+
+    def shutdown(self) -> None:
+        for node in self.nodes:
+            node.shutdown()
+        self.loop.stop()
+        if self._thread is not None and self._thread is not threading.current_thread():
+            self._thread.join(5.0)
+
+    def _report(self) -> None:
+        """Each node's diagnostics say whom it shares its loop with and the loop's longest callback so far."""
+        longest = f"{self.loop.longest_call_s * 1e3:.2f} ({self.loop.longest_call})"
+        for node in self.nodes:
+            node.set_diagnostic("loop_shared_by", len(self.nodes))
+            node.set_diagnostic("loop_longest_call_ms", longest)
+
+    def _on_error(self, callback: Callable[..., Any], exc: BaseException) -> None:
+        """Counted on the node whose callback raised: a timer's or a message's (the callback's object is the node,
+        or holds it), else logged for the group."""
+        owner = _owner(callback)
+        if owner is not None:
+            owner._on_callback_error(callback, exc)
+            return
+        log.warning("%s: %s: %s: %s", self.name, getattr(callback, "__qualname__", repr(callback)),
+                    type(exc).__name__, exc)
+        log.debug("".join(traceback.format_exception(exc)))
+
+
+def _owner(callback: Callable[..., Any]) -> Node | None:
+    target = getattr(callback, "__self__", None)
+    for candidate in (target, getattr(target, "node", None), getattr(target, "_node", None)):
+        if isinstance(candidate, Node):
+            return candidate
+    return None
