@@ -4,9 +4,8 @@ Each node keeps its name, parameters, timers, diagnostics and subscriptions; onl
 callback of one node waits while another's runs. Use it for nodes whose every callback is short and known, such as
 the simulated world's cm730 nodes (one per robot, each tick well under a millisecond: with 8 robots one loop took a
 tenth of a core less than 8 loops, bench/world.py), never for a node that may block (a serial port, a file, a
-speaker). The bound: the loop keeps its longest callback (``longest_call_s``); a node waits at most the sum of the
-other nodes' callbacks due at the same time, which the owner states and reports (robot_nodes/cm730/sim/__main__.py:
-each of its nodes' diagnostics say ``loop_longest_call_ms``).
+speaker). The bound: a node waits at most for the other nodes' callbacks due at the same time; the loop keeps its
+longest callback of each second (``longest_call_s``) and each node's diagnostics say it (``loop_longest_call_ms``).
 """
 
 from __future__ import annotations
@@ -57,8 +56,10 @@ class NodesOnOneLoop:
             self._thread.join(5.0)
 
     def _report(self) -> None:
-        """Each node's diagnostics say whom it shares its loop with and the loop's longest callback so far."""
+        """Each node's diagnostics say whom it shares its loop with and the loop's longest callback of the last
+        period (the longest another node's callback may have waited; start-up's first calls are the slowest)."""
         longest = f"{self.loop.longest_call_s * 1e3:.2f} ({self.loop.longest_call})"
+        self.loop.longest_call_s, self.loop.longest_call = 0.0, ""
         for node in self.nodes:
             node.set_diagnostic("loop_shared_by", len(self.nodes))
             node.set_diagnostic("loop_longest_call_ms", longest)
