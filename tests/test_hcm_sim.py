@@ -102,6 +102,7 @@ class Stack:
 
     def pass_time(self, seconds: float) -> None:
         pass_time(self.clock, seconds)
+
     def state(self) -> int | None:
         with self.lock:
             return self.states[-1][1] if self.states else None

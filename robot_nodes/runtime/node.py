@@ -472,50 +472,39 @@ class Node:
         self.shutdown()
 
     def shutdown(self) -> None:
-        if self._loop_shared:
-            self._leave_shared_loop()
-            return
-        if self.loop.stopped:
+        """on_shutdown on the node's loop, then the loop stops; a node on a shared loop leaves it instead (its
+        timers off, its entities closed) and the loop runs on for the other nodes (one_loop.py)."""
+        shared = self._loop_shared
+        if self._closed or (self.loop.stopped and not shared):
             return
         done = threading.Event()
+
+        def leave() -> None:
+            if shared:
+                for timer in self._timers:
+                    timer.cancel()
+                self._close()
+            else:
+                self.loop.stop()
 
         def last_words() -> None:
             try:
                 self.on_shutdown()
             finally:
+                leave()
                 done.set()
-                self.loop.stop()
 
-        if self.loop.thread is None:
-            self.loop.stop()
+        if self.loop.thread is None or self.loop.stopped:
+            leave()
             self._close()
             return
+        if threading.current_thread() is self.loop.thread:
+            last_words() if shared else self.loop.call_soon(last_words)
+            return
         self.loop.call_soon(last_words)
-        if threading.current_thread() is not self.loop.thread:
-            done.wait(5.0)
-            if self._thread is not None:
-                self._thread.join(5.0)
-
-    def _leave_shared_loop(self) -> None:
-        """Last words, timers off and entities closed, on the shared loop; the loop runs on for the others."""
-        if self._closed:
-            return
-        done = threading.Event()
-
-        def leave() -> None:
-            try:
-                self.on_shutdown()
-            finally:
-                for timer in self._timers:
-                    timer.cancel()
-                self._close()
-                done.set()
-
-        if self.loop.thread is None or self.loop.stopped or threading.current_thread() is self.loop.thread:
-            leave()
-            return
-        self.loop.call_soon(leave)
         done.wait(5.0)
+        if self._thread is not None:
+            self._thread.join(5.0)
 
     def _close(self) -> None:
         if self._closed:
