@@ -3,7 +3,7 @@
 Each node keeps its name, parameters, timers, diagnostics and subscriptions; only the thread is shared, so a
 callback of one node waits while another's runs. Use it for nodes whose every callback is short and known, such as
 the simulated world's cm730 nodes (one per robot, each tick well under a millisecond: with 8 robots one loop took a
-tenth of a core less than 8 loops, bench/world.py), never for a node that may block (a serial port, a file, a
+tenth of a core less than 8 loops in bench/team.py), never for a node that may block (a serial port, a file, a
 speaker). The bound: a node waits at most for the other nodes' callbacks due at the same time; the loop keeps its
 longest callback of each second (``longest_call_s``) and each node's diagnostics say it (``loop_longest_call_ms``).
 """
