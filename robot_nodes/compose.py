@@ -2,9 +2,14 @@
 
     python -m robot_nodes.compose --robot-id robot1 hcm animation walking --set walking.rate_hz=100
 
-Each node keeps its name, its parameters (queryable as when it runs alone), its timers, its diagnostics and its
-own loop thread, so a slow callback of one node never delays another's. They share the process's Zenoh session,
-so what one publishes reaches the others as the same object, without CDR (robot_nodes/runtime/local_bus.py).
+Each node keeps its name, its parameters (queryable as when it runs alone), its timers and its diagnostics. They
+share the process's Zenoh session, so what one publishes reaches the others as the same object, without CDR
+(robot_nodes/runtime/local_bus.py), and one loop thread (robot_nodes/runtime/one_loop.py): a robot's nodes wake
+together at each 100 Hz tick, and a thread each spent more on handing the interpreter over than on the work. The
+bound that makes it safe: no callback of these nodes blocks (sockets, speech and files have threads of their own),
+so a node waits at most for the other nodes' callbacks due at the same time; each node's diagnostics say the
+loop's longest callback of each second (``loop_longest_call_ms``). ``--loop-per-node`` gives each node a loop
+thread of its own instead, for a node whose callbacks may take long.
 
 A node that cannot start, or whose loop ends on its own, ends the process with exit code FAILED_NODE_EXIT + its
 index, so the supervisor (robot_nodes/launch.py) names the node when it restarts the process.
@@ -24,6 +29,7 @@ from typing import Any
 from robot_nodes.catalog import NODES, entry, node_label
 from robot_nodes.runtime import Node
 from robot_nodes.runtime.node import parse_overrides
+from robot_nodes.runtime.one_loop import NodesOnOneLoop
 from wire.bus import add_bus_arguments, bus_from_arguments, load_config_file, open_session
 from wire.command_line import CommandParser
 
@@ -60,23 +66,31 @@ def load_classes(names: list[str], robot_id: str) -> list[tuple[str, type[Node]]
 
 
 class ComposedNodes:
-    """The nodes of one process, built in order on one session, stopped with their last duties first."""
+    """The nodes of one process, built in order on one session (on one loop, ``group``, or a loop each), stopped
+    with their last duties first."""
 
-    def __init__(self, nodes: list[Node]) -> None:
+    def __init__(self, nodes: list[Node], group: NodesOnOneLoop | None = None) -> None:
         self.nodes = nodes
+        self.group = group
         self.stopping = threading.Event()
 
     def start(self) -> None:
+        if self.group is not None:
+            self.group.start()
+            return
         for node in self.nodes:
             node.start()
 
     def failed(self) -> int | None:
-        """Index of a node whose loop ended while nobody asked it to stop."""
+        """Index of a node that stopped while nobody asked it to (its loop ended, or it left the shared one)."""
         if self.stopping.is_set():
             return None
+        if self.group is not None and not self.group.running:
+            culprit = self.group.failed
+            return next((i for i, node in enumerate(self.nodes) if node is culprit), 0)
         for i, node in enumerate(self.nodes):
             thread = node._thread
-            if thread is not None and not thread.is_alive():
+            if node.closed or (thread is not None and not thread.is_alive()):
                 return i
         return None
 
@@ -89,24 +103,31 @@ class ComposedNodes:
                 node.loop.call_soon(node.request_shutdown)
             deadline = time.monotonic() + SHUTDOWN_WAIT_S
             for node in stage:
+                if not node.wait_closed(max(0.1, deadline - time.monotonic())):
+                    log.warning("%s did not stop within %.0f s", node.name, SHUTDOWN_WAIT_S)
                 if node._thread is not None:
                     node._thread.join(max(0.1, deadline - time.monotonic()))
-                    if node._thread.is_alive():
-                        log.warning("%s did not stop within %.0f s", node.name, SHUTDOWN_WAIT_S)
+        if self.group is not None:
+            self.group.shutdown()
 
 
 def build(classes: list[tuple[str, type[Node]]], robot_id: str, session: Any, params: Path | None,
-          overrides: dict[str, dict[str, Any]]) -> list[Node]:
-    """Each node on the shared session, in the order given; a node that cannot start ends the process, naming it."""
+          overrides: dict[str, dict[str, Any]], group: NodesOnOneLoop | None = None) -> list[Node]:
+    """Each node on the shared session (and ``group``'s loop), in the order given; a node that cannot start ends
+    the process, naming it."""
     nodes: list[Node] = []
     for i, (name, cls) in enumerate(classes):
         try:
-            nodes.append(cls(robot_id=robot_id, bus=session, params_file=params, overrides=overrides[name]))
+            node = cls(robot_id=robot_id, bus=session, params_file=params, overrides=overrides[name],
+                       loop=group.loop if group is not None else None)
         except Exception as exc:
             log.critical("%s/%s failed to start: %s: %s", robot_id, node_label(name), type(exc).__name__, exc)
             for node in nodes:
                 node.shutdown()
+            if group is not None:
+                group.shutdown()
             raise SystemExit(FAILED_NODE_EXIT + i) from exc
+        nodes.append(group.add(node) if group is not None else node)
     return nodes
 
 
@@ -120,6 +141,9 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--params", type=Path, default=None, help="params.yaml of the robot")
     parser.add_argument("--set", action="append", default=[], metavar="NODE.NAME=VALUE",
                         help="override a node's parameter (YAML value syntax)")
+    parser.add_argument("--loop-per-node", action="store_true",
+                        help="a loop thread for each node instead of one for all (for a node whose callbacks may "
+                             "take long)")
     parser.add_argument("--log-level", default="INFO")
     args = parser.parse_args(argv)
     logging.basicConfig(level=args.log_level, format="%(asctime)s %(levelname)s [%(name)s] %(message)s")
@@ -136,7 +160,8 @@ def main(argv: list[str] | None = None) -> None:
     signal.signal(signal.SIGINT, lambda *_: stop.set())
     signal.signal(signal.SIGTERM, lambda *_: stop.set())
     session = open_session(bus_from_arguments(args))
-    composed = ComposedNodes(build(classes, args.robot_id, session, args.params, overrides))
+    group = None if args.loop_per_node else NodesOnOneLoop.of_robot(session, args.robot_id)
+    composed = ComposedNodes(build(classes, args.robot_id, session, args.params, overrides, group), group)
     composed.start()
     log.info("%s up for robot %s in one process", ", ".join(n.name for n in composed.nodes), args.robot_id)
     failed = None

@@ -62,6 +62,15 @@ class BrokenAtStart(Node):
         raise RuntimeError("this node never starts")
 
 
+class LeavesSoon(Node):
+    """A node that shuts itself down shortly after it started: a composed process must end, naming it."""
+
+    name = "leaves_soon"
+
+    def setup(self) -> None:
+        self.timer(5.0, self.shutdown, name="leave")
+
+
 NODES = {"talker": Talker, "echo": Echo}
 
 if __name__ == "__main__":

@@ -89,6 +89,10 @@ def test_a_subscriber_outside_the_process_gets_cdr_only_while_it_listens(session
         sub.undeclare()
         wait_for(lambda: not talker.pub.has_subscribers or talker.pub._remote.matching is False, 5.0,
                  what="the matching status to drop")
+        # a publish that read the status just before it dropped finishes its put: it is done once the talker
+        # (one thread) has handed two more messages over
+        seen = len(recorder.got)
+        wait_for(lambda: len(recorder.got) >= seen + 2, 10.0, what="the talker's next messages")
         encoded = talker.pub.encoded
         seen = len(recorder.got)
         wait_for(lambda: len(recorder.got) >= seen + 50, 10.0, what="more in-process messages")
@@ -152,19 +156,24 @@ def composed(router: str, *nodes: str, extra: list[str] | None = None) -> list[s
             *(extra or [])]
 
 
-def test_a_composed_process_keeps_each_nodes_parameters_and_diagnostics(router_endpoint: str,
-                                                                        client: zenoh.Session) -> None:
-    diagnostics: set[str] = set()
+@pytest.mark.parametrize("layout", [[], ["--loop-per-node"]], ids=["one loop", "a loop per node"])
+def test_a_composed_process_keeps_each_nodes_parameters_and_diagnostics(router_endpoint: str, client: zenoh.Session,
+                                                                        layout: list[str]) -> None:
+    diagnostics: dict[str, dict[str, str]] = {}
     echoes: list[int] = []
-    client.declare_subscriber(keys.topic_key("robot1", "diagnostics"),
-                              lambda s: diagnostics.update(st.name for st in schemas.decode(
-                                  s.payload.to_bytes(), "diagnostic_msgs/msg/DiagnosticArray").status))
+
+    def on_diagnostics(sample: zenoh.Sample) -> None:
+        for status in schemas.decode(sample.payload.to_bytes(), "diagnostic_msgs/msg/DiagnosticArray").status:
+            diagnostics[status.name] = {kv.key: kv.value for kv in status.values}
+
+    client.declare_subscriber(keys.topic_key("robot1", "diagnostics"), on_diagnostics)
     client.declare_subscriber(keys.topic_key("robot1", "robot_state"), lambda s: echoes.append(1))
     proc = subprocess.Popen(composed(router_endpoint, "tests.proc_nodes:Talker", "tests.proc_nodes:Echo",
-                                     extra=["--set", "talker.rate_hz=50", "--set", "talker.label=composed"]),
+                                     extra=["--set", "talker.rate_hz=50", "--set", "talker.label=composed",
+                                            *layout]),
                             cwd=REPO)
     try:
-        wait_for(lambda: {"robot1/talker", "robot1/echo"} <= diagnostics, 30.0, what="both nodes' diagnostics")
+        wait_for(lambda: {"robot1/talker", "robot1/echo"} <= set(diagnostics), 30.0, what="both nodes' diagnostics")
         wait_for(lambda: len(echoes) >= 10, 10.0, what="the echo answering the talker inside the process")
         params = ParameterClient(client, "robot1")
         assert params.get("talker", "rate_hz") == 50.0 and params.get("talker", "label") == "composed"
@@ -172,9 +181,24 @@ def test_a_composed_process_keeps_each_nodes_parameters_and_diagnostics(router_e
         assert params.get("talker", "rate_hz") == 20.0
         assert params.describe("echo") == []  # a node of its own, without parameters
         assert {"talker", "echo"} <= set(params.nodes())
+        if layout:  # a loop each: nothing shared to report
+            assert "loop_shared_by" not in diagnostics["robot1/talker"]
+        else:  # one loop: each node says so, and the longest callback another may have waited for
+            wait_for(lambda: diagnostics["robot1/echo"].get("loop_shared_by") == "2", 10.0,
+                     what="the nodes saying they share one loop")
+            assert float(diagnostics["robot1/talker"]["loop_longest_call_ms"].split()[0]) < 1000.0
     finally:
         proc.send_signal(signal.SIGTERM)
         assert proc.wait(20) == 0, "a composed process stops cleanly on SIGTERM"
+
+
+@pytest.mark.parametrize("layout", [[], ["--loop-per-node"]], ids=["one loop", "a loop per node"])
+def test_a_composed_process_whose_node_stops_on_its_own_ends_naming_it(router_endpoint: str,
+                                                                       layout: list[str]) -> None:
+    out = subprocess.run(composed(router_endpoint, "tests.proc_nodes:Talker", "tests.proc_nodes:LeavesSoon",
+                                  extra=layout), cwd=REPO, capture_output=True, text=True, timeout=60)
+    assert out.returncode == FAILED_NODE_EXIT + 1, out.stderr
+    assert "robot1/leaves_soon stopped on its own" in out.stderr
 
 
 def test_a_bad_override_names_the_nodes_of_the_process(router_endpoint: str) -> None:

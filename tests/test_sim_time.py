@@ -115,10 +115,13 @@ def test_a_lockstep_clock_moves_on_only_when_every_node_has_done_its_work_messag
 def test_a_lockstep_world_waits_for_the_robot_processes_and_lets_go_of_one_that_stops(
         bus: BusConfig, monkeypatch: pytest.MonkeyPatch) -> None:
     """The world's clock (WorldClock) and a robot's nodes in another Zenoh session, as in a match: the robot's
-    process says on clock_done when its nodes are done with a time, and the world ticks on only then."""
+    process says on clock_done when its nodes are done with a time; at the next tick the world waits for that, then
+    hands what they sent to the servos (goals_due) and only then tells the new time."""
     monkeypatch.setenv(SIM_TIME_ENV, LOCKSTEP)
+    due: list[float | None] = []  # what the world's node had heard each time the goals went to the servos
     with open_session(bus) as world_session, open_session(bus) as robot_session:
-        world = WorldClock(world_session, ["home1"], lockstep=True, done_timeout_s=0.5)
+        world = WorldClock(world_session, ["home1"], lockstep=True, done_timeout_s=0.5,
+                           goals_due=lambda: due.append(listener.heard[-1] if listener.heard else None))
         listener = Listening(robot_id="home1", bus=world_session, clock=world.clock).start()  # the world's side
         talker = SlowTalker(robot_id="home1", bus=robot_session).start()  # 20 ms of work per 10 ms tick
         try:
@@ -129,15 +132,18 @@ def test_a_lockstep_world_waits_for_the_robot_processes_and_lets_go_of_one_that_
             for step in range(1, 26):
                 t = first + step * 0.01
                 world.tick(t)
-                # no waiting here: the robot's nodes ticked at t and what they sent then is with the world's nodes
-                assert listener.heard[-1:] == [pytest.approx(t)], f"step {step}: heard {listener.heard[-3:]}"
+                # no waiting here: the robot's nodes ticked at the tick before (while the world stepped to t), and
+                # what they sent then is with the world's nodes; it went to the servos before t was told
+                assert listener.heard[-1:] == [pytest.approx(t - 0.01)], f"step {step}: heard {listener.heard[-3:]}"
+                assert due[-1] == pytest.approx(t - 0.01)
             assert time.monotonic() - started >= 25 * 0.02  # the world waited for the slow robot every tick
             assert world.done.timeouts == 0  # type: ignore[union-attr]
-            talker.shutdown()
-            world.tick(first + 0.3)  # a robot that stopped is waited for once, at most done_timeout_s...
+            talker.shutdown()  # in the middle of its last tick's work, or after it
+            world.tick(first + 0.3)
+            world.tick(first + 0.31)  # a robot that stopped is waited for once, at most done_timeout_s...
             assert world.done.timeouts == 1 and world.done.processes == []  # type: ignore[union-attr]
             started = time.monotonic()
-            world.tick(first + 0.31)  # ...and then no more
+            world.tick(first + 0.32)  # ...and then no more
             assert time.monotonic() - started < 0.25
         finally:
             talker.shutdown()

@@ -344,6 +344,7 @@ class Node:
         self._thread: threading.Thread | None = None
         self._started = self.clock.now()
         self._closed = False
+        self._closed_done = threading.Event()
         self._node_graph = GraphAnnouncer(self.session, robot_id, self.name)  # its entries in the node graph
         self._diag_pub = self.publisher("diagnostics")
         self._rosout = RosoutHandler(self.publisher("rosout").publish, self.name)
@@ -467,6 +468,15 @@ class Node:
         self._thread.start()
         return self
 
+    @property
+    def closed(self) -> bool:
+        """Shut down or shutting down (a node alone: its loop ended; on a shared loop: it left it)."""
+        return self._closed
+
+    def wait_closed(self, timeout: float) -> bool:
+        """Until the node has shut down (its entities closed), at most ``timeout`` seconds."""
+        return self._closed_done.wait(timeout)
+
     def request_shutdown(self) -> None:
         """What SIGINT/SIGTERM call: a node with last duties (e.g. the HCM sitting down) overrides it."""
         self.shutdown()
@@ -510,20 +520,23 @@ class Node:
         if self._closed:
             return
         self._closed = True
-        self.log.removeHandler(self._rosout)
-        entities: list[Publisher | Subscription] = [*self._subscriptions, *self._publishers]
-        for entity in entities:
-            with contextlib.suppress(Exception):  # already gone with the session
-                entity.close()
-        for declared in self._declared:
-            with contextlib.suppress(Exception):
-                declared.close() if hasattr(declared, "close") else declared.undeclare()
-        self._node_graph.close()
-        if self._robot_clock is not None:
-            self._robot_clock.leave()
-        self.local_bus.leave()
-        if self._own_session:
-            self.session.close()
+        try:
+            self.log.removeHandler(self._rosout)
+            entities: list[Publisher | Subscription] = [*self._subscriptions, *self._publishers]
+            for entity in entities:
+                with contextlib.suppress(Exception):  # already gone with the session
+                    entity.close()
+            for declared in self._declared:
+                with contextlib.suppress(Exception):
+                    declared.close() if hasattr(declared, "close") else declared.undeclare()
+            self._node_graph.close()
+            if self._robot_clock is not None:
+                self._robot_clock.leave()
+            self.local_bus.leave()
+            if self._own_session:
+                self.session.close()
+        finally:
+            self._closed_done.set()
 
     # -- internals ------------------------------------------------------------------------------------
     def _on_callback_error(self, callback: Callable[..., Any], exc: BaseException) -> None:

@@ -16,7 +16,10 @@ import traceback
 from collections.abc import Callable
 from typing import Any
 
-from robot_nodes.runtime.clock import WALL_CLOCK, Clock
+import zenoh
+
+from robot_nodes.runtime.clock import WALL_CLOCK, Clock, RobotSimClock, sim_time_wanted
+from robot_nodes.runtime.local_bus import LocalBus
 from robot_nodes.runtime.loop import EventLoop, Timer
 from robot_nodes.runtime.node import Node
 
@@ -32,7 +35,21 @@ class NodesOnOneLoop:
         self.name = name
         self.loop = EventLoop(self._on_error, clock, timed=True)
         self.nodes: list[Node] = []
+        self.failed: Node | None = None  # the node whose callback ended the loop (an exception no node may raise)
         self._thread: threading.Thread | None = None
+        self._on_close: list[Callable[[], None]] = []
+
+    @classmethod
+    def of_robot(cls, session: zenoh.Session, robot_id: str) -> NodesOnOneLoop:
+        """A loop for nodes of one robot, on the clock they follow: the robot's simulated clock when the process
+        simulates (PITCHSIDE_SIM_TIME, the clock each node joins too), else the wall clock."""
+        bus = LocalBus.join(session)
+        robot_clock = RobotSimClock.join(bus, robot_id) if sim_time_wanted() else None
+        group = cls(robot_id, robot_clock or WALL_CLOCK)
+        if robot_clock is not None:
+            group._on_close.append(robot_clock.leave)
+        group._on_close.append(bus.leave)
+        return group
 
     def add(self, node: Node) -> Node:
         if node.loop is not self.loop:
@@ -44,9 +61,13 @@ class NodesOnOneLoop:
         for node in self.nodes:
             node.schedule_first_reports()
         self.loop.add_timer(Timer(self.loop, REPORT_PERIOD_S, self._report, "one_loop_report"))
-        self._thread = threading.Thread(target=self.loop.run, name=f"loop-{self.name}", daemon=True)
+        self._thread = threading.Thread(target=self._run, name=f"loop-{self.name}", daemon=True)
         self._thread.start()
         return self
+
+    @property
+    def running(self) -> bool:
+        return self._thread is not None and self._thread.is_alive()
 
     def shutdown(self) -> None:
         for node in self.nodes:
@@ -54,6 +75,16 @@ class NodesOnOneLoop:
         self.loop.stop()
         if self._thread is not None and self._thread is not threading.current_thread():
             self._thread.join(5.0)
+        for leave in self._on_close:
+            leave()
+        self._on_close.clear()
+
+    def _run(self) -> None:
+        try:
+            self.loop.run()
+        except BaseException as exc:  # not an Exception (those a node's own): the loop ends; say whose it was
+            self.failed = _raised_by(exc, self.nodes)
+            raise
 
     def _report(self) -> None:
         """Each node's diagnostics say whom it shares its loop with and the loop's longest callback of the last
@@ -74,6 +105,18 @@ class NodesOnOneLoop:
         log.warning("%s: %s: %s: %s", self.name, getattr(callback, "__qualname__", repr(callback)),
                     type(exc).__name__, exc)
         log.debug("".join(traceback.format_exception(exc)))
+
+
+def _raised_by(exc: BaseException, nodes: list[Node]) -> Node | None:
+    """The innermost node of ``nodes`` whose method the exception passed through."""
+    found = None
+    tb = exc.__traceback__
+    while tb is not None:
+        candidate = tb.tb_frame.f_locals.get("self")
+        if any(candidate is node for node in nodes):
+            found = candidate
+        tb = tb.tb_next
+    return found
 
 
 def _owner(callback: Callable[..., Any]) -> Node | None:

@@ -70,14 +70,20 @@ def serve_world(world: SimWorld, bus: BusConfig, params: Path | None = None, ove
     """A runner stepping ``world`` and one cm730 node per robot, on one Zenoh session. sim_time: the world sends
     its time on every robot's ``clock`` topic and its cm730 nodes follow it, as the robots' nodes do when they
     run with PITCHSIDE_SIM_TIME (robot_nodes/runtime/clock.py). lockstep (with sim_time): each tick the world
-    waits until its cm730 nodes have sent the sensors, then until every robot process that answers on
-    ``clock_done`` has done its work (PITCHSIDE_SIM_TIME=lockstep), then until its nodes took the motor goals."""
+    waits until every robot process that answers on ``clock_done`` (PITCHSIDE_SIM_TIME=lockstep) has done its work
+    on the tick before and its nodes took the motor goals, which then go to the servos, then until its cm730
+    nodes have sent the sensors of the new time (WorldClock: a tick of delay, as on a servo bus)."""
     runner = SimRunner(world, real_time_factor).start()
     session = open_session(bus)
     overrides = dict(overrides or {})
     overrides.setdefault("real_time_factor", real_time_factor)
     cameras = len(world.robots) if cameras is None else cameras
-    world_clock = WorldClock(session, [r.robot_id for r in world.robots], lockstep) if sim_time else None
+    world_clock = None
+    if sim_time:
+        if lockstep:
+            world.hold_changes()  # the motor goals of a tick reach the servos when the clock says (WorldClock)
+        world_clock = WorldClock(session, [r.robot_id for r in world.robots], lockstep,
+                                 goals_due=world.release_changes if lockstep else None)
     if world_clock is not None:
         world_clock.clock.advance(world.time)
         runner.tick_clock(CLOCK_PERIOD_S, world_clock.tick)

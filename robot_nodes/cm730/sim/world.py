@@ -104,6 +104,8 @@ class SimWorld:
         self._slewing = False
         self._pushes: list[tuple[float, int, np.ndarray]] = []  # (end time, body, force)
         self._later: collections.deque[Callable[[], None]] = collections.deque()  # changes for the next step
+        self._held: collections.deque[Callable[[], None]] | None = None  # changes waiting for release_changes
+        self._held_lock = threading.Lock()
         self.robots = [RobotHandle(self, i, prefix) for i, prefix in enumerate(prefixes)]
         self.lineup = lineup
         if lineup is not None:
@@ -132,8 +134,29 @@ class SimWorld:
         return float(self.model.opt.timestep)
 
     def later(self, change: Callable[[], None]) -> None:
-        """Any thread: ``change`` runs on the stepping thread before the next step, in the order given."""
-        self._later.append(change)
+        """Any thread: ``change`` runs on the stepping thread before the next step, in the order given (held
+        until ``release_changes`` once ``hold_changes`` was called)."""
+        held = self._held
+        if held is None:
+            self._later.append(change)
+            return
+        with self._held_lock:
+            self._held.append(change)  # type: ignore[union-attr]  # never None again once held
+
+    def hold_changes(self) -> None:
+        """From now on changes wait for ``release_changes``: a lockstep clock (WorldClock) decides at which step the
+        motor goals of a tick arrive, not the moment their message happens to come in."""
+        with self._held_lock:
+            if self._held is None:
+                self._held = collections.deque()
+
+    def release_changes(self) -> None:
+        """The changes held so far run before the next step; those that come after wait for the next release."""
+        with self._held_lock:
+            held = self._held
+            if held:
+                self._later.extend(held)
+                held.clear()
 
     def step(self, n: int = 1) -> None:
         """Advances physics by n steps; servos slew towards their goals at their speed limit."""
