@@ -27,19 +27,46 @@ class KinematicsError(ValueError):
     """The URDF does not describe a leg this solver handles; the message says what is missing or odd."""
 
 
+def _matrix(*rows: float) -> np.ndarray:
+    """A 3x3 matrix from its nine entries, row by row (a flat tuple: faster than nested lists, and this runs at
+    100 Hz per robot)."""
+    return np.array(rows).reshape(3, 3)
+
+
 def rot_x(a: float) -> np.ndarray:
     c, s = math.cos(a), math.sin(a)
-    return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+    return _matrix(1.0, 0.0, 0.0, 0.0, c, -s, 0.0, s, c)
 
 
 def rot_y(a: float) -> np.ndarray:
     c, s = math.cos(a), math.sin(a)
-    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+    return _matrix(c, 0.0, s, 0.0, 1.0, 0.0, -s, 0.0, c)
 
 
 def rot_z(a: float) -> np.ndarray:
     c, s = math.cos(a), math.sin(a)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    return _matrix(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0)
+
+
+def rot_zxy(yaw: float, roll: float, pitch: float) -> np.ndarray:
+    """Rz(yaw) Rx(roll) Ry(pitch) in one matrix: the hip's three joints."""
+    cz, sz, cx, sx, cy, sy = math.cos(yaw), math.sin(yaw), math.cos(roll), math.sin(roll), math.cos(pitch), \
+        math.sin(pitch)
+    return _matrix(cz * cy - sz * sx * sy, -sz * cx, cz * sy + sz * sx * cy,
+                   sz * cy + cz * sx * sy, cz * cx, sz * sy - cz * sx * cy,
+                   -cx * sy, sx, cx * cy)
+
+
+def rot_yx(pitch: float, roll: float) -> np.ndarray:
+    """Ry(pitch) Rx(roll) in one matrix: the ankle's two joints."""
+    cy, sy, cx, sx = math.cos(pitch), math.sin(pitch), math.cos(roll), math.sin(roll)
+    return _matrix(cy, sy * sx, sy * cx, 0.0, cx, -sx, -sy, cy * sx, cy * cx)
+
+
+def rot_xy(roll: float, pitch: float) -> np.ndarray:
+    """Rx(roll) Ry(pitch) in one matrix."""
+    cx, sx, cy, sy = math.cos(roll), math.sin(roll), math.cos(pitch), math.sin(pitch)
+    return _matrix(cy, 0.0, sy, sx * sy, cx, -sx * cy, -cx * sy, sx, cx * cy)
 
 
 def rpy_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
@@ -59,52 +86,53 @@ class LegGeometry:
     signs: dict[str, float]  # joint name suffix -> +1/-1 (URDF axis along or against the canonical axis)
     knee_offset: float  # canonical knee angle at joint value 0 (Wolfgang: -0.2618, hyperextended)
 
+    def __post_init__(self) -> None:
+        # the signs in joint order and the knee's offset as a vector, once: the walk uses them at 100 Hz
+        object.__setattr__(self, "_sign_vector", np.array([self.signs[j] for j in LEG_JOINTS]))
+        object.__setattr__(self, "_offset_vector", np.array([0.0, 0.0, 0.0, self.knee_offset, 0.0, 0.0]))
+
     def joint_names(self) -> list[str]:
         return [self.side + j for j in LEG_JOINTS]
 
     def to_joints(self, canonical: np.ndarray) -> np.ndarray:
         """Canonical angles [yaw, roll, pitch, knee, ankle pitch, ankle roll] -> the robot's joint values."""
-        q = np.array(canonical, dtype=float)
-        q[3] -= self.knee_offset
-        return q * np.array([self.signs[j] for j in LEG_JOINTS])
+        return (np.asarray(canonical, dtype=float) - self._offset_vector) * self._sign_vector  # type: ignore[attr-defined]
 
     def to_canonical(self, joints: np.ndarray) -> np.ndarray:
-        q = np.asarray(joints, dtype=float) * np.array([self.signs[j] for j in LEG_JOINTS])
-        q[3] += self.knee_offset
-        return q
+        return np.asarray(joints, dtype=float) * self._sign_vector + self._offset_vector  # type: ignore[attr-defined]
 
     def ik(self, position: np.ndarray, rotation: np.ndarray) -> np.ndarray:
         """Joint values that put the sole frame at (position, rotation) in base_link. Unreachable targets are
         solved for the nearest stretched leg (knee straight), never NaN."""
         r_foot = np.asarray(rotation, dtype=float)
         ankle = np.asarray(position, dtype=float) - r_foot @ self.sole
-        r = r_foot.T @ (self.hip - ankle)  # the hip seen from the ankle, in the foot frame
+        rx, ry, rz = (r_foot.T @ (self.hip - ankle)).tolist()  # the hip seen from the ankle, in the foot frame
         a, b = self.thigh, self.shank
-        c = max(float(np.linalg.norm(r)), 1e-6)
+        c = max(math.sqrt(rx * rx + ry * ry + rz * rz), 1e-6)
         cos_knee = (c * c - a * a - b * b) / (2.0 * a * b)
         knee = math.acos(min(1.0, max(-1.0, cos_knee)))
-        ankle_roll = math.atan2(r[1], r[2])
+        ankle_roll = math.atan2(ry, rz)
         if ankle_roll > math.pi / 2:
             ankle_roll -= math.pi
         elif ankle_roll < -math.pi / 2:
             ankle_roll += math.pi
         sub = math.asin(min(1.0, max(-1.0, a / c * math.sin(math.pi - knee))))
-        ankle_pitch = -math.atan2(r[0], math.copysign(math.hypot(r[1], r[2]), r[2])) - sub
-        r_hip = r_foot @ rot_x(-ankle_roll) @ rot_y(-ankle_pitch - knee)
-        yaw = math.atan2(-r_hip[0, 1], r_hip[1, 1])
+        ankle_pitch = -math.atan2(rx, math.copysign(math.hypot(ry, rz), rz)) - sub
+        (_, h01, _), (_, h11, _), (h20, h21, h22) = (r_foot @ rot_xy(-ankle_roll, -ankle_pitch - knee)).tolist()
+        yaw = math.atan2(-h01, h11)
         cz, sz = math.cos(yaw), math.sin(yaw)
-        roll = math.atan2(r_hip[2, 1], -r_hip[0, 1] * sz + r_hip[1, 1] * cz)
-        pitch = math.atan2(-r_hip[2, 0], r_hip[2, 2])
-        return self.to_joints(np.array([yaw, roll, pitch, knee, ankle_pitch, ankle_roll]))
+        roll = math.atan2(h21, -h01 * sz + h11 * cz)
+        pitch = math.atan2(-h20, h22)
+        return self.to_joints(np.array((yaw, roll, pitch, knee, ankle_pitch, ankle_roll)))
 
     def fk(self, joints: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Sole (position, rotation) in base_link for the robot's joint values (the canonical chain)."""
-        yaw, roll, pitch, knee, ankle_pitch, ankle_roll = self.to_canonical(joints)
-        r = rot_z(yaw) @ rot_x(roll) @ rot_y(pitch)
-        p = self.hip + r @ np.array([0.0, 0.0, -self.thigh])
+        yaw, roll, pitch, knee, ankle_pitch, ankle_roll = self.to_canonical(joints).tolist()
+        r = rot_zxy(yaw, roll, pitch)
+        p = self.hip - self.thigh * r[:, 2]
         r = r @ rot_y(knee)
-        p = p + r @ np.array([0.0, 0.0, -self.shank])
-        r = r @ rot_y(ankle_pitch) @ rot_x(ankle_roll)
+        p = p - self.shank * r[:, 2]
+        r = r @ rot_yx(ankle_pitch, ankle_roll)
         return p + r @ self.sole, r
 
 

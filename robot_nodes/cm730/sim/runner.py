@@ -26,7 +26,10 @@ MAX_LAG = 0.25  # s of wall time; further behind, the runner stops trying to cat
 # MuJoCo releases the GIL in every mj_step and must take it back after: with Python's default switch interval
 # (5 ms), any busy Python thread of the process (perception, the nodes' messages) held each step up to 5 ms.
 # 0.2 ms lets physics back in at once and costs a busy thread about 1 % (measured with 8 robots: 500 steps
-# beside a spinning thread took 2.67 s at 5 ms, 0.22 s at 0.2 ms, 0.08 s alone).
+# beside a spinning thread took 2.67 s at 5 ms, 0.22 s at 0.2 ms, 0.08 s alone). Not for a world in lockstep
+# (``start(short_switch=False)``): it waits for its robots each tick anyway, and the forced switches cost more than
+# they save (a 4 v 4 match, 60 s of play, twice each: real-time factor mean 0.976/0.985, min 0.839/0.778 at 0.2 ms;
+# 0.998/1.000, min 0.923/0.944 at 5 ms; the world 64.5 against 62.5 % of a core).
 GIL_SWITCH_INTERVAL_S = 0.0002
 BATCH_S = 0.01  # s: a camera due this soon is served with the one that is due now, from the same world state
 
@@ -98,9 +101,11 @@ class SimRunner:
         self.clock_errors = 0
 
     # -- control -----------------------------------------------------------------------------------------
-    def start(self) -> SimRunner:
-        """Starts both threads; shortens the process's GIL switch interval for the physics (GIL_SWITCH_INTERVAL_S)."""
-        sys.setswitchinterval(min(sys.getswitchinterval(), GIL_SWITCH_INTERVAL_S))
+    def start(self, short_switch: bool = True) -> SimRunner:
+        """Starts both threads; short_switch: shortens the process's GIL switch interval for the physics
+        (GIL_SWITCH_INTERVAL_S)."""
+        if short_switch:
+            sys.setswitchinterval(min(sys.getswitchinterval(), GIL_SWITCH_INTERVAL_S))
         self._physics = threading.Thread(target=self._run_physics, name="sim-physics", daemon=True)
         self._cameras = threading.Thread(target=self._run_cameras, name="sim-cameras", daemon=True)
         self._physics.start()
