@@ -96,6 +96,9 @@ def status(page: Any, text: str) -> None:
         arg=[f'{EDITOR} [data-role="status"]', text], timeout=60_000)
 
 
+# The play lasts 3 s: on a machine loaded to 4-5 runnable processes per core (a whole suite beside it) the editor's
+# first poll has come back after its end once, so no progress line passed by; one rerun then.
+@pytest.mark.flaky(reruns=1)
 def test_new_animation_from_the_robots_pose_played_saved_and_kept_across_a_reload(
         browser: Any, server: RunningServer, robot: None, folder: Path) -> None:
     page = browser.new_page(bypass_csp=True, viewport={"width": 1920, "height": 1080})

@@ -202,6 +202,7 @@ def test_robot3d_panel_shows_viser(browser: Any, router_endpoint: str, bus: BusC
         with dashboard_server(args, tmp_path) as server:
             page = browser.new_page(bypass_csp=True, viewport={"width": 1600, "height": 1100})
             page.goto(server.page_url("all"))
+            page.set_default_timeout(60_000)  # a loaded CI machine: the resized panel settles slowly before its picture
             page.evaluate("localStorage.clear()")
             page.reload()
             src = page.get_attribute('[data-panel="robot3d"] iframe', "src")

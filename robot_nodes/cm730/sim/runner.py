@@ -1,5 +1,9 @@
 """SimRunner: steps a SimWorld in real time (or faster) on its own thread and renders head cameras on another.
 
+Cameras keep their rate in simulated time, as everything in the world does: a world that falls behind real time
+(a loaded machine, a match in lockstep) sees at 10 Hz of its own time, not more often per simulated second; the
+physics thread wakes the camera thread when the next camera is due.
+
 Work that must see the world between steps (a referee's checks) runs on the physics thread every so many simulated
 seconds (``every``): a float comparison per chunk of steps, never Python per physics step.
 """
@@ -42,6 +46,7 @@ class CameraFrame:
     observation: Observation
     image: np.ndarray | None  # (h, w, 3) uint8 RGB
     stamp: float  # wall clock (time.time()) when the world state was taken
+    sim_stamp: float  # the world's simulated time of that state, s
     width: int
     height: int
 
@@ -66,7 +71,7 @@ class CameraClient:
         self.on_frame = on_frame
         self.want_image = want_image
         self.vision = GroundTruthVision(runner.world, robot, width, height, noise)
-        self.next_due = time.monotonic()
+        self.next_due = runner.world.time  # simulated seconds: the first frame at once
         self.frames = 0
         self.errors = 0
 
@@ -99,6 +104,8 @@ class SimRunner:
         self._clock_due: float | None = None  # simulated time of the next clock tick (tick_clock)
         self._clock_tick: Callable[[float], None] | None = None
         self.clock_errors = 0
+        self._camera_wake = math.inf  # simulated time at which the physics thread wakes the camera thread
+        self._camera_event = threading.Event()
 
     # -- control -----------------------------------------------------------------------------------------
     def start(self, short_switch: bool = True) -> SimRunner:
@@ -114,6 +121,7 @@ class SimRunner:
 
     def stop(self) -> None:
         self._stop.set()
+        self._camera_event.set()
         for t in (self._physics, self._cameras):
             if t is not None and t is not threading.current_thread():
                 t.join(5.0)
@@ -171,6 +179,9 @@ class SimRunner:
                     if sim_now >= job.due:
                         job.due = max(job.due + job.period, sim_now)
                         self._run_periodic(job)
+            if sim_now >= self._camera_wake:
+                self._camera_wake = math.inf
+                self._camera_event.set()
             if clock_due is not None and sim_now >= clock_due - 1e-9:
                 self._tick_clock(clock_due, sim_now)
             factor = self.real_time_factor
@@ -210,17 +221,20 @@ class SimRunner:
         while not self._stop.is_set():
             with self._clients_lock:
                 clients = list(self._clients)
-            now = time.monotonic()
-            # cameras tick on a common grid (multiples of their period): those due within BATCH_S share one copy
-            # of the world, one mj_copyData per pass rather than one per robot
+            now = world.time
+            # cameras tick on a common grid (multiples of their period, simulated seconds): those due within
+            # BATCH_S share one copy of the world, one mj_copyData per pass rather than one per robot
             due = [c for c in clients if c.next_due <= now + BATCH_S]
             if not due or min(c.next_due for c in due) > now:
-                wake = min((c.next_due for c in clients), default=now + 0.05)
-                self._stop.wait(min(0.05, max(0.0, wake - now)))
+                # clear, say when, look again: a step that passed the time meanwhile is not missed
+                self._camera_event.clear()
+                self._camera_wake = min((c.next_due for c in clients), default=math.inf)
+                if world.time < self._camera_wake:
+                    self._camera_event.wait(0.05)  # at the latest: new cameras, stop
                 continue
             with world.lock:
                 mujoco.mj_copyData(self._snapshot, world.model, world.data)
-                stamp = time.time()
+                stamp, sim_stamp = time.time(), float(self._snapshot.time)
             for client in due:
                 served_for = max(now, client.next_due) * client.rate_hz  # in periods (served early: its own due)
                 client.next_due = (math.floor(served_for + 1e-6) + 1) / client.rate_hz
@@ -233,7 +247,8 @@ class SimRunner:
                             cameras[key] = HeadCamera(world, client.robot, client.width, client.height)
                         image = cameras[key].render(self._snapshot)
                     client.frames += 1
-                    client.on_frame(CameraFrame(client.robot, obs, image, stamp, client.width, client.height))
+                    client.on_frame(CameraFrame(client.robot, obs, image, stamp, sim_stamp, client.width,
+                                                client.height))
                 except RenderError as exc:
                     self.render_error = str(exc)
                     log.error("camera rendering off: %s", exc)
