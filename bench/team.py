@@ -14,6 +14,9 @@ minimum is the figure. The server's RSS is sampled every second; its slope after
 The baseline, in the same run: one robot with each node in a process of its own (``--compose none``), the layout
 the thesis measured against its monolith (fig. 6.5), beside one robot composed.
 
+Before each run, bench/machine.py times a fixed Python workload: CPU shares are comparable only between runs on a
+machine of the same speed, and this one has run at half its speed for hours with nothing else to show it.
+
 Budgets (issue "A team on one laptop", 2-core machine): rtf_min_8 >= 0.98, cpu_pct_per_robot <= 15,
 rss_mb_per_robot <= 150.
 """
@@ -36,6 +39,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import psutil
 
+from bench.machine import describe, probe_ms
 from tests.real_time_factor import ROUTER, RealTimeFactor
 from tests.running_demo import RunningDemo, process_label, running_demo
 
@@ -55,6 +59,7 @@ class Figures:
     rtf: list[float] = field(default_factory=list)
     by_process: list[tuple[str, float, float]] = field(default_factory=list)  # (name, cpu %, rss MB)
     server_rss: list[tuple[float, float]] = field(default_factory=list)  # (minutes, MB)
+    probe_ms: float = 0.0  # bench/machine.py just before the run: the machine's speed then
 
     @property
     def rtf_min(self) -> float:
@@ -83,7 +88,8 @@ def stack(robots: int, compose: str, lab: bool = False) -> Iterator[RunningDemo]
 
 def measure(robots: int, compose: str, seconds: float, lab: bool = False) -> Figures:
     mode = "lab (live Zenoh)" if lab else "match (telemetry)"
-    figures = Figures(f"{robots} robot{'s' if robots > 1 else ''}, compose {compose}, {mode}", robots)
+    figures = Figures(f"{robots} robot{'s' if robots > 1 else ''}, compose {compose}, {mode}", robots,
+                      probe_ms=probe_ms())
     with stack(robots, compose, lab) as demo:
         found = ROUTER.search(demo.output())
         if found is None:
@@ -131,7 +137,7 @@ def measure(robots: int, compose: str, seconds: float, lab: bool = False) -> Fig
 def show(f: Figures) -> None:
     print(f"\n{f.label}: CPU {f.cpu_pct:.0f} % of one core, RSS {f.rss_mb:.0f} MB, {f.processes} processes, "
           f"real-time factor min {f.rtf_min:.3f} (median {statistics.median(f.rtf):.3f}, {len(f.rtf)} windows of "
-          f"1 s), server RSS slope {f.server_slope:+.2f} MB/min over {f.seconds:.0f} s")
+          f"1 s), server RSS slope {f.server_slope:+.2f} MB/min over {f.seconds:.0f} s; {describe(f.probe_ms)}")
     for name, cpu, rss in sorted(f.by_process, key=lambda x: -x[1]):
         print(f"  {cpu:6.1f} %  {rss:6.0f} MB  {name}")
 
@@ -176,7 +182,8 @@ def main() -> None:
           f"rtf_min_{last.robots}={last.rtf_min:.3f} cpu_pct_{last.robots}={last.cpu_pct:.0f} "
           f"split_cpu_pct_1={split.cpu_pct:.0f} composed_cpu_pct_1={composed_1:.0f} "
           f"server_rss_slope_mb_per_min={last.server_slope:.2f} server_match_cpu_pct_per_robot="
-          f"{server_match_per_robot:.1f} server_lab_cpu_pct_per_robot={server_lab_per_robot:.1f}")
+          f"{server_match_per_robot:.1f} server_lab_cpu_pct_per_robot={server_lab_per_robot:.1f} "
+          f"probe_ms_1={first.probe_ms:.0f} probe_ms_{last.robots}={last.probe_ms:.0f}")
 
 
 if __name__ == "__main__":
