@@ -18,6 +18,7 @@ read on the match's Zenoh bus, minimum over the match (the simulated GameControl
 world that falls behind makes the match last longer). CPU is the time of every process of the match (% of one core)
 over the match. Both count from the first READY: the start-up (every process importing at once) is over by then, as
 the first INITIAL waits until the GameController hears every robot. ``--logs DIR`` keeps each match's output.
+Before each match bench/machine.py times a fixed Python workload (``probe_ms``): the machine's speed at the time.
 
 The baseline in the same run: the first half's first minute of the first seed against its whole (``rtf_min_first_min``):
 a machine that falls behind only later (memory, a growing queue) shows there.
@@ -40,6 +41,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import httpx
 import psutil
 
+from bench.machine import describe, probe_ms
 from robot_nodes.cm730.sim.lineup import Lineup, parse_robots
 from tests.match_log import GC_URL, MatchFigures, read_output
 from tests.real_time_factor import ROUTER, RealTimeFactor
@@ -132,9 +134,11 @@ def main() -> None:
     if args.quick:
         seeds, half = seeds[:1], 2.0
     matches: list[MatchFigures] = []
+    probes: list[float] = []
     with tempfile.TemporaryDirectory() as tmp:
         for seed in seeds:
-            print(f"match {args.robots}, 2 x {half:g} min, seed {seed}", flush=True)
+            probes.append(probe_ms())
+            print(f"match {args.robots}, 2 x {half:g} min, seed {seed}; {describe(probes[-1])}", flush=True)
             m = play(args.robots, half, seed, Path(tmp), args.logs, args.clock)
             print(f"  goals {m.goals}, kicks {m.kicks}, falls {m.falls}, get-ups {m.get_ups}, penalties "
                   f"{m.penalties}, placed at SET {m.placed}, longest time down {m.longest_down_s:.1f} s "
@@ -154,7 +158,7 @@ def main() -> None:
           f"fall_to_up_max_s={max(m.longest_down_s for m in matches):.1f} "
           f"rtf_min={min(m.rtf_min for m in matches):.3f} "
           f"rtf_min_first_min={matches[0].rtf_min_first_minute():.3f} "
-          f"cpu_pct={statistics.mean(m.cpu_pct for m in matches):.0f}")
+          f"cpu_pct={statistics.mean(m.cpu_pct for m in matches):.0f} probe_ms={statistics.mean(probes):.0f}")
 
 
 if __name__ == "__main__":

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import time
 
+import mujoco
 import numpy as np
 import pytest
 
@@ -31,6 +32,37 @@ def test_stands_sixty_seconds_in_the_stand_pose() -> None:
     assert _tilt(reading.imu.orientation_xyzw) < 0.15
     assert reading.imu.linear_acceleration[2] == pytest.approx(9.81, abs=0.5)
     assert np.all(reading.temperatures > 24.0) and reading.voltage > 14.0
+
+
+def test_the_imu_turns_the_true_orientation_by_its_noise_and_adds_the_rates_noises() -> None:
+    """The IMU's noise, drawn at once for speed, is the draw of each noise in turn: orientation (a rotation vector,
+    applied as the Hamilton product true x noise), gyro, accelerometer."""
+    world = SimWorld(n_robots=1, seed=3)
+    robot = world.robots[0]
+    robot.apply_push((30.0, 10.0, 0.0), 0.05)
+    world.step_for(0.2)  # tilted and turning: every component of the readings matters
+    state = world.copy_state()
+    noise = world.imu_noise
+    expected_rng = np.random.default_rng()
+    expected_rng.bit_generator.state = world.rng.bit_generator.state  # the same numbers as the world will draw
+    reading = robot.imu(state)
+
+    v = expected_rng.normal(0.0, noise.orientation, 3)
+    gyro = expected_rng.normal(0.0, noise.gyro, 3)
+    accel = expected_rng.normal(0.0, noise.accel, 3)
+    angle = float(np.linalg.norm(v))
+    turn_wxyz = np.array([math.cos(angle / 2), *(v / angle * math.sin(angle / 2))])
+    true_wxyz = state.sensordata[robot._quat_adr:robot._quat_adr + 4]
+    measured = np.zeros(4)
+    mujoco.mju_mulQuat(measured, true_wxyz, turn_wxyz)
+    measured /= np.linalg.norm(measured)
+    assert reading.orientation_xyzw == pytest.approx([*measured[1:], measured[0]], abs=1e-12)
+    assert _tilt(reading.orientation_xyzw) > 0 and abs(np.linalg.norm(reading.orientation_xyzw) - 1.0) < 1e-12
+    assert reading.angular_velocity == pytest.approx(state.sensordata[robot._gyro_adr:robot._gyro_adr + 3] + gyro,
+                                                     abs=1e-12)
+    assert reading.linear_acceleration == pytest.approx(
+        state.sensordata[robot._accel_adr:robot._accel_adr + 3] + accel, abs=1e-12)
+    assert np.linalg.norm(gyro) > 0 and np.linalg.norm(v) > 0
 
 
 @pytest.mark.slow

@@ -288,15 +288,26 @@ class RobotHandle:
         )
 
     def imu(self, d: StateCopy) -> ImuReading:
-        """Torso IMU of state ``d`` with white noise as configured in world.imu_noise."""
-        noise, rng = self.world.imu_noise, self.world.rng
-        w, x, y, z = d.sensordata[self._quat_adr:self._quat_adr + 4]
-        quat = np.array([x, y, z, w])
+        """Torso IMU of state ``d`` with white noise as configured in world.imu_noise.
+
+        Every robot's IMU is read 100 times a simulated second, so this is scalar arithmetic on Python floats and one
+        draw of the noises (the same numbers, in the same order, as a draw per noise)."""
+        noise, sensors = self.world.imu_noise, d.sensordata
+        w, x, y, z = sensors[self._quat_adr:self._quat_adr + 4].tolist()
+        draws = self.world.rng.standard_normal(9 if noise.orientation > 0 else 6)
         if noise.orientation > 0:
-            quat = _quat_mul_xyzw(quat, _small_rotation(rng.normal(0.0, noise.orientation, 3)))
-        gyro = d.sensordata[self._gyro_adr:self._gyro_adr + 3] + rng.normal(0.0, noise.gyro, 3)
-        accel = d.sensordata[self._accel_adr:self._accel_adr + 3] + rng.normal(0.0, noise.accel, 3)
-        return ImuReading(quat / np.linalg.norm(quat), gyro, accel)
+            rx, ry, rz = (draws[:3] * noise.orientation).tolist()
+            draws = draws[3:]
+            angle = math.sqrt(rx * rx + ry * ry + rz * rz)
+            if angle >= 1e-12:  # the measured orientation turned by a small rotation about a random axis
+                k = math.sin(angle / 2) / angle
+                bx, by, bz, bw = rx * k, ry * k, rz * k, math.cos(angle / 2)
+                w, x, y, z = (w * bw - x * bx - y * by - z * bz, w * bx + x * bw + y * bz - z * by,
+                              w * by - x * bz + y * bw + z * bx, w * bz + x * by - y * bx + z * bw)
+        norm = math.sqrt(x * x + y * y + z * z + w * w)
+        gyro = sensors[self._gyro_adr:self._gyro_adr + 3] + draws[:3] * noise.gyro
+        accel = sensors[self._accel_adr:self._accel_adr + 3] + draws[3:6] * noise.accel
+        return ImuReading(np.array([x / norm, y / norm, z / norm, w / norm]), gyro, accel)
 
     def write_goals(self, names: list[str], positions: np.ndarray, velocities: np.ndarray | None = None,
                     efforts: np.ndarray | None = None) -> None:
@@ -465,17 +476,3 @@ def _quat_mul_wxyz(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     out = np.zeros(4)
     mujoco.mju_mulQuat(out, a, b)
     return out
-
-
-def _quat_mul_xyzw(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    w = _quat_mul_wxyz(np.array([a[3], *a[:3]]), np.array([b[3], *b[:3]]))
-    return np.array([w[1], w[2], w[3], w[0]])
-
-
-def _small_rotation(v: np.ndarray) -> np.ndarray:
-    """xyzw quaternion of a rotation vector."""
-    angle = float(np.linalg.norm(v))
-    if angle < 1e-12:
-        return np.array([0.0, 0.0, 0.0, 1.0])
-    axis = v / angle
-    return np.array([*(axis * math.sin(angle / 2)), math.cos(angle / 2)])
