@@ -16,6 +16,7 @@ from robot_nodes.cm730.backend import BusReading, ImuReading
 from robot_nodes.cm730.sim.field import KID_SIZE, FieldDimensions
 from robot_nodes.cm730.sim.lineup import Lineup, Team
 from robot_nodes.cm730.sim.scene import MINIBOT_URDF, PhysicsConfig, Placement, build_world, default_placements
+from robot_nodes.cm730.sim.stepping import step_holding_gil
 
 # a stand pose with slightly bent knees (Wolfgang sign conventions; the knee is straight at +-0.2618)
 STAND_POSE: dict[str, float] = {
@@ -176,7 +177,7 @@ class SimWorld:
                 chunk = 1
             else:
                 chunk = remaining if not self._pushes else max(1, min(remaining, self._push_steps_left()))
-            mujoco.mj_step(m, d, nstep=chunk)
+            step_holding_gil(m, d, chunk)
             remaining -= chunk
         self._heat(n * dt)
         self.latest = self.copy_state()

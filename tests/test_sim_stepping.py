@@ -1,0 +1,57 @@
+"""The world's physics steps without letting go of the GIL, and steps exactly as MuJoCo's binding does."""
+
+from __future__ import annotations
+
+import sys
+import threading
+import time
+
+import mujoco
+import numpy as np
+
+from robot_nodes.cm730.sim import SimWorld
+from robot_nodes.cm730.sim.stepping import _binding_step, step_holding_gil
+
+
+def test_stepping_holding_the_gil_gives_the_bindings_result_bit_for_bit() -> None:
+    world = SimWorld(n_robots=2)
+    world.robots[0].apply_push((20.0, 5.0, 0.0), 0.05)  # something moves: contacts change from step to step
+    world.step(50)
+    twin = mujoco.MjData(world.model)
+    mujoco.mj_copyData(twin, world.model, world.data)
+    step_holding_gil(world.model, world.data, 200)
+    _binding_step(world.model, twin, 200)
+    assert world.data.time == twin.time
+    assert np.array_equal(world.data.qpos, twin.qpos) and np.array_equal(world.data.qvel, twin.qvel)
+    assert world.data.time > 0.2 and np.abs(world.data.qvel).max() > 0.01  # it moved: a comparison that could fail
+
+
+def test_no_other_python_thread_runs_while_the_world_steps_and_with_the_binding_one_would() -> None:
+    """What makes the physics thread immune to Python's switch interval: nobody else runs Python while it steps,
+    so it has no GIL to wait for afterwards. MuJoCo's own binding lets another thread in during the step."""
+    world = SimWorld(n_robots=2)
+    count = [0]
+    stop = threading.Event()
+
+    def spin() -> None:
+        while not stop.is_set():
+            count[0] += 1
+
+    interval = sys.getswitchinterval()
+    sys.setswitchinterval(0.2)  # no forced switch within a step: only a released GIL lets the spinner in
+    spinner = threading.Thread(target=spin)
+    try:
+        spinner.start()
+        time.sleep(0.01)  # the spinner runs; this thread gets the GIL back at its next forced switch
+        before = count[0]
+        step_holding_gil(world.model, world.data, 20)
+        held = count[0] - before
+        before = count[0]
+        _binding_step(world.model, world.data, 20)
+        released = count[0] - before
+    finally:
+        stop.set()
+        spinner.join()
+        sys.setswitchinterval(interval)
+    assert held == 0
+    assert released > 0
