@@ -1,4 +1,4 @@
-"""The world's physics steps without letting go of the GIL, and steps exactly as MuJoCo's binding does."""
+"""A world in lockstep steps its physics without letting go of the GIL, exactly as MuJoCo's binding steps."""
 
 from __future__ import annotations
 
@@ -10,7 +10,10 @@ import mujoco
 import numpy as np
 
 from robot_nodes.cm730.sim import SimWorld
-from robot_nodes.cm730.sim.stepping import _binding_step, step_holding_gil
+from robot_nodes.cm730.sim.__main__ import serve_world
+from robot_nodes.cm730.sim.stepping import step_holding_gil, step_releasing_gil
+from robot_nodes.runtime import BusConfig
+from tests.waiting import wait_for
 
 
 def test_stepping_holding_the_gil_gives_the_bindings_result_bit_for_bit() -> None:
@@ -20,7 +23,7 @@ def test_stepping_holding_the_gil_gives_the_bindings_result_bit_for_bit() -> Non
     twin = mujoco.MjData(world.model)
     mujoco.mj_copyData(twin, world.model, world.data)
     step_holding_gil(world.model, world.data, 200)
-    _binding_step(world.model, twin, 200)
+    step_releasing_gil(world.model, twin, 200)
     assert world.data.time == twin.time
     assert np.array_equal(world.data.qpos, twin.qpos) and np.array_equal(world.data.qvel, twin.qvel)
     assert world.data.time > 0.2 and np.abs(world.data.qvel).max() > 0.01  # it moved: a comparison that could fail
@@ -47,7 +50,7 @@ def test_no_other_python_thread_runs_while_the_world_steps_and_with_the_binding_
         step_holding_gil(world.model, world.data, 20)
         held = count[0] - before
         before = count[0]
-        _binding_step(world.model, world.data, 20)
+        step_releasing_gil(world.model, world.data, 20)
         released = count[0] - before
     finally:
         stop.set()
@@ -55,3 +58,16 @@ def test_no_other_python_thread_runs_while_the_world_steps_and_with_the_binding_
         sys.setswitchinterval(interval)
     assert held == 0
     assert released > 0
+
+
+def test_a_world_in_lockstep_holds_the_gil_and_a_free_running_one_lets_go(bus: BusConfig) -> None:
+    """In lockstep the physics is on every tick's critical path; free-running, the world's loop and cameras need the
+    other core while it steps (robot_nodes/cm730/sim/stepping.py)."""
+    for sim_time, lockstep, held in ((True, True, True), (True, False, False), (False, False, False)):
+        world = SimWorld(n_robots=1)
+        served = serve_world(world, bus, sim_time=sim_time, lockstep=lockstep, cameras=0)
+        try:
+            assert world.hold_gil is held
+            wait_for(lambda: world.time > 0.05, 10.0, what="the world steps")  # noqa: B023 (used at once)
+        finally:
+            served.close()

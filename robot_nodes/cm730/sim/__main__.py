@@ -73,7 +73,9 @@ def serve_world(world: SimWorld, bus: BusConfig, params: Path | None = None, ove
     waits until every robot process that answers on ``clock_done`` (PITCHSIDE_SIM_TIME=lockstep) has done its work
     on the tick before and its nodes took the motor goals, which then go to the servos, then until its cm730
     nodes have sent the sensors of the new time (WorldClock: a tick of delay, as on a servo bus)."""
-    runner = SimRunner(world, real_time_factor).start(short_switch=not (sim_time and lockstep))
+    in_lockstep = sim_time and lockstep
+    world.hold_gil = in_lockstep  # its physics is on every tick's critical path: it never waits for the GIL
+    runner = SimRunner(world, real_time_factor).start(short_switch=not in_lockstep)
     session = open_session(bus)
     overrides = dict(overrides or {})
     overrides.setdefault("real_time_factor", real_time_factor)

@@ -27,11 +27,10 @@ from robot_nodes.cm730.sim.world import RobotHandle, SimWorld
 log = logging.getLogger(__name__)
 
 MAX_LAG = 0.25  # s of wall time; further behind, the runner stops trying to catch up (and counts it)
-# The physics thread takes the GIL back each time it wakes for its next chunk (its steps keep it: stepping.py): with
-# Python's default switch interval (5 ms), any busy Python thread of the process (perception, the nodes' messages)
-# held it up to 5 ms each time. 0.2 ms lets physics back in at once and costs a busy thread about 1 % (measured
-# with 8 robots when MuJoCo's binding still let go of the GIL in each step: 500 steps beside a spinning thread took
-# 2.67 s at 5 ms, 0.22 s at 0.2 ms, 0.08 s alone). Not for a world in lockstep
+# MuJoCo's binding releases the GIL in every mj_step and must take it back after: with Python's default switch
+# interval (5 ms), any busy Python thread of the process (perception, the nodes' messages) held each step up to 5 ms.
+# 0.2 ms lets physics back in at once and costs a busy thread about 1 % (measured with 8 robots: 500 steps
+# beside a spinning thread took 2.67 s at 5 ms, 0.22 s at 0.2 ms, 0.08 s alone). Not for a world in lockstep
 # (``start(short_switch=False)``): it waits for its robots each tick anyway, and the forced switches cost more than
 # they save (a 4 v 4 match, 60 s of play, twice each: real-time factor mean 0.976/0.985, min 0.839/0.778 at 0.2 ms;
 # 0.998/1.000, min 0.923/0.944 at 5 ms; the world 64.5 against 62.5 % of a core).

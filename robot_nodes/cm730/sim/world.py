@@ -16,7 +16,7 @@ from robot_nodes.cm730.backend import BusReading, ImuReading
 from robot_nodes.cm730.sim.field import KID_SIZE, FieldDimensions
 from robot_nodes.cm730.sim.lineup import Lineup, Team
 from robot_nodes.cm730.sim.scene import MINIBOT_URDF, PhysicsConfig, Placement, build_world, default_placements
-from robot_nodes.cm730.sim.stepping import step_holding_gil
+from robot_nodes.cm730.sim.stepping import step_holding_gil, step_releasing_gil
 
 # a stand pose with slightly bent knees (Wolfgang sign conventions; the knee is straight at +-0.2618)
 STAND_POSE: dict[str, float] = {
@@ -93,6 +93,7 @@ class SimWorld:
             raise SimError(str(exc)) from None
         self.data = mujoco.MjData(self.model)
         self.lock = threading.RLock()
+        self.hold_gil = False  # step keeping Python's GIL (stepping.py): a world in lockstep
         self.rng = np.random.default_rng(seed)
         self.imu_noise = imu_noise or ImuNoise()
         self.thermal = ServoThermal()
@@ -177,7 +178,7 @@ class SimWorld:
                 chunk = 1
             else:
                 chunk = remaining if not self._pushes else max(1, min(remaining, self._push_steps_left()))
-            step_holding_gil(m, d, chunk)
+            (step_holding_gil if self.hold_gil else step_releasing_gil)(m, d, chunk)
             remaining -= chunk
         self._heat(n * dt)
         self.latest = self.copy_state()
