@@ -47,7 +47,9 @@ def test_the_theme_is_remembered(browser: Any, scene: RunningServer) -> None:
     page.goto(scene.page_url("match"))
     page.evaluate("localStorage.clear()")
     page.reload()
-    page.wait_for_selector("#theme-toggle")
+    # the button is in the page's HTML; app.js gives it its handler when it builds the panels (a loaded machine
+    # once took longer than the click)
+    page.wait_for_selector('[data-panel="field"]')
     assert page.evaluate("document.documentElement.classList.contains('dark')") is False
     page.click("#theme-toggle")
     assert page.evaluate("document.documentElement.classList.contains('dark')") is True
