@@ -225,6 +225,9 @@ def _silent_panels(page: Any, panels: list[str]) -> dict[str, float]:
     return {panel: share for panel, share in shares.items() if share < MIN_DRAWN}
 
 
+# one rerun: on a loaded 2-core machine chromium once produced no frame for a screenshot within 60 s (software GL
+# drawing the 3D view and the plots while the suite's other worker ran a simulation)
+@pytest.mark.flaky(reruns=1)
 @pytest.mark.timeout(600)
 def test_each_preset_fits_1920x1080_draws_every_panel_and_is_pictured(demo: RunningDemo, wide_page: Any) -> None:
     """The README's pictures: the three layout presets at 1920x1080, taken into docs/pictures/, so the README
