@@ -104,6 +104,8 @@ def _hcm_shown(page: Any, observer: DashboardObserver) -> tuple[str, str, str] |
     return HCM_NAMES[state["data"]["state"]], card or "", current or ""
 
 
+# one rerun: its waits are wall-clock limits, and a slow spell of the 2-core CI machine once outlasted them
+@pytest.mark.flaky(reruns=1)
 def test_every_panel_shows_the_live_demo(demo: RunningDemo, page: Any) -> None:
     OUTPUT.mkdir(parents=True, exist_ok=True)
     timeout = 60.0

@@ -105,6 +105,8 @@ def wait_ghosts(server: RunningServer, want: list[int], selected: int, goals: li
     return seen
 
 
+# one rerun: its waits are wall-clock limits, and a slow spell of the 2-core CI machine once outlasted them
+@pytest.mark.flaky(reruns=1)
 def test_keyframe_ghosts_follow_the_editor(browser: Any, server: RunningServer) -> None:
     page = editor_page(browser, server)
     goals = [kf["goals"] for kf in WAVE["keyframes"]]
