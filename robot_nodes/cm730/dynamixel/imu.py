@@ -12,6 +12,7 @@ import math
 
 import numpy as np
 
+from .. import quaternion
 from ..backend import ImuReading
 
 GRAVITY = 9.80665
@@ -34,23 +35,6 @@ def accel_raw(m_s2: float) -> int:
 
 def gyro_raw(rad_s: float) -> int:
     return round(512 + rad_s / GYRO_FULL_SCALE_RAD_S * 512)
-
-
-def _quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    ax, ay, az, aw = a
-    bx, by, bz, bw = b
-    return np.array([aw * bx + ax * bw + ay * bz - az * by,
-                     aw * by - ax * bz + ay * bw + az * bx,
-                     aw * bz + ax * by - ay * bx + az * bw,
-                     aw * bw - ax * bx - ay * by - az * bz])
-
-
-def _quat_exp(rotvec: np.ndarray) -> np.ndarray:
-    angle = float(np.linalg.norm(rotvec))
-    if angle < 1e-12:
-        return np.array([0.0, 0.0, 0.0, 1.0])
-    s = math.sin(angle / 2.0) / angle
-    return np.array([rotvec[0] * s, rotvec[1] * s, rotvec[2] * s, math.cos(angle / 2.0)])
 
 
 def world_up_in_body(q: np.ndarray) -> np.ndarray:
@@ -86,7 +70,8 @@ class ComplementaryFilter:
         step = gyro * dt
         if 0.5 * GRAVITY < norm < 1.5 * GRAVITY:
             step = step + self.gain * np.cross(accel / norm, world_up_in_body(self.q))
-        q = _quat_mul(self.q, _quat_exp(step))
+        turned = quaternion.multiply(self.q.tolist(), quaternion.from_rotation_vector(*step.tolist()))
+        q: np.ndarray = np.asarray(turned, dtype=float)
         self.q = q / np.linalg.norm(q)
         return self.q.copy()
 

@@ -12,6 +12,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from robot_nodes.cm730 import quaternion
 from robot_nodes.cm730.backend import BusReading, ImuReading
 from robot_nodes.cm730.sim.field import KID_SIZE, FieldDimensions
 from robot_nodes.cm730.sim.lineup import Lineup, Team
@@ -297,15 +298,10 @@ class RobotHandle:
         noise, sensors = self.world.imu_noise, d.sensordata
         w, x, y, z = sensors[self._quat_adr:self._quat_adr + 4].tolist()
         draws = self.world.rng.standard_normal(9 if noise.orientation > 0 else 6)
-        if noise.orientation > 0:
-            rx, ry, rz = (draws[:3] * noise.orientation).tolist()
+        if noise.orientation > 0:  # the measured orientation turned by a small rotation about a random axis
+            x, y, z, w = quaternion.multiply((x, y, z, w), quaternion.from_rotation_vector(
+                *(draws[:3] * noise.orientation).tolist()))
             draws = draws[3:]
-            angle = math.sqrt(rx * rx + ry * ry + rz * rz)
-            if angle >= 1e-12:  # the measured orientation turned by a small rotation about a random axis
-                k = math.sin(angle / 2) / angle
-                bx, by, bz, bw = rx * k, ry * k, rz * k, math.cos(angle / 2)
-                w, x, y, z = (w * bw - x * bx - y * by - z * bz, w * bx + x * bw + y * bz - z * by,
-                              w * by - x * bz + y * bw + z * bx, w * bz + x * by - y * bx + z * bw)
         norm = math.sqrt(x * x + y * y + z * z + w * w)
         gyro = sensors[self._gyro_adr:self._gyro_adr + 3] + draws[:3] * noise.gyro
         accel = sensors[self._accel_adr:self._accel_adr + 3] + draws[3:6] * noise.accel
