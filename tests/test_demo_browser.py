@@ -169,11 +169,14 @@ def test_every_panel_shows_the_live_demo(demo: RunningDemo, page: Any) -> None:
 
         # (the simulation's real time with every panel open: bench/demo.py; rerun's lines following new data:
         # tests/test_dashboard_firefox.py; every panel drawing: the pictures below)
+        # (scrolled and clicked through the DOM: Playwright's own scroll and click wait for two animation frames
+        # with the element still, which Chromium, drawing both WebGL views in software on 2 busy cores, once did
+        # not make within 60 s)
         plots = page.locator('section[data-panel="plots"]')
-        plots.scroll_into_view_if_needed()
+        plots.evaluate("el => el.scrollIntoView({block: 'nearest'})")
         # any topic plotted whole: chosen in the panel's bar, the server logs every number of it
         plots.locator('[data-role="topic"]').select_option("gamestate")
-        plots.locator('[data-act="add"]').click()
+        plots.locator('[data-act="add"]').dispatch_event("click")
         plots.locator('.chip[data-topic="gamestate"]').wait_for()
         wait_for(lambda: "gamestate" in httpx.get(f"{demo.url}/api/plots", timeout=5).json()["topics"].get(ROBOT, []),
                  timeout, 0.5, "every number of gamestate plotted")
