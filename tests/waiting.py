@@ -9,13 +9,16 @@ from typing import TypeVar
 T = TypeVar("T")
 
 
-def wait_for(condition: Callable[[], T], timeout: float = 5.0, interval: float = 0.01, what: str = "") -> T:
-    """Returns the first truthy value of condition(); AssertionError after timeout."""
+def wait_for(condition: Callable[[], T], timeout: float = 5.0, interval: float = 0.01,
+             what: str | Callable[[], str] = "") -> T:
+    """Returns the first truthy value of condition(); AssertionError after timeout. ``what`` says what was waited
+    for; a callable is asked only then (for a message that costs something to make, e.g. a screenshot's verdict)."""
     deadline = time.monotonic() + timeout
     while True:
         value = condition()
         if value:
             return value
         if time.monotonic() > deadline:
-            raise AssertionError(f"timed out after {timeout} s waiting for {what or condition}")
+            said = what() if callable(what) else what
+            raise AssertionError(f"timed out after {timeout} s waiting for {said or condition}")
         time.sleep(interval)
