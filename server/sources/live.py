@@ -25,7 +25,39 @@ from wire import keys
 log = logging.getLogger(__name__)
 
 SUBSCRIBE_KEY = f"{keys.PREFIX}/*/**"
-MAX_PENDING = 50_000  # samples waiting for the event loop; beyond, the oldest go (the loop is overloaded)
+# Samples waiting for the event loop, bounded by count and by payload bytes; beyond either, the oldest go (the loop
+# is overloaded). By bytes too: 50 000 camera images of 20 KB would be a gigabyte; 32 MB is 10 s of 11 robots'
+# cameras at 10 Hz and 30 KB, or 0.8 s of a 40 MB/s flood.
+MAX_PENDING = 50_000
+MAX_PENDING_BYTES = 32 << 20
+
+
+class PendingSamples:
+    """What Zenoh's threads have handed over and the event loop has not taken yet: the newest, within both bounds."""
+
+    def __init__(self, max_count: int = MAX_PENDING, max_bytes: int = MAX_PENDING_BYTES) -> None:
+        self.max_count = max_count
+        self.max_bytes = max_bytes
+        self.dropped = 0
+        self.bytes = 0
+        self._items: deque[tuple[str, bytes, str, float | None]] = deque()
+
+    def __len__(self) -> int:
+        return len(self._items)
+
+    def append(self, item: tuple[str, bytes, str, float | None]) -> None:
+        self._items.append(item)
+        self.bytes += len(item[1])
+        while len(self._items) > self.max_count or (self.bytes > self.max_bytes and len(self._items) > 1):
+            self.bytes -= len(self._items.popleft()[1])
+            self.dropped += 1
+
+    def take(self) -> list[tuple[str, bytes, str, float | None]]:
+        """Everything waiting, oldest first; empty afterwards."""
+        items = list(self._items)
+        self._items.clear()
+        self.bytes = 0
+        return items
 
 
 def typename_of(topic: str, encoding: str) -> str | None:
@@ -53,9 +85,8 @@ class LiveZenohSource(Source):
         self.link = link
         self.received = 0
         self.unknown = 0
-        self.overflow = 0
+        self._pending = PendingSamples()  # guarded by _lock
         self.bad_names = 0  # messages whose robot id or topic breaks the naming rules
-        self._pending: deque[tuple[str, bytes, str, float | None]] = deque()
         self._lock = threading.Lock()
         self._scheduled = False
         self._sub: zenoh.Subscriber | None = None
@@ -91,9 +122,6 @@ class LiveZenohSource(Source):
         sent = stamp.get_time().timestamp() if stamp is not None else None
         item = (key, sample.payload.to_bytes(), str(sample.encoding), sent)
         with self._lock:
-            if len(self._pending) >= MAX_PENDING:
-                self._pending.popleft()
-                self.overflow += 1
             self._pending.append(item)
             wake = not self._scheduled
             self._scheduled = True
@@ -103,8 +131,7 @@ class LiveZenohSource(Source):
 
     def _drain(self) -> None:
         with self._lock:
-            batch = list(self._pending)
-            self._pending.clear()
+            batch = self._pending.take()
             self._scheduled = False
         if not self.running:
             return
@@ -127,6 +154,6 @@ class LiveZenohSource(Source):
     def status(self) -> dict[str, Any]:
         status = super().status()
         status.update(received=self.received, unknown_topics=self.unknown, bad_names=self.bad_names,
-                      overflow=self.overflow,
+                      overflow=self._pending.dropped,
                       zenoh_open=self.link.is_open)
         return status
