@@ -103,8 +103,9 @@ class Publisher:
         elif self._local.check_frozen:
             freeze(msg)  # the tests: a node that changes what it published fails alone as it would composed
         if self._remote.matching:
-            self._pub.put(cdr if cdr is not None else schemas.encode(msg))
-            self.encoded += 1
+            payload = cdr if cdr is not None else schemas.encode(msg)
+            self.encoded += 1  # before the put: a subscriber may have it before this thread runs again
+            self._pub.put(payload)
         self.count += 1
 
     def publish_bytes(self, payload: bytes) -> None:
