@@ -3,13 +3,13 @@
     python bench/team.py [--seconds 60] [--robots 1,2,4,8] [--soak-minutes 0]
 
 For each N it runs the demo's stack as `pitchside demo --robots N --match` starts it: the MuJoCo world (robot1
-renders its head camera, the others perceive without images), each robot's nodes composed in one process, the
-simulated GameController, and the dashboard server in match mode, which gets everything through one-way
-telemetry. After start-up it measures for ``--seconds``: the CPU time of every process of the stack (% of one
-core), their summed RSS, the process count, and the world's real-time factor (the cm730 sim node's
-``real_time_factor`` diagnostic: sim seconds per wall second over each 1 s, read on the demo's Zenoh bus); its
-minimum is the figure. The server's RSS is sampled every second; its slope after a warm-up is the memory growth
-(``--soak-minutes`` runs the largest N that long, for the 30-minute soak of a match day).
+renders its head camera, the others perceive without images), each robot's nodes composed (four robots to a
+process, the demo's default), the simulated GameController, and the dashboard server in match mode, which gets
+everything through one-way telemetry. After start-up it measures for ``--seconds``: the CPU time of every process
+of the stack (% of one core), their summed RSS, the process count, and the world's real-time factor (the cm730
+sim node's ``real_time_factor`` diagnostic: sim seconds per wall second over each 1 s, read on the demo's Zenoh
+bus); its minimum is the figure. The server's RSS is sampled every second; its slope after a warm-up is the memory
+growth (``--soak-minutes`` runs the largest N that long, for the 30-minute soak of a match day).
 
 The baseline, in the same run: one robot with each node in a process of its own (``--compose none``), the layout
 the thesis measured against its monolith (fig. 6.5), beside one robot composed.

@@ -21,27 +21,32 @@ from pitchside.local_run import (
     world_first,
 )
 from pitchside.robot import MOTION_NODES, available, robot_nodes
-from robot_nodes.launch import COMPOSE_HELP, NodeProcess, process_groups
+from robot_nodes.launch import COMPOSE_HELP, NodeProcess, RobotNodes, process_groups, shared_process
 from server.security.credentials import ENV_TOKEN, new_token
 from wire.command_line import CommandParser
 
 log = logging.getLogger("pitchside.demo")
 DEMO_ROBOT_NODES = [*MOTION_NODES, "walking", "game_controller", "telemetry"]  # cm730: in the world's process
+# a team's robots in one process: the world's sensor messages of a 100 Hz tick reach it in one go (bench/team.py)
+ROBOTS_PER_PROCESS = 4
 
 
 def demo_processes(robots: int, endpoint: str, http_port: int, telemetry_port: int, model: str,
                    match: bool, gc_ports: list[int], gc_return_port: int,
                    token: str = "",
-                   telemetry_key: Path | None = None, compose: str = "all", cameras: int = 1) -> list[NodeProcess]:
+                   telemetry_key: Path | None = None, compose: str = "all", cameras: int = 1,
+                   robots_per_process: int = 1) -> list[NodeProcess]:
     """Every process of the demo.
 
-    token: the dashboard's control token; telemetry_key: a key file the robots and the dashboard share."""
+    token: the dashboard's control token; telemetry_key: a key file the robots and the dashboard share;
+    robots_per_process: with compose "all", that many robots' nodes share a process (shared_process)."""
     py = sys.executable
     connect = ["--connect", endpoint]
     processes = [NodeProcess("world", [py, "-m", "robot_nodes.cm730.sim", "--robots", str(robots),
                                        "--cameras", str(cameras), *connect,
                                        "--params", str(descriptions.params_file(model))])]
     per_robot = available(DEMO_ROBOT_NODES)
+    sharing: list[RobotNodes] = []
     for i in range(1, robots + 1):
         robot_id = f"robot{i}"
         extra = {
@@ -51,7 +56,14 @@ def demo_processes(robots: int, endpoint: str, http_port: int, telemetry_port: i
                                 "--set", "listen_address=127.0.0.1", "--set", f"return_port={gc_return_port}"],
             "telemetry": telemetry_settings(telemetry_port, telemetry_key),
         }
-        processes += robot_nodes(robot_id, [endpoint], model, per_robot, extra, compose=compose)
+        if robots_per_process > 1 and compose == "all":
+            sharing.append(RobotNodes(robot_id, per_robot, extra))
+        else:
+            processes += robot_nodes(robot_id, [endpoint], model, per_robot, extra, compose=compose)
+    for first in range(0, len(sharing), robots_per_process):
+        team = sharing[first:first + robots_per_process]
+        processes += [shared_process(team, [endpoint], descriptions.params_file(model))] if len(team) > 1 else \
+            robot_nodes(team[0].robot_id, [endpoint], model, per_robot, team[0].extra)
     gc = [py, "-m", "robot_nodes.game_controller.simulator", "--players-per-team", str(max(robots, 4)),
           "--return-address", f"127.0.0.1:{gc_return_port}"]
     for port in gc_ports:
@@ -73,7 +85,12 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--compose", default="all",
                         help=COMPOSE_HELP + " (default all: each robot's nodes in one process; the simulated "
                              "servo buses of all robots run in the world's process)")
+    parser.add_argument("--robots-per-process", type=int, default=ROBOTS_PER_PROCESS,
+                        help=f"with --compose all: how many robots' nodes share a process (default "
+                             f"{ROBOTS_PER_PROCESS}; 1: a process per robot, as on real robots)")
     args = parser.parse_args(argv)
+    if args.robots_per_process < 1:
+        parser.error("--robots-per-process must be at least 1")
     try:
         process_groups(DEMO_ROBOT_NODES, args.compose)
     except ValueError as exc:
@@ -89,7 +106,7 @@ def main(argv: list[str] | None = None) -> None:
     token = os.environ.get(ENV_TOKEN) or new_token()
     run_on_this_machine("demo", endpoint, http_port, token, lambda key: demo_processes(
         args.robots, endpoint, http_port, telemetry_port, args.model, args.match, gc_ports, gc_return_port, token,
-        key, args.compose, args.cameras))
+        key, args.compose, args.cameras, args.robots_per_process))
 
 
 if __name__ == "__main__":

@@ -2,6 +2,15 @@
 
     python -m robot_nodes.compose --robot-id robot1 hcm animation walking --set walking.rate_hz=100
 
+Several robots' nodes can share the process too, each robot's after a ``+`` (one Zenoh session for all, a loop
+thread per robot, so one robot's callbacks never wait for another's):
+
+    python -m robot_nodes.compose --robot-id robot1 hcm walking + --robot-id robot2 hcm walking --set hcm.rate_hz=50
+
+That is what a simulated team on one laptop wants: what a robot's nodes cost is mostly the hand-over of every
+100 Hz sensor message from the world's process (Zenoh's threads waking, once per message and process), and the world
+sends each tick's messages of all robots of a process in one go (bench/team.py). A real robot runs its own.
+
 Each node keeps its name, its parameters (queryable as when it runs alone), its timers and its diagnostics. They
 share the process's Zenoh session, so what one publishes reaches the others as the same object, without CDR
 (robot_nodes/runtime/local_bus.py), and one loop thread (robot_nodes/runtime/one_loop.py): a robot's nodes wake
@@ -36,6 +45,8 @@ from wire.command_line import CommandParser
 log = logging.getLogger("pitchside.compose")
 
 FAILED_NODE_EXIT = 64  # exit code of a composed process whose node i failed: FAILED_NODE_EXIT + i
+MAX_NODES = 255 - FAILED_NODE_EXIT  # of one process, robots together: each failure must have an exit code
+ROBOT_SEPARATOR = "+"  # between the robots of one process on the command line
 SHUTDOWN_WAIT_S = 10.0  # per stage of a clean stop (nodes with last duties first, then the others)
 
 
@@ -53,41 +64,56 @@ def overrides_by_node(items: list[str], nodes: list[tuple[str, type[Node]]]) -> 
     return out
 
 
-def load_classes(names: list[str], robot_id: str) -> list[tuple[str, type[Node]]]:
-    """The node classes; one that does not load ends the process, naming it."""
+def load_classes(names: list[str], robot_id: str, first: int = 0) -> list[tuple[str, type[Node]]]:
+    """The node classes; one that does not load ends the process, naming it (first: the index of names[0] among
+    the nodes of the process, robots before included)."""
     out = []
     for i, name in enumerate(names):
         try:
             out.append((name, entry(name).load()))
         except Exception as exc:
             log.critical("%s/%s cannot be loaded: %s: %s", robot_id, node_label(name), type(exc).__name__, exc)
-            raise SystemExit(FAILED_NODE_EXIT + i) from exc
+            raise SystemExit(FAILED_NODE_EXIT + first + i) from exc
     return out
 
 
-class ComposedNodes:
-    """The nodes of one process, built in order on one session (on one loop, ``group``, or a loop each), stopped
-    with their last duties first."""
+def split_robots(argv: list[str]) -> list[list[str]]:
+    """The command line cut at each ``+``: the first robot's arguments (with the process's own), then each further
+    robot's."""
+    robots: list[list[str]] = [[]]
+    for arg in argv:
+        if arg == ROBOT_SEPARATOR:
+            robots.append([])
+        else:
+            robots[-1].append(arg)
+    return robots
 
-    def __init__(self, nodes: list[Node], group: NodesOnOneLoop | None = None) -> None:
+
+class ComposedNodes:
+    """The nodes of one process, built in order on one session (each robot's on one loop, ``groups``, or a loop
+    each), stopped with their last duties first."""
+
+    def __init__(self, nodes: list[Node], groups: list[NodesOnOneLoop] | None = None) -> None:
         self.nodes = nodes
-        self.group = group
+        self.groups = groups or []
         self.stopping = threading.Event()
 
     def start(self) -> None:
-        if self.group is not None:
-            self.group.start()
-            return
-        for node in self.nodes:
-            node.start()
+        for group in self.groups:
+            group.start()
+        if not self.groups:
+            for node in self.nodes:
+                node.start()
 
     def failed(self) -> int | None:
         """Index of a node that stopped while nobody asked it to (its loop ended, or it left the shared one)."""
         if self.stopping.is_set():
             return None
-        if self.group is not None and not self.group.running:
-            culprit = self.group.failed
-            return next((i for i, node in enumerate(self.nodes) if node is culprit), 0)
+        for group in self.groups:
+            if not group.running:
+                culprit = group.failed
+                return next((i for i, node in enumerate(self.nodes) if node is culprit),
+                            self.nodes.index(group.nodes[0]) if group.nodes else 0)
         for i, node in enumerate(self.nodes):
             thread = node._thread
             if node.closed or (thread is not None and not thread.is_alive()):
@@ -107,14 +133,14 @@ class ComposedNodes:
                     log.warning("%s did not stop within %.0f s", node.name, SHUTDOWN_WAIT_S)
                 if node._thread is not None:
                     node._thread.join(max(0.1, deadline - time.monotonic()))
-        if self.group is not None:
-            self.group.shutdown()
+        for group in self.groups:
+            group.shutdown()
 
 
 def build(classes: list[tuple[str, type[Node]]], robot_id: str, session: Any, params: Path | None,
-          overrides: dict[str, dict[str, Any]], group: NodesOnOneLoop | None = None) -> list[Node]:
+          overrides: dict[str, dict[str, Any]], group: NodesOnOneLoop | None = None, first: int = 0) -> list[Node]:
     """Each node on the shared session (and ``group``'s loop), in the order given; a node that cannot start ends
-    the process, naming it."""
+    the process, naming it (first: as in load_classes). The caller shuts down what other robots built."""
     nodes: list[Node] = []
     for i, (name, cls) in enumerate(classes):
         try:
@@ -126,31 +152,55 @@ def build(classes: list[tuple[str, type[Node]]], robot_id: str, session: Any, pa
                 node.shutdown()
             if group is not None:
                 group.shutdown()
-            raise SystemExit(FAILED_NODE_EXIT + i) from exc
+            raise SystemExit(FAILED_NODE_EXIT + first + i) from exc
         nodes.append(group.add(node) if group is not None else node)
     return nodes
 
 
-def main(argv: list[str] | None = None) -> None:
-    parser = CommandParser(prog="python -m robot_nodes.compose", description=__doc__,
-                           formatter_class=argparse.RawDescriptionHelpFormatter)
+def robot_parser(prog: str, description: str | None) -> CommandParser:
+    """The arguments of one robot of the process (the first robot's parser adds the process's own)."""
+    parser = CommandParser(prog=prog, description=description, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("nodes", nargs="+", help=f"nodes of this process: {', '.join(NODES)}, or a team's own "
                                                  "as package.module:NodeClass")
     parser.add_argument("--robot-id", default="robot1")
-    add_bus_arguments(parser)
     parser.add_argument("--params", type=Path, default=None, help="params.yaml of the robot")
     parser.add_argument("--set", action="append", default=[], metavar="NODE.NAME=VALUE",
                         help="override a node's parameter (YAML value syntax)")
+    return parser
+
+
+def parse_robots(parser: CommandParser, argv: list[str]) -> tuple[argparse.Namespace, list[argparse.Namespace]]:
+    """The process's arguments (the first robot's with them) and each robot's; SystemExit for a robot named twice, a
+    node named twice for one robot, or more nodes than exit codes."""
+    first, *more = split_robots(argv)
+    args = parser.parse_args(first)
+    further = robot_parser(f"{parser.prog} ... {ROBOT_SEPARATOR}", None)
+    robots = [args, *(further.parse_args(robot) for robot in more)]
+    ids = [robot.robot_id for robot in robots]
+    if len(set(ids)) != len(ids):
+        raise SystemExit(f"compose: a robot is named twice in {ids}")
+    for robot in robots:
+        if len(set(robot.nodes)) != len(robot.nodes):
+            raise SystemExit(f"compose: a node is named twice in {robot.nodes} of {robot.robot_id}")
+    if sum(len(robot.nodes) for robot in robots) > MAX_NODES:
+        raise SystemExit(f"compose: at most {MAX_NODES} nodes in one process (each failure has its exit code)")
+    return args, robots
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = robot_parser("python -m robot_nodes.compose", __doc__)
+    add_bus_arguments(parser)
     parser.add_argument("--loop-per-node", action="store_true",
-                        help="a loop thread for each node instead of one for all (for a node whose callbacks may "
+                        help="a loop thread for each node instead of one per robot (for a node whose callbacks may "
                              "take long)")
     parser.add_argument("--log-level", default="INFO")
-    args = parser.parse_args(argv)
+    args, robots = parse_robots(parser, list(sys.argv[1:] if argv is None else argv))
     logging.basicConfig(level=args.log_level, format="%(asctime)s %(levelname)s [%(name)s] %(message)s")
-    if len(set(args.nodes)) != len(args.nodes):
-        raise SystemExit(f"compose: a node is named twice in {args.nodes}")
-    classes = load_classes(args.nodes, args.robot_id)
-    overrides = overrides_by_node(args.set, classes)
+    plans, first = [], 0
+    for robot in robots:
+        classes = load_classes(robot.nodes, robot.robot_id, first)
+        plans.append((robot, classes, overrides_by_node(robot.set, classes), first))
+        first += len(classes)
     if args.zenoh_config:
         try:
             load_config_file(args.zenoh_config)
@@ -160,15 +210,30 @@ def main(argv: list[str] | None = None) -> None:
     signal.signal(signal.SIGINT, lambda *_: stop.set())
     signal.signal(signal.SIGTERM, lambda *_: stop.set())
     session = open_session(bus_from_arguments(args))
-    group = None if args.loop_per_node else NodesOnOneLoop.of_robot(session, args.robot_id)
-    composed = ComposedNodes(build(classes, args.robot_id, session, args.params, overrides, group), group)
+    nodes: list[Node] = []
+    groups: list[NodesOnOneLoop] = []
+    robot_of: list[str] = []
+    try:
+        for robot, classes, overrides, first in plans:
+            group = None if args.loop_per_node else NodesOnOneLoop.of_robot(session, robot.robot_id)
+            nodes += build(classes, robot.robot_id, session, robot.params, overrides, group, first)
+            groups += [group] if group is not None else []
+            robot_of += [robot.robot_id] * len(classes)
+    except SystemExit:  # the robots built before the one that failed go too (they never started)
+        for built in groups or nodes:
+            built.shutdown()
+        session.close()
+        raise
+    composed = ComposedNodes(nodes, groups)
     composed.start()
-    log.info("%s up for robot %s in one process", ", ".join(n.name for n in composed.nodes), args.robot_id)
+    for robot in robots:
+        log.info("%s up for robot %s in one process", ", ".join(n.name for n, r in zip(nodes, robot_of, strict=True)
+                                                             if r == robot.robot_id), robot.robot_id)
     failed = None
     while not stop.wait(0.5) and failed is None:
         failed = composed.failed()
     if failed is not None:
-        log.critical("%s/%s stopped on its own; ending the process so it is started again", args.robot_id,
+        log.critical("%s/%s stopped on its own; ending the process so it is started again", robot_of[failed],
                      composed.nodes[failed].name)
     composed.stop()
     session.close()

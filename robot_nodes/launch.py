@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from robot_nodes.catalog import NODE_MODULES, NODES, node_label
-from robot_nodes.compose import FAILED_NODE_EXIT
+from robot_nodes.compose import FAILED_NODE_EXIT, ROBOT_SEPARATOR
 from wire.bus import add_bus_arguments, bus_from_arguments
 from wire.command_line import CommandParser
 from wire.machine_router import is_router_config, remote, start_machine_router
@@ -175,7 +175,7 @@ def _composed_sets(name: str, extra: list[str]) -> list[str]:
     """A node's own ``--set NAME=VALUE`` arguments as the composed process takes them (``--set NODE.NAME=VALUE``)."""
     if len(extra) % 2 or any(flag != "--set" for flag in extra[::2]):
         raise ValueError(f"{name}: only --set NAME=VALUE can be passed to a composed node, got {extra}")
-    return [a for value in extra[1::2] for a in ("--set", f"{name}.{value}")]
+    return [a for value in extra[1::2] for a in ("--set", f"{node_label(name)}.{value}")]  # a module has dots
 
 
 def robot_processes(robot_id: str, groups: list[list[str]], connect: list[str], params: Path | None = None,
@@ -192,11 +192,39 @@ def robot_processes(robot_id: str, groups: list[list[str]], connect: list[str], 
                                 zenoh_config, mode)
             processes.append(NodeProcess(f"{robot_id}/{node_label(name)}", argv))
             continue
-        sets = [a for name in group for a in _composed_sets(name, extra.get(name, []))]
-        argv = node_command("robot_nodes.compose", robot_id, connect, params, [*group, *sets], zenoh_config, mode)
+        argv = node_command("robot_nodes.compose", robot_id, connect, params, _composed_args(group, extra),
+                            zenoh_config, mode)
         labels = [node_label(n) for n in group]
         processes.append(NodeProcess(f"{robot_id}/{'+'.join(labels)}", argv, members=labels))
     return processes
+
+
+def _composed_args(group: list[str], extra: dict[str, list[str]]) -> list[str]:
+    return [*group, *(a for name in group for a in _composed_sets(name, extra.get(name, [])))]
+
+
+@dataclass
+class RobotNodes:
+    """One robot's nodes for a process that several robots share: extra[name] adds ``--set`` arguments."""
+
+    robot_id: str
+    nodes: list[str]
+    extra: dict[str, list[str]] = field(default_factory=dict)
+
+
+def shared_process(robots: list[RobotNodes], connect: list[str], params: Path | None = None,
+                   zenoh_config: str | Path | None = None, mode: str = "auto") -> NodeProcess:
+    """Several robots' nodes in one supervised process (robot_nodes.compose, a loop thread per robot): the
+    simulated team's layout, which the world's 100 Hz sensor messages reach once per process, not once per robot.
+    Its members are named with their robot (robot2/hcm), so the supervisor names a failed node with it."""
+    first, *more = robots
+    argv = node_command("robot_nodes.compose", first.robot_id, connect, params,
+                        _composed_args(first.nodes, first.extra), zenoh_config, mode)
+    for robot in more:
+        argv += [ROBOT_SEPARATOR, "--robot-id", robot.robot_id, *(["--params", str(params)] if params else []),
+                 *_composed_args(robot.nodes, robot.extra)]
+    members = [f"{robot.robot_id}/{node_label(n)}" for robot in robots for n in robot.nodes]
+    return NodeProcess("+".join(robot.robot_id for robot in robots), argv, members=members)
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -16,8 +16,8 @@ import pytest
 import zenoh
 
 import schemas
-from robot_nodes.compose import FAILED_NODE_EXIT
-from robot_nodes.launch import Launcher, process_groups, robot_processes
+from robot_nodes.compose import FAILED_NODE_EXIT, ROBOT_SEPARATOR, parse_robots, robot_parser
+from robot_nodes.launch import Launcher, RobotNodes, describe_exit, process_groups, robot_processes, shared_process
 from robot_nodes.runtime import BusConfig, Node, ParameterClient, open_session
 from robot_nodes.runtime.local_bus import THAWED
 from schemas.std import JointState
@@ -244,6 +244,71 @@ def test_composed_arguments_take_only_parameters() -> None:
         robot_processes("robot1", [["hcm", "walking"]], [], extra={"hcm": ["--log-level", "DEBUG"]})
     processes = robot_processes("robot1", [["hcm", "walking"]], [], extra={"hcm": ["--set", "rate_hz=50"]})
     assert processes[0].argv[-2:] == ["--set", "hcm.rate_hz=50"]
+
+
+def test_several_robots_share_a_process_each_with_its_own_nodes_parameters_and_loop(router_endpoint: str,
+                                                                                      client: zenoh.Session) -> None:
+    diagnostics: dict[str, dict[str, str]] = {}
+    echoes: dict[str, int] = {"robot1": 0, "robot2": 0}
+
+    def on_diagnostics(sample: zenoh.Sample) -> None:
+        for status in schemas.decode(sample.payload.to_bytes(), "diagnostic_msgs/msg/DiagnosticArray").status:
+            diagnostics[status.name] = {kv.key: kv.value for kv in status.values}
+
+    def on_state(sample: zenoh.Sample) -> None:
+        echoes[keys.split_topic_key(str(sample.key_expr))[0]] += 1
+
+    client.declare_subscriber(keys.topic_key("*", "diagnostics"), on_diagnostics)
+    client.declare_subscriber(keys.topic_key("*", "robot_state"), on_state)
+    process = shared_process([RobotNodes("robot1", ["tests.proc_nodes:Talker", "tests.proc_nodes:Echo"],
+                                         {"tests.proc_nodes:Talker": ["--set", "rate_hz=50"]}),
+                              RobotNodes("robot2", ["tests.proc_nodes:Talker", "tests.proc_nodes:Echo"],
+                                         {"tests.proc_nodes:Talker": ["--set", "rate_hz=20"]})],
+                             [router_endpoint])
+    proc = subprocess.Popen(process.argv, cwd=REPO)
+    try:
+        wait_for(lambda: {f"robot{i}/{n}" for i in (1, 2) for n in ("talker", "echo")} <= set(diagnostics), 30.0,
+                 what="both robots' nodes' diagnostics")
+        # each robot's echo answers its own talker, inside the process
+        wait_for(lambda: min(echoes.values()) >= 10, 10.0, what="each robot's echo answering its talker")
+        assert ParameterClient(client, "robot1").get("talker", "rate_hz") == 50.0
+        assert ParameterClient(client, "robot2").get("talker", "rate_hz") == 20.0
+        ParameterClient(client, "robot2").set("talker", {"rate_hz": 10.0})
+        assert ParameterClient(client, "robot1").get("talker", "rate_hz") == 50.0  # one robot's, not the other's
+        # a loop per robot: a robot's callbacks never wait for another's
+        wait_for(lambda: all(diagnostics[f"robot{i}/echo"].get("loop_shared_by") == "2" for i in (1, 2)), 10.0,
+                 what="each robot's nodes sharing a loop of their own")
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        assert proc.wait(20) == 0, "a process of several robots stops cleanly on SIGTERM"
+
+
+def test_a_process_of_several_robots_ends_naming_the_failed_node_with_its_robot(router_endpoint: str) -> None:
+    process = shared_process([RobotNodes("robot1", ["tests.proc_nodes:Talker"]),
+                              RobotNodes("robot2", ["tests.proc_nodes:Talker", "tests.proc_nodes:LeavesSoon"])],
+                             [router_endpoint])
+    assert process.name == "robot1+robot2"
+    assert process.members == ["robot1/Talker", "robot2/Talker", "robot2/LeavesSoon"]
+    out = subprocess.run(process.argv, cwd=REPO, capture_output=True, text=True, timeout=60)
+    assert out.returncode == FAILED_NODE_EXIT + 2, out.stderr
+    assert "robot2/leaves_soon stopped on its own" in out.stderr
+    assert describe_exit(out.returncode, process.members) == "exited because its node robot2/LeavesSoon failed"
+    broken = shared_process([RobotNodes("robot1", ["tests.proc_nodes:Talker"]),
+                             RobotNodes("robot2", ["tests.proc_nodes:BrokenAtStart"])], [router_endpoint])
+    out = subprocess.run(broken.argv, cwd=REPO, capture_output=True, text=True, timeout=60)
+    assert out.returncode == FAILED_NODE_EXIT + 1 and "robot2/BrokenAtStart failed to start" in out.stderr
+
+
+def test_the_robots_of_a_process_are_named_once_each() -> None:
+    parser = robot_parser("compose", None)
+    with pytest.raises(SystemExit, match="a robot is named twice"):
+        parse_robots(parser, ["hcm", "--robot-id", "robot1", ROBOT_SEPARATOR, "walking", "--robot-id", "robot1"])
+    with pytest.raises(SystemExit, match="a node is named twice"):
+        parse_robots(parser, ["hcm", ROBOT_SEPARATOR, "hcm", "hcm", "--robot-id", "robot2"])
+    _, robots = parse_robots(parser, ["hcm", "walking", "--set", "hcm.rate_hz=50", ROBOT_SEPARATOR, "hcm",
+                                      "--robot-id", "robot2"])
+    assert [(r.robot_id, r.nodes, r.set) for r in robots] == [("robot1", ["hcm", "walking"], ["hcm.rate_hz=50"]),
+                                                              ("robot2", ["hcm"], [])]
 
 
 class Sampler(Node):
