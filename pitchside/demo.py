@@ -13,6 +13,7 @@ from pathlib import Path
 
 import robots as descriptions
 from pitchside.local_run import (
+    ROBOTS_PER_PROCESS,
     free_port,
     kernel_port,
     run_on_this_machine,
@@ -27,8 +28,6 @@ from wire.command_line import CommandParser
 
 log = logging.getLogger("pitchside.demo")
 DEMO_ROBOT_NODES = [*MOTION_NODES, "walking", "game_controller", "telemetry"]  # cm730: in the world's process
-# a team's robots in one process: the world's sensor messages of a 100 Hz tick reach it in one go (bench/team.py)
-ROBOTS_PER_PROCESS = 4
 
 
 def demo_processes(robots: int, endpoint: str, http_port: int, telemetry_port: int, model: str,

@@ -89,6 +89,9 @@ BEHIND_THE_WORLD_NICE = 5
 # dashboard at 19 as well, 75 % and 0.32 (same seed). The dashboard stays at 5: at 19 it started so late on a busy
 # machine that it missed the first READY of a match (tests/test_match.py).
 ROBOTS_IN_MATCH_NICE = 10
+# A simulated team's robots four to a process (robot_nodes.launch.shared_process): the world's sensor messages of a
+# 100 Hz tick reach the process in one go, where a process per robot woke Zenoh's threads once per robot (bench/team.py)
+ROBOTS_PER_PROCESS = 4
 
 
 def world_first(processes: list[NodeProcess], world: str = "world", dashboard: str = "server",

@@ -18,6 +18,7 @@ from pathlib import Path
 import robots as descriptions
 from pitchside.local_run import (
     ROBOTS_IN_MATCH_NICE,
+    ROBOTS_PER_PROCESS,
     free_port,
     kernel_port,
     kernel_ports,
@@ -30,7 +31,7 @@ from pitchside.robot import MOTION_NODES, available, robot_nodes
 from robot_nodes.catalog import NODES
 from robot_nodes.cm730.sim.lineup import Lineup, LineupError, Team, parse_robots
 from robot_nodes.game_controller.packets import DATA_PORT, RETURN_PORT
-from robot_nodes.launch import COMPOSE_HELP, NodeProcess, process_groups
+from robot_nodes.launch import COMPOSE_HELP, NodeProcess, RobotNodes, process_groups, shared_process
 from robot_nodes.runtime.clock import LOCKSTEP, SIM_TIME_ENV
 from server.security.credentials import ENV_TOKEN, new_token
 from wire.command_line import CommandParser
@@ -113,6 +114,7 @@ class MatchPlan:
     model: str
     sim_time: bool = True
     lockstep: bool = True  # with sim_time: the world waits for every robot's nodes each tick
+    robots_per_process: int = 1  # with compose "all": that many robots of a team share a process (shared_process)
 
 
 def match_processes(plan: MatchPlan, endpoint: str, http_port: int, telemetry_port: int, gc: GameControllerPlan,
@@ -135,11 +137,16 @@ def match_processes(plan: MatchPlan, endpoint: str, http_port: int, telemetry_po
     if gc.http_port is not None:
         world += ["--gc-http-port", str(gc.http_port)]
     processes = [NodeProcess("world", world)]
+    sharing = plan.robots_per_process if plan.compose == "all" else 1
     for team in lineup.teams:
-        for player in range(1, team.players + 1):
-            extra = robot_settings(team, player, gc, mitecom_ports, telemetry_port, telemetry_key)
-            robot = robot_nodes(team.robot_id(player), [endpoint], plan.model, plan.nodes, extra,
-                                compose=plan.compose)
+        robots = [RobotNodes(team.robot_id(player), plan.nodes,
+                             robot_settings(team, player, gc, mitecom_ports, telemetry_port, telemetry_key))
+                  for player in range(1, team.players + 1)]
+        for first in range(0, len(robots), sharing):
+            group = robots[first:first + sharing]
+            robot = [shared_process(group, [endpoint], descriptions.params_file(plan.model))] if len(group) > 1 \
+                else robot_nodes(group[0].robot_id, [endpoint], plan.model, plan.nodes, group[0].extra,
+                                 compose=plan.compose)
             if plan.sim_time:
                 for process in robot:
                     process.env[SIM_TIME_ENV] = LOCKSTEP if plan.lockstep else "1"
@@ -164,6 +171,9 @@ def main(argv: list[str] | None = None) -> None:
                              f"the catalog, {', '.join(BEHAVIOUR_NODES)})")
     parser.add_argument("--compose", default="all", help=COMPOSE_HELP + " (default all: each robot's nodes in one "
                                                                        "process)")
+    parser.add_argument("--robots-per-process", type=int, default=ROBOTS_PER_PROCESS,
+                        help=f"with --compose all: how many robots of a team share a process (default "
+                             f"{ROBOTS_PER_PROCESS}; 1: a process per robot, as on real robots)")
     parser.add_argument("--cameras", type=int, default=0,
                         help="how many robots render head camera images (default 0; every robot still sees the "
                              "ball, goals and robots through the perception stand-ins)")
@@ -193,12 +203,15 @@ def main(argv: list[str] | None = None) -> None:
         process_groups(nodes, args.compose)
     except (LineupError, ValueError) as exc:
         parser.error(str(exc))
+    if args.robots_per_process < 1:
+        parser.error("--robots-per-process must be at least 1")
     if not 0 < args.half_minutes <= 60 or not math.isfinite(args.half_minutes):
         parser.error(f"--half-minutes must be in (0, 60], got {args.half_minutes}")
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s [match] %(message)s")
     plan = MatchPlan(lineup, nodes, max(1, round(args.half_minutes * 60)), args.ready_seconds, args.set_seconds,
                      args.initial_seconds, args.half_time_seconds, args.seed, args.cameras, args.compose, args.model,
-                     sim_time=not args.wall_clock, lockstep=not (args.wall_clock or args.no_lockstep))
+                     sim_time=not args.wall_clock, lockstep=not (args.wall_clock or args.no_lockstep),
+                     robots_per_process=args.robots_per_process)
     endpoint = f"tcp/127.0.0.1:{free_port(7447)}"
     http_port = free_port(args.port)
     telemetry_port = kernel_port()  # ports inside the run: the kernel's free ones (local_run.kernel_port)

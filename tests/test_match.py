@@ -156,6 +156,13 @@ def test_the_world_waits_for_every_robot_unless_told_not_to() -> None:
     assert clocks(plan) == (["--sim-time", "--lockstep"], {"lockstep"})
     assert clocks(replace(plan, lockstep=False)) == (["--sim-time"], {"1"})
     assert clocks(replace(plan, sim_time=False, lockstep=False)) == ([], {None})
+    # a team's robots sharing a process (the command's default): each such process follows the simulated clock too
+    shared = match_processes(replace(plan, robots_per_process=4), "tcp/127.0.0.1:7447", 8080, 5800,
+                             GameControllerPlan("sim", 3838, 3939, 1), ports, "token", None)
+    robots = [p for p in shared if p.name not in ("world", "server")]
+    assert [p.name for p in robots] == ["home1+home2", "away1/hcm+walking"]
+    assert robots[0].members == ["home1/hcm", "home1/walking", "home2/hcm", "home2/walking"]
+    assert {p.env.get(SIM_TIME_ENV) for p in robots} == {"lockstep"}
 
 
 def assert_world_first(processes: list[psutil.Process]) -> None:
