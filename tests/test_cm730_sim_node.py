@@ -173,5 +173,9 @@ def test_camera_image_and_detections_are_published(node: Cm730Node, client: zeno
         assert listener.last("line_information_in_image").segments
         pos = wait_for(lambda: listener.last("position"), timeout=10, what="position").pose
         assert pos.x == pytest.approx(x, abs=0.05)
+        # what no one listens to is not even built: each robot's frames come ten times a second
+        topics_of_sim = node._sim_topics
+        assert topics_of_sim is not None and topics_of_sim.frames_published > 0
+        assert topics_of_sim.pubs["obstacles_in_image"].count == topics_of_sim.pubs["goal_in_image"].count == 0
     finally:
         listener.close()

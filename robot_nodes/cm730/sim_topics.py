@@ -7,6 +7,8 @@ for what the camera sees, with the noise the node's parameters state, so real no
 
 from __future__ import annotations
 
+import dataclasses
+import functools
 import io
 import math
 import time
@@ -61,6 +63,20 @@ def _header(stamp: float, frame: str) -> Header:
     return schemas.header(frame, stamp)
 
 
+@functools.lru_cache(maxsize=8)
+def camera_info(width: int, height: int, fovy_deg: float) -> CameraInfo:
+    """The simulated camera's calibration (header left empty): the same every frame, so made once; the arrays it
+    shares with each frame's message are frozen by the first publish (published messages never change)."""
+    from robot_nodes.cm730.sim.perception import Intrinsics
+
+    k = Intrinsics.from_fovy(width, height, fovy_deg)
+    return schemas.make(
+        CameraInfo, height=height, width=width, distortion_model="plumb_bob", d=np.zeros(5),
+        k=np.array([k.fx, 0, k.cx, 0, k.fy, k.cy, 0, 0, 1], dtype=float),
+        r=np.array([1, 0, 0, 0, 1, 0, 0, 0, 1], dtype=float),
+        p=np.array([k.fx, 0, k.cx, 0, 0, k.fy, k.cy, 0, 0, 0, 1, 0], dtype=float))
+
+
 class SimTopics:
     """The simulation-only publishers of one cm730 node."""
 
@@ -98,30 +114,37 @@ class SimTopics:
 
     # -- on the node loop --------------------------------------------------------------------------------
     def _publish_frame(self, frame: CameraFrame, image: bytes | None) -> None:
+        """Each topic's message, built only while someone listens: every robot's frame, ten times a second."""
         pubs, obs, stamp = self.pubs, frame.observation, frame.stamp
+        wanted = {name for name, pub in pubs.items() if pub.has_subscribers}
         cam = _header(stamp, OPTICAL_FRAME)
         if image is not None:
             pubs["camera/image/compressed"].publish(schemas.make(
                 CompressedImage, header=cam, format="jpeg", data=np.frombuffer(image, np.uint8)))
-        pubs["camera/camera_info"].publish(self._camera_info(frame, cam))
-        balls = []
-        if obs.ball is not None:
-            balls.append(schemas.make(BallInImage, center=_point(obs.ball.u, obs.ball.v),
-                                      diameter=float(obs.ball.diameter), confidence=1.0))
-        pubs["ball_in_image"].publish(schemas.make(BallsInImage, header=cam, candidates=balls))
-        posts = [schemas.make(PostInImage, foot_point=_point(*p.foot), top_point=_point(*p.top),
-                              width=float(p.width), confidence=1.0) for p in obs.posts]
-        bars = [schemas.make(BarInImage, left_point=_point(*a), right_point=_point(*b), width=float(w),
-                             confidence=1.0) for a, b, w in obs.bars]
-        pubs["goal_in_image"].publish(schemas.make(GoalPartsInImage, header=cam, posts=posts, bars=bars))
-        obstacles = [schemas.make(ObstacleInImage, color=ROBOT_UNDEFINED, player_number=o.player_number,
-                                  top_left=_point(o.u, o.v), height=round(o.height), width=round(o.width),
-                                  confidence=1.0) for o in obs.obstacles]
-        pubs["obstacles_in_image"].publish(schemas.make(ObstaclesInImage, header=cam, obstacles=obstacles))
-        segments = [schemas.make(LineSegmentInImage, start=_point(*a), end=_point(*b), start_width=float(wa),
-                                 end_width=float(wb), confidence=1.0) for a, b, wa, wb in obs.lines]
-        pubs["line_information_in_image"].publish(schemas.make(LineInformationInImage, header=cam,
-                                                               segments=segments))
+        if "camera/camera_info" in wanted:
+            fovy = float(frame.robot.world.model.cam_fovy[frame.robot.camera_id])
+            info = camera_info(frame.width, frame.height, fovy)
+            pubs["camera/camera_info"].publish(dataclasses.replace(info, header=cam))
+        if "ball_in_image" in wanted:
+            balls = [] if obs.ball is None else [BallInImage(center=_point(obs.ball.u, obs.ball.v),
+                                                             diameter=float(obs.ball.diameter), confidence=1.0)]
+            pubs["ball_in_image"].publish(schemas.make(BallsInImage, header=cam, candidates=balls))
+        if "goal_in_image" in wanted:
+            posts = [PostInImage(foot_point=_point(*p.foot), top_point=_point(*p.top), width=float(p.width),
+                                 confidence=1.0) for p in obs.posts]
+            bars = [BarInImage(left_point=_point(*a), right_point=_point(*b), width=float(w), confidence=1.0)
+                    for a, b, w in obs.bars]
+            pubs["goal_in_image"].publish(schemas.make(GoalPartsInImage, header=cam, posts=posts, bars=bars))
+        if "obstacles_in_image" in wanted:
+            obstacles = [schemas.make(ObstacleInImage, color=ROBOT_UNDEFINED, player_number=o.player_number,
+                                      top_left=_point(o.u, o.v), height=round(o.height), width=round(o.width),
+                                      confidence=1.0) for o in obs.obstacles]
+            pubs["obstacles_in_image"].publish(schemas.make(ObstaclesInImage, header=cam, obstacles=obstacles))
+        if "line_information_in_image" in wanted:
+            segments = [LineSegmentInImage(start=_point(*a), end=_point(*b), start_width=float(wa),
+                                           end_width=float(wb), confidence=1.0) for a, b, wa, wb in obs.lines]
+            pubs["line_information_in_image"].publish(schemas.make(LineInformationInImage, header=cam,
+                                                                   segments=segments))
         foot = _header(stamp, FOOTPRINT_FRAME)
         if obs.ball_relative is not None:
             pubs["ball_relative"].publish(schemas.make(BallRelative, header=foot,
@@ -149,18 +172,6 @@ class SimTopics:
     def _position_confidence(self) -> float:
         """How sure the stand-in localization is: 1 for exact, less the larger its stated noise (0.5 at 0.2 m)."""
         return 1.0 / (1.0 + (self.noise.position / 0.2) ** 2)
-
-    def _camera_info(self, frame: CameraFrame, header: Header) -> CameraInfo:
-        from robot_nodes.cm730.sim.perception import Intrinsics
-
-        fovy = float(frame.robot.world.model.cam_fovy[frame.robot.camera_id])
-        k = Intrinsics.from_fovy(frame.width, frame.height, fovy)
-        return schemas.make(
-            CameraInfo, header=header, height=frame.height, width=frame.width,
-            distortion_model="plumb_bob", d=np.zeros(5),
-            k=np.array([k.fx, 0, k.cx, 0, k.fy, k.cy, 0, 0, 1], dtype=float),
-            r=np.array([1, 0, 0, 0, 1, 0, 0, 0, 1], dtype=float),
-            p=np.array([k.fx, 0, k.cx, 0, 0, k.fy, k.cy, 0, 0, 0, 1, 0], dtype=float))
 
     def publish_ground_truth(self) -> None:
         sim = self.node._sim
