@@ -21,8 +21,8 @@ from pitchside.local_run import (
     telemetry_settings,
     world_first,
 )
-from pitchside.robot import MOTION_NODES, available, robot_nodes
-from robot_nodes.launch import COMPOSE_HELP, NodeProcess, RobotNodes, process_groups, shared_process
+from pitchside.robot import MOTION_NODES, available, simulated_robots
+from robot_nodes.launch import COMPOSE_HELP, NodeProcess, RobotNodes, process_groups
 from server.security.credentials import ENV_TOKEN, new_token
 from wire.command_line import CommandParser
 
@@ -47,7 +47,6 @@ def demo_processes(robots: int, endpoint: str, http_port: int, telemetry_port: i
     per_robot = available(DEMO_ROBOT_NODES)
     sharing: list[RobotNodes] = []
     for i in range(1, robots + 1):
-        robot_id = f"robot{i}"
         extra = {
             # everything of the demo is on this machine: nothing listens beyond loopback (README "Security at
             # the venue"); a real robot hears the GameController's broadcast on every interface
@@ -55,14 +54,8 @@ def demo_processes(robots: int, endpoint: str, http_port: int, telemetry_port: i
                                 "--set", "listen_address=127.0.0.1", "--set", f"return_port={gc_return_port}"],
             "telemetry": telemetry_settings(telemetry_port, telemetry_key),
         }
-        if robots_per_process > 1 and compose == "all":
-            sharing.append(RobotNodes(robot_id, per_robot, extra))
-        else:
-            processes += robot_nodes(robot_id, [endpoint], model, per_robot, extra, compose=compose)
-    for first in range(0, len(sharing), robots_per_process):
-        team = sharing[first:first + robots_per_process]
-        processes += [shared_process(team, [endpoint], descriptions.params_file(model))] if len(team) > 1 else \
-            robot_nodes(team[0].robot_id, [endpoint], model, per_robot, team[0].extra)
+        sharing.append(RobotNodes(f"robot{i}", per_robot, extra))
+    processes += simulated_robots(sharing, [endpoint], model, compose, robots_per_process)
     gc = [py, "-m", "robot_nodes.game_controller.simulator", "--players-per-team", str(max(robots, 4)),
           "--return-address", f"127.0.0.1:{gc_return_port}"]
     for port in gc_ports:

@@ -27,11 +27,11 @@ from pitchside.local_run import (
     telemetry_settings,
     world_first,
 )
-from pitchside.robot import MOTION_NODES, available, robot_nodes
+from pitchside.robot import MOTION_NODES, available, simulated_robots
 from robot_nodes.catalog import NODES
 from robot_nodes.cm730.sim.lineup import Lineup, LineupError, Team, parse_robots
 from robot_nodes.game_controller.packets import DATA_PORT, RETURN_PORT
-from robot_nodes.launch import COMPOSE_HELP, NodeProcess, RobotNodes, process_groups, shared_process
+from robot_nodes.launch import COMPOSE_HELP, NodeProcess, RobotNodes, process_groups
 from robot_nodes.runtime.clock import LOCKSTEP, SIM_TIME_ENV
 from server.security.credentials import ENV_TOKEN, new_token
 from wire.command_line import CommandParser
@@ -137,20 +137,14 @@ def match_processes(plan: MatchPlan, endpoint: str, http_port: int, telemetry_po
     if gc.http_port is not None:
         world += ["--gc-http-port", str(gc.http_port)]
     processes = [NodeProcess("world", world)]
-    sharing = plan.robots_per_process if plan.compose == "all" else 1
     for team in lineup.teams:
         robots = [RobotNodes(team.robot_id(player), plan.nodes,
                              robot_settings(team, player, gc, mitecom_ports, telemetry_port, telemetry_key))
                   for player in range(1, team.players + 1)]
-        for first in range(0, len(robots), sharing):
-            group = robots[first:first + sharing]
-            robot = [shared_process(group, [endpoint], descriptions.params_file(plan.model))] if len(group) > 1 \
-                else robot_nodes(group[0].robot_id, [endpoint], plan.model, plan.nodes, group[0].extra,
-                                 compose=plan.compose)
+        for process in simulated_robots(robots, [endpoint], plan.model, plan.compose, plan.robots_per_process):
             if plan.sim_time:
-                for process in robot:
-                    process.env[SIM_TIME_ENV] = LOCKSTEP if plan.lockstep else "1"
-            processes += robot
+                process.env[SIM_TIME_ENV] = LOCKSTEP if plan.lockstep else "1"
+            processes.append(process)
     processes.append(server_process(http_port, telemetry_port, plan.model, [], True, token, telemetry_key))
     return world_first(processes, others_nice=ROBOTS_IN_MATCH_NICE)
 

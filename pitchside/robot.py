@@ -18,7 +18,16 @@ from pitchside.service import DEFAULT_UNIT, UNIT_DIR, RobotService, ServiceError
 from pitchside.team_access import Role
 from pitchside.team_keys import member_of
 from robot_nodes.catalog import NODE_MODULES
-from robot_nodes.launch import COMPOSE_HELP, Launcher, NodeProcess, process_groups, robot_processes, run_until_signal
+from robot_nodes.launch import (
+    COMPOSE_HELP,
+    Launcher,
+    NodeProcess,
+    RobotNodes,
+    process_groups,
+    robot_processes,
+    run_until_signal,
+    shared_process,
+)
 from wire.bus import add_bus_arguments, env_endpoints, load_config_file
 from wire.command_line import CommandParser
 from wire.machine_router import MachineRouter, is_router_config, start_machine_router
@@ -43,6 +52,22 @@ def robot_nodes(robot_id: str, connect: list[str], model: str, names: list[str],
     groups = process_groups(names, compose, alone)
     return robot_processes(robot_id, groups, connect, params if params.exists() else None, extra, zenoh_config,
                            mode)
+
+
+def simulated_robots(robots: list[RobotNodes], connect: list[str], model: str, compose: str = "all",
+                     per_process: int = 1) -> list[NodeProcess]:
+    """The processes of simulated robots: with compose "all", per_process robots to a process (launch.shared_process;
+    a group of one as robot_nodes makes it), otherwise each robot's own as robot_nodes makes them."""
+    size = per_process if compose == "all" else 1
+    processes: list[NodeProcess] = []
+    for first in range(0, len(robots), size):
+        group = robots[first:first + size]
+        if len(group) > 1:
+            processes.append(shared_process(group, connect, params_file(model)))
+        else:
+            processes += robot_nodes(group[0].robot_id, connect, model, group[0].nodes, group[0].extra,
+                                     compose=compose)
+    return processes
 
 
 def robot_id_for(robot_id: str | None, zenoh_config: str | None) -> str:
