@@ -12,7 +12,7 @@ import zenoh
 
 import schemas
 from robot_nodes.cm730.node import Cm730Node
-from robot_nodes.cm730.sim import DetectionNoise, GroundTruthVision, SimWorld
+from robot_nodes.cm730.sim import DetectionNoise, GroundTruthVision, SimWorld, observe_all
 from robot_nodes.runtime import BusConfig
 from tests.waiting import wait_for
 from wire.keys import topic_key
@@ -103,6 +103,43 @@ def test_goal_and_robots_only_in_view() -> None:
     look(two, math.radians(135), -0.2)  # looking back over the left shoulder: neither goal nor robot
     obs = vision.observe()
     assert obs.goal_relative is None and obs.obstacles_relative == []
+
+
+def test_every_robots_view_at_once_is_what_each_sees_alone() -> None:
+    """The camera thread asks observe_all for all robots of a tick; each must get what observe alone gives it (the
+    same detections and noise draws), whatever its image size, the others in view or not."""
+    world = SimWorld(n_robots=4)
+    rng = np.random.default_rng(7)
+    noise = DetectionNoise(pixel=1.0, relative=0.05, relative_per_m=0.05, dropout=0.1, max_distance=6.0,
+                           position=0.05, yaw=0.02)
+    alone = [GroundTruthVision(world, r, noise=noise) for r in world.robots]
+    together = [GroundTruthVision(world, r, noise=noise) for r in world.robots]
+    for visions in (alone, together):
+        visions[2].resize(160, 120)
+    seen = {"ball": 0, "posts": 0, "obstacles": 0, "lines": 0}
+    for _ in range(40):
+        for robot in world.robots:
+            robot.set_pose(rng.uniform(-3, 3), rng.uniform(-2, 2), rng.uniform(-math.pi, math.pi))
+            robot.write_goals(["HeadPan", "HeadTilt"], np.array([rng.uniform(-1.2, 1.2), rng.uniform(-0.9, 0.0)]))
+        world.set_ball(rng.uniform(-3, 3), rng.uniform(-2, 2))
+        world.step_for(0.2)
+        for one, all_ in zip([v.observe() for v in alone], observe_all(together), strict=True):
+            assert one.ball == all_.ball and one.posts == all_.posts and one.bars == all_.bars
+            assert one.obstacles == all_.obstacles and one.lines == all_.lines and one.position == all_.position
+            assert [n for n, _ in one.obstacles_relative] == [n for n, _ in all_.obstacles_relative]
+            for (_, p), (_, q) in zip(one.obstacles_relative, all_.obstacles_relative, strict=True):
+                assert p == pytest.approx(q)
+            for p, q in ((one.ball_relative, all_.ball_relative), *zip(one.goal_relative or (),
+                                                                     all_.goal_relative or (), strict=True)):
+                assert (p is None) == (q is None) and (p is None or p == pytest.approx(q))
+            seen["ball"] += one.ball is not None
+            seen["posts"] += len(one.posts)
+            seen["obstacles"] += len(one.obstacles)
+            seen["lines"] += len(one.lines)
+    assert all(seen.values()), seen  # the comparison covered every kind of detection
+    other = SimWorld(n_robots=1)
+    with pytest.raises(ValueError, match="one world"):
+        observe_all([alone[0], GroundTruthVision(other, other.robots[0])])
 
 
 def test_position_has_the_stated_noise_and_occasional_losses(world: SimWorld) -> None:

@@ -7,7 +7,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 
 
 from robot_nodes.cm730.sim.field import KID_SIZE, FieldDimensions
-from robot_nodes.cm730.sim.perception import DetectionNoise, GroundTruthVision, Observation
+from robot_nodes.cm730.sim.perception import DetectionNoise, GroundTruthVision, Observation, observe_all
 from robot_nodes.cm730.sim.runner import CameraClient, CameraFrame, SimRunner
 from robot_nodes.cm730.sim.scene import MINIBOT_URDF, PhysicsConfig, Placement
 from robot_nodes.cm730.sim.world import STAND_POSE, ImuNoise, RobotHandle, SimError, SimWorld
@@ -29,4 +29,5 @@ __all__ = [
     "SimError",
     "SimRunner",
     "SimWorld",
+    "observe_all",
 ]

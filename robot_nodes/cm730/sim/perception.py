@@ -14,7 +14,7 @@ occasional losses of a few seconds, what a decent localization gives. ``Detectio
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import mujoco
@@ -28,6 +28,8 @@ NEAR = 0.05  # m, nothing closer to the lens is seen
 ROBOT_HALF_SIZE = (0.08, 0.14)  # m, footprint half extents of a Minibot for obstacle boxes
 ROBOT_HEIGHT = 0.70
 POST_RAYS = 5  # points up a goal post tested for occlusion: a post partly hidden is still seen
+_LINE_COLUMNS = [0, 1, 2, 3, 6, 7]  # in observe_all's table of segments: a line's ends and widths
+_OPTICAL = np.array([1.0, -1.0, -1.0])  # MuJoCo's camera frame (x right, y up, z back) to the optical frame
 
 
 @dataclass
@@ -141,56 +143,12 @@ class GroundTruthVision:
                                   (1, np.vstack([tops, [*posts[1], bar_z], [*posts[3], bar_z]]))))
         heights = np.linspace(0.1, top_z - 0.05, POST_RAYS)
         self._post_points = np.array([[[px, py, h] for h in heights] for px, py in posts])
-        self._others = [o for o in world.robots if o is not robot]
-        self._other_bodies = np.array([o.base_body for o in self._others], dtype=int)
         self._last_observed: float | None = None
 
     def resize(self, width: int, height: int) -> None:
         self.intrinsics = Intrinsics.from_fovy(width, height, float(self.world.model.cam_fovy[self.robot.camera_id]))
 
     # -- geometry ------------------------------------------------------------------------------------------
-    def to_optical(self, d: mujoco.MjData, points: np.ndarray) -> np.ndarray:
-        """World points (n, 3) in the optical frame (x right, y down, z forward)."""
-        cam = self.robot.camera_id
-        rot = d.cam_xmat[cam].reshape(3, 3)
-        local = (np.atleast_2d(points) - d.cam_xpos[cam]) @ rot
-        return local * np.array([1.0, -1.0, -1.0])
-
-    def project(self, optical: np.ndarray) -> np.ndarray:
-        k = self.intrinsics
-        z = optical[..., 2]
-        return np.stack([k.cx + k.fx * optical[..., 0] / z, k.cy + k.fy * optical[..., 1] / z], axis=-1)
-
-    def _in_image(self, uv: np.ndarray) -> bool:
-        k = self.intrinsics
-        return bool(0 <= uv[0] <= k.width and 0 <= uv[1] <= k.height)
-
-    def _segments_in_image(self, d: mujoco.MjData, ends_a: np.ndarray, ends_b: np.ndarray
-                           ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """World segments a-b (n, 3) in pixels, clipped to the near plane and the image, all at once with numpy (it
-        runs for every robot at the camera rate): the ends (m, 2), their depths (m,) and which segments (m,)."""
-        n = len(ends_a)
-        opt = self.to_optical(d, np.vstack([ends_a, ends_b]))
-        oa, ob = opt[:n], opt[n:]
-        za, zb = oa[:, 2], ob[:, 2]
-        front = (za >= NEAR) | (zb >= NEAR)
-        # clip to the near plane: the end behind it moves along the segment onto the plane
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t = np.where(za != zb, (NEAR - za) / (zb - za), 0.0)
-        cut = oa + t[:, None] * (ob - oa)
-        oa = np.where((za < NEAR)[:, None], cut, oa)
-        ob = np.where((zb < NEAR)[:, None], cut, ob)
-        index = np.nonzero(front)[0]
-        oa, ob = oa[index], ob[index]
-        pa, pb = self.project(oa), self.project(ob)
-        k = self.intrinsics
-        t0, t1 = _liang_barsky_many(pa, pb, float(k.width), float(k.height))
-        inside = t0 <= t1
-        pa, pb, oa, ob, t0, t1, index = (pa[inside], pb[inside], oa[inside], ob[inside], t0[inside], t1[inside],
-                                         index[inside])
-        return (pa + t0[:, None] * (pb - pa), pa + t1[:, None] * (pb - pa),
-                oa[:, 2] + t0 * (ob[:, 2] - oa[:, 2]), oa[:, 2] + t1 * (ob[:, 2] - oa[:, 2]), index)
-
     def _clear(self, d: mujoco.MjData, targets: np.ndarray) -> np.ndarray:
         """Rays from the lens to each target (n, 3), in one MuJoCo call: per target (distance along the ray to the
         first thing hit or -1, the target's distance, the geom hit)."""
@@ -205,7 +163,7 @@ class GroundTruthVision:
         return np.column_stack([along, dists, hit])
 
     @staticmethod
-    def _seen(ray: np.ndarray, geoms: set[int], distance_slack: float) -> bool:
+    def _seen(ray: list[float], geoms: set[int], distance_slack: float) -> bool:
         """A ray of _clear reached its target: nothing hit, nothing before it, or one of its ``geoms``."""
         along, dist, hit = ray
         return bool(along < 0 or along >= dist - distance_slack or int(hit) in geoms)
@@ -213,7 +171,11 @@ class GroundTruthVision:
     # -- the observation ---------------------------------------------------------------------------------
     def observe(self, d: mujoco.MjData | None = None) -> Observation:
         """What the robot perceives in data ``d`` (default: the world's live data; hold world.lock)."""
-        d = d if d is not None else self.world.data
+        return observe_all([self], d)[0]
+
+    def _observe(self, d: mujoco.MjData, view: _View) -> Observation:
+        """The observation from this robot's part of the views all robots' cameras had at once (observe_all): the
+        rays for occlusion, the losses and the noise, each robot's random draws in a fixed order."""
         noise, rng = self.noise, self.rng
         obs = Observation(stamp_sim=float(d.time))
         keep = (lambda: rng.random() >= noise.dropout) if noise.dropout > 0 else (lambda: True)
@@ -223,51 +185,49 @@ class GroundTruthVision:
         to_rel = _footprint_transform(x, y, yaw)
 
         # where rays must go (ball, and five points up each goal post in the image): one batch of rays for all
-        ball = d.xpos[self.world.model.geom_bodyid[self._ball_geom]].copy()
-        ob = self.to_optical(d, ball)[0]
-        dist = float(np.linalg.norm(ob))
-        ball_uv = self.project(ob) if ob[2] > NEAR and dist <= noise.max_distance else None
-        if ball_uv is not None and not self._in_image(ball_uv):
-            ball_uv = None
-        a, b, z0, z1, index = self._segments_in_image(d, *self._segment_ends)
-        is_line = index < self._n_lines
-        lines = (a[is_line], b[is_line], z0[is_line], z1[is_line])
-        goal_parts = (a[~is_line], b[~is_line], z0[~is_line], z1[~is_line], index[~is_line] - self._n_lines)
-        posts_in_image = [(int(i), a, b, z0, z1) for a, b, z0, z1, i in zip(*goal_parts, strict=True) if i < 4]
+        ball, ball_uv, dist = view.ball, view.ball_uv, view.ball_distance
+        posts_in_image = [part for part in view.goal_parts if part[-1] < 4]  # the posts, not the bars
         targets = [ball] if ball_uv is not None else []
-        for i, *_ in posts_in_image:
-            targets += [self._post_points[i, j] for j in range(POST_RAYS)]
-        clear = self._clear(d, np.array(targets)) if targets else np.zeros((0, 3))
+        for *_, i in posts_in_image:
+            targets.extend(self._post_points[i])
+        clear = self._clear(d, np.array(targets)).tolist() if targets else []
 
         # ball: in the image, not hidden, not too far, not missed
         if ball_uv is not None and self._seen(clear[0], {self._ball_geom}, f.ball_diameter / 2) and keep():
             radius = f.ball_diameter / 2
             diameter = 2 * k.fx * math.tan(math.asin(min(1.0, radius / dist)))
-            uv = ball_uv + rng.normal(0.0, noise.pixel, 2) if noise.pixel > 0 else ball_uv
+            uv = np.array(ball_uv) + rng.normal(0.0, noise.pixel, 2) if noise.pixel > 0 else ball_uv
             obs.ball = BallSeen(float(uv[0]), float(uv[1]), diameter)
             obs.ball_relative = self._noisy(to_rel(ball), dist)
             obs.ball_relative_confidence = 1.0
 
         # goal posts (a post partly hidden, by a robot in front, is still seen: any of its points will do) and bars
         rays = clear[1:] if ball_uv is not None else clear
-        for n, (i, foot, top, z0, z1) in enumerate(posts_in_image):
+        for n, (ua, va, ub, vb, z0, z1, i) in enumerate(posts_in_image):
             hits = rays[n * POST_RAYS:(n + 1) * POST_RAYS]
             if not any(self._seen(hit, {self._post_geoms[i]}, f.post_diameter) for hit in hits):
                 continue
             if keep():
                 width = float(k.fx * f.post_diameter / max(NEAR, (z0 + z1) / 2))
-                obs.posts.append(PostSeen((float(foot[0]), float(foot[1])), (float(top[0]), float(top[1])), width,
-                                          i))
-        for a, b, z0, z1, i in zip(*goal_parts, strict=True):
+                obs.posts.append(PostSeen((ua, va), (ub, vb), width, i))
+        for ua, va, ub, vb, z0, z1, i in view.goal_parts:
             if i >= 4 and keep():
-                obs.bars.append(((float(a[0]), float(a[1])), (float(b[0]), float(b[1])),
-                                 float(k.fx * f.post_diameter / max(NEAR, (z0 + z1) / 2))))
+                obs.bars.append(((ua, va), (ub, vb), float(k.fx * f.post_diameter / max(NEAR, (z0 + z1) / 2))))
 
         # other robots as obstacles: those whose box is in the image and not too far
-        self._obstacles(d, obs, to_rel, keep)
+        for j, u0, v0, u1, v1, distance in view.robots:
+            if keep():
+                number = self.world.robots[j].index + 1
+                obs.obstacles.append(ObstacleSeen(number, u0, v0, u1 - u0, v1 - v0))
+                centre = d.xpos[self.world.robots[j].base_body].copy()
+                obs.obstacles_relative.append((number, self._noisy(to_rel(centre), distance)))
 
-        # field lines
-        obs.lines = self._lines(*lines)
+        # field lines at least a pixel long, less those a false negative drops
+        lines = view.lines
+        if noise.dropout > 0 and lines:
+            dropped = rng.random(len(lines)) < noise.dropout
+            lines = [line for line, lost in zip(lines, dropped.tolist(), strict=True) if not lost]
+        obs.lines = [((ua, va), (ub, vb), wa, wb) for ua, va, ub, vb, wa, wb in lines]
 
         # the goal whose posts are seen (the one with more of them; the nearer if both show as many)
         seen = [p.index for p in obs.posts]
@@ -303,62 +263,11 @@ class GroundTruthVision:
             return True
         return False
 
-    def _obstacles(self, d: mujoco.MjData, obs: Observation, to_rel: Callable[[np.ndarray], np.ndarray],
-                   keep: Callable[[], bool]) -> None:
-        """The other robots whose boxes are in the image and not too far, all boxes projected at once."""
-        if not self._others:
-            return
-        k = self.intrinsics
-        boxes = self._robot_boxes(d)  # (n, 8, 3)
-        opt = self.to_optical(d, boxes.reshape(-1, 3)).reshape(boxes.shape)
-        in_front = np.all(opt[:, :, 2] >= NEAR, axis=1)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            uv = self.project(opt)  # (n, 8, 2)
-        size = np.array([k.width, k.height])
-        low = np.clip(uv.min(axis=1), 0, size)
-        high = np.clip(uv.max(axis=1), 0, size)
-        centres = d.xpos[self._other_bodies]
-        distance = np.hypot(*(centres[:, :2] - d.cam_xpos[self.robot.camera_id][:2]).T)
-        shown = in_front & np.all(high - low >= 1, axis=1) & (distance <= self.noise.max_distance)
-        for i in np.nonzero(shown)[0]:
-            if keep():
-                number = self._others[i].index + 1
-                (u0, v0), (u1, v1) = low[i].tolist(), high[i].tolist()
-                obs.obstacles.append(ObstacleSeen(number, u0, v0, u1 - u0, v1 - v0))
-                obs.obstacles_relative.append((number, self._noisy(to_rel(centres[i].copy()), float(distance[i]))))
-
-    def _lines(self, a: np.ndarray, b: np.ndarray, z0: np.ndarray, z1: np.ndarray
-               ) -> list[tuple[tuple[float, float], tuple[float, float], float, float]]:
-        """The field lines in the image (clipped ends a, b and their depths) at least a pixel long, with their widths
-        in pixels at both ends; less those a false negative drops."""
-        long_enough = np.hypot(*(b - a).T) >= 1.0
-        width = self.world.field.line_width * self.intrinsics.fx
-        rows = np.column_stack([a, b, width / np.maximum(NEAR, z0), width / np.maximum(NEAR, z1)])[long_enough]
-        if self.noise.dropout > 0 and len(rows):
-            rows = rows[self.rng.random(len(rows)) >= self.noise.dropout]
-        return [((ua, va), (ub, vb), wa, wb) for ua, va, ub, vb, wa, wb in rows.tolist()]
-
     # -- helpers -------------------------------------------------------------------------------------------
     def _pose2d(self, d: mujoco.MjData) -> tuple[float, float, float]:
         b = self.robot.base_body
         xmat = d.xmat[b].reshape(3, 3)
         return float(d.xpos[b, 0]), float(d.xpos[b, 1]), math.atan2(xmat[1, 0], xmat[0, 0])
-
-    def _robot_boxes(self, d: mujoco.MjData) -> np.ndarray:
-        """The other robots' boxes (n, 8, 3): footprint turned with each robot's yaw, as high as it stands."""
-        bodies = self._other_bodies
-        xmat = d.xmat[bodies]  # (n, 9)
-        yaw = np.arctan2(xmat[:, 3], xmat[:, 0])
-        c, s = np.cos(yaw), np.sin(yaw)
-        hx, hy = ROBOT_HALF_SIZE
-        dx = np.array([-hx, -hx, -hx, -hx, hx, hx, hx, hx])
-        dy = np.array([-hy, -hy, hy, hy, -hy, -hy, hy, hy])
-        top = np.maximum(np.minimum(ROBOT_HEIGHT, d.xpos[bodies, 2] + 0.33), 0.15)
-        boxes = np.empty((len(bodies), 8, 3))
-        boxes[:, :, 0] = d.xpos[bodies, 0][:, None] + c[:, None] * dx - s[:, None] * dy
-        boxes[:, :, 1] = d.xpos[bodies, 1][:, None] + s[:, None] * dx + c[:, None] * dy
-        boxes[:, :, 2] = np.where(np.arange(8) % 2 == 0, 0.0, top[:, None])
-        return boxes
 
     def _noisy(self, p: np.ndarray, distance: float) -> np.ndarray:
         """x and y with Gaussian noise whose sigma grows with the distance from the lens."""
@@ -367,6 +276,129 @@ class GroundTruthVision:
             p = p.copy()
             p[:2] += self.rng.normal(0.0, sigma, 2)
         return p
+
+
+@dataclass
+class _View:
+    """One robot's part of what all cameras saw at once (observe_all), before occlusion, losses and noise."""
+
+    ball: np.ndarray  # the ball's centre in the world
+    ball_uv: tuple[float, float] | None  # in the image, in front, not too far; else None
+    ball_distance: float  # from the lens, m
+    goal_parts: list[tuple[float, float, float, float, float, float, int]]  # ends (u, v) x 2, depths, part 0-5
+    lines: list[tuple[float, float, float, float, float, float]]  # ends (u, v) x 2, widths (px) at both ends
+    robots: list[tuple[int, float, float, float, float, float]]  # world index, box (u0, v0, u1, v1), distance
+
+
+def observe_all(visions: Sequence[GroundTruthVision], d: mujoco.MjData | None = None) -> list[Observation]:
+    """What each robot perceives in data ``d`` (default: the world's live data; hold world.lock).
+
+    The projections and clipping run for all robots at once: with numpy the cost is per call, not per number, and
+    the world asks for every robot's view ten times a simulated second (8 robots: 0.5 ms for all against 1.1 ms for
+    each alone, on this machine at its fastest)."""
+    if not visions:
+        return []
+    world = visions[0].world
+    if any(v.world is not world for v in visions):
+        raise ValueError("observe_all takes robots of one world")
+    d = d if d is not None else world.data
+    n = len(visions)
+    cams = [v.robot.camera_id for v in visions]
+    lens, rot = d.cam_xpos[cams], d.cam_xmat[cams].reshape(n, 3, 3)
+    # per robot: fx, fy, cx, cy, width, height, max_distance
+    k = np.array([(v.intrinsics.fx, v.intrinsics.fy, v.intrinsics.cx, v.intrinsics.cy, v.intrinsics.width,
+                   v.intrinsics.height, v.noise.max_distance) for v in visions])
+
+    def optical(points: np.ndarray) -> np.ndarray:
+        """World points (p, 3) in each robot's optical frame (x right, y down, z forward): (n, p, 3)."""
+        return ((points - lens[:, None, :]) @ rot) * _OPTICAL
+
+    def project(opt: np.ndarray, kk: np.ndarray) -> np.ndarray:
+        z = opt[..., 2]
+        return np.stack([kk[..., 2] + kk[..., 0] * opt[..., 0] / z, kk[..., 3] + kk[..., 1] * opt[..., 1] / z], axis=-1)
+
+    # the ball
+    ball = d.xpos[world.model.geom_bodyid[visions[0]._ball_geom]].copy()
+    ob = optical(ball[None, :])[:, 0]
+    ball_distance = np.linalg.norm(ob, axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ball_uv = project(ob, k)
+    ball_shown = ((ob[:, 2] > NEAR) & (ball_distance <= k[:, 6]) & (ball_uv[:, 0] >= 0) & (ball_uv[:, 0] <= k[:, 4])
+                  & (ball_uv[:, 1] >= 0) & (ball_uv[:, 1] <= k[:, 5]))
+
+    # field lines and goal parts: clipped to the near plane and the image, all robots' at once
+    ends_a, ends_b = visions[0]._segment_ends
+    segments = len(ends_a)
+    oa, ob_ = optical(ends_a).reshape(-1, 3), optical(ends_b).reshape(-1, 3)
+    za, zb = oa[:, 2], ob_[:, 2]
+    front = (za >= NEAR) | (zb >= NEAR)
+    # clip to the near plane: the end behind it moves along the segment onto the plane
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.where(za != zb, (NEAR - za) / (zb - za), 0.0)
+    cut = oa + t[:, None] * (ob_ - oa)
+    oa = np.where((za < NEAR)[:, None], cut, oa)
+    ob_ = np.where((zb < NEAR)[:, None], cut, ob_)
+    rows = np.nonzero(front)[0]
+    oa, ob_ = oa[rows], ob_[rows]
+    kk = k[rows // segments]
+    pa, pb = project(oa, kk), project(ob_, kk)
+    t0, t1 = _liang_barsky_many(pa, pb, kk[:, 4], kk[:, 5])
+    inside = t0 <= t1
+    pa, pb, oa, ob_, t0, t1, rows, kk = (pa[inside], pb[inside], oa[inside], ob_[inside], t0[inside], t1[inside],
+                                         rows[inside], kk[inside])
+    a, b = pa + t0[:, None] * (pb - pa), pa + t1[:, None] * (pb - pa)
+    z0, z1 = oa[:, 2] + t0 * (ob_[:, 2] - oa[:, 2]), oa[:, 2] + t1 * (ob_[:, 2] - oa[:, 2])
+    part = rows % segments - visions[0]._n_lines  # < 0: a field line, else the goal part
+    width = world.field.line_width * kk[:, 0]
+    # a row per segment seen: its ends (u, v) x 2, their depths, widths in pixels, the goal part (< 0: a line)
+    table = np.column_stack([a, b, z0, z1, width / np.maximum(NEAR, z0), width / np.maximum(NEAR, z1), part])
+    long_enough = np.hypot(*(b - a).T) >= 1.0
+    bounds = np.searchsorted(rows // segments, np.arange(n + 1)).tolist()
+
+    # the other robots: their boxes projected into every camera
+    bodies = [r.base_body for r in world.robots]
+    boxes = _robot_boxes(d, bodies)  # (m, 8, 3)
+    opt = optical(boxes.reshape(-1, 3)).reshape(n, *boxes.shape)
+    in_front = np.all(opt[..., 2] >= NEAR, axis=2)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        uv = project(opt, k[:, None, None, :])  # (n, m, 8, 2)
+    size = k[:, None, 4:6]
+    low, high = np.clip(uv.min(axis=2), 0, size), np.clip(uv.max(axis=2), 0, size)
+    distance = np.hypot(*(d.xpos[bodies][None, :, :2] - lens[:, None, :2]).transpose(2, 0, 1))
+    shown = in_front & np.all(high - low >= 1, axis=2) & (distance <= k[:, 6:7])
+    shown[np.arange(n), [v.robot.index for v in visions]] = False  # not itself
+    boxes_seen = np.concatenate([low, high, distance[..., None]], axis=2)
+
+    observations = []
+    for r, vision in enumerate(visions):
+        lo, hi = bounds[r], bounds[r + 1]
+        mine = table[lo:hi]
+        is_line = mine[:, 8] < 0
+        lines = [tuple(row) for row in mine[is_line & long_enough[lo:hi]][:, _LINE_COLUMNS].tolist()]
+        goal_parts = [(ua, va, ub, vb, za_, zb_, int(i)) for ua, va, ub, vb, za_, zb_, _, _, i
+                      in mine[~is_line].tolist()]
+        seen = np.nonzero(shown[r])[0].tolist()
+        robots = [(j, *boxes_seen[r, j].tolist()) for j in seen]
+        uv_r = (float(ball_uv[r, 0]), float(ball_uv[r, 1])) if ball_shown[r] else None
+        observations.append(vision._observe(d, _View(ball, uv_r, float(ball_distance[r]), goal_parts, lines, robots)))
+    return observations
+
+
+def _robot_boxes(d: mujoco.MjData, bodies: list[int]) -> np.ndarray:
+    """The robots' boxes (n, 8, 3): footprint turned with each robot's yaw, as high as it stands."""
+    xmat = d.xmat[bodies]  # (n, 9)
+    yaw = np.arctan2(xmat[:, 3], xmat[:, 0])
+    c, s = np.cos(yaw), np.sin(yaw)
+    hx, hy = ROBOT_HALF_SIZE
+    dx = np.array([-hx, -hx, -hx, -hx, hx, hx, hx, hx])
+    dy = np.array([-hy, -hy, hy, hy, -hy, -hy, hy, hy])
+    xpos = d.xpos[bodies]
+    top = np.maximum(np.minimum(ROBOT_HEIGHT, xpos[:, 2] + 0.33), 0.15)
+    boxes = np.empty((len(bodies), 8, 3))
+    boxes[:, :, 0] = xpos[:, 0][:, None] + c[:, None] * dx - s[:, None] * dy
+    boxes[:, :, 1] = xpos[:, 1][:, None] + s[:, None] * dx + c[:, None] * dy
+    boxes[:, :, 2] = np.where(np.arange(8) % 2 == 0, 0.0, top[:, None])
+    return boxes
 
 
 def _footprint_transform(x: float, y: float, yaw: float) -> Callable[[np.ndarray], np.ndarray]:
@@ -383,9 +415,10 @@ def _wrap(a: float) -> float:
     return (a + math.pi) % (2 * math.pi) - math.pi
 
 
-def _liang_barsky_many(a: np.ndarray, b: np.ndarray, width: float, height: float) -> tuple[np.ndarray, np.ndarray]:
+def _liang_barsky_many(a: np.ndarray, b: np.ndarray, width: np.ndarray, height: np.ndarray
+                       ) -> tuple[np.ndarray, np.ndarray]:
     """Parameters (t0, t1) of the part of each segment a->b (n, 2) inside [0, width] x [0, height] (Liang-Barsky,
-    the four edges at once): t0 > t1 where none is."""
+    the four edges at once; each segment its own image size): t0 > t1 where none is."""
     d = b - a
     p = np.stack([-d[:, 0], d[:, 0], -d[:, 1], d[:, 1]])  # (4, n): one row per edge
     q = np.stack([a[:, 0], width - a[:, 0], a[:, 1], height - a[:, 1]])

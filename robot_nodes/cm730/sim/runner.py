@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from robot_nodes.cm730.sim.perception import DetectionNoise, GroundTruthVision, Observation
+from robot_nodes.cm730.sim.perception import DetectionNoise, GroundTruthVision, Observation, observe_all
 from robot_nodes.cm730.sim.world import RobotHandle, SimWorld
 
 log = logging.getLogger(__name__)
@@ -238,8 +238,15 @@ class SimRunner:
             for client in due:
                 served_for = max(now, client.next_due) * client.rate_hz  # in periods (served early: its own due)
                 client.next_due = (math.floor(served_for + 1e-6) + 1) / client.rate_hz
+            try:  # every robot's view at once (observe_all: numpy's cost is per call)
+                observations = observe_all([client.vision for client in due], self._snapshot)
+            except Exception:  # a bad world state must not end the camera thread
+                for client in due:
+                    client.errors += 1
+                log.exception("perception of %s failed", ", ".join(client.robot.robot_id for client in due))
+                continue
+            for client, obs in zip(due, observations, strict=True):
                 try:
-                    obs = client.vision.observe(self._snapshot)
                     image = None
                     if client.want_image() and not self.render_error:
                         key = (client.robot.index, client.width, client.height)
