@@ -66,9 +66,11 @@ def _up(url: str, process: subprocess.Popen[bytes], log: Path) -> bool:
 
 
 @contextlib.contextmanager
-def dashboard_server(args: list[str], log_dir: Path, host: str = "127.0.0.1") -> Iterator[RunningServer]:
-    """Starts the server with ``args`` (plus --host/--port) and stops it with SIGTERM afterwards."""
-    port = free_port()
+def dashboard_server(args: list[str], log_dir: Path, host: str = "127.0.0.1", port: int | None = None
+                     ) -> Iterator[RunningServer]:
+    """Starts the server with ``args`` (plus --host/--port: ``port`` or a free one) and stops it with SIGTERM
+    afterwards."""
+    port = port or free_port()
     log = log_dir / f"server-{port}.log"
     token = secrets.token_urlsafe(12)
     env = dict(os.environ, PYTHONUNBUFFERED="1", PITCHSIDE_TOKEN=token)

@@ -201,6 +201,14 @@ def test_taken_port_falls_back_to_a_free_one_and_the_endpoint_can_be_switched_of
             assert run_client("list", url)["channels"] == []  # a Foxglove server answers there
     with dashboard_server(["--no-live", "--no-telemetry", "--no-foxglove"], tmp_path) as server:
         assert foxglove_url(server.output()) is None
+    # the dashboard asked for the Foxglove port (`--port 8765`): the endpoint yields it, the dashboard keeps it
+    port = free_port()
+    with dashboard_server(["--no-live", "--no-telemetry", "--foxglove-port", str(port)], tmp_path,
+                          port=port) as server:
+        url = banner_url(server)
+        assert url.startswith("ws://127.0.0.1:") and not url.endswith(f":{port}")
+        assert server.http.get(f"{server.url}/api/config").status_code == 200
+        assert run_client("list", url)["channels"] == []
 
 
 def test_the_guard_asks_what_the_dashboard_asks() -> None:

@@ -364,6 +364,8 @@ async def start_foxglove(state: ServerState) -> FoxgloveEndpoint | None:
     port = state.config.foxglove_port
     if port is None:
         return None
+    if port == state.config.port:  # `--port 8765`: the dashboard's port counts as taken, the endpoint finds another
+        port = 0
     endpoint = FoxgloveEndpoint(state)
     try:
         await endpoint.start(port)
