@@ -18,6 +18,7 @@ from pitchside.local_run import (
     kernel_port,
     run_on_this_machine,
     server_process,
+    telemetry_image_rate,
     telemetry_settings,
     world_first,
 )
@@ -41,9 +42,11 @@ def demo_processes(robots: int, endpoint: str, http_port: int, telemetry_port: i
     robots_per_process: with compose "all", that many robots' nodes share a process (shared_process)."""
     py = sys.executable
     connect = ["--connect", endpoint]
-    processes = [NodeProcess("world", [py, "-m", "robot_nodes.cm730.sim", "--robots", str(robots),
-                                       "--cameras", str(cameras), *connect,
-                                       "--params", str(descriptions.params_file(model))])]
+    world = [py, "-m", "robot_nodes.cm730.sim", "--robots", str(robots), "--cameras", str(cameras), *connect,
+             "--params", str(descriptions.params_file(model))]
+    if match:  # the dashboard sees images only through telemetry: render no more than it sends
+        world += ["--set", f"image_rate={telemetry_image_rate()}"]
+    processes = [NodeProcess("world", world)]
     per_robot = available(DEMO_ROBOT_NODES)
     sharing: list[RobotNodes] = []
     for i in range(1, robots + 1):

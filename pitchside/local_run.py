@@ -62,6 +62,13 @@ def telemetry_settings(telemetry_port: int, telemetry_key: Path | None) -> list[
             *(["--set", f"team_key={telemetry_key}"] if telemetry_key else ["--set", "allow_dev_key=true"])]
 
 
+def telemetry_image_rate() -> float:
+    """Head camera images a second the robots' telemetry sends by default: all a dashboard in match mode gets."""
+    from robot_nodes.telemetry.sender import DEFAULT_TOPICS, IMAGE_TOPIC, parse_topics
+
+    return parse_topics(DEFAULT_TOPICS)[IMAGE_TOPIC]
+
+
 def server_process(http_port: int, telemetry_port: int, model: str, connect: list[str], match: bool,
                    token: str = "", telemetry_key: Path | None = None) -> NodeProcess:
     """The dashboard: telemetry on loopback, the 3D robot and plots; in match mode it hears telemetry only.

@@ -13,7 +13,7 @@ import zenoh
 
 import schemas
 from robot_nodes.cm730.node import Cm730Node
-from robot_nodes.runtime import BusConfig
+from robot_nodes.runtime import BusConfig, ParameterClient
 from tests.waiting import wait_for
 from wire.keys import topic_key
 
@@ -179,3 +179,29 @@ def test_camera_image_and_detections_are_published(node: Cm730Node, client: zeno
         assert topics_of_sim.pubs["obstacles_in_image"].count == topics_of_sim.pubs["goal_in_image"].count == 0
     finally:
         listener.close()
+
+
+@pytest.mark.slow
+def test_images_come_at_image_rate_while_the_detections_keep_the_camera_rate(bus: BusConfig,
+                                                                            client: zenoh.Session) -> None:
+    """A match's dashboard gets 2 images a second through telemetry: the world renders no more than it asks for."""
+    node = Cm730Node(robot_id="robot1", bus=bus, overrides={"camera_rate": 10.0, "image_rate": 2.5}).start()
+    listener = Listener(client, "robot1", ["camera/image/compressed", "position"])
+    try:
+        topics = node._sim_topics
+        assert topics is not None
+        wait_for(lambda: listener.count("camera/image/compressed") >= 1, timeout=30, what="the first image")
+        start_frames, start_images = topics.frames_published, topics.pubs["camera/image/compressed"].count
+        wait_for(lambda: topics.frames_published >= start_frames + 24, timeout=60, what="24 camera frames")
+        frames = topics.frames_published - start_frames
+        images = topics.pubs["camera/image/compressed"].count - start_images
+        assert frames // 4 - 1 <= images <= frames // 4 + 1  # one image in four frames
+        assert listener.count("position") >= 20  # the stand-in localization at every frame
+        ParameterClient(client, "robot1").set("cm730", {"image_rate": 10.0})  # as the dashboard sets it
+        start_frames, start_images = topics.frames_published, topics.pubs["camera/image/compressed"].count
+        wait_for(lambda: topics.frames_published >= start_frames + 8, timeout=60, what="8 camera frames")
+        images = topics.pubs["camera/image/compressed"].count - start_images
+        assert images >= topics.frames_published - start_frames - 2  # an image a frame again
+    finally:
+        listener.close()
+        node.shutdown()

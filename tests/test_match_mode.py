@@ -135,3 +135,17 @@ def test_token_needed_off_loopback(router_endpoint: str, bus: BusConfig, tmp_pat
             assert httpx.get(f"{server.url}/api/config", timeout=10).json()["control"] is False
     finally:
         node.shutdown()
+
+
+def test_the_demo_in_match_mode_renders_no_more_images_than_telemetry_sends() -> None:
+    """The dashboard in match mode sees the head camera only through telemetry (2 images a second by default)."""
+    from pitchside.demo import demo_processes
+    from robot_nodes.telemetry.sender import DEFAULT_TOPICS, IMAGE_TOPIC, parse_topics
+
+    def world_argv(match: bool) -> list[str]:
+        processes = demo_processes(2, "tcp/127.0.0.1:7447", 8080, 5800, "minibot", match, [3838, 3839], 3939)
+        return next(p.argv for p in processes if p.name == "world")
+
+    rate = parse_topics(DEFAULT_TOPICS)[IMAGE_TOPIC]
+    assert f"image_rate={rate}" in world_argv(match=True) and rate < 10.0
+    assert not any(arg.startswith("image_rate=") for arg in world_argv(match=False))  # the lab: every frame

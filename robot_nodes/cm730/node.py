@@ -57,7 +57,9 @@ class Cm730Params:
     imu_gyro_noise: float = param(0.005, range=(0.0, 1.0), doc="mujoco: gyro noise std dev, rad/s")
     imu_accel_noise: float = param(0.05, range=(0.0, 5.0), doc="mujoco: accelerometer noise std dev, m/s^2")
     imu_orientation_noise: float = param(0.002, range=(0.0, 0.5), doc="mujoco: orientation noise std dev, rad")
-    camera_rate: float = param(10.0, range=(0.1, 60.0), doc="mujoco: Hz of camera image and detections")
+    camera_rate: float = param(10.0, range=(0.1, 60.0), doc="mujoco: Hz of detections (images: image_rate)")
+    image_rate: float = param(10.0, range=(0.1, 60.0),
+                              doc="mujoco: Hz of rendered camera images (at most camera_rate; detections keep it)")
     camera_width: int = param(320, range=(16, 640), doc="mujoco: image width, px")
     camera_height: int = param(240, range=(16, 480), doc="mujoco: image height, px")
     jpeg_quality: int = param(80, range=(10, 100), doc="mujoco: JPEG quality of camera/image/compressed")

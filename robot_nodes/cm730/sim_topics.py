@@ -89,6 +89,7 @@ class SimTopics:
                  "obstacles_relative", "position", "ground_truth")
         self.pubs = {name: node.publisher(name) for name in names}
         self.frames_published = 0
+        self.frames_without_image = 1 << 30  # the first frame someone wants an image of gets one
 
     def apply_params(self) -> None:
         p, noise = self.node.params, self.noise
@@ -104,7 +105,16 @@ class SimTopics:
         self.flip = p.own_half == "+x"  # the team defends +x: its frame turns the field by half a turn
 
     def wants_image(self) -> bool:
-        return bool(self.node.params.render_camera and self.pubs["camera/image/compressed"].has_subscribers)
+        """Camera thread, once a frame: an image every camera_rate / image_rate frames while someone subscribes (in
+        a match the team PC gets 2 images a second through telemetry: rendering 10 would waste 8)."""
+        p = self.node.params
+        if not (p.render_camera and self.pubs["camera/image/compressed"].has_subscribers):
+            return False
+        self.frames_without_image += 1
+        if self.frames_without_image < max(1, round(p.camera_rate / p.image_rate)):
+            return False
+        self.frames_without_image = 0
+        return True
 
     def on_frame(self, frame: CameraFrame) -> None:
         """Camera thread: JPEG-encode here (off the node loop), publish on the loop."""
