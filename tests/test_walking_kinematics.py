@@ -158,3 +158,22 @@ def test_feet_are_mirrored_in_the_walk_stance() -> None:
         assert goals["L" + joint] == pytest.approx(-goals["R" + joint], abs=1e-9)
     for joint in ("HipRoll", "AnkleRoll"):
         assert goals["L" + joint] == pytest.approx(-goals["R" + joint], abs=1e-9)
+
+
+def test_standing_goals_are_solved_again_when_the_feet_or_the_gait_change() -> None:
+    params = WalkParams()
+    engine = WalkEngine(params)
+    first = engine.update(0.01).positions
+    np.testing.assert_allclose(first, engine._solve_legs(0.0), atol=1e-12)
+    first[:] = 0.0  # what a caller does with its goals does not reach the kept ones
+    np.testing.assert_allclose(engine.update(0.01).positions, engine._solve_legs(0.0), atol=1e-12)
+    kept = engine.update(0.01).positions
+    engine.feet["L"].pose.x += 0.02  # the feet where a stop left them
+    moved = engine.update(0.01).positions
+    np.testing.assert_allclose(moved, engine._solve_legs(0.0), atol=1e-12)
+    assert np.abs(moved - kept).max() > 0.01
+    params.trunk_height -= 0.02
+    engine.stance_goals()  # takes the gait's new snapshot, feet home
+    lower = engine.update(0.01).positions
+    np.testing.assert_allclose(lower, engine._solve_legs(0.0), atol=1e-12)
+    assert np.abs(lower - kept).max() > 0.01

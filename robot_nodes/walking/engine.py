@@ -84,6 +84,7 @@ class WalkEngine:
         self.heading: float | None = None
         self._start_from: np.ndarray | None = None
         self._start_elapsed = 0.0
+        self._standing: tuple[WalkParams, tuple[float, ...], np.ndarray] | None = None  # see _joints
         self._g = self._snapshot()
         self._home_feet()
 
@@ -297,6 +298,18 @@ class WalkEngine:
         return rot_y(pitch) @ rot_x(roll)
 
     def _joints(self, sway: float) -> np.ndarray:
+        """The legs' joint values for the feet where they are now. Standing (IDLE, no sway) the trunk holds still
+        without the IMU, so the answer changes only with the feet or the gait's snapshot: kept, not solved again (a
+        standing robot's walking ticks 10 times a second for odometry, and the two legs' IK was most of a tick)."""
+        if self.phase is Phase.IDLE and sway == 0.0:
+            feet = tuple(v for f in self.feet.values() for v in (f.pose.x, f.pose.y, f.pose.yaw, f.z))
+            kept = self._standing
+            if kept is None or kept[0] is not self._g or kept[1] != feet:
+                kept = self._standing = (self._g, feet, self._solve_legs(0.0))
+            return kept[2].copy()
+        return self._solve_legs(sway)
+
+    def _solve_legs(self, sway: float) -> np.ndarray:
         g = self._g
         trunk = self._trunk_rotation().T  # walk frame -> base_link
         out = []
