@@ -74,7 +74,6 @@ packed to fit the budget; the receiver hands on the message (``encode_overview``
 
 from __future__ import annotations
 
-import dataclasses
 import enum
 import hashlib
 import logging
@@ -149,11 +148,12 @@ class Header:
     encrypted: bool
     nonce: bytes = b"\0" * NONCE_SIZE
 
-    def pack(self) -> bytes:
+    def pack(self, nonce: bytes | None = None) -> bytes:
+        """The header's bytes, with ``nonce`` in place of the header's own if given."""
         return HEADER.pack(MAGIC, VERSION, FLAG_ENCRYPTED if self.encrypted else 0, int(self.kind), 0,
                            self.robot_id.encode("ascii"), self.stream_id, self.schema_hash, self.boot_id,
                            self.seq, self.send_time_ns, self.frame_id, self.frame_size, self.fragment_index,
-                           self.fragment_count, self.nonce)
+                           self.fragment_count, self.nonce if nonce is None else nonce)
 
 
 def check_robot_id(robot_id: str) -> str:
@@ -260,12 +260,12 @@ class Sealer:
 
     def seal(self, header: Header, body: bytes) -> bytes:
         """The datagram bytes; a fresh random nonce goes into the header."""
-        header = dataclasses.replace(header, nonce=os.urandom(NONCE_SIZE))
-        head = header.pack()
+        nonce = os.urandom(NONCE_SIZE)
+        head = header.pack(nonce)  # not a new Header: every datagram of every robot passes here
         if header.encrypted:
-            data = head + self._aead.encrypt(header.nonce, body, head)
+            data = head + self._aead.encrypt(nonce, body, head)
         else:
-            data = head + body + self._aead.encrypt(header.nonce, b"", head + body)
+            data = head + body + self._aead.encrypt(nonce, b"", head + body)
         if len(data) > MAX_DATAGRAM:
             raise ValueError(f"datagram of {len(data)} bytes exceeds {MAX_DATAGRAM}")
         return data
