@@ -11,7 +11,7 @@ import numpy as np
 from rosbags.typesys import Stores, get_typestore
 from rosbags.typesys.store import Typestore
 
-from schemas import messages
+from schemas import joint_state_cdr, messages
 from schemas.definitions import OWN_PACKAGES as OWN_PACKAGES
 from schemas.definitions import SCHEMA_DIR as SCHEMA_DIR
 from schemas.definitions import sources_digest
@@ -145,6 +145,8 @@ def _default_factory(fieldtype: tuple[Any, ...]) -> Callable[[], Any]:
 
 def encode(msg: Message) -> bytes:
     """CDR (little endian) bytes of a message."""
+    if msg.__msgtype__ == joint_state_cdr.TYPENAME and (fast := joint_state_cdr.encode(msg)) is not None:
+        return fast
     return bytes(typestore().serialize_cdr(msg, msg.__msgtype__))
 
 
@@ -155,10 +157,19 @@ def decode(data: bytes | memoryview, message: str) -> Any: ...
 def decode(data: bytes | memoryview, message: type[Message] | str) -> Any:
     """A message of that class (or type name) from CDR bytes; SchemaError if the bytes are not that type."""
     name = full_name(message if isinstance(message, str) else message.__msgtype__)
+    if name == joint_state_cdr.TYPENAME and (fast := joint_state_cdr.decode(
+            bytes(data), *_joint_state_classes(), typestore().max_sequence_length)) is not None:
+        return fast
     try:
         return typestore().deserialize_cdr(bytes(data), name)
     except Exception as exc:  # rosbags raises several kinds on garbage input
         raise SchemaError(f"payload of {len(data)} bytes is not a valid {name}: {exc}") from exc
+
+
+@functools.cache
+def _joint_state_classes() -> tuple[type, type, type]:
+    types = typestore().types
+    return types[joint_state_cdr.TYPENAME], types["std_msgs/msg/Header"], types["builtin_interfaces/msg/Time"]
 
 
 @functools.cache
