@@ -11,7 +11,7 @@ import numpy as np
 from rosbags.typesys import Stores, get_typestore
 from rosbags.typesys.store import Typestore
 
-from schemas import joint_state_cdr, messages
+from schemas import messages, sensor_cdr
 from schemas.definitions import OWN_PACKAGES as OWN_PACKAGES
 from schemas.definitions import SCHEMA_DIR as SCHEMA_DIR
 from schemas.definitions import sources_digest
@@ -145,7 +145,8 @@ def _default_factory(fieldtype: tuple[Any, ...]) -> Callable[[], Any]:
 
 def encode(msg: Message) -> bytes:
     """CDR (little endian) bytes of a message."""
-    if msg.__msgtype__ == joint_state_cdr.TYPENAME and (fast := joint_state_cdr.encode(msg)) is not None:
+    fast_encode = _FAST_ENCODE.get(msg.__msgtype__)
+    if fast_encode is not None and (fast := fast_encode(msg)) is not None:
         return fast
     return bytes(typestore().serialize_cdr(msg, msg.__msgtype__))
 
@@ -157,8 +158,7 @@ def decode(data: bytes | memoryview, message: str) -> Any: ...
 def decode(data: bytes | memoryview, message: type[Message] | str) -> Any:
     """A message of that class (or type name) from CDR bytes; SchemaError if the bytes are not that type."""
     name = full_name(message if isinstance(message, str) else message.__msgtype__)
-    if name == joint_state_cdr.TYPENAME and (fast := joint_state_cdr.decode(
-            bytes(data), *_joint_state_classes(), typestore().max_sequence_length)) is not None:
+    if name in _FAST_DECODE and (fast := _FAST_DECODE[name](bytes(data))) is not None:
         return fast
     try:
         return typestore().deserialize_cdr(bytes(data), name)
@@ -167,9 +167,28 @@ def decode(data: bytes | memoryview, message: type[Message] | str) -> Any:
 
 
 @functools.cache
-def _joint_state_classes() -> tuple[type, type, type]:
-    types = typestore().types
-    return types[joint_state_cdr.TYPENAME], types["std_msgs/msg/Header"], types["builtin_interfaces/msg/Time"]
+def _classes(*names: str) -> tuple[type, ...]:
+    return tuple(typestore().types[name] for name in names)
+
+
+def _decode_joint_state(data: bytes) -> Any:
+    message, header, time = _classes(sensor_cdr.JOINT_STATE, "std_msgs/msg/Header", "builtin_interfaces/msg/Time")
+    return sensor_cdr.decode_joint_state(data, message, header, time, typestore().max_sequence_length)
+
+
+def _decode_imu(data: bytes) -> Any:
+    message, header, time, quaternion, vector3 = _classes(
+        sensor_cdr.IMU, "std_msgs/msg/Header", "builtin_interfaces/msg/Time", "geometry_msgs/msg/Quaternion",
+        "geometry_msgs/msg/Vector3")
+    return sensor_cdr.decode_imu(data, (message, header, time, quaternion, vector3))
+
+
+# the servo bus's two messages, 100 a second per robot: their own CDR path (schemas/sensor_cdr.py), where a None
+# (a message or payload it does not take) leaves them to rosbags
+_FAST_ENCODE: dict[str, Callable[[Any], bytes | None]] = {
+    sensor_cdr.JOINT_STATE: sensor_cdr.encode_joint_state, sensor_cdr.IMU: sensor_cdr.encode_imu}
+_FAST_DECODE: dict[str, Callable[[bytes], Any]] = {
+    sensor_cdr.JOINT_STATE: _decode_joint_state, sensor_cdr.IMU: _decode_imu}
 
 
 @functools.cache
