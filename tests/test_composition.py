@@ -10,7 +10,9 @@ import subprocess
 import sys
 import threading
 import time
+import types
 from collections.abc import Iterator
+from typing import Any
 
 import pytest
 import zenoh
@@ -19,7 +21,7 @@ import schemas
 from robot_nodes.compose import FAILED_NODE_EXIT, ROBOT_SEPARATOR, parse_robots, robot_parser
 from robot_nodes.launch import Launcher, RobotNodes, describe_exit, process_groups, robot_processes, shared_process
 from robot_nodes.runtime import BusConfig, Node, ParameterClient, open_session
-from robot_nodes.runtime.local_bus import THAWED
+from robot_nodes.runtime.local_bus import THAWED, RemoteInterest
 from schemas.std import JointState
 from tests.proc_nodes import Talker
 from tests.support import REPO
@@ -100,6 +102,31 @@ def test_a_subscriber_outside_the_process_gets_cdr_only_while_it_listens(session
     finally:
         for node in nodes:
             node.shutdown()
+
+
+class _StatusReadWhileASubscriberAppears:
+    """A publisher whose first matching-status read is overtaken by the listener's report of a new subscriber: the
+    interleaving Zenoh's own thread can make (the read returns the state of a moment before the report)."""
+
+    def __init__(self) -> None:
+        self.listener: Any = None
+
+    def declare_matching_listener(self, callback: Any) -> Any:
+        self.listener = callback
+        return types.SimpleNamespace(undeclare=lambda: None)
+
+    @property
+    def matching_status(self) -> Any:
+        before = types.SimpleNamespace(matching=False)
+        self.listener(types.SimpleNamespace(matching=True))
+        return before
+
+
+def test_a_subscriber_that_appears_during_the_first_status_read_is_not_forgotten() -> None:
+    told: list[bool] = []
+    interest = RemoteInterest(_StatusReadWhileASubscriberAppears(), told.append)  # type: ignore[arg-type]
+    assert interest.matching is True, "the listener's newer report lost to the older read: never sent to"
+    assert told == [True]
 
 
 def test_messages_from_outside_are_decoded_once_for_every_node_of_the_process(session: zenoh.Session,

@@ -111,6 +111,7 @@ def test_robot_nodes_from_the_robot_install_drive_the_emulated_bus(robot_venv: P
     finally:
         os.killpg(robot.pid, signal.SIGINT)
         output = robot.communicate(timeout=60)[0].decode(errors="replace")
+        print(output[-6000:])  # shown by pytest when the test fails: what the robot said
     assert "Traceback" not in output, output[-4000:]
     assert "ModuleNotFoundError" not in output, output[-4000:]
 

@@ -201,14 +201,25 @@ class RemoteInterest:
 
     def __init__(self, publisher: zenoh.Publisher, on_change: Callable[[bool], None] | None = None) -> None:
         self._on_change = on_change
+        self._lock = threading.Lock()
+        self._told = False  # the listener has reported a change: it knows better than the first read
+        self.matching = False
         self._listener = publisher.declare_matching_listener(self._changed)
-        # read after the listener is in place, so no change falls between the two
-        self.matching = bool(publisher.matching_status.matching)  # type: ignore[attr-defined]
+        # read after the listener is in place, so no change falls between the two; a change the listener reports
+        # while this read is on its way is newer than the read, so the read must not overwrite it (a subscriber
+        # that appeared then would otherwise never be sent to: no further change comes to correct it)
+        first = bool(publisher.matching_status.matching)  # type: ignore[attr-defined]
+        with self._lock:
+            if not self._told:
+                self.matching = first
 
     def _changed(self, status: Any) -> None:
-        self.matching = bool(status.matching)
+        matching = bool(status.matching)
+        with self._lock:
+            self._told = True
+            self.matching = matching
         if self._on_change is not None:
-            self._on_change(self.matching)
+            self._on_change(matching)
 
     def close(self) -> None:
         self._listener.undeclare()
