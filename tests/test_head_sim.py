@@ -90,16 +90,19 @@ def test_the_head_finds_a_ball_anywhere_in_front_within_six_seconds(bus: BusConf
             wait_for(lambda: goals.last() is not None and abs(goals.last().points[0].positions[1]) < 0.05, 10,
                      what="the head looking up")
             robots_.pass_time(2.0)
-            while True:  # somewhere in front that the camera does not see from where it looks now
-                if trial < len(fixed):
-                    distance, bearing = fixed[trial]
-                else:
-                    bearing = rng.uniform(-math.pi / 2, math.pi / 2)
-                    distance = rng.uniform(near_limit(bearing), 4.0)
-                robots_.set_ball(x0 + distance * math.cos(bearing), y0 + distance * math.sin(bearing))
-                if not in_view():
-                    break
-                assert trial >= len(fixed), "a fixed place in view at once"
+            # somewhere in front that the camera does not see from where it looks now; the world holds still while
+            # places are tried, so no camera frame sees a place that was in view (the head would go there first)
+            with robots_.world.lock:
+                while True:
+                    if trial < len(fixed):
+                        distance, bearing = fixed[trial]
+                    else:
+                        bearing = rng.uniform(-math.pi / 2, math.pi / 2)
+                        distance = rng.uniform(near_limit(bearing), 4.0)
+                    robots_.set_ball(x0 + distance * math.cos(bearing), y0 + distance * math.sin(bearing))
+                    if not in_view():
+                        break
+                    assert trial >= len(fixed), "a fixed place in view at once"
             start = robots_.sim_time()
             robots_.publish("head_mode", schemas.make(HeadMode, head_mode=HeadMode.BALL_MODE))
             seen = wait_for(lambda start=start: ball.first_time_since(start), FIND_WITHIN_S + 4.0,  # type: ignore[misc]
