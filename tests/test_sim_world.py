@@ -118,6 +118,25 @@ def test_set_pose_lying_on_front_and_back() -> None:
         a.set_pose(0, 0, 0, posture="sideways")
 
 
+def test_ground_truth_read_without_the_lock_is_the_live_pose_of_the_last_step() -> None:
+    """The ground_truth topic reads the state copied after each step (world.latest), not the live data under the
+    world's lock: the same poses, of robots lying, turned and moving and of a rolling ball."""
+    world = SimWorld(n_robots=2)
+    a, b = world.robots
+    a.set_pose(1.0, 1.0, 0.7, posture="front")
+    b.set_pose(-1.0, 0.5, -2.0)
+    world.set_ball(0.5, -0.5, velocity=(1.0, 0.6))
+    world.step(37)
+    mujoco.mj_forward(world.model, world.data)  # the live poses of the qpos the last step left
+    for robot in (a, b):
+        position, orientation = robot.torso_pose(world.latest)
+        live_position, live_orientation = robot.torso_pose()
+        np.testing.assert_allclose(position, live_position, atol=1e-9)
+        np.testing.assert_allclose(orientation, live_orientation, atol=1e-9)
+    np.testing.assert_allclose(world.ball_position(world.latest), world.ball_position(), atol=1e-9)
+    assert world.ball_position(world.latest)[0] > 0.5, "the ball rolled"
+
+
 @pytest.mark.slow
 def test_ball_in_image_matches_the_rendered_ball() -> None:
     from robot_nodes.cm730.sim.camera import HeadCamera

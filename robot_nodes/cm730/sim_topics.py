@@ -187,9 +187,11 @@ class SimTopics:
         sim = self.node._sim
         assert sim is not None
         world = sim.world
-        with world.lock:
-            poses = [(r.robot_id, *r.torso_pose()) for r in world.robots]
-            ball = world.ball_position()
+        # the state the servo buses read, copied after the last step: taken without the world's lock, which the
+        # physics holds while it steps (this loop sends every robot's sensors and must not wait for it)
+        state = world.latest
+        poses = [(r.robot_id, *r.torso_pose(state)) for r in world.robots]
+        ball = world.ball_position(state)
         msg = schemas.make(
             GroundTruth, header=_header(time.time(), MAP_FRAME),
             robot_ids=[p[0] for p in poses],

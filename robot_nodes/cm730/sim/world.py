@@ -194,8 +194,10 @@ class SimWorld:
         self.step(max(1, round(seconds / self.timestep)))
 
     # -- ball --------------------------------------------------------------------------------------------
-    def ball_position(self) -> np.ndarray:
-        """Ground truth ball centre in field coordinates (m)."""
+    def ball_position(self, state: StateCopy | None = None) -> np.ndarray:
+        """Ground truth ball centre in field coordinates (m): now (hold the lock), or in ``state`` (no lock)."""
+        if state is not None:
+            return state.qpos[self._ball_qadr:self._ball_qadr + 3].copy()
         return self.data.xpos[self._ball_body].copy()
 
     def set_ball(self, x: float, y: float, velocity: tuple[float, ...] = (0.0, 0.0), height: float | None = None
@@ -412,8 +414,13 @@ class RobotHandle:
     def jersey(self) -> tuple[float, ...]:
         return tuple(float(v) for v in self.world.model.geom_rgba[self._jersey[0]]) if self._jersey else ()
 
-    def torso_pose(self) -> tuple[np.ndarray, np.ndarray]:
-        """Ground truth (position xyz, orientation xyzw) of base_link in the field frame."""
+    def torso_pose(self, state: StateCopy | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Ground truth (position xyz, orientation xyzw) of base_link in the field frame: now (hold the lock), or in
+        ``state`` (no lock; base_link carries the robot's free joint, so its pose is that joint's qpos)."""
+        if state is not None:
+            x, y, z, qw, qx, qy, qz = state.qpos[self._root_qadr:self._root_qadr + 7].tolist()
+            norm = math.sqrt(qw * qw + qx * qx + qy * qy + qz * qz) or 1.0
+            return np.array([x, y, z]), np.array([qx, qy, qz, qw]) / norm
         d = self.world.data
         w, x, y, z = d.xquat[self.base_body]
         return d.xpos[self.base_body].copy(), np.array([x, y, z, w])
