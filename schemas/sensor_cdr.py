@@ -25,7 +25,6 @@ _LITTLE_ENDIAN_CDR = b"\x00\x01\x00\x00"  # encapsulation: CDR, little endian, n
 _STAMP = struct.Struct("<iI")
 _U32 = struct.Struct("<I")
 _KEPT = 16  # lists of names remembered each way: a process sees a few robots' lists, usually one
-_MAX_SEQUENCE = 2**31  # rosbags' max_sequence_length unless a typestore says less (checked by the caller)
 
 _blocks_out: dict[tuple[str, ...], bytes] = {}
 # (CDR of a list of names from its count to the padding after its last name, the names); swapped whole, never
@@ -35,9 +34,8 @@ _blocks_in: tuple[tuple[bytes, tuple[str, ...]], ...] = ()
 
 def _header(header: Any) -> bytearray:
     """The encapsulation and a std_msgs/Header, ending right after the frame id's NUL (no padding)."""
-    frame = header.frame_id.encode()
     return bytearray(_LITTLE_ENDIAN_CDR + _STAMP.pack(header.stamp.sec, header.stamp.nanosec)
-                     + _U32.pack(len(frame) + 1) + frame + b"\0")
+                     + _string(header.frame_id, padded=False))
 
 
 def _read_header(data: bytes) -> tuple[tuple[int, int], str, int]:
@@ -47,10 +45,11 @@ def _read_header(data: bytes) -> tuple[tuple[int, int], str, int]:
     return stamp, frame_id, pos
 
 
-def _string(text: str) -> bytes:
-    """A CDR string written at a 4-aligned position, padded to the next one: length with the NUL, bytes, NUL."""
+def _string(text: str, padded: bool = True) -> bytes:
+    """A CDR string written at a 4-aligned position: length with the NUL, bytes, NUL, and (``padded``) the padding
+    to the next 4-aligned position."""
     data = text.encode()
-    return _U32.pack(len(data) + 1) + data + b"\0" * (4 - len(data) % 4)
+    return _U32.pack(len(data) + 1) + data + b"\0" * ((4 - len(data) % 4) if padded else 1)
 
 
 def _names_block(names: list[str]) -> bytes:
@@ -82,8 +81,7 @@ def encode_joint_state(msg: Any) -> bytes | None:
     return bytes(out)
 
 
-def decode_joint_state(data: bytes, cls: type, header_cls: type, time_cls: type,
-                       max_sequence: int = _MAX_SEQUENCE) -> Any:
+def decode_joint_state(data: bytes, cls: type, header_cls: type, time_cls: type, max_sequence: int) -> Any:
     """A JointState from little-endian CDR, or None for anything else (rosbags then decodes it, or says why not)."""
     if data[:4] != _LITTLE_ENDIAN_CDR:
         return None
