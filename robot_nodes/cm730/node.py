@@ -349,6 +349,8 @@ class Cm730Node(Node):
         if wall_now > wall0:
             self.set_diagnostic("real_time_factor", f"{(sim_now - sim0) / (wall_now - wall0):.3f}")
             self.set_diagnostic("lag_resets", self._sim.runner.lag_resets)
+        # MuJoCo stops stepping a robot at rest (SimWorld): what the physics costs is its awake robots'
+        self.set_diagnostic("physics_asleep", bool(self._sim.world.latest.asleep[self._sim.robot.tree]))
 
     def _apply_sim_params(self) -> None:
         if self._sim is None:

@@ -44,6 +44,9 @@ class PhysicsConfig:
     ball_friction: tuple[float, float, float] = (0.8, 0.005, 0.01)
     foot_friction: float = 1.0
     solver_iterations: int = 30
+    # robots and the ball at rest are not stepped (MuJoCo's sleeping, SimWorld.wake): a robot standing still
+    # costs the physics almost nothing, one that moves or is touched wakes
+    sleep: bool = True
 
 
 @dataclass(frozen=True)
@@ -168,6 +171,8 @@ def build_world(n_robots: int, placements: list[Placement], urdf_path: Path = MI
     world.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     world.option.iterations = physics.solver_iterations
     world.option.noslip_iterations = 0
+    if physics.sleep:
+        world.option.enableflags |= int(mujoco.mjtEnableBit.mjENBL_SLEEP)
     world.visual.global_.offwidth = max(render_size[0], 640)
     world.visual.global_.offheight = max(render_size[1], 480)
     world.visual.headlight.ambient = [0.45, 0.45, 0.45]
