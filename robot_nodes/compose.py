@@ -18,7 +18,9 @@ together at each 100 Hz tick, and a thread each spent more on handing the interp
 bound that makes it safe: no callback of these nodes blocks (sockets, speech and files have threads of their own),
 so a node waits at most for the other nodes' callbacks due at the same time; each node's diagnostics say the
 loop's longest callback of each second (``loop_longest_call_ms``). ``--loop-per-node`` gives each node a loop
-thread of its own instead, for a node whose callbacks may take long.
+thread of its own instead, for a node whose callbacks may take long; ``--one-loop`` puts the nodes of all robots of
+the process on one loop (a simulated team on the wall clock: the same bound, over the robots' nodes together; on
+simulated time each robot keeps its loop, as each follows its own robot's clock).
 
 A node that cannot start, or whose loop ends on its own, ends the process with exit code FAILED_NODE_EXIT + its
 index, so the supervisor (robot_nodes/launch.py) names the node when it restarts the process.
@@ -37,6 +39,7 @@ from typing import Any
 
 from robot_nodes.catalog import NODES, entry, node_label
 from robot_nodes.runtime import Node
+from robot_nodes.runtime.clock import sim_time_wanted
 from robot_nodes.runtime.node import parse_overrides
 from robot_nodes.runtime.one_loop import NodesOnOneLoop
 from wire.bus import add_bus_arguments, bus_from_arguments, load_config_file, open_session
@@ -193,6 +196,9 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--loop-per-node", action="store_true",
                         help="a loop thread for each node instead of one per robot (for a node whose callbacks may "
                              "take long)")
+    parser.add_argument("--one-loop", action="store_true",
+                        help="one loop thread for the nodes of all robots of the process, on the wall clock (on "
+                             "simulated time a loop per robot, each following its robot's clock)")
     parser.add_argument("--log-level", default="INFO")
     args, robots = parse_robots(parser, list(sys.argv[1:] if argv is None else argv))
     logging.basicConfig(level=args.log_level, format="%(asctime)s %(levelname)s [%(name)s] %(message)s")
@@ -213,11 +219,14 @@ def main(argv: list[str] | None = None) -> None:
     nodes: list[Node] = []
     groups: list[NodesOnOneLoop] = []
     robot_of: list[str] = []
+    shared = None
+    if args.one_loop and not args.loop_per_node and not sim_time_wanted():
+        shared = NodesOnOneLoop.of_process(session, "+".join(robot.robot_id for robot in robots))
     try:
         for robot, classes, overrides, first in plans:
-            group = None if args.loop_per_node else NodesOnOneLoop.of_robot(session, robot.robot_id)
+            group = shared or (None if args.loop_per_node else NodesOnOneLoop.of_robot(session, robot.robot_id))
             nodes += build(classes, robot.robot_id, session, robot.params, overrides, group, first)
-            groups += [group] if group is not None else []
+            groups += [group] if group is not None and group not in groups else []
             robot_of += [robot.robot_id] * len(classes)
     except SystemExit:  # the robots built before the one that failed go too (they never started)
         for built in groups or nodes:

@@ -214,12 +214,13 @@ class RobotNodes:
 
 def shared_process(robots: list[RobotNodes], connect: list[str], params: Path | None = None,
                    zenoh_config: str | Path | None = None, mode: str = "auto") -> NodeProcess:
-    """Several robots' nodes in one supervised process (robot_nodes.compose, a loop thread per robot): the
-    simulated team's layout, which the world's 100 Hz sensor messages reach once per process, not once per robot.
+    """Several robots' nodes in one supervised process (robot_nodes.compose): the simulated team's layout, which the
+    world's 100 Hz sensor messages reach once per process, not once per robot. On the wall clock its robots share
+    one loop thread (``--one-loop``: they wake together for each tick's sensors), on simulated time a loop each.
     Its members are named with their robot (robot2/hcm), so the supervisor names a failed node with it."""
     first, *more = robots
     argv = node_command("robot_nodes.compose", first.robot_id, connect, params,
-                        _composed_args(first.nodes, first.extra), zenoh_config, mode)
+                        ["--one-loop", *_composed_args(first.nodes, first.extra)], zenoh_config, mode)
     for robot in more:
         argv += [ROBOT_SEPARATOR, "--robot-id", robot.robot_id, *(["--params", str(params)] if params else []),
                  *_composed_args(robot.nodes, robot.extra)]

@@ -302,9 +302,9 @@ def test_several_robots_share_a_process_each_with_its_own_nodes_parameters_and_l
         assert ParameterClient(client, "robot2").get("talker", "rate_hz") == 20.0
         ParameterClient(client, "robot2").set("talker", {"rate_hz": 10.0})
         assert ParameterClient(client, "robot1").get("talker", "rate_hz") == 50.0  # one robot's, not the other's
-        # a loop per robot: a robot's callbacks never wait for another's
-        wait_for(lambda: all(diagnostics[f"robot{i}/echo"].get("loop_shared_by") == "2" for i in (1, 2)), 10.0,
-                 what="each robot's nodes sharing a loop of their own")
+        # on the wall clock the robots of the process share one loop (--one-loop): each tick's sensors wake it once
+        wait_for(lambda: all(diagnostics[f"robot{i}/{n}"].get("loop_shared_by") == "4" for i in (1, 2)
+                             for n in ("talker", "echo")), 10.0, what="the robots' nodes sharing one loop")
     finally:
         proc.send_signal(signal.SIGTERM)
         assert proc.wait(20) == 0, "a process of several robots stops cleanly on SIGTERM"

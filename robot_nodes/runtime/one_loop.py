@@ -51,6 +51,15 @@ class NodesOnOneLoop:
         group._on_close.append(bus.leave)
         return group
 
+    @classmethod
+    def of_process(cls, session: zenoh.Session, name: str) -> NodesOnOneLoop:
+        """A loop for the nodes of several robots, on the wall clock (on simulated time each robot follows its own
+        clock: ``of_robot``)."""
+        bus = LocalBus.join(session)
+        group = cls(name)
+        group._on_close.append(bus.leave)
+        return group
+
     def add(self, node: Node) -> Node:
         if node.loop is not self.loop:
             raise ValueError(f"{node.name} of {node.robot_id} was not made with this group's loop")
