@@ -8,7 +8,7 @@ import math
 import pytest
 
 import schemas
-from robot_nodes.behavior.field import Field, kickoff_positions, ready_legal
+from robot_nodes.behavior.field import Field, kickoff_positions, ready_legal, support_place
 from robot_nodes.behavior.kick_direction import SIDE_ANGLE, aim_in_goal, clearance, kick_direction
 from robot_nodes.behavior.node import BehaviorParams, player_number_of, rivals_kick_off
 from robot_nodes.behavior.roles import DEFENDER, GOALIE, STRIKER, SUPPORTER, Candidate, assign_roles, ready_rank
@@ -231,3 +231,16 @@ def test_an_away_robot_turns_the_shared_field_frame_into_its_own() -> None:
     world.on_team_data(team, 0.1)
     assert world.ball(0.2) == (pytest.approx(-2.0), pytest.approx(0.0))  # the mate's ball, at +2 m shared: own half
     assert BehaviorParams().own_half == "-x"  # a real team's localization: its own frame
+
+
+@pytest.mark.parametrize("ball", [(0.0, 0.0), (1.0, 2.0), (-3.0, -2.5), (4.2, 0.5), (3.5, -2.9)])
+def test_the_supporter_waits_ahead_of_the_ball_beside_its_line_and_inside_the_field(ball: tuple[float, float]) -> None:
+    x, y, heading = support_place(FIELD, ball)
+    assert abs(x) <= FIELD.length / 2 - 0.4 and abs(y) <= FIELD.width / 2 - 0.4
+    assert x <= FIELD.length / 2 - 1.2  # out of the rival goalie's area
+    if ball[0] < FIELD.length / 2 - 2.7:
+        assert x == pytest.approx(ball[0] + 1.5)  # ahead, towards the opponent goal
+    assert abs(y - ball[1]) >= 1.0 or abs(y) == pytest.approx(FIELD.width / 2 - 0.4)  # beside the ball's line
+    assert abs(y) <= abs(ball[1]) + 1.2  # towards the field's middle, not out to the touch line
+    assert math.cos(heading) * (ball[0] - x) + math.sin(heading) * (ball[1] - y) > 0.99 * math.hypot(ball[0] - x,
+                                                                                                       ball[1] - y)

@@ -7,6 +7,11 @@ import math
 from dataclasses import dataclass
 
 GOAL_AIM_BEYOND = 0.5  # m behind the goal line (a kid-size goal is 0.6 m deep)
+# the supporter's place relative to the ball: ahead of it and beside its line to the goal, where a kick sent 40 deg
+# past a blocking rival (2.6-3.0 m, behavior/kick_direction.py) lands, about 2.1 m ahead and 1.8 m aside
+SUPPORT_AHEAD = 1.5  # m towards the opponent goal
+SUPPORT_BESIDE = 1.2  # m to the side of the field's middle
+SUPPORT_GOAL_CLEARANCE = 1.2  # m: it stays this far in front of the opponent goal line (out of the goalie's way)
 
 
 @dataclass(frozen=True)
@@ -49,6 +54,17 @@ class Field:
         """A point inside the field lines, ``margin`` away from them."""
         hx, hy = self.length / 2 - margin, self.width / 2 - margin
         return min(max(x, -hx), hx), min(max(y, -hy), hy)
+
+
+def support_place(field: Field, ball: tuple[float, float]) -> tuple[float, float, float]:
+    """The supporter's place (x, y, heading to the ball): SUPPORT_AHEAD of the ball towards the opponent goal and
+    SUPPORT_BESIDE towards the field's middle, inside the field. Behind the ball (where it stood before) it only
+    watched the two strikers kick the ball to and fro in midfield; ahead, it is the nearer robot when a kick gets
+    past the rival striker, so it becomes the striker there, nearer the goal than any rival field player."""
+    side = -1.0 if ball[1] > 0 else 1.0
+    x, y = field.clamp_inside(ball[0] + SUPPORT_AHEAD, ball[1] + side * SUPPORT_BESIDE, 0.4)
+    x = min(x, field.length / 2 - SUPPORT_GOAL_CLEARANCE)
+    return x, y, math.atan2(ball[1] - y, ball[0] - x)
 
 
 def ready_legal(field: Field, x: float, y: float, kicking_off: bool, margin: float = 0.0) -> bool:

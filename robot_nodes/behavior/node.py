@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import schemas
-from robot_nodes.behavior.field import Field, kickoff_positions
+from robot_nodes.behavior.field import Field, kickoff_positions, support_place
 from robot_nodes.behavior.kick_direction import aim_in_goal, kick_direction
 from robot_nodes.behavior.roles import (
     GOALIE,
@@ -430,9 +430,7 @@ class BehaviorNode(Node):
         ball = self.world.ball(now)
         if ball is None:
             return GroundPose(-1.0, 1.0, 0.0)
-        side = -1.0 if ball[1] > 0 else 1.0  # beside the ball, towards the field's middle
-        x, y = self.field.clamp_inside(ball[0] - 1.0, ball[1] + side * 1.2, 0.4)
-        return GroundPose(min(x, self.field.length / 2 - 1.5), y, math.atan2(ball[1] - y, ball[0] - x))
+        return GroundPose(*support_place(self.field, ball))
 
     def _defend_target(self, now: float) -> GroundPose:
         gx, gy = self.field.own_goal
