@@ -238,6 +238,33 @@ def test_unknown_voice_is_an_error_not_a_crash(bus: BusConfig, coach: Coach, tmp
 
 @needs_espeak
 @pytest.mark.timeout(90)
+def test_robots_of_one_machine_say_their_sentences_into_folders_of_their_own(bus: BusConfig, tmp_path: Path) -> None:
+    """A simulated team's speakers share a machine (the default folder names the robot): each numbers its files in
+    its own folder, so two sentences said at the same moment both come out."""
+    robots = ("home1", "home2", "home3")
+    template = str(tmp_path / "speech" / "{robot}")
+    coaches = [Coach(bus=bus, robot_id=robot) for robot in robots]
+    speakers = [SpeakerNode(bus=bus, robot_id=robot, overrides={"output": "wav", "folder": template,
+                                                                "pace_wav": False}) for robot in robots]
+    for node in (*coaches, *speakers):
+        node.start()
+    try:
+        wait_for(lambda: all(c.speak_pub.has_subscribers for c in coaches), 10.0, what="speakers subscribed")
+        for coach in coaches:
+            coach.say("positioning", LOW)
+        for robot, speaker in zip(robots, speakers, strict=True):
+            assert speaker.folder == tmp_path / "speech" / robot
+            spoken = wait_for(lambda s=speaker: wavs(s.folder), 30.0, what=f"{robot}'s sentence")
+            assert [f.name for f in spoken] == ["000001-low-positioning.wav"]
+            assert wait_for(lambda s=speaker: s.spoken == 1, 10.0, what=f"{robot}'s speaker done")
+        assert all(coach.diag_message in ("", "OK") for coach in coaches), [c.diag_message for c in coaches]
+    finally:
+        for node in (*speakers, *coaches):
+            node.shutdown()
+
+
+@needs_espeak
+@pytest.mark.timeout(90)
 def test_speaker_process(router_endpoint: str, coach: Coach, tmp_path: Path) -> None:
     folder = tmp_path / "speech"
     (folder).mkdir()

@@ -14,7 +14,9 @@ from robot_nodes.speaker.sentence_queue import HIGH, LOW, MID, PRIORITY_NAMES, S
 from robot_nodes.speaker.worker import SpeechResult, SpeechWorker
 from schemas.messages import Speak
 
-DEFAULT_FOLDER = "~/.cache/pitchside/speech"
+# a folder per robot: the speakers of a simulated team share a machine, and two of them numbering their files in one
+# folder took the same name at once ("could not say 'positioning'" for robots of one process at READY)
+DEFAULT_FOLDER = "~/.cache/pitchside/speech/{robot}"
 _CONTROL = re.compile(r"[\x00-\x1f\x7f]+")
 
 
@@ -23,7 +25,8 @@ class SpeakerParams:
     enabled: bool = param(True, doc="speak at all; while off, arriving sentences are dropped")
     output: str = param("auto", choices=["auto", "device", "wav"],
                         doc="device: the loudspeaker; wav: one file per sentence; auto: wav when ALSA has no card")
-    folder: str = param(DEFAULT_FOLDER, doc="where wav output writes its files (~ is the home folder)")
+    folder: str = param(DEFAULT_FOLDER, doc="where wav output writes its files (~ is the home folder, {robot} the "
+                                            "robot's id)")
     voice: str = param("en", doc="espeak-ng voice (see espeak-ng --voices)")
     rate: int = param(175, range=(80, 450), doc="words per minute")
     volume: int = param(100, range=(0, 200), doc="espeak-ng amplitude (100 is normal)")
@@ -80,7 +83,7 @@ class SpeakerNode(Node):
     # -- speaking ---------------------------------------------------------------------------------------
     @property
     def folder(self) -> Path:
-        return Path(self.params.folder).expanduser()
+        return Path(self.params.folder.replace("{robot}", self.robot_id)).expanduser()
 
     @property
     def output(self) -> str:
