@@ -19,6 +19,8 @@ from robot_nodes.runtime.clock import (
     ClockPublisher,
     RobotSimClock,
     SimClock,
+    SlowestTick,
+    SlowestTicks,
     WorldClock,
     clock_cdr,
     clock_seconds,
@@ -138,6 +140,11 @@ def test_a_lockstep_world_waits_for_the_robot_processes_and_lets_go_of_one_that_
                 assert due[-1] == pytest.approx(t - 0.01)
             assert time.monotonic() - started >= 25 * 0.02  # the world waited for the slow robot every tick
             assert world.done.timeouts == 0  # type: ignore[union-attr]
+            # and says so: its slowest tick waited for the robot's process, by name (the cm730 node's diagnostics)
+            slowest = world.slowest.so_far
+            assert slowest.robots_ms >= 5.0 and slowest.robots_ms <= slowest.total_ms
+            assert slowest.robots_last == ",".join(world.done.processes)  # type: ignore[union-attr]
+            assert slowest.robots_last in slowest.describe()
             talker.shutdown()  # in the middle of its last tick's work, or after it
             world.tick(first + 0.3)
             world.tick(first + 0.31)  # a robot that stopped is waited for once, at most done_timeout_s...
@@ -205,3 +212,14 @@ def test_the_runner_steps_to_each_clock_tick_and_sends_every_one() -> None:
     assert all(math.isclose(t / 0.01, round(t / 0.01), abs_tol=1e-6) for t in got), got
     assert [round(b - a, 9) for a, b in itertools.pairwise(got)] == [0.01] * 29
     assert runner.clock_errors == 0
+
+
+def test_the_slowest_tick_is_kept_per_second_of_wall_time() -> None:
+    ticks = SlowestTicks(window_s=1.0)
+    t0 = time.monotonic()
+    ticks.add(SlowestTick(5.0, 4.0, "a", 1.0), t0 + 0.1)
+    ticks.add(SlowestTick(9.0, 8.0, "b", 1.0), t0 + 0.5)
+    ticks.add(SlowestTick(3.0, 2.0, "a", 1.0), t0 + 0.7)
+    assert ticks.last == SlowestTick() and ticks.so_far.robots_last == "b"
+    ticks.add(SlowestTick(2.0, 1.0, "c", 1.0), t0 + 1.2)  # the next second: the one before is whole
+    assert ticks.last.total_ms == 9.0 and ticks.last.robots_last == "b" and ticks.so_far.robots_last == "c"

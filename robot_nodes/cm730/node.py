@@ -349,6 +349,9 @@ class Cm730Node(Node):
         if wall_now > wall0:
             self.set_diagnostic("real_time_factor", f"{(sim_now - sim0) / (wall_now - wall0):.3f}")
             self.set_diagnostic("lag_resets", self._sim.runner.lag_resets)
+        slowest = self._sim.runner.slowest_ticks
+        if slowest is not None:  # lockstep: what held the world in its slowest tick of the last second
+            self.set_diagnostic("slowest_tick", slowest.last.describe())
         # MuJoCo stops stepping a robot at rest (SimWorld): what the physics costs is its awake robots'
         self.set_diagnostic("physics_asleep", bool(self._sim.world.latest.asleep[self._sim.robot.tree]))
 

@@ -27,6 +27,7 @@ import os
 import threading
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Protocol
 
 import zenoh
@@ -318,6 +319,43 @@ class ClockPublisher:
         self._local.leave()
 
 
+@dataclass(frozen=True)
+class SlowestTick:
+    """The longest clock tick of a second of wall time in lockstep, and what it waited for: the robots' processes
+    (the last of them to say it was done) or the world's own cm730 nodes sending the sensors."""
+
+    total_ms: float = 0.0
+    robots_ms: float = 0.0
+    robots_last: str = ""  # the processes the world still waited for when it had waited longest
+    sensors_ms: float = 0.0
+
+    def describe(self) -> str:
+        return (f"{self.total_ms:.0f} ms: robots {self.robots_ms:.0f} ms (last {self.robots_last or '-'}), "
+                f"own sensors {self.sensors_ms:.0f} ms")
+
+
+class SlowestTicks:
+    """SlowestTick per second of wall time: ``last`` is the whole second before, so every reader sees the same."""
+
+    def __init__(self, window_s: float = 1.0) -> None:
+        self.window_s = window_s
+        self.last = SlowestTick()
+        self._now = SlowestTick()
+        self._window_ends = time.monotonic() + window_s
+
+    @property
+    def so_far(self) -> SlowestTick:
+        """The slowest tick of the second in progress."""
+        return self._now
+
+    def add(self, tick: SlowestTick, now: float) -> None:
+        if now >= self._window_ends:
+            self.last, self._now = self._now, SlowestTick()
+            self._window_ends = now + self.window_s
+        if tick.total_ms > self._now.total_ms:
+            self._now = tick
+
+
 class ClockDone:
     """The world's side of lockstep: which processes of the robots' nodes are done with which simulated time
     (``clock_done``). A process is waited for from its first message on; one that does not answer within
@@ -352,11 +390,13 @@ class ClockDone:
         with self._changed:
             return sorted(self._done)
 
-    def wait(self, seconds: float) -> None:
-        """Until every process waited for is done with ``seconds``."""
+    def wait(self, seconds: float) -> list[str]:
+        """Until every process waited for is done with ``seconds``; returns the last ones it waited for."""
         deadline = time.monotonic() + self.timeout_s
+        waited_for: list[str] = []
         with self._changed:
             while late := [p for p, t in self._done.items() if t < seconds - 1e-6]:
+                waited_for = late
                 left = deadline - time.monotonic()
                 if left <= 0:
                     self.timeouts += 1
@@ -364,8 +404,9 @@ class ClockDone:
                         del self._done[process]
                     log.warning("lockstep: %s not done with %.2f s of simulated time after %.1f s; not waited for "
                                 "until they answer again", ", ".join(late), seconds, self.timeout_s)
-                    return
+                    return waited_for
                 self._changed.wait(left)
+        return waited_for
 
     def close(self) -> None:
         for subscriber in self._subscribers:
@@ -395,18 +436,26 @@ class WorldClock:
         self.done = ClockDone(session, robots, done_timeout_s) if lockstep else None
         self._goals_due = goals_due
         self._sent: float | None = None  # the time of the last tick the robots were told
+        self.slowest = SlowestTicks()  # in lockstep: what held the physics (the cm730 node's diagnostics)
 
     def tick(self, seconds: float) -> None:
+        started = time.monotonic()
+        waited_for: list[str] = []
         if self.done is not None and self._sent is not None:
-            self.done.wait(self._sent)  # the robots' nodes are done with the last tick: their motor goals sent...
+            waited_for = self.done.wait(self._sent)  # the robots' nodes are done with the last tick: goals sent...
             self.clock.settle()  # ...and, sent before they said so, arrived here and are with the world's nodes
             if self._goals_due is not None:
                 self._goals_due()  # ...which hand them to the servos for the step from now on
+        robots_done = time.monotonic()
         self.clock.advance(seconds)  # lockstep: returns when this process's nodes have sent the sensors of this time
         cdr = clock_cdr(seconds)
         for publisher in self._publishers:
             publisher.publish(cdr)
         self._sent = seconds
+        if self.done is not None:
+            now = time.monotonic()
+            self.slowest.add(SlowestTick((now - started) * 1e3, (robots_done - started) * 1e3, ",".join(waited_for),
+                                         (now - robots_done) * 1e3), now)
 
     def close(self) -> None:
         for publisher in self._publishers:

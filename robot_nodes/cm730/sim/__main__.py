@@ -89,6 +89,8 @@ def serve_world(world: SimWorld, bus: BusConfig, params: Path | None = None, ove
     if world_clock is not None:
         world_clock.clock.advance(world.time)
         runner.tick_clock(CLOCK_PERIOD_S, world_clock.tick)
+        if in_lockstep:
+            runner.slowest_ticks = world_clock.slowest
     # the robots' cm730 nodes share one loop thread: each tick is short (well under a millisecond), and with 8
     # robots one thread cost a tenth of a core less than eight (robot_nodes/runtime/one_loop.py)
     clock = world_clock.clock if world_clock else None

@@ -23,6 +23,7 @@ import numpy as np
 
 from robot_nodes.cm730.sim.perception import DetectionNoise, GroundTruthVision, Observation, observe_all
 from robot_nodes.cm730.sim.world import RobotHandle, SimWorld
+from robot_nodes.runtime.clock import SlowestTicks
 
 log = logging.getLogger(__name__)
 
@@ -104,6 +105,8 @@ class SimRunner:
         self._clock_due: float | None = None  # simulated time of the next clock tick (tick_clock)
         self._clock_tick: Callable[[float], None] | None = None
         self.clock_errors = 0
+        # in lockstep, the clock's record of its slowest tick per second (WorldClock.slowest; set by who ticks it)
+        self.slowest_ticks: SlowestTicks | None = None
         self._camera_wake = math.inf  # simulated time at which the physics thread wakes the camera thread
         self._camera_event = threading.Event()
 
