@@ -3,17 +3,20 @@ diagnostics and errors; one node leaving does not stop the others."""
 
 from __future__ import annotations
 
+import time
 from collections.abc import Iterator
 
 import pytest
 import zenoh
 
 import schemas
-from robot_nodes.runtime import BusConfig, ParameterClient, open_session
+from robot_nodes.runtime import BusConfig, GoalStatus, Node, ParameterClient, open_session
 from robot_nodes.runtime.one_loop import NodesOnOneLoop
 from tests.proc_nodes import Echo, Talker
+from tests.test_runtime import GOAL, Player
 from tests.waiting import wait_for
 from wire import keys
+from wire.actions import ClientGoal
 
 
 class Failing(Talker):
@@ -86,3 +89,50 @@ def test_a_node_on_a_shared_loop_is_run_by_its_group_only(session: zenoh.Session
     with pytest.raises(ValueError, match="this group's loop"):
         other.add(talker)
     group.shutdown()
+
+
+class Director(Node):
+    """Sends animation goals and cancels them from its loop, as the HCM, the kick and the behaviour do."""
+
+    name = "director"
+
+    def setup(self) -> None:
+        self.client = self.action_client("animation")
+        self.answers: list[bool] = []
+        self.cancel_took_s: list[float] = []
+
+    def cancel_soon(self, goal: ClientGoal, blocking: bool) -> None:
+        def cancel() -> None:
+            started = time.monotonic()
+            if blocking:
+                self.answers.append(goal.cancel(timeout=0.2))
+            else:
+                goal.request_cancel(self.answers.append)
+            self.cancel_took_s.append(time.monotonic() - started)
+
+        self.loop.call_soon(cancel)
+
+
+def test_a_goal_served_on_the_same_loop_is_canceled_without_holding_the_loop(session: zenoh.Session) -> None:
+    """The animation server and its client on one loop (a composed robot on simulated time, or a simulated team on
+    one loop): a blocking cancel waits out its whole timeout, as the server answers only once the loop is free, and
+    the loop (every node on it) stands that long; request_cancel returns at once and the answer comes on the loop."""
+    group = NodesOnOneLoop("test")
+    player = group.add(Player(robot_id="robot1", bus=session, loop=group.loop))
+    director = group.add(Director(robot_id="robot1", bus=session, loop=group.loop))
+    group.start()
+    try:
+        for blocking in (True, False):
+            goal = director.client.send_goal(schemas.make(GOAL, animation="long"))
+            assert goal.wait_accepted(5)
+            wait_for(lambda g=goal: player.active is not None and player.active.id == g.id, 5.0,
+                     what="the player playing the goal")
+            director.cancel_soon(goal, blocking)
+            status, _ = goal.wait_result(5)
+            assert status == GoalStatus.CANCELED
+        wait_for(lambda: len(director.answers) == 2, 5.0, what="both cancels answered")
+        blocked, requested = director.cancel_took_s
+        assert blocked >= 0.19 and director.answers[0] is False  # the server could not answer in time
+        assert requested < 0.05 and director.answers[1] is True
+    finally:
+        group.shutdown()

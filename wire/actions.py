@@ -84,7 +84,15 @@ class ClientGoal:
         return self._done.is_set()
 
     def cancel(self, timeout: float = 5.0) -> bool:
+        """Blocks until the server answers (True: it cancels). Never from a node's loop: the server may be a node of
+        the same loop, which then answers only after the timeout (request_cancel)."""
         return self._client._cancel(self.id, timeout)
+
+    def request_cancel(self, on_answer: Callable[[bool], None] | None = None, timeout: float = 2.0) -> None:
+        """Asks the server to cancel and returns at once; ``on_answer(accepted)`` runs on the client's loop. From a
+        node's loop this is the way: a blocking cancel of a goal served on the same loop held the loop for its whole
+        timeout (200 ms of a simulated match's world waiting on a striker whose kick the game stopped)."""
+        self._client._request_cancel(self.id, on_answer, timeout)
 
 
 class ActionClient:
@@ -162,6 +170,21 @@ class ActionClient:
             if reply.ok is not None:
                 return bool(json.loads(reply.ok.payload.to_bytes()).get("accepted"))
         return False
+
+    def _request_cancel(self, goal_id: bytes, on_answer: Callable[[bool], None] | None, timeout: float) -> None:
+        answered = threading.Event()
+
+        def on_reply(reply: zenoh.Reply) -> None:
+            if reply.ok is not None and not answered.is_set():
+                answered.set()
+                self._dispatch(on_answer, bool(json.loads(reply.ok.payload.to_bytes()).get("accepted")))
+
+        def on_done() -> None:
+            if not answered.is_set():
+                self._dispatch(on_answer, False)
+
+        self._session.get(keys.action_key(self.robot, self.action, "cancel"),
+                          zenoh.handlers.Callback(on_reply, on_done), payload=goal_id, timeout=timeout)
 
     def _on_event(self, sample: zenoh.Sample) -> None:
         data = sample.payload.to_bytes()

@@ -265,7 +265,7 @@ class BehaviorNode(Node):
 
     def _left(self, state: State) -> None:
         if state is State.KICK and self.kick_goal is not None and not self.kick_goal.done:
-            self.kick_goal.cancel(timeout=0.2)  # penalized or the game stopped in the middle of a kick
+            self.kick_goal.request_cancel()  # penalized or the game stopped in the middle of a kick
 
     def _act(self, now: float) -> None:
         state, pose = self.machine.state, self.world.pose(now)

@@ -269,7 +269,7 @@ class HcmNode(Node):
     def cancel_animation(self) -> None:
         if self.own_goal is not None:
             goal, self.own_goal = self.own_goal, None
-            goal.cancel(timeout=0.2)
+            goal.request_cancel()
 
     def torque(self, enabled: bool) -> None:
         if not self.joint_names:

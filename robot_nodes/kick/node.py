@@ -297,7 +297,7 @@ class KickNode(Node):
 
     def _stop_animation(self) -> None:
         if self.animation_goal is not None and not self.animation_goal.done:
-            self.animation_goal.cancel(timeout=0.2)
+            self.animation_goal.request_cancel()
         self.animation_goal = None
 
     def _finish(self, goal: ServerGoal, status: GoalStatus, result: int, why: str) -> None:
