@@ -36,10 +36,6 @@ MAX_LAG = 0.25  # s of wall time; further behind, the runner stops trying to cat
 # they save (a 4 v 4 match, 60 s of play, twice each: real-time factor mean 0.976/0.985, min 0.839/0.778 at 0.2 ms;
 # 0.998/1.000, min 0.923/0.944 at 5 ms; the world 64.5 against 62.5 % of a core).
 GIL_SWITCH_INTERVAL_S = 0.0002
-# the world's pace is measured on the physics thread, over windows of this much wall time, at the ends of chunks of
-# steps (a few ms apart). Measured on a node's 1 Hz timer instead, each report carried that timer's lateness: a
-# timer 50 ms late read 0.95 and the next one 1.05 while the world kept time
-PACE_WINDOW_S = 1.0
 BATCH_S = 0.01  # s: a camera due this soon is served with the one that is due now, from the same world state
 
 
@@ -96,8 +92,6 @@ class SimRunner:
         self.real_time_factor = real_time_factor
         self.chunk_steps = max(1, round(chunk / world.timestep))
         self.lag_resets = 0
-        self.pace = math.nan  # simulated seconds per wall second over the last whole PACE_WINDOW_S (nan: none yet)
-        self._pace_mark: tuple[float, float] | None = None  # (wall, simulated) time where the window began
         self._stop = threading.Event()
         self._clients: list[CameraClient] = []
         self._clients_lock = threading.Lock()
@@ -193,7 +187,6 @@ class SimRunner:
                 self._camera_event.set()
             if clock_due is not None and sim_now >= clock_due - 1e-9:
                 self._tick_clock(clock_due, sim_now)
-            self._measure_pace(sim_now)
             factor = self.real_time_factor
             if factor <= 0:
                 time.sleep(0)  # let the node threads in
@@ -205,15 +198,6 @@ class SimRunner:
             elif ahead < -MAX_LAG:
                 self.lag_resets += 1
                 self._rebase = True
-
-    def _measure_pace(self, sim_now: float) -> None:
-        wall_now = time.monotonic()
-        if self._pace_mark is None:
-            self._pace_mark = (wall_now, sim_now)
-        elif wall_now - self._pace_mark[0] >= PACE_WINDOW_S:
-            wall0, sim0 = self._pace_mark
-            self.pace = (sim_now - sim0) / (wall_now - wall0)
-            self._pace_mark = (wall_now, sim_now)
 
     def _tick_clock(self, due: float, sim_now: float) -> None:
         period = self._clock_period
