@@ -133,6 +133,6 @@ def test_a_goal_served_on_the_same_loop_is_canceled_without_holding_the_loop(ses
         wait_for(lambda: len(director.answers) == 2, 5.0, what="both cancels answered")
         blocked, requested = director.cancel_took_s
         assert blocked >= 0.19 and director.answers[0] is False  # the server could not answer in time
-        assert requested < 0.05 and director.answers[1] is True
+        assert requested < 0.1 and director.answers[1] is True  # microseconds; a busy machine may add a switch
     finally:
         group.shutdown()
