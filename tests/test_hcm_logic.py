@@ -205,26 +205,6 @@ def test_penalty_from_walking_lets_the_walk_stop_first() -> None:
     assert machine.state is S.CONTROLLABLE
 
 
-def test_a_penalty_cuts_a_stand_up_short() -> None:
-    """Penalised while getting up (the referee calls a robot that lay too long): the penalty animation at once, not
-    after the stand-up; the same while settling after it."""
-    for settling in (False, True):
-        bb = Blackboard()
-        machine, actions = started(bb)
-        bb.fallen = Side.FRONT
-        machine.step(bb)
-        machine.step(bb)
-        assert machine.state is S.GETTING_UP and actions.calls[-1] == ("play", "stand_up_front")
-        if settling:
-            bb.fallen, bb.animation_busy = None, False
-            machine.step(bb)
-            assert machine.state is S.GETTING_UP_SETTLE
-        bb.animation_busy = True  # the stand-up (or the settling walk-ready) still playing
-        bb.penalized = True
-        machine.step(bb)
-        assert machine.state is S.PENALTY_ANIMATION_IN and actions.calls[-1] == ("play", "penalty_in")
-
-
 def test_hardware_problem_and_recovery() -> None:
     bb = Blackboard()
     machine, _ = started(bb)

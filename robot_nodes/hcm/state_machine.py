@@ -161,10 +161,6 @@ def build_transitions() -> list[Transition]:
         _t(S.FALLEN, S.CONTROLLABLE, "upright and at rest",
            lambda bb: not bb.animation_busy and bb.fallen is None and bb.upright and _since_entry(bb) > 1.0),
         _t(S.GETTING_UP, S.HARDWARE_PROBLEM, "servos or IMU silent", lambda bb: not bb.hardware_ok),
-        # a penalty comes before the fall branches (the Bit-Bots DSD's order): the referee takes the robot off, it
-        # does not finish a stand-up first (in a match, a robot penalised for lying played its failing stand-up on
-        # for 2.4 s more)
-        _t(S.GETTING_UP, S.PENALTY_ANIMATION_IN, "penalized", lambda bb: bb.penalized),
         # stand_up_back may end lying on the front (it rolls over): then stand up from there at once
         _t(S.GETTING_UP, S.FALLEN, "stand-up left it lying",
            lambda bb: not bb.animation_busy and bb.fallen is not None),
@@ -172,7 +168,6 @@ def build_transitions() -> list[Transition]:
         # wait until it lies still, then stand up from there, instead of playing walkready and a falling animation
         _t(S.GETTING_UP, S.GETTING_UP_SETTLE, "stand-up animation done",
            lambda bb: not bb.animation_busy and (bb.upright or bb.falling is None)),
-        _t(S.GETTING_UP_SETTLE, S.PENALTY_ANIMATION_IN, "penalized", lambda bb: bb.penalized),
         _t(S.GETTING_UP_SETTLE, S.FALLING, "falling again",
            lambda bb: not bb.animation_busy and bb.falling is not None),
         _t(S.GETTING_UP_SETTLE, S.FALLEN, "still lying", lambda bb: not bb.animation_busy and bb.fallen is not None),
