@@ -205,6 +205,37 @@ def test_penalty_from_walking_lets_the_walk_stop_first() -> None:
     assert machine.state is S.CONTROLLABLE
 
 
+def test_a_penalty_cuts_a_stand_up_short() -> None:
+    """Penalised while getting up (the referee calls a robot that lay too long): the stand-up stops and the penalty
+    animation plays at once, not after the stand-up; the same while settling lying after it. Standing while
+    settling, the robot settles first."""
+    for settling, upright in ((False, False), (True, False), (True, True)):
+        bb = Blackboard()
+        machine, actions = started(bb)
+        bb.fallen = Side.FRONT
+        machine.step(bb)
+        machine.step(bb)
+        assert machine.state is S.GETTING_UP and actions.calls[-1] == ("play", "stand_up_front")
+        if settling:
+            bb.fallen, bb.animation_busy, bb.upright = None, False, upright
+            machine.step(bb)
+            assert machine.state is S.GETTING_UP_SETTLE
+        bb.animation_busy = True  # the stand-up (or the settling walk-ready) still playing
+        bb.penalized = True
+        machine.step(bb)
+        if upright:
+            assert machine.state is S.GETTING_UP_SETTLE  # on its feet: walk-ready ends, then the penalty
+            bb.animation_busy = False
+            machine.step(bb)
+            assert machine.state is S.CONTROLLABLE
+            machine.step(bb)
+        else:
+            assert machine.state is S.FALLEN and actions.calls[-1] == ("cancel", None)
+            assert not bb.animation_busy
+            machine.step(bb)
+        assert machine.state is S.PENALTY_ANIMATION_IN and actions.calls[-1] == ("play", "penalty_in")
+
+
 def test_hardware_problem_and_recovery() -> None:
     bb = Blackboard()
     machine, _ = started(bb)

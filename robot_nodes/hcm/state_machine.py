@@ -161,6 +161,10 @@ def build_transitions() -> list[Transition]:
         _t(S.FALLEN, S.CONTROLLABLE, "upright and at rest",
            lambda bb: not bb.animation_busy and bb.fallen is None and bb.upright and _since_entry(bb) > 1.0),
         _t(S.GETTING_UP, S.HARDWARE_PROBLEM, "servos or IMU silent", lambda bb: not bb.hardware_ok),
+        # a penalty comes before the fall branches (the Bit-Bots DSD's order): the referee took the robot off for
+        # lying too long, so the stand-up stops and FALLEN goes on to the penalty at once (through FALLEN: no
+        # edge of its own, the graph stays readable); a robot up on its feet settles first (at most a second)
+        _t(S.GETTING_UP, S.FALLEN, "penalized", lambda bb: bb.penalized),
         # stand_up_back may end lying on the front (it rolls over): then stand up from there at once
         _t(S.GETTING_UP, S.FALLEN, "stand-up left it lying",
            lambda bb: not bb.animation_busy and bb.fallen is not None),
@@ -170,6 +174,7 @@ def build_transitions() -> list[Transition]:
            lambda bb: not bb.animation_busy and (bb.upright or bb.falling is None)),
         _t(S.GETTING_UP_SETTLE, S.FALLING, "falling again",
            lambda bb: not bb.animation_busy and bb.falling is not None),
+        _t(S.GETTING_UP_SETTLE, S.FALLEN, "penalized", lambda bb: bb.penalized and not bb.upright),
         _t(S.GETTING_UP_SETTLE, S.FALLEN, "still lying", lambda bb: not bb.animation_busy and bb.fallen is not None),
         _t(S.GETTING_UP_SETTLE, S.CONTROLLABLE, "standing", lambda bb: not bb.animation_busy and bb.upright),
         _t(S.GETTING_UP_SETTLE, S.FALLEN, "not upright after stand-up",
@@ -258,6 +263,9 @@ class HcmStateMachine:
             play(self.anim(f"falling_{self.fall_side.value}"))
         elif state is S.FALLEN:
             self.fall_side = bb.fallen or self.fall_side
+            if bb.penalized and bb.animation_busy:  # a stand-up cut short by a penalty
+                self.actions.cancel_animation()
+                bb.animation_busy = False
         elif state is S.GETTING_UP:
             side = bb.fallen or self.fall_side
             play(self.anim(f"stand_up_{side.value}"))
