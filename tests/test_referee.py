@@ -186,6 +186,32 @@ def test_a_robot_lying_twenty_seconds_is_penalised_taken_off_and_brought_back(ma
     assert away1.uprightness() > 0.9
 
 
+def test_the_lying_call_says_where_and_what_the_robot_lies_against() -> None:
+    """Two robots fallen into each other, neither gets up: each call names the place and the other robot (what a
+    team reads to see why its stand-up failed)."""
+    match = make_match()
+    try:
+        kick_off(match)
+        home1, away1 = match.robot("home1"), match.robot("away1")
+        with match.world.lock:
+            home1.set_pose(1.0, 0.0, 0.0, posture="front")
+            away1.set_pose(1.0, 0.12, 0.0, posture="back")
+        match.play(1.0)
+        with match.world.lock:
+            assert home1.touching() == ["away1"] and away1.touching() == ["home1"]
+        for second in range(20):  # both try to get up: their arms move (a robot at rest sleeps, without contacts)
+            for robot in (home1, away1):
+                with match.world.lock:
+                    robot.write_goals(["LShoulderPitch", "RShoulderPitch"], np.full(2, 0.3 * (second % 2)))
+            match.play(1.0)
+        calls = {call.team: call.detail for call in match.calls("penalty")}
+        assert set(calls) == {HOME, AWAY}, calls
+        assert "lay for 20 s at (1.0" in calls[HOME] and calls[HOME].endswith("touching away1"), calls
+        assert calls[AWAY].endswith("touching home1"), calls
+    finally:
+        match.gc.stop()
+
+
 def test_the_lying_count_runs_from_the_fall_until_the_robot_has_stood(match: Match) -> None:
     """A failed get-up (torso up for a moment, then down again) does not restart the 20 s; standing for good does."""
     stood_s = match.referee.rules.stood_s

@@ -345,7 +345,10 @@ class Referee:
                 continue
             if self._count_lying(watch, now):
                 watch.count_stopped()
-                self._penalise(watch, f"lay for {self.rules.lying_s:.0f} s")
+                x, y, _ = watch.handle.pose2d()
+                touching = watch.handle.touching()
+                self._penalise(watch, f"lay for {self.rules.lying_s:.0f} s at ({x:.2f}, {y:.2f})"
+                               + (f", touching {', '.join(touching)}" if touching else ""))
                 continue
             if game.state == GameStateValue.PLAYING:
                 x, y, _ = watch.handle.pose2d()

@@ -330,6 +330,7 @@ class RobotHandle:
         self.camera_id = m.camera(prefix + "head_camera").id
         self._bodies = [b for b in range(m.nbody) if m.body(b).name.startswith(prefix)]
         self._geoms = [g for g in range(m.ngeom) if m.geom_bodyid[g] in set(self._bodies)]
+        self._geom_set = frozenset(self._geoms)
         sensor = {kind: m.sensor(prefix + kind) for kind in ("imu_quat", "imu_gyro", "imu_accel")}
         self._quat_adr = sensor["imu_quat"].adr[0]
         self._gyro_adr = sensor["imu_gyro"].adr[0]
@@ -509,6 +510,28 @@ class RobotHandle:
     def uprightness(self) -> float:
         """z component of the torso's up axis in the world: 1 upright, 0 lying, -1 upside down."""
         return float(self.world.data.xmat[self.torso_body].reshape(3, 3)[2, 2])
+
+    def touching(self) -> list[str]:
+        """What the robot touches now besides the turf and itself (hold the lock): other robots by id, the ball, goal
+        posts, crossbars and nets by geom name. Said with a robot that cannot get up (what holds it down). The contacts
+        of the last step: two robots that both sleep (at rest) have none."""
+        m, d = self.world.model, self.world.data
+        mine = self._geom_set
+        found: set[str] = set()
+        for contact in d.contact[:d.ncon]:
+            g1, g2 = int(contact.geom1), int(contact.geom2)
+            if (g1 in mine) == (g2 in mine):
+                continue
+            other = g2 if g1 in mine else g1
+            body = int(m.geom_bodyid[other])
+            if body == 0:  # the world's static geoms: the turf and its lines are where a robot lies anyway
+                name = m.geom(other).name
+                if name != "turf" and not name.startswith("line"):
+                    found.add(name)
+                continue
+            owner = next((r.robot_id for r in self.world.robots if other in r._geom_set), None)
+            found.add(owner or m.body(body).name)
+        return sorted(found)
 
     # -- internals ---------------------------------------------------------------------------------------
     def check_joints(self, names: list[str]) -> None:
