@@ -9,7 +9,7 @@ import pytest
 
 from robot_nodes.hcm.fall_checker import FallChecker, Side, fused_angles
 from robot_nodes.hcm.joint_mutex import PASSES_IN, GoalSource, passes
-from robot_nodes.hcm.state_machine import PUBLISHED_VALUE, Blackboard, HcmState, HcmStateMachine
+from robot_nodes.hcm.state_machine import PROPPED_S, PUBLISHED_VALUE, Blackboard, HcmState, HcmStateMachine
 
 S = HcmState
 
@@ -69,6 +69,14 @@ def test_one_stable_reading_in_the_window_vetoes() -> None:
 def test_lying_at_rest(axis: str, angle: float, side: Side) -> None:
     assert run_checker(axis, angle, 0.0, steps=60).fallen is side
     assert run_checker(axis, angle, 1.0, steps=60).fallen is None, "still moving: not yet lying"
+
+
+@pytest.mark.parametrize(("axis", "angle", "side"), [
+    ("y", 0.8, Side.FRONT), ("y", -0.8, Side.BACK), ("x", 0.7, Side.RIGHT), ("x", -0.7, Side.LEFT)])
+def test_propped_up_is_not_lying_but_leans(axis: str, angle: float, side: Side) -> None:
+    """45 deg, on another robot and shaken by it: not lying, but the side to stand up from is known."""
+    checker = run_checker(axis, angle, 1.0, steps=60)
+    assert checker.fallen is None and checker.leaning is side
 
 
 class Recorder:
@@ -234,6 +242,28 @@ def test_a_penalty_cuts_a_stand_up_short() -> None:
             assert not bb.animation_busy
             machine.step(bb)
         assert machine.state is S.PENALTY_ANIMATION_IN and actions.calls[-1] == ("play", "penalty_in")
+
+
+def test_a_robot_propped_up_gets_up_from_where_it_leans() -> None:
+    """Fallen onto another robot: neither lying (60 deg at rest) nor upright. After PROPPED_S in FALLEN it stands up
+    from the side it leans to, or turns onto its front from a side, instead of waiting for the referee."""
+    for leaning, first in ((Side.BACK, ("play", "stand_up_back")), (Side.LEFT, ("play", "turning_front"))):
+        bb = Blackboard()
+        machine, actions = started(bb)
+        bb.falling = Side.FRONT
+        machine.step(bb)
+        bb.falling, bb.animation_busy, bb.upright, bb.leaning = None, False, False, leaning
+        bb.fallen = Side.FRONT  # lay for a moment, then slid onto the other robot
+        machine.step(bb)
+        assert machine.state is S.FALLEN
+        bb.fallen = None
+        bb.now += PROPPED_S - 0.1
+        machine.step(bb)
+        assert machine.state is S.FALLEN and actions.calls[-1] != first  # may still be sliding: it waits
+        bb.now += 0.2
+        machine.step(bb)
+        assert actions.calls[-1] == first
+        assert machine.state is (S.GETTING_UP if leaning is Side.BACK else S.FALLEN)
 
 
 def test_hardware_problem_and_recovery() -> None:

@@ -86,6 +86,14 @@ class FallChecker:
         at_rest = sum(g for _, g in self._gyro) / len(self._gyro) < th.fallen_at_rest_gyro
         self.fallen = self._lying_side() if at_rest else None
 
+    @property
+    def leaning(self) -> Side:
+        """The side the robot tilts to most, however little and whether at rest or not: which stand-up to try when
+        it is propped up (on another robot, a post) between lying and standing, where ``fallen`` says nothing."""
+        if abs(self.pitch) >= abs(self.roll):
+            return Side.FRONT if self.pitch > 0 else Side.BACK
+        return Side.RIGHT if self.roll > 0 else Side.LEFT
+
     def _lying_side(self) -> Side | None:
         limit = self.thresholds.fallen_orientation
         if self.pitch > limit:

@@ -214,7 +214,7 @@ class HcmNode(Node):
         bb.now = now
         bb.hardware_ok = (now - self.last_imu < p.imu_timeout_s and now - self.last_joints < p.motor_timeout_s
                           and not self.missing_servos)
-        bb.falling, bb.fallen = checker.falling, checker.fallen
+        bb.falling, bb.fallen, bb.leaning = checker.falling, checker.fallen, checker.leaning
         upright = math.radians(p.upright_deg)
         bb.upright = abs(checker.roll) < upright and abs(checker.pitch) < upright
         bb.record = p.record_mode

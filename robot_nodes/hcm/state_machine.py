@@ -54,6 +54,7 @@ class Blackboard:
     hardware_ok: bool = False
     falling: Side | None = None
     fallen: Side | None = None
+    leaning: Side = Side.FRONT  # the side of the largest tilt (FallChecker.leaning)
     upright: bool = True
     penalized: bool = False
     record: bool = False
@@ -94,6 +95,21 @@ S = HcmState
 
 def _since_entry(bb: Blackboard) -> float:
     return bb.now - bb.entered_at
+
+
+PROPPED_S = 2.0  # in FALLEN neither lying nor upright this long: propped up on something, get up from the tilt
+
+
+def _propped(bb: Blackboard) -> bool:
+    """Neither lying (fallen needs 60 deg of tilt at rest) nor upright, for PROPPED_S in FALLEN: on another robot or
+    a post, or shaken by one. A match showed a robot propped on another for 7.6 s, trying nothing, until the
+    referee took it off."""
+    return bb.fallen is None and not bb.upright and _since_entry(bb) > PROPPED_S
+
+
+def _lying_on(bb: Blackboard) -> Side | None:
+    """The side to get up from in FALLEN: where it lies, or where it leans when propped."""
+    return bb.fallen if bb.fallen is not None else bb.leaning if _propped(bb) else None
 
 
 def _t(source: HcmState, target: HcmState, condition: str, test: Callable[[Blackboard], bool]) -> Transition:
@@ -158,6 +174,8 @@ def build_transitions() -> list[Transition]:
         _t(S.FALLEN, S.PENALTY_ANIMATION_IN, "penalized", lambda bb: bb.penalized and not bb.animation_busy),
         _t(S.FALLEN, S.GETTING_UP, "lying on front or back",
            lambda bb: bb.stand_up and not bb.animation_busy and bb.fallen in (Side.FRONT, Side.BACK)),
+        _t(S.FALLEN, S.GETTING_UP, "propped up, leaning to front or back",
+           lambda bb: bb.stand_up and not bb.animation_busy and _lying_on(bb) in (Side.FRONT, Side.BACK)),
         _t(S.FALLEN, S.CONTROLLABLE, "upright and at rest",
            lambda bb: not bb.animation_busy and bb.fallen is None and bb.upright and _since_entry(bb) > 1.0),
         _t(S.GETTING_UP, S.HARDWARE_PROBLEM, "servos or IMU silent", lambda bb: not bb.hardware_ok),
@@ -248,7 +266,7 @@ class HcmStateMachine:
             self.actions.play(self.anim("walkready"))
             bb.animation_busy = True
         bb.startup_done = self._startup_played and not bb.animation_busy
-        if self.state is S.FALLEN and bb.fallen in (Side.LEFT, Side.RIGHT) and not bb.animation_busy:
+        if self.state is S.FALLEN and _lying_on(bb) in (Side.LEFT, Side.RIGHT) and not bb.animation_busy:
             # no stand-up from the side: tip the robot onto its front or back first (a robot's own animation, or
             # walk-ready as Bit-Bots do), then a later step finds it lying there and stands up
             self.actions.play(self.anim("turning_front"))
@@ -267,7 +285,7 @@ class HcmStateMachine:
                 self.actions.cancel_animation()
                 bb.animation_busy = False
         elif state is S.GETTING_UP:
-            side = bb.fallen or self.fall_side
+            side = bb.fallen or bb.leaning  # where it lies, or where it leans when propped up
             play(self.anim(f"stand_up_{side.value}"))
         elif state in (S.GETTING_UP_SETTLE,):
             play(self.anim("walkready"))
