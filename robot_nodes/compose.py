@@ -44,6 +44,7 @@ from robot_nodes.runtime.node import parse_overrides
 from robot_nodes.runtime.one_loop import NodesOnOneLoop
 from wire.bus import add_bus_arguments, bus_from_arguments, load_config_file, open_session
 from wire.command_line import CommandParser
+from wire.heap import freeze_startup_heap
 
 log = logging.getLogger("pitchside.compose")
 
@@ -235,6 +236,7 @@ def main(argv: list[str] | None = None) -> None:
         raise
     composed = ComposedNodes(nodes, groups)
     composed.start()
+    freeze_startup_heap()
     for robot in robots:
         log.info("%s up for robot %s in one process", ", ".join(n.name for n, r in zip(nodes, robot_of, strict=True)
                                                              if r == robot.robot_id), robot.robot_id)

@@ -169,6 +169,7 @@ def run(args: argparse.Namespace) -> None:
     import uvicorn
 
     from server.app import create_app
+    from wire.heap import freeze_startup_heap
 
     logging.basicConfig(level=args.log_level, format="%(asctime)s %(levelname)s [server] %(message)s")
     config = config_from(args)
@@ -177,6 +178,7 @@ def run(args: argparse.Namespace) -> None:
     config.auto_record_matches = not args.no_auto_record
     config.replay_file = Path(args.replay) if args.replay else None
     app = create_app(config)
+    freeze_startup_heap()  # the modules and the app: what each full collection would walk again
     print(start_banner(config), flush=True)
     try:
         write_token_file(config.port, dashboard_url(config), config.token or "")

@@ -34,6 +34,7 @@ from wire import keys
 from wire.actions import ActionClient
 from wire.bus import BusConfig, add_bus_arguments, bus_from_arguments, load_config_file, open_session
 from wire.command_line import CommandParser
+from wire.heap import freeze_startup_heap
 from wire.json_limits import JsonLimitError, loads_limited
 from wire.parameters import ParameterError
 
@@ -667,4 +668,5 @@ def run(node_cls: type[Node], argv: list[str] | None = None, **kwargs: Any) -> N
         node.shutdown()
         return
     node.log.info("%s up for robot %s", node_cls.name, args.robot_id)
+    freeze_startup_heap()
     node.spin()

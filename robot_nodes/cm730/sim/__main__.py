@@ -23,6 +23,7 @@ from robot_nodes.runtime.node import parse_overrides
 from robot_nodes.runtime.one_loop import NodesOnOneLoop
 from wire.bus import add_bus_arguments, bus_from_arguments
 from wire.command_line import CommandParser
+from wire.heap import freeze_startup_heap
 
 
 def robot_overrides(index: int, overrides: dict[str, Any], cameras: int) -> dict[str, Any]:
@@ -128,6 +129,7 @@ def main(argv: list[str] | None = None) -> None:
     served = serve(args.robots, bus, args.params, parse_overrides(args.set), args.real_time_factor, args.cameras,
                    args.sim_time, args.lockstep)
     logging.info("simulating %d robot(s): %s", len(served.nodes), ", ".join(n.robot_id for n in served.nodes))
+    freeze_startup_heap()
     stop.wait()
     served.close()
 

@@ -25,6 +25,7 @@ from robot_nodes.game_controller.simulator import SimulatedGame, SimulatedGameCo
 from robot_nodes.runtime.node import parse_overrides
 from wire.bus import add_bus_arguments, bus_from_arguments
 from wire.command_line import CommandParser
+from wire.heap import freeze_startup_heap
 
 log = logging.getLogger("pitchside.match_world")
 LOOPBACK_BROADCAST = "127.255.255.255"  # every socket of this machine bound to the port hears it, nothing else
@@ -93,6 +94,7 @@ def main(argv: list[str] | None = None) -> None:
         log.info("match %s: team %d (%s) against team %d (%s), refereed by the %s GameController", args.robots,
                  lineup.home.number, ", ".join(lineup.home.robot_ids()), lineup.away.number,
                  ", ".join(lineup.away.robot_ids()), "simulated" if args.gamecontroller == "sim" else "external")
+        freeze_startup_heap()
         stop.wait()
     finally:
         if gc is not None:
