@@ -243,12 +243,15 @@ class KickNode(Node):
     def _strike(self) -> None:
         p = self.params
         self.struck_at = self.ball.estimate(self.phase_since)
+        where = ""
         if self.odometry is not None and self.struck_at is not None:
             x, y = self.odometry.relative(*self.struck_at)
-            self.set_diagnostic("strike_ball", f"({x:.3f}, {y:.3f}) {self.foot}")
+            where = f"({x:.3f}, {y:.3f})"
+            self.set_diagnostic("strike_ball", f"{where} {self.foot}")
         name = p.animation_left if self.foot == "left" else p.animation_right
-        self.log.info("strike with the %s foot %.1f s after the goal came (%d approaches)", self.foot,
-                      self.now() - self.started, self.tries + 1)
+        # where the ball lay: what a kick that "did not go" is read against (the spot is spot_x, +-spot_y)
+        self.log.info("strike with the %s foot %.1f s after the goal came (%d approaches), ball at %s", self.foot,
+                      self.now() - self.started, self.tries + 1, where or "unknown")
         self._enter(Phase.KICKING)
         self._feedback(50.0)
         goal = self.goal
