@@ -180,10 +180,28 @@ def test_stand_up_that_ends_still_rolling_waits_until_the_robot_lies() -> None:
     assert machine.state is S.GETTING_UP
     bb.fallen, bb.falling, bb.upright, bb.animation_busy = None, Side.FRONT, False, False  # rolling over
     machine.step(bb)
-    assert machine.state is S.GETTING_UP, "no walkready and no falling animation while still rolling"
-    bb.fallen, bb.falling = Side.FRONT, None  # now lying on the front
+    assert machine.state is S.FALLEN, "waits lying, no walkready and no falling animation while still rolling"
+    assert actions.calls[-1] == ("play", "stand_up_back")
     machine.step(bb)
     assert machine.state is S.FALLEN
+    bb.fallen, bb.falling = Side.FRONT, None  # now lying on the front
+    machine.step(bb)
+    assert machine.state is S.GETTING_UP and actions.calls[-1] == ("play", "stand_up_front")
+
+
+def test_stand_up_that_ends_tipping_for_good_tries_again_from_where_it_leans() -> None:
+    """Entangled with a robot it lies on: shaken, never at rest, never upright. It does not wait in GETTING_UP for
+    a rest that does not come (a match: 6.6 s), but tries again after PROPPED_S."""
+    bb = Blackboard()
+    machine, actions = started(bb)
+    bb.fallen = Side.FRONT
+    machine.step(bb)
+    machine.step(bb)
+    assert machine.state is S.GETTING_UP
+    bb.fallen, bb.falling, bb.upright, bb.animation_busy, bb.leaning = None, Side.BACK, False, False, Side.FRONT
+    machine.step(bb)
+    assert machine.state is S.FALLEN
+    bb.now += PROPPED_S + 0.1
     machine.step(bb)
     assert machine.state is S.GETTING_UP and actions.calls[-1] == ("play", "stand_up_front")
 

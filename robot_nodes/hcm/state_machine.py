@@ -186,8 +186,11 @@ def build_transitions() -> list[Transition]:
         # stand_up_back may end lying on the front (it rolls over): then stand up from there at once
         _t(S.GETTING_UP, S.FALLEN, "stand-up left it lying",
            lambda bb: not bb.animation_busy and bb.fallen is not None),
-        # a robot still rolling when its stand-up ends (stand_up_back onto the front) is not falling from a stand:
-        # wait until it lies still, then stand up from there, instead of playing walkready and a falling animation
+        # ...or still tipping, neither lying at rest nor upright (rolling over, or shaken by a robot it lies on): FALLEN
+        # waits for it to lie still or tries again from where it leans (in a match one waited here 6.6 s, entangled)
+        _t(S.GETTING_UP, S.FALLEN, "stand-up left it tipping",
+           lambda bb: not bb.animation_busy and not bb.upright and bb.falling is not None),
+        # a robot that ends its stand-up neither upright nor tipping settles: walk-ready, then standing or lying
         _t(S.GETTING_UP, S.GETTING_UP_SETTLE, "stand-up animation done",
            lambda bb: not bb.animation_busy and (bb.upright or bb.falling is None)),
         _t(S.GETTING_UP_SETTLE, S.FALLING, "falling again",
