@@ -108,6 +108,17 @@ def started(bb: Blackboard) -> tuple[HcmStateMachine, Recorder]:
     return machine, actions
 
 
+def getting_up(side: Side) -> tuple[Blackboard, HcmStateMachine, Recorder]:
+    """A started robot lying on ``side``, its stand-up just begun."""
+    bb = Blackboard()
+    machine, actions = started(bb)
+    bb.fallen = side
+    machine.step(bb)
+    machine.step(bb)
+    assert machine.state is S.GETTING_UP and actions.calls[-1] == ("play", f"stand_up_{side.value}")
+    return bb, machine, actions
+
+
 def test_startup_waits_for_hardware_then_walkready() -> None:
     actions = Recorder()
     machine = HcmStateMachine(actions=actions)
@@ -138,12 +149,7 @@ def test_fall_sequence_front() -> None:
 
 
 def test_failed_stand_up_goes_back_to_fallen() -> None:
-    bb = Blackboard()
-    machine, _ = started(bb)
-    bb.fallen = Side.BACK
-    machine.step(bb)
-    machine.step(bb)
-    assert machine.state is S.GETTING_UP
+    bb, machine, _ = getting_up(Side.BACK)
     bb.animation_busy = False
     machine.step(bb)
     assert machine.state is S.FALLEN, "still lying after the stand-up animation"
@@ -158,12 +164,7 @@ def test_failed_stand_up_goes_back_to_fallen() -> None:
 
 
 def test_stand_up_that_ends_on_the_other_side_stands_up_from_there() -> None:
-    bb = Blackboard()
-    machine, actions = started(bb)
-    bb.fallen = Side.BACK
-    machine.step(bb)
-    machine.step(bb)
-    assert machine.state is S.GETTING_UP and actions.calls[-1] == ("play", "stand_up_back")
+    bb, machine, actions = getting_up(Side.BACK)
     bb.fallen, bb.animation_busy = Side.FRONT, False  # stand_up_back rolled the robot onto its front
     machine.step(bb)
     assert machine.state is S.FALLEN and actions.calls[-1] != ("play", "walkready")
@@ -172,12 +173,7 @@ def test_stand_up_that_ends_on_the_other_side_stands_up_from_there() -> None:
 
 
 def test_stand_up_that_ends_still_rolling_waits_until_the_robot_lies() -> None:
-    bb = Blackboard()
-    machine, actions = started(bb)
-    bb.fallen = Side.BACK
-    machine.step(bb)
-    machine.step(bb)
-    assert machine.state is S.GETTING_UP
+    bb, machine, actions = getting_up(Side.BACK)
     bb.fallen, bb.falling, bb.upright, bb.animation_busy = None, Side.FRONT, False, False  # rolling over
     machine.step(bb)
     assert machine.state is S.FALLEN, "waits lying, no walkready and no falling animation while still rolling"
@@ -192,12 +188,7 @@ def test_stand_up_that_ends_still_rolling_waits_until_the_robot_lies() -> None:
 def test_stand_up_that_ends_tipping_for_good_tries_again_from_where_it_leans() -> None:
     """Entangled with a robot it lies on: shaken, never at rest, never upright. It does not wait in GETTING_UP for
     a rest that does not come (a match: 6.6 s), but tries again after PROPPED_S."""
-    bb = Blackboard()
-    machine, actions = started(bb)
-    bb.fallen = Side.FRONT
-    machine.step(bb)
-    machine.step(bb)
-    assert machine.state is S.GETTING_UP
+    bb, machine, actions = getting_up(Side.FRONT)
     bb.fallen, bb.falling, bb.upright, bb.animation_busy, bb.leaning = None, Side.BACK, False, False, Side.FRONT
     machine.step(bb)
     assert machine.state is S.FALLEN
@@ -236,12 +227,7 @@ def test_a_penalty_cuts_a_stand_up_short() -> None:
     animation plays at once, not after the stand-up; the same while settling lying after it. Standing while
     settling, the robot settles first."""
     for settling, upright in ((False, False), (True, False), (True, True)):
-        bb = Blackboard()
-        machine, actions = started(bb)
-        bb.fallen = Side.FRONT
-        machine.step(bb)
-        machine.step(bb)
-        assert machine.state is S.GETTING_UP and actions.calls[-1] == ("play", "stand_up_front")
+        bb, machine, actions = getting_up(Side.FRONT)
         if settling:
             bb.fallen, bb.animation_busy, bb.upright = None, False, upright
             machine.step(bb)
