@@ -165,6 +165,13 @@ def test_the_world_waits_for_every_robot_unless_told_not_to() -> None:
     assert {p.env.get(SIM_TIME_ENV) for p in robots} == {"lockstep"}
 
 
+def missing_gamestate(watch: GameWatch, robots: tuple[str, ...], output: str) -> str:
+    """What a wait for every robot's gamestate says when it times out: who is missing, what the match printed last."""
+    missing = [r for r in robots if watch.newest(r) is None]
+    tail = "\n".join(output.splitlines()[-60:])
+    return f"every robot's gamestate on the dashboard: none from {missing}; the match printed last:\n{tail}"
+
+
 def assert_world_first(processes: list[psutil.Process]) -> None:
     """The world (physics, referee, GameController) at the launcher's priority, every robot's nodes below it, the
     dashboard between (pitchside/local_run.py ROBOTS_IN_MATCH_NICE, BEHIND_THE_WORLD_NICE)."""
@@ -183,7 +190,11 @@ def assert_world_first(processes: list[psutil.Process]) -> None:
     assert set(modules.values()) == {launcher + ROBOTS_IN_MATCH_NICE}, modules
 
 
+# The matches run in ./run test's realtime process, one after another with the simulations: on a worker, beside
+# chromium and a simulation at nice -5, the robots' processes (nice 10) starved at start-up, and no gamestate came
+# within 60 s (CI, 2 cores)
 @pytest.mark.slow
+@pytest.mark.realtime
 @pytest.mark.timeout(900)
 def test_a_match_plays_both_halves_under_the_gamecontroller_and_records_them(tmp_path: Path,
                                                                              recordings_elsewhere: Path) -> None:
@@ -199,7 +210,8 @@ def test_a_match_plays_both_halves_under_the_gamecontroller_and_records_them(tmp
         api = gc_url.group(1)
         watch = GameWatch(match.ws_url, ("gamestate", "team_comm"))
         with watch:
-            wait_for(lambda: all(watch.newest(r) for r in ROBOTS), 60, what="every robot's gamestate on the dashboard")
+            wait_for(lambda: all(watch.newest(r) for r in ROBOTS), 60,
+                     what=lambda: missing_gamestate(watch, ROBOTS, match.output()))
             assert_world_first(match.processes())
             wait_for(lambda: watch.heard("home1") == [2] and watch.heard("away2") == [1], 30,
                      what="whom each robot hears (team_comm, by telemetry)")
@@ -263,6 +275,7 @@ def test_a_match_plays_both_halves_under_the_gamecontroller_and_records_them(tmp
 
 
 @pytest.mark.slow
+@pytest.mark.realtime
 def test_a_real_gamecontroller_on_the_network_referees_every_robot(tmp_path: Path) -> None:
     """--gamecontroller external: a GameController elsewhere (here one in this test, broadcasting as on a field)
     reaches every robot of the match on this machine; each answers it; the world's referee follows its game."""
@@ -275,7 +288,8 @@ def test_a_real_gamecontroller_on_the_network_referees_every_robot(tmp_path: Pat
         watch = GameWatch(match.ws_url, ("gamestate",))
         with watch:
             robots = ("home1", "home2", "away1")
-            wait_for(lambda: all(watch.newest(r) for r in robots), 60, what="every robot hears the GameController")
+            wait_for(lambda: all(watch.newest(r) for r in robots), 60,
+                     what=lambda: missing_gamestate(watch, robots, match.output()))
             colours = {r: watch.get(r, "gamestate")["data"]["team_color"] for r in robots}  # type: ignore[index]
             assert colours == {"home1": 0, "home2": 0, "away1": 1}  # team 3 blue, team 7 red, as it says
             wait_for(lambda: {(r.packet.team, r.packet.player) for r in real.returns} == {(3, 1), (3, 2), (7, 1)},
