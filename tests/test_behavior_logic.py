@@ -9,6 +9,7 @@ import pytest
 
 import schemas
 from robot_nodes.behavior.field import Field, kickoff_positions, ready_legal, support_place
+from robot_nodes.behavior.keep_clear import Clearance, keep_clear
 from robot_nodes.behavior.kick_direction import SIDE_ANGLE, aim_in_goal, clearance, kick_direction
 from robot_nodes.behavior.node import BehaviorParams, player_number_of, rivals_kick_off
 from robot_nodes.behavior.roles import DEFENDER, GOALIE, STRIKER, SUPPORTER, Candidate, assign_roles, ready_rank
@@ -244,3 +245,34 @@ def test_the_supporter_waits_ahead_of_the_ball_beside_its_line_and_inside_the_fi
     assert abs(y) <= abs(ball[1]) + 1.2  # towards the field's middle, not out to the touch line
     assert math.cos(heading) * (ball[0] - x) + math.sin(heading) * (ball[1] - y) > 0.99 * math.hypot(ball[0] - x,
                                                                                                        ball[1] - y)
+
+
+def closing_in(command: tuple[float, float, float], robot: tuple[float, float]) -> float:
+    """The command's speed towards the robot (m/s; > 0: closing in)."""
+    distance = math.hypot(*robot)
+    return (command[0] * robot[0] + command[1] * robot[1]) / distance
+
+
+def test_walking_past_robots_instead_of_into_them() -> None:
+    forward = (0.15, 0.0, 0.2)
+    clear = Clearance(radius=0.6, contact=0.3)
+    # far away, behind, or walked away from: the command as it was
+    assert keep_clear(forward, [(0.7, 0.0), (-0.3, 0.0), (0.0, 0.59)], clear) == forward
+    assert keep_clear((-0.1, 0.0, 0.0), [(0.3, 0.0)], clear) == (-0.1, 0.0, 0.0)
+    # in contact ahead-left: never closer, a sidestep to the right instead, the turn kept
+    ahead_left = (0.25, 0.08)
+    vx, vy, turn = keep_clear(forward, [ahead_left], clear)
+    assert closing_in((vx, vy, turn), ahead_left) == pytest.approx(0.0, abs=1e-9)
+    assert vy < -0.1 and turn == 0.2
+    # dead ahead: a side is picked, and the command still does not close in
+    vx, vy, _ = keep_clear(forward, [(0.3, 0.0)], clear)
+    assert abs(vy) > 0.1 and closing_in((vx, vy, 0.0), (0.3, 0.0)) == pytest.approx(0.0, abs=1e-9)
+    # walking sideways past a robot on the left: kept sliding the way it went (here: forward), not turned back
+    vx, _, _ = keep_clear((0.02, 0.08, 0.0), [(0.05, 0.35)], clear)
+    assert vx > 0.02
+    # between the radius and contact: the nearer, the less it closes in
+    closing = [closing_in(keep_clear(forward, [(d, 0.1)], clear), (d, 0.1)) for d in (0.55, 0.45, 0.35)]
+    assert closing_in(forward, (0.55, 0.1)) > closing[0] > closing[1] > closing[2] > 0.0
+    # two robots either side ahead: it slows down between them
+    vx, _, _ = keep_clear(forward, [(0.3, 0.2), (0.3, -0.2)], clear)
+    assert vx < forward[0] / 2

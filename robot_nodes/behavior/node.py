@@ -15,6 +15,7 @@ from typing import Any
 
 import schemas
 from robot_nodes.behavior.field import Field, kickoff_positions, support_place
+from robot_nodes.behavior.keep_clear import Clearance, keep_clear
 from robot_nodes.behavior.kick_direction import aim_in_goal, kick_direction
 from robot_nodes.behavior.roles import (
     GOALIE,
@@ -65,6 +66,8 @@ ACTION_FOR: dict[State, int] = {
 GRAPH_EVERY_S = 5.0
 GOAL_POST_MARGIN = 0.35  # m: the aim stays this far inside a post (the ball's radius and the kick's spread)
 OBSTACLES_FRESH_S = 0.5  # s: older obstacles_relative no longer say where the robots around the ball stand
+SAME_ROBOT_M = 0.3  # m: a teammate's reported place this near a robot in view is that robot
+CONTESTED_M = 0.5  # m: robots this near the ball the striker goes to are not walked around
 
 
 @dataclass
@@ -80,6 +83,8 @@ class BehaviorParams:
     max_forward: float = param(0.15, range=(0.01, 0.5), doc="fastest walk forward, m/s")
     max_sideways: float = param(0.08, range=(0.01, 0.3), doc="fastest walk sideways, m/s")
     max_turn: float = param(0.4, range=(0.05, 2.0), doc="fastest turn, rad/s")
+    keep_clear: float = param(0.6, range=(0.0, 2.0),
+                              doc="walk past robots nearer than this, m (centre to centre; 0: straight through)")
     position_tolerance: float = param(0.2, range=(0.02, 2.0), doc="a place counts as reached this close, m")
     heading_tolerance_deg: float = param(20.0, range=(1.0, 180.0), doc="...and facing its way this close, deg")
     goalie_depth: float = param(0.5, range=(0.1, 1.0), doc="the goalie stands this far in front of its goal line, m")
@@ -154,7 +159,7 @@ class BehaviorNode(Node):
         self.subscribe("position", self.on_position)
         self.subscribe("walk_odometry", self.on_odometry)
         self.subscribe("team_data", self.on_team_data)
-        self.obstacles = self.keep_latest("obstacles_relative")  # read when a kick starts, never woken by it
+        self.obstacles = self.keep_latest("obstacles_relative")  # read when walking and kicking, never woken by it
         self.tick_timer = self.timer(p.rate_hz, self.tick, name="decide")
         self.timer(1.0, self.publish_status, name="status")
         self.set_diagnostic("player", self.player)
@@ -284,8 +289,10 @@ class BehaviorNode(Node):
         elif state is State.GO_TO_BALL:
             self._go_to_ball(now, pose)
 
-    def walk_to(self, pose: GroundPose | None, target: GroundPose | None) -> None:
-        """Towards a place on the field: turn to it and walk when far, sidestep and turn to its heading when near."""
+    def walk_to(self, pose: GroundPose | None, target: GroundPose | None,
+                contested: tuple[float, float] | None = None) -> None:
+        """Towards a place on the field: turn to it and walk when far, sidestep and turn to its heading when near;
+        past the robots on the way (keep_clear), except those at ``contested`` (relative, m)."""
         p = self.params
         if pose is None or target is None:
             self.walk(0.0, 0.0, 0.0)  # lost: wait for the localization rather than wander
@@ -298,14 +305,37 @@ class BehaviorNode(Node):
         if distance <= p.position_tolerance * scale and \
                 abs(heading_error) <= math.radians(p.heading_tolerance_deg) * scale:
             self.walk(0.0, 0.0, 0.0)
-        elif distance > 0.5:
-            bearing = math.atan2(dy, dx)
-            forward = min(p.max_forward, 0.5 * distance) * max(0.0, math.cos(bearing))
-            self.walk(forward, _clip(0.5 * dy, p.max_sideways) if abs(bearing) < 0.5 else 0.0,
-                      _clip(0.8 * bearing, p.max_turn))
         else:
-            self.walk(_clip(0.6 * dx, p.max_forward), _clip(0.6 * dy, p.max_sideways),
-                      _clip(1.0 * heading_error, p.max_turn))
+            if distance > 0.5:
+                bearing = math.atan2(dy, dx)
+                # sideways only with the place nearly ahead, fading out towards 0.5 rad (a step, not a switch: a
+                # sidestep switched on and off from one decision to the next came before falls)
+                command = (min(p.max_forward, 0.5 * distance) * max(0.0, math.cos(bearing)),
+                           0.5 * dy * max(0.0, 1.0 - abs(bearing) / 0.5), _clip(0.8 * bearing, p.max_turn))
+            else:
+                command = (0.6 * dx, 0.6 * dy, _clip(1.0 * heading_error, p.max_turn))
+            vx, vy, turn = keep_clear(command, self._robots_around(pose, contested), self.clearance)
+            self.walk(_clip(vx, p.max_forward), _clip(vy, p.max_sideways), turn)
+
+    @property
+    def clearance(self) -> Clearance:
+        radius = self.params.keep_clear
+        return Clearance(radius, min(Clearance.contact, radius / 2))
+
+    def _robots_around(self, pose: GroundPose, contested: tuple[float, float] | None) -> list[tuple[float, float]]:
+        """The robots to walk past (forward, left of this robot, m): those in view and the teammates' own reports
+        (unless one in view stands there already); none within CONTESTED_M of ``contested`` (the ball the striker
+        goes to: the rivals there are the play)."""
+        now = self.now()
+        robots = self._obstacles_seen(now)
+        for mate in self.world.teammates(now):
+            if mate.pose is not None and mate.player != self.player:
+                here = pose.relative(mate.pose.x, mate.pose.y)
+                if all(math.hypot(here[0] - x, here[1] - y) > SAME_ROBOT_M for x, y in robots):
+                    robots.append(here)
+        if contested is not None:
+            robots = [r for r in robots if math.hypot(r[0] - contested[0], r[1] - contested[1]) > CONTESTED_M]
+        return robots
 
     def _go_to_ball(self, now: float, pose: GroundPose | None) -> None:
         """Behind the ball on its line to the opponent goal; around it when standing on the wrong side."""
@@ -329,7 +359,7 @@ class BehaviorNode(Node):
             tx, ty = ball[0] - 0.5 * ux - side * 0.5 * uy, ball[1] - 0.5 * uy + side * 0.5 * ux
         else:
             tx, ty = ball[0] - p.behind_ball * ux, ball[1] - p.behind_ball * uy
-        self.walk_to(pose, GroundPose(tx, ty, to_goal))
+        self.walk_to(pose, GroundPose(tx, ty, to_goal), contested=pose.relative(*ball))
 
     def _kick_ready(self, now: float) -> bool:
         p = self.params
