@@ -9,7 +9,7 @@ import pytest
 
 import schemas
 from robot_nodes.behavior.field import Field, kickoff_positions, ready_legal, support_place
-from robot_nodes.behavior.keep_clear import Clearance, keep_clear
+from robot_nodes.behavior.keep_clear import Clearance, keep_clear, place_clear_of
 from robot_nodes.behavior.kick_direction import SIDE_ANGLE, aim_in_goal, clearance, kick_direction
 from robot_nodes.behavior.node import BehaviorParams, player_number_of, rivals_kick_off
 from robot_nodes.behavior.roles import DEFENDER, GOALIE, STRIKER, SUPPORTER, Candidate, assign_roles, ready_rank
@@ -276,3 +276,11 @@ def test_walking_past_robots_instead_of_into_them() -> None:
     # two robots either side ahead: it slows down between them
     vx, _, _ = keep_clear(forward, [(0.3, 0.2), (0.3, -0.2)], clear)
     assert vx < forward[0] / 2
+
+
+def test_a_place_where_a_robot_stands_moves_off_it() -> None:
+    assert place_clear_of((2.0, 1.0), [(3.0, 1.0), (2.0, -0.5)], 0.6) == (2.0, 1.0)  # nobody on it
+    x, y = place_clear_of((2.0, 1.0), [(2.3, 1.0)], 0.6)  # a rival 0.3 m off: the place moves away from it
+    assert (x, y) == pytest.approx((1.7, 1.0))
+    x, y = place_clear_of((2.0, 1.0), [(2.0, 1.0)], 0.6)  # right on it: moved, not left there
+    assert math.hypot(x - 2.0, y - 1.0) == pytest.approx(0.6)

@@ -51,3 +51,18 @@ def keep_clear(command: Command, robots: Iterable[tuple[float, float]], clearanc
         vx += -slide * ux + slide * tx
         vy += -slide * uy + slide * ty
     return vx, vy, turn
+
+
+def place_clear_of(place: tuple[float, float], robots: Iterable[tuple[float, float]], radius: float
+                   ) -> tuple[float, float]:
+    """``place`` (x, y on the field) moved off the robots standing on or near it, to ``radius`` from each, away from
+    it. Why: the supporter's place ahead of the ball is where the rival defender stands between the ball and its goal;
+    both walked to the same spot and fell over each other."""
+    x, y = place
+    for rx, ry in robots:
+        distance = math.hypot(x - rx, y - ry)
+        if distance >= radius:
+            continue
+        ux, uy = ((x - rx) / distance, (y - ry) / distance) if distance > 1e-6 else (0.0, 1.0)
+        x, y = rx + radius * ux, ry + radius * uy
+    return x, y

@@ -15,7 +15,7 @@ from typing import Any
 
 import schemas
 from robot_nodes.behavior.field import Field, kickoff_positions, support_place
-from robot_nodes.behavior.keep_clear import Clearance, keep_clear
+from robot_nodes.behavior.keep_clear import Clearance, keep_clear, place_clear_of
 from robot_nodes.behavior.kick_direction import aim_in_goal, kick_direction
 from robot_nodes.behavior.roles import (
     GOALIE,
@@ -81,6 +81,8 @@ class BehaviorParams:
     # by 1.6 s (sigma) from frame to frame, so with 2 s the roles flapped 96 times in a 2 x 2 min 4 v 4 match
     role_keep_s: float = param(5.0, range=(0.0, 30.0), doc="the striker keeps its role unless another is this faster")
     max_forward: float = param(0.15, range=(0.01, 0.5), doc="fastest walk forward, m/s")
+    max_backward: float = param(0.06, range=(0.0, 0.5),
+                                doc="fastest walk backward, m/s (backward at 0.15 m/s while turning came before falls)")
     max_sideways: float = param(0.08, range=(0.01, 0.3), doc="fastest walk sideways, m/s")
     max_turn: float = param(0.4, range=(0.05, 2.0), doc="fastest turn, rad/s")
     keep_clear: float = param(0.6, range=(0.0, 2.0),
@@ -315,7 +317,7 @@ class BehaviorNode(Node):
             else:
                 command = (0.6 * dx, 0.6 * dy, _clip(1.0 * heading_error, p.max_turn))
             vx, vy, turn = keep_clear(command, self._robots_around(pose, contested), self.clearance)
-            self.walk(_clip(vx, p.max_forward), _clip(vy, p.max_sideways), turn)
+            self.walk(min(max(vx, -p.max_backward), p.max_forward), _clip(vy, p.max_sideways), turn)
 
     @property
     def clearance(self) -> Clearance:
@@ -460,7 +462,8 @@ class BehaviorNode(Node):
         ball = self.world.ball(now)
         if ball is None:
             return GroundPose(-1.0, 1.0, 0.0)
-        return GroundPose(*support_place(self.field, ball))
+        x, y, _ = support_place(self.field, ball)
+        return self._free_place((x, y), ball, now)
 
     def _defend_target(self, now: float) -> GroundPose:
         gx, gy = self.field.own_goal
@@ -469,6 +472,16 @@ class BehaviorNode(Node):
             return GroundPose(gx + 1.5, 0.0, 0.0)
         x = max(gx + self.field.goal_area_length + 0.4, gx + 0.4 * (ball[0] - gx))
         y = gy + 0.4 * (ball[1] - gy)
+        return self._free_place((x, y), ball, now)
+
+    def _free_place(self, place: tuple[float, float], ball: tuple[float, float], now: float) -> GroundPose:
+        """A place off the robots standing there (place_clear_of, at the keep_clear distance), inside the field,
+        facing the ball."""
+        pose = self.world.pose(now)
+        if pose is not None and self.params.keep_clear > 0:
+            robots = [pose.absolute(*r) for r in self._robots_around(pose, None)]
+            place = self.field.clamp_inside(*place_clear_of(place, robots, self.params.keep_clear), 0.4)
+        x, y = place
         return GroundPose(x, y, math.atan2(ball[1] - y, ball[0] - x))
 
     # -- outputs ------------------------------------------------------------------------------------------
