@@ -212,6 +212,26 @@ def test_the_lying_call_says_where_and_what_the_robot_lies_against() -> None:
         match.gc.stop()
 
 
+def test_a_robot_lying_still_against_the_ball_touches_it_though_both_sleep() -> None:
+    """MuJoCo keeps no contacts for sleeping bodies: the robot lying at rest against the ball has none, and the call
+    still names the ball (found by distance)."""
+    match = make_match()
+    try:
+        kick_off(match)
+        home1, world = match.robot("home1"), match.world
+        with world.lock:
+            home1.set_pose(1.0, 0.0, 0.0, posture="back")
+            world.set_ball(1.12, 0.0)
+        match.play(3.0)
+        with world.lock:
+            d = world.data
+            assert d.tree_asleep[home1.tree] >= 0  # asleep...
+            assert not any({int(c.geom1), int(c.geom2)} & home1._geom_set for c in d.contact[:d.ncon])  # ...no contacts
+            assert home1.touching() == ["ball"]
+    finally:
+        match.gc.stop()
+
+
 def test_the_lying_count_runs_from_the_fall_until_the_robot_has_stood(match: Match) -> None:
     """A failed get-up (torso up for a moment, then down again) does not restart the 20 s; standing for good does."""
     stood_s = match.referee.rules.stood_s

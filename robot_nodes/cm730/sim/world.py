@@ -40,6 +40,8 @@ _WAKE_FORCE = 1e-12
 # MuJoCo holds a sleeping robot exactly still, which no robot at rest is: its servos read their positions with this
 # noise (rad, a third of an MX servo's step), so its bus does not look stale to the HCM (repeated values)
 RESTING_ENCODER_NOISE = 0.0005
+# RobotHandle.touching: what lies this close to a robot's geoms touches it (m; contacts are found at 0 and below)
+TOUCH_M = 0.005
 
 
 @dataclass
@@ -514,24 +516,36 @@ class RobotHandle:
     def touching(self) -> list[str]:
         """What the robot touches now besides the turf and itself (hold the lock): other robots by id, the ball, goal
         posts, crossbars and nets by geom name. Said with a robot that cannot get up (what holds it down). The contacts
-        of the last step: two robots that both sleep (at rest) have none."""
+        of the last step, and what lies within TOUCH_M of its geoms: MuJoCo keeps no contacts for bodies that sleep,
+        so a robot lying still on the ball or another robot between two tries is found by distance."""
         m, d = self.world.model, self.world.data
         mine = self._geom_set
         found: set[str] = set()
         for contact in d.contact[:d.ncon]:
             g1, g2 = int(contact.geom1), int(contact.geom2)
-            if (g1 in mine) == (g2 in mine):
-                continue
-            other = g2 if g1 in mine else g1
-            body = int(m.geom_bodyid[other])
-            if body == 0:  # the world's static geoms: the turf and its lines are where a robot lies anyway
-                name = m.geom(other).name
-                if name != "turf" and not name.startswith("line"):
-                    found.add(name)
-                continue
-            owner = next((r.robot_id for r in self.world.robots if other in r._geom_set), None)
-            found.add(owner or m.body(body).name)
+            if (g1 in mine) != (g2 in mine):
+                found.update(self._what(g2 if g1 in mine else g1))
+        others = np.array([g for g in range(m.ngeom) if g not in mine and (m.geom_contype[g] or m.geom_conaffinity[g])
+                           and m.geom_type[g] != mujoco.mjtGeom.mjGEOM_PLANE])
+        own = np.array(self._geoms)
+        # bounding spheres first: the exact distance only for the few pairs that may be that close
+        gap = np.linalg.norm(d.geom_xpos[own][:, None, :] - d.geom_xpos[others][None, :, :], axis=2)
+        near = gap < m.geom_rbound[own][:, None] + m.geom_rbound[others][None, :] + TOUCH_M
+        for i, j in zip(*np.nonzero(near), strict=True):
+            if mujoco.mj_geomDistance(m, d, int(own[i]), int(others[j]), TOUCH_M, None) < TOUCH_M:
+                found.update(self._what(int(others[j])))
         return sorted(found)
+
+    def _what(self, geom: int) -> list[str]:
+        """What a geom that is not this robot's belongs to, as ``touching`` names it (nothing for the turf and its
+        lines, where a robot lies anyway)."""
+        m = self.world.model
+        body = int(m.geom_bodyid[geom])
+        if body == 0:  # the world's static geoms
+            name = m.geom(geom).name
+            return [] if name == "turf" or name.startswith("line") else [name]
+        owner = next((r.robot_id for r in self.world.robots if geom in r._geom_set), None)
+        return [owner or m.body(body).name]
 
     # -- internals ---------------------------------------------------------------------------------------
     def check_joints(self, names: list[str]) -> None:
