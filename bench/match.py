@@ -11,17 +11,24 @@ From the match's own output (every node logs its state changes) and the GameCont
 final score), kicks (the kick node's started kicks; also how many reached the strike, and how the others ended, from
 the kick node's result lines: where a team's play loses the ball), falls (HCM into FALLING) and get-ups (HCM into
 GETTING_UP), the referee's penalties (robots removed) and placements (robots not at a legal kick-off place when SET
-began). For each fall it takes the time until the robot stands again (HCM back to CONTROLLABLE or WALKING) or is
-penalised (its HCM in PENALTY: the referee calls after 20 s lying, the robot hears it with the GameController's next
-packet); the budget is 20 s. The world's real-time factor is its ``real_time_factor`` diagnostic (each 1 s window),
-read on the match's Zenoh bus, minimum over the match (the simulated GameController runs on the world's clock: a
-world that falls behind makes the match last longer). CPU is the time of every process of the match (% of one core)
-over the match. Both count from the first READY: the start-up (every process importing at once) is over by then, as
-the first INITIAL waits until the GameController hears every robot. ``--logs DIR`` keeps each match's output.
+began). For each fall it takes the time the robot lay: from its HCM's FALLEN (on the ground; the fall before it,
+0.4-3 s, is not lying) until it stands again (HCM back to CONTROLLABLE or WALKING) or is penalised (the referee's
+call: after 20 s lying, counted from the torso past 45 degrees; or its HCM in a penalty state, if that comes first);
+the budget is 20 s. ``falling_to_up_max_s`` counts the same from the HCM's FALLING to standing or the HCM in PENALTY
+(the robot hears the call with the GameController's next packet), for comparison with the figures before
+2026-11-30. The world's real-time factor is its ``real_time_factor_10s`` diagnostic (simulated seconds per wall
+second over the last 10 s, reported each simulated second), read on the match's Zenoh bus, minimum over the match:
+whether the match kept real time. A world behind real time catches up (up to 0.25 s behind, runner.MAX_LAG), so a
+slow second followed by a fast one lost nothing; ``rtf_min_1s`` is the slowest single second (the world's
+``real_time_factor``), how far it fell behind for a moment. The simulated GameController runs on the world's clock:
+a world that falls behind makes the match last longer. CPU is the time of every process of the match (% of one
+core) over the match. Both count from the first READY: the start-up (every process importing at once) is over by
+then, as the first INITIAL waits until the GameController hears every robot. ``--logs DIR`` keeps each match's
+output.
 Before each match bench/machine.py times a fixed Python workload (``probe_ms``): the machine's speed at the time.
 
-The baseline in the same run: the first half's first minute of the first seed against its whole (``rtf_min_first_min``):
-a machine that falls behind only later (memory, a growing queue) shows there.
+The baseline in the same run: the first half's first minute of the first seed against its whole (``rtf_min_first_min``,
+10 s windows): a machine that falls behind only later (memory, a growing queue) shows there.
 
 Budgets (issue "A match in simulation"): goals_per_match >= 1, rtf_min >= 0.98, fall_to_up_max_s <= 20.
 """
@@ -77,9 +84,11 @@ def play(robots: str, half_minutes: float, seed: int, out: Path, logs: Path | No
                     scores = ":".join(str(t["score"]) for t in status["teams"])
                     half = "first" if status["first_half"] else "second"
                     recent = rtf.between(last_report - 30, last_report)
+                    recent_10s = rtf.between(last_report - 30, last_report, rtf.values_10s)
                     print(f"  seed {seed}: {half} half, {status['state']}, {status['secs_remaining']} s left, "
-                          f"{scores}; real-time factor min {min(recent, default=float('nan')):.3f} over 30 s",
-                          flush=True)
+                          f"{scores}; real-time factor of the last 30 s: slowest 10 s "
+                          f"{min(recent_10s, default=float('nan')):.3f}, slowest 1 s "
+                          f"{min(recent, default=float('nan')):.3f}", flush=True)
                 time.sleep(1.0)
             figures.seconds = time.monotonic() - t0
             for p in processes:
@@ -87,6 +96,7 @@ def play(robots: str, half_minutes: float, seed: int, out: Path, logs: Path | No
                     figures.cpu_by_process.append((process_label(p), p.cpu_percent(None)))
             figures.cpu_pct = sum(cpu for _, cpu in figures.cpu_by_process)
             figures.rtf = [(t, f) for t, f in rtf.values if t > t0]
+            figures.rtf_10s = [(t, f) for t, f in rtf.values_10s if t > t0]
         finally:
             rtf.close()
         figures.goals = sum(int(t["score"]) for t in status["teams"])
@@ -105,10 +115,10 @@ def cpu_shares(figures: MatchFigures) -> str:
         shares.setdefault(kind, []).append(cpu)
     ranked = sorted(shares.items(), key=lambda item: -sum(item[1]))
     lines = []
-    for kind, cpu in ranked:
-        each = f" (x{len(cpu)}, {sum(cpu) / len(cpu):.1f} % each)" if len(cpu) > 1 else ""
-        if sum(cpu) >= 0.5:
-            lines.append(f"    {sum(cpu):6.1f} %  {kind}{each}")
+    for kind, cpus in ranked:
+        each = f" (x{len(cpus)}, {sum(cpus) / len(cpus):.1f} % each)" if len(cpus) > 1 else ""
+        if sum(cpus) >= 0.5:
+            lines.append(f"    {sum(cpus):6.1f} %  {kind}{each}")
     return "\n".join(lines)
 
 
@@ -142,8 +152,9 @@ def main() -> None:
             m = play(args.robots, half, seed, Path(tmp), args.logs, args.clock)
             print(f"  goals {m.goals}, kicks {m.kicks}, falls {m.falls}, get-ups {m.get_ups}, penalties "
                   f"{m.penalties}, placed at SET {m.placed}, longest time down {m.longest_down_s:.1f} s "
-                  f"({len(m.still_down_s)} down at the end), rtf min {m.rtf_min:.3f} (first minute "
-                  f"{m.rtf_min_first_minute():.3f}, {len(m.rtf)} reports), CPU "
+                  f"({len(m.still_down_s)} down at the end; from FALLING {m.longest_falling_to_up_s:.1f} s), "
+                  f"rtf min {m.rtf_min:.3f} over 10 s (first minute {m.rtf_min_first_minute():.3f}), "
+                  f"{m.rtf_min_1s:.3f} over 1 s ({len(m.rtf)} reports), CPU "
                   f"{m.cpu_pct:.0f} % over {m.seconds:.0f} s", flush=True)
             print(f"  kicks: {m.strikes} of {m.kicks} struck; how they ended: "
                   f"{', '.join(f'{why} {n}' for why, n in m.kick_outcomes.most_common()) or '-'}", flush=True)
@@ -156,7 +167,9 @@ def main() -> None:
           f"falls={sum(m.falls for m in matches)} get_ups={sum(m.get_ups for m in matches)} "
           f"penalties={sum(m.penalties for m in matches)} placed={sum(m.placed for m in matches)} "
           f"fall_to_up_max_s={max(m.longest_down_s for m in matches):.1f} "
+          f"falling_to_up_max_s={max(m.longest_falling_to_up_s for m in matches):.1f} "
           f"rtf_min={min(m.rtf_min for m in matches):.3f} "
+          f"rtf_min_1s={min(m.rtf_min_1s for m in matches):.3f} "
           f"rtf_min_first_min={matches[0].rtf_min_first_minute():.3f} "
           f"cpu_pct={statistics.mean(m.cpu_pct for m in matches):.0f} probe_ms={statistics.mean(probes):.0f}")
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 import importlib
 import math
 import time
+from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -33,6 +34,7 @@ FOOTPRINT_FRAME = "base_footprint"
 MAP_FRAME = "map"
 CLAMP_REPORT_EVERY_S = 5.0  # at most one error line per this many seconds while goals are being clamped
 SERVO_HEALTH_PERIOD_S = 1.0  # servo_health goes out on every change and at least this often
+RTF_LONG_S = 10  # s of the world's time: the long real-time factor's window
 
 
 class SimulationNotInstalled(RuntimeError):
@@ -337,17 +339,24 @@ class Cm730Node(Node):
                                               self._sim_topics.publish_ground_truth, name="ground_truth")
         if self.params.ground_truth_rate <= 0:
             self._ground_truth_timer.pause()
-        self._rtf_mark = (self._sim.world.time, time.monotonic())
+        self._rtf_marks: deque[tuple[float, float]] = deque([(self._sim.world.time, time.monotonic())],
+                                                            maxlen=RTF_LONG_S + 1)
         self.timer(1.0, self._measure_real_time_factor, name="real_time_factor")
 
     def _measure_real_time_factor(self) -> None:
-        """Sim seconds per wall second over the last period: below 1 the machine cannot keep up with the world."""
+        """Sim seconds per wall second over the last second (``real_time_factor``) and the last RTF_LONG_S
+        (``real_time_factor_10s``): below 1 the machine cannot keep up with the world. A world behind real time
+        catches up (runner.MAX_LAG): a short dip followed by a second above 1 kept real time, the long figure says
+        whether the match did."""
         assert self._sim is not None
+        marks = self._rtf_marks
         sim_now, wall_now = self._sim.world.time, time.monotonic()
-        sim0, wall0 = self._rtf_mark
-        self._rtf_mark = (sim_now, wall_now)
+        (sim0, wall0), (sim_long, wall_long) = marks[-1], marks[0]
+        marks.append((sim_now, wall_now))
         if wall_now > wall0:
             self.set_diagnostic("real_time_factor", f"{(sim_now - sim0) / (wall_now - wall0):.3f}")
+            self.set_diagnostic(f"real_time_factor_{RTF_LONG_S}s",
+                                f"{(sim_now - sim_long) / (wall_now - wall_long):.3f}")
             self.set_diagnostic("lag_resets", self._sim.runner.lag_resets)
         slowest = self._sim.runner.slowest_ticks
         if slowest is not None:  # lockstep: what held the world in its slowest tick of the last second

@@ -397,7 +397,7 @@ class Referee:
     def _record(self, call: Call) -> None:
         self.calls.append(call)
         del self.calls[:-1000]
-        log.info("referee at %.1f s: %s team %d%s%s", call.time, call.what, call.team,
+        log.info("referee at %.2f s: %s team %d%s%s", call.time, call.what, call.team,
                  f" player {call.player}" if call.player else "", f" ({call.detail})" if call.detail else "")
 
 
