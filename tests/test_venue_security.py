@@ -27,7 +27,7 @@ from websockets.exceptions import InvalidStatus
 
 from server.app import create_app
 from server.config import ServerConfig
-from server.security.token_file import read_token_file, token_path
+from server.security.token_file import read_token_file, token_path, write_token_file
 from tests.dashboard_server import RunningServer, dashboard_server
 from tests.running_demo import running_demo
 from tests.support import REPO, free_port
@@ -185,6 +185,20 @@ def test_reading_needs_the_credential_beyond_loopback(tmp_path: Path) -> None:
         with ws_client.connect(server.ws_url, additional_headers=server.auth, open_timeout=10) as ws:
             assert json.loads(ws.recv(timeout=10))["type"] == "hello"
         assert httpx.get(server.url + "/api/config", timeout=10).json()["control"] is False  # the page's lock
+
+
+def test_a_token_left_by_a_killed_server_is_not_used_and_goes(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A killed server cannot remove its file: the command line must not send its stale token to whatever listens on
+    the port now, and the next server sweeps it (a laptop at a competition starts hundreds)."""
+    monkeypatch.setenv("XDG_RUNTIME_DIR", str(tmp_path))
+    gone = subprocess.Popen([sys.executable, "-c", "pass"])
+    gone.wait(timeout=30)
+    write_token_file(9001, "http://127.0.0.1:9001/", "alive-token")  # this process: running
+    token_path(9002).write_text(json.dumps({"url": "http://127.0.0.1:9002/", "token": "stale", "pid": gone.pid}))
+    assert read_token_file(9002) is None
+    assert read_token_file(9001) == {"url": "http://127.0.0.1:9001/", "token": "alive-token", "pid": os.getpid()}
+    write_token_file(9003, "http://127.0.0.1:9003/", "new-token")
+    assert sorted(p.name for p in token_path(9001).parent.iterdir()) == ["server-9001.json", "server-9003.json"]
 
 
 def test_the_command_line_finds_the_token_of_a_server_of_this_user(server: RunningServer) -> None:

@@ -39,8 +39,14 @@ def token_path(port: int) -> Path:
 
 
 def write_token_file(port: int, url: str, token: str) -> Path:
-    """The file for this server (replacing one a previous server on the port left behind)."""
-    path = _safe_dir() / f"server-{port}.json"
+    """The file for this server (replacing one a previous server on the port left behind); the files of servers that
+    are gone (killed: they had no chance to remove theirs) go too, so the folder does not fill up."""
+    folder = _safe_dir()
+    for left in folder.glob("server-*.json"):
+        with contextlib.suppress(OSError, ValueError):
+            if not _running(json.loads(left.read_text()).get("pid")):
+                left.unlink()
+    path = folder / f"server-{port}.json"
     temp = path.with_suffix(".tmp")
     with contextlib.suppress(FileNotFoundError):
         temp.unlink()
@@ -58,7 +64,22 @@ def read_token_file(port: int) -> dict[str, Any] | None:
         data = json.loads(path.read_text())
     except (OSError, ValueError):
         return None
-    return data if isinstance(data, dict) and isinstance(data.get("token"), str) else None
+    if not isinstance(data, dict) or not isinstance(data.get("token"), str) or not _running(data.get("pid")):
+        return None
+    return data
+
+
+def _running(pid: Any) -> bool:
+    """Whether a process with this pid runs (one of another user counts: it exists)."""
+    if not isinstance(pid, int) or pid <= 0:
+        return False
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
 
 
 def remove_token_file(port: int) -> None:
