@@ -149,7 +149,8 @@ def build(classes: list[tuple[str, type[Node]]], robot_id: str, session: Any, pa
     for i, (name, cls) in enumerate(classes):
         try:
             node = cls(robot_id=robot_id, bus=session, params_file=params, overrides=overrides[name],
-                       loop=group.loop if group is not None else None)
+                       loop=group.loop if group is not None else None,
+                       clock=group.loop.clock if group is not None and group.loop.clock.simulated else None)
         except Exception as exc:
             log.critical("%s/%s failed to start: %s: %s", robot_id, node_label(name), type(exc).__name__, exc)
             for node in nodes:
@@ -198,8 +199,8 @@ def main(argv: list[str] | None = None) -> None:
                         help="a loop thread for each node instead of one per robot (for a node whose callbacks may "
                              "take long)")
     parser.add_argument("--one-loop", action="store_true",
-                        help="one loop thread for the nodes of all robots of the process, on the wall clock (on "
-                             "simulated time a loop per robot, each following its robot's clock)")
+                        help="one loop thread for the nodes of all robots of the process (on simulated time they "
+                             "follow the first robot's clock: the robots of one process share a world)")
     parser.add_argument("--log-level", default="INFO")
     args, robots = parse_robots(parser, list(sys.argv[1:] if argv is None else argv))
     logging.basicConfig(level=args.log_level, format="%(asctime)s %(levelname)s [%(name)s] %(message)s")
@@ -221,8 +222,9 @@ def main(argv: list[str] | None = None) -> None:
     groups: list[NodesOnOneLoop] = []
     robot_of: list[str] = []
     shared = None
-    if args.one_loop and not args.loop_per_node and not sim_time_wanted():
-        shared = NodesOnOneLoop.of_process(session, "+".join(robot.robot_id for robot in robots))
+    if args.one_loop and not args.loop_per_node:
+        shared = NodesOnOneLoop.of_process(session, "+".join(robot.robot_id for robot in robots),
+                                           robots[0].robot_id if sim_time_wanted() else None)
     try:
         for robot, classes, overrides, first in plans:
             group = shared or (None if args.loop_per_node else NodesOnOneLoop.of_robot(session, robot.robot_id))

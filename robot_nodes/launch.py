@@ -215,8 +215,8 @@ class RobotNodes:
 def shared_process(robots: list[RobotNodes], connect: list[str], params: Path | None = None,
                    zenoh_config: str | Path | None = None, mode: str = "auto") -> NodeProcess:
     """Several robots' nodes in one supervised process (robot_nodes.compose): the simulated team's layout, which the
-    world's 100 Hz sensor messages reach once per process, not once per robot. On the wall clock its robots share
-    one loop thread (``--one-loop``: they wake together for each tick's sensors), on simulated time a loop each.
+    world's 100 Hz sensor messages reach once per process, not once per robot. Its robots share one loop thread
+    (``--one-loop``: they wake together for each tick's sensors; on simulated time on the first robot's clock).
     Its members are named with their robot (robot2/hcm), so the supervisor names a failed node with it."""
     first, *more = robots
     argv = node_command("robot_nodes.compose", first.robot_id, connect, params,

@@ -25,6 +25,7 @@ from robot_nodes.runtime.clock import (
     clock_cdr,
     clock_seconds,
 )
+from robot_nodes.runtime.one_loop import NodesOnOneLoop
 from tests.waiting import wait_for
 from wire import keys
 
@@ -184,6 +185,33 @@ def test_nodes_of_a_process_follow_their_robots_clock_topic_from_another_session
     finally:
         node.shutdown()
         other.shutdown()
+
+
+def test_robots_of_one_process_on_one_loop_follow_the_first_robots_clock_and_answer_once_a_tick(
+        bus: BusConfig, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A simulated team's process (robot_nodes.compose --one-loop): its robots are in one world, so one clock drives
+    their shared loop, and in lockstep the world waits for the process once per tick, not once per robot."""
+    monkeypatch.setenv(SIM_TIME_ENV, LOCKSTEP)
+    with open_session(bus) as world_session, open_session(bus) as team_session:
+        world = WorldClock(world_session, ["home1", "home2"], lockstep=True, done_timeout_s=0.5)
+        group = NodesOnOneLoop.of_process(team_session, "home1+home2", clock_of="home1")
+        robots = [group.add(Ticker(robot_id=r, bus=team_session, loop=group.loop, clock=group.loop.clock))
+                  for r in ("home1", "home2")]
+        group.start()
+        try:
+            assert robots[1].clock is robots[0].clock and robots[0].clock.robot == "home1"  # type: ignore[attr-defined]
+            wait_for(lambda: world.tick(world.clock.now() + 0.01) or world.done.processes, timeout=10,
+                     what="the team's process answering the clock")  # type: ignore[union-attr]
+            first = world.clock.now()
+            for step in range(1, 21):
+                world.tick(first + step * 0.01)
+            world.tick(first + 0.21)  # waits until the process is done with the tick before
+            assert [len([t for t in r.ticks if first + 0.005 < t < first + 0.205]) for r in robots] == [20, 20]
+            assert world.done.timeouts == 0  # type: ignore[union-attr]
+            assert [p.split("/")[0] for p in world.done.processes] == ["home1"]  # type: ignore[union-attr]
+        finally:
+            group.shutdown()
+            world.close()
 
 
 def test_the_clock_is_a_ros2_clock_message() -> None:

@@ -52,11 +52,15 @@ class NodesOnOneLoop:
         return group
 
     @classmethod
-    def of_process(cls, session: zenoh.Session, name: str) -> NodesOnOneLoop:
-        """A loop for the nodes of several robots, on the wall clock (on simulated time each robot follows its own
-        clock: ``of_robot``)."""
+    def of_process(cls, session: zenoh.Session, name: str, clock_of: str | None = None) -> NodesOnOneLoop:
+        """A loop for the nodes of several robots: on the wall clock, or (``clock_of``) on that robot's simulated
+        clock, which every node of the group then follows (robots of one world share its time; give each node
+        ``clock=group.loop.clock``)."""
         bus = LocalBus.join(session)
-        group = cls(name)
+        robot_clock = RobotSimClock.join(bus, clock_of) if clock_of is not None else None
+        group = cls(name, robot_clock or WALL_CLOCK)
+        if robot_clock is not None:
+            group._on_close.append(robot_clock.leave)
         group._on_close.append(bus.leave)
         return group
 
