@@ -2,7 +2,7 @@
 
     python bench/animation_step.py [--steps 5000]
 
-Uses the real Bit-Bots stand-up file from ../shared/testdata; the baseline is building and encoding the same
+Uses the real Bit-Bots stand-up file from tests/data; the baseline is building and encoding the same
 message with constant positions, so the ratio shows what the curves themselves add.
 """
 
@@ -24,7 +24,7 @@ from schemas.messages import Animation
 from schemas.std import JointTrajectory, JointTrajectoryPoint
 from wire.animation import AnimationPlayer, load_animation
 
-FILE = Path(__file__).resolve().parents[2] / "shared" / "testdata" / "animations" / "wolfgang_stand_up_back.json"
+FILE = Path(__file__).resolve().parents[1] / "tests" / "data" / "animations" / "wolfgang_stand_up_back.json"
 
 
 def encode_step(names: list[str], positions: np.ndarray) -> bytes:

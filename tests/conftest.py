@@ -74,7 +74,7 @@ def robot_bus(request: pytest.FixtureRequest, bus: BusConfig) -> Iterator[BusCon
 @pytest.fixture
 def testdata() -> Path:
     if not TESTDATA.exists():
-        pytest.fail(f"shared test data not found at {TESTDATA}")
+        pytest.fail(f"test data not found at {TESTDATA} (tests/data/ of the repository)")
     return TESTDATA
 
 

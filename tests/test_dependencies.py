@@ -176,7 +176,7 @@ def locked(profile: str) -> dict[str, list[tuple[Requirement, int]]]:
 
 
 @pytest.mark.parametrize(("profile", "extra"), [("robot", "robot"), ("dashboard", "dashboard"), ("sim", "sim"),
-                                                ("dev", "test")])
+                                                ("all", "all"), ("dev", "test")])
 def test_the_lock_files_are_current_and_hashed(profile: str, extra: str) -> None:
     """Every declared requirement is pinned in its profile's lock within its range, every pin has hashes
     (`./run lock` after changing pyproject.toml)."""
@@ -193,3 +193,5 @@ def test_the_lock_files_are_current_and_hashed(profile: str, extra: str) -> None
                 f"locks/{profile}.txt pins {pin.name} {version}, pyproject.toml wants {req.specifier}: ./run lock"
     if profile == "robot":
         assert not {"mujoco", "rerun-sdk", "viser", "fastapi", "trimesh", "scipy"} & pins.keys()
+    if profile == "all":  # what ./run demo installs: the program, no test tools
+        assert not {"pytest", "playwright", "mypy", "ruff", "uv", "mkdocs"} & pins.keys()

@@ -1,4 +1,4 @@
-"""GameController codec against real captured packets (../shared/testdata/gamecontroller) and the spec's bytes."""
+"""GameController codec against real captured packets (tests/data/gamecontroller) and the spec's bytes."""
 
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
 """The simulated GameController says what the real one says, in the same game situation.
 
-Situations from ../shared/testdata/gamecontroller/EXPECTED.md: Bold Hearts (team 2, red) vs CIT Brains
+Situations from tests/data/gamecontroller/EXPECTED.md: Bold Hearts (team 2, red) vs CIT Brains
 (team 3, blue), 6 players per team, kick-off team 2.
 """
 

@@ -24,7 +24,7 @@ from robot_nodes.runtime import BusConfig, ParameterClient
 from server.app import create_app
 from server.config import ServerConfig
 from tests.dashboard_server import RunningServer, dashboard_server
-from tests.support import REPO
+from tests.support import REPO, TESTDATA
 from tests.waiting import wait_for
 from wire.animation import load_animation
 from wire.keys import topic_key
@@ -167,8 +167,7 @@ def test_animation_files_edits_record_and_play(server: RunningServer, bus: BusCo
         assert len(joints) == 20 and {"name": "HeadPan"}.items() <= joints[0].items()
 
         # upload a file (its text), with a bad one refused with the parser's reason
-        text = (REPO.parent / "shared" / "testdata" / "animations" / "wolfgang_falling_front.json")
-        upload = text.read_text() if text.exists() else json.dumps({"name": "up", "keyframes": []})
+        upload = (TESTDATA / "animations" / "wolfgang_falling_front.json").read_text()
         assert server.http.put(f"{url}/animations/uploaded", json={"text": upload}, timeout=20).status_code == 200
         assert (folder / "uploaded.json").exists()
         bad = server.http.put(f"{url}/animations/broken",

@@ -13,7 +13,6 @@ import math
 import os
 import time
 from collections.abc import Callable
-from pathlib import Path
 
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -31,11 +30,11 @@ from robot_nodes.mitecom import codec, protobuf_codec
 from robot_nodes.mitecom import team_message_pb2 as pb
 from robot_nodes.mitecom.codec import MitecomError
 from robot_nodes.mitecom.protobuf_codec import TeamMessageError
+from tests.support import TESTDATA
 
 FAST_EXAMPLES = 500
 SLOW_EXAMPLES = 34_000  # per strategy; three strategies per decoder -> 102,000 inputs each
-TESTDATA = Path(__file__).resolve().parents[2] / "shared" / "testdata" / "gamecontroller"
-CAPTURES = [p.read_bytes() for p in sorted(TESTDATA.glob("*.bin"))] if TESTDATA.exists() else [bytes(PACKET_SIZE)]
+CAPTURES = [p.read_bytes() for p in sorted((TESTDATA / "gamecontroller").glob("*.bin"))]
 
 
 def _mutated(seeds: list[bytes]) -> st.SearchStrategy[bytes]:
