@@ -1,1 +1,1 @@
-"""Developer tools run from a checkout (not shipped in the wheel): the documentation's generated reference."""
+"""Developer tools run by ./run: pictures for the documentation."""

@@ -178,8 +178,15 @@ PAGES: dict[str, Callable[[], str]] = {
 
 def generate() -> dict[Path, str]:
     """Every generated page and its text."""
+    columns = os.environ.get("COLUMNS")
     os.environ["COLUMNS"] = HELP_COLUMNS
-    return {REFERENCE / name: make() for name, make in PAGES.items()}
+    try:
+        return {REFERENCE / name: make() for name, make in PAGES.items()}
+    finally:
+        if columns is None:
+            del os.environ["COLUMNS"]
+        else:
+            os.environ["COLUMNS"] = columns
 
 
 def stale(pages: dict[Path, str]) -> list[Path]:
