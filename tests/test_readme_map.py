@@ -74,6 +74,14 @@ def test_every_file_they_name_exists() -> None:
     assert not missing, missing
 
 
+def test_every_page_the_readme_links_exists() -> None:
+    """The README is read on GitHub, outside the site's strict build: its own links are checked here."""
+    links = re.findall(r"\]\(([^)#:\s]+)(?:#[^)]*)?\)", (REPO / "README.md").read_text())
+    assert len(links) > 20, links
+    missing = sorted(link for link in links if not (REPO / link).exists())
+    assert not missing, missing
+
+
 @pytest.mark.parametrize("page", pages(), ids=page_id)
 def test_every_command_and_flag_they_name_exists(page: Path) -> None:
     wrong: list[str] = []
