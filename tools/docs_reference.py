@@ -11,6 +11,7 @@ import argparse
 import json
 import logging
 import os
+import re
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -32,6 +33,23 @@ def _cell(text: object) -> str:
     return str(text).replace("|", "\\|").replace("\n", " ")
 
 
+_LITERAL = re.compile(r"``([^`]+)``|`([^`]+)`")
+
+
+def _prose(text: str) -> str:
+    """Text from the code (a description, a docstring) as Markdown: reStructuredText literals as code, and ``<``
+    outside them escaped (robots/<model>/params.yaml is not an HTML tag)."""
+    parts, at = [], 0
+    for m in _LITERAL.finditer(text):
+        parts += [_escape(text[at:m.start()]), f"`{m.group(1) or m.group(2)}`"]
+        at = m.end()
+    return "".join([*parts, _escape(text[at:])])
+
+
+def _escape(text: str) -> str:
+    return text.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
+
+
 def commands_page() -> str:
     from pitchside.cli import COMMANDS, usage
     from tools.command_parsers import command_parser
@@ -51,7 +69,7 @@ def topics_page() -> str:
             "| topic | type | priority | event | what, from -> to |", "|---|---|---|---|---|"]
     for t in TOPICS.values():
         body.append(f"| `{t.name}` | `{t.type}` | {t.priority.name.lower()} | {'yes' if t.event else ''} | "
-                    f"{_cell(t.description)} |")
+                    f"{_cell(_prose(t.description))} |")
     body += ["", "## Actions", "", "| action | type |", "|---|---|"]
     body += [f"| `{a.name}` | `{a.type}` |" for a in ACTIONS.values()]
     body += ["", "## Services", "", "| service | type |", "|---|---|"]
@@ -81,7 +99,7 @@ def parameters_page() -> str:
                       else ", ".join(f"`{c}`" for c in spec.choices) if spec.choices is not None else "")
             doc = spec.doc + (" (start-up: read when the node starts, refused while it runs)" if spec.startup else "")
             body.append(f"| `{spec.name}` | {spec.type_name} | {_cell(_default(spec.default))} | {_cell(limits)} | "
-                        f"{_cell(doc)} |")
+                        f"{_cell(_prose(doc))} |")
         body.append("")
     return _page("Node parameters", "Every node's parameters (`robot_nodes/catalog.py` names the nodes; each declares "
                  "its parameters as a typed dataclass). Set them in `robots/<model>/params.yaml` under the node's "
@@ -121,7 +139,7 @@ def http_api_page() -> str:
             body += [f"### {method.upper()} `{path}`", ""]
             text = (op.get("description") or op.get("summary") or "").strip()
             if text:
-                body += [text, ""]
+                body += [_prose(text), ""]
             params = op.get("parameters", [])
             if params:
                 body += ["| parameter | in | type | required |", "|---|---|---|---|"]
@@ -134,19 +152,19 @@ def http_api_page() -> str:
             for code, response in sorted(op.get("responses", {}).items()):
                 content = response.get("content", {}).get("application/json", {}).get("schema")
                 answer = f": {_schema_name(content)}" if content else ""
-                body.append(f"- {code} {_cell(response.get('description', ''))}{answer}")
+                body.append(f"- {code} {_cell(_prose(response.get('description', '')))}{answer}")
             body.append("")
     body += ["## Models", ""]
     for name, schema in sorted(api.get("components", {}).get("schemas", {}).items()):
         body += [f"### {name}", ""]
         if schema.get("description"):
-            body += [schema["description"].strip(), ""]
+            body += [_prose(schema["description"].strip()), ""]
         fields = schema.get("properties", {})
         required = set(schema.get("required", []))
         if fields:
             body += ["| field | type | required | description |", "|---|---|---|---|"]
             body += [f"| `{field}` | {_cell(_schema_name(s))} | {'yes' if field in required else ''} | "
-                     f"{_cell(s.get('description', ''))} |" for field, s in fields.items()]
+                     f"{_cell(_prose(s.get('description', '')))} |" for field, s in fields.items()]
             body.append("")
     return _page("HTTP API", "The dashboard's REST endpoints, from its OpenAPI schema (FastAPI). Control endpoints "
                  "need the credential and answer 403 in match mode ([Security at the venue](../concepts/security.md)); "
