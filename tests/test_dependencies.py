@@ -19,7 +19,7 @@ from packaging.utils import canonicalize_name
 from tests.support import REPO
 
 PROGRAM = ("schemas", "wire", "robot_nodes", "robots", "server", "web", "pitchside")
-OWN = {*PROGRAM, "tests", "bench"}
+OWN = {*PROGRAM, "tests", "bench", "tools"}  # tools: developer tools of the checkout (docs reference)
 # which profile runs a file: the first matching path prefix (the rest of the program is the core every part speaks)
 PROFILE_OF = [
     ("robot_nodes/cm730/sim", "sim"),  # the MuJoCo world, its backend and its topics
