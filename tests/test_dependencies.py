@@ -16,26 +16,22 @@ import pytest
 from packaging.requirements import Requirement
 from packaging.utils import canonicalize_name
 
+from pitchside.cli import COMMANDS, OWN_PACKAGES
 from tests.support import REPO
 
-PROGRAM = ("schemas", "wire", "robot_nodes", "robots", "server", "web", "pitchside")
+PROGRAM = tuple(sorted(OWN_PACKAGES))
 OWN = {*PROGRAM, "tests", "bench"}
-# which profile runs a file: the first matching path prefix (the rest of the program is the core every part speaks)
+# which profile runs a file: the first matching path prefix (the rest of the program is the core every part speaks);
+# each command's own module is in the profile the command table of pitchside.cli gives it
 PROFILE_OF = [
+    *[(c.target.partition(":")[0].replace(".", "/") + ".py", c.profile) for c in COMMANDS.values()],
     ("robot_nodes/cm730/sim", "sim"),  # the MuJoCo world, its backend and its topics
-    ("pitchside/demo.py", "all"),
-    ("pitchside/match.py", "all"),
     ("pitchside/local_run.py", "all"),
     ("robot_nodes/", "robot"),
-    ("pitchside/robot.py", "robot"),
-    ("pitchside/doctor", "robot"),
     ("pitchside/service.py", "robot"),
     ("server/", "dashboard"),
     ("web/", "dashboard"),
     ("schemas/logs/", "dashboard"),  # MCAP logs: recorded, replayed and exported on the team laptop
-    ("pitchside/record.py", "dashboard"),
-    ("pitchside/replay.py", "dashboard"),
-    ("pitchside/export_rerun.py", "dashboard"),
     ("", "core"),
 ]
 
