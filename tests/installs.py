@@ -117,6 +117,7 @@ def pip_install_extra(venv: Path, wheel: Path, profile: str) -> None:
 
 
 def profile_megabytes(venv: Path) -> float:
-    """What a profile's virtualenv takes once its linked dependencies are counted as the files they stand for."""
-    files = {p.resolve() for p in venv.rglob("*") if p.is_file()}
-    return sum(p.stat().st_size for p in files) / 1e6
+    """What a profile's virtualenv takes once its linked dependencies are counted as the files they stand for (the
+    links to the base Python, as installed_megabytes, are not)."""
+    linked = {p.resolve() for p in (venv / "profile-site").rglob("*") if p.is_symlink() and p.is_file()}
+    return installed_megabytes(venv) + sum(p.stat().st_size for p in linked) / 1e6
