@@ -4,11 +4,15 @@ dependencies provided from the test environment's own installed files (nothing d
 
 from __future__ import annotations
 
+import fcntl
 import importlib.metadata
 import os
 import subprocess
 import sys
 import sysconfig
+import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 from packaging.requirements import Requirement
@@ -19,10 +23,41 @@ from tests.support import REPO
 LOCKS = REPO / "locks"
 
 
+@contextmanager
+def _building() -> Iterator[None]:
+    """One build in the checkout at a time: setuptools writes build/ and pitchside.egg-info there, and test files
+    on two workers build at once."""
+    with (Path(tempfile.gettempdir()) / f"pitchside-build-{os.getuid()}.lock").open("w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(lock, fcntl.LOCK_UN)
+
+
+def build_dist(into: Path) -> tuple[Path, Path]:
+    """The sdist and the wheel built from it, as a release makes them (`python -m build`), without a network: the
+    build backend from this environment (--no-isolation)."""
+    with _building():
+        built = subprocess.run([sys.executable, "-m", "build", "--no-isolation", "--outdir", str(into), str(REPO)],
+                               capture_output=True, text=True, timeout=300)
+    assert built.returncode == 0, built.stdout[-3000:] + built.stderr[-3000:]
+    (sdist,) = into.glob("pitchside-*.tar.gz")
+    (wheel,) = into.glob("pitchside-*.whl")
+    return sdist, wheel
+
+
 def build_wheel(into: Path) -> Path:
-    """The checkout's wheel, built without a network (setuptools from the test environment)."""
-    built = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q", "-w",
-                            str(into), str(REPO)], capture_output=True, text=True, timeout=300)
+    """The wheel a release publishes: built from the sdist, offline (so every install test also shows that the
+    sdist makes a working wheel)."""
+    return build_dist(into)[1]
+
+
+def build_wheel_from_checkout(into: Path) -> Path:
+    """The wheel built straight from the checkout (pip wheel), without a network."""
+    with _building():
+        built = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q", "-w",
+                                str(into), str(REPO)], capture_output=True, text=True, timeout=300)
     assert built.returncode == 0, built.stderr[-3000:]
     (wheel,) = into.glob("pitchside-*.whl")
     return wheel

@@ -2,7 +2,8 @@
 environment, no build isolation); both pass `twine check --strict`; the metadata carries the licence, classifiers,
 project URLs and Python versions; the long description renders as PyPI renders it, with every link and picture
 absolute (nothing lies beside it on PyPI); the version is the one of pitchside/__init__.py, which `pitchside
---version` prints; and the wheel built from the sdist holds every file of the wheel built from the checkout."""
+--version` prints; and the wheel built from the sdist holds every file of the wheel built from the checkout. The
+install tests (tests/test_installs.py and others) install the wheel built from the sdist."""
 
 from __future__ import annotations
 
@@ -24,7 +25,7 @@ import readme_renderer.clean
 import readme_renderer.markdown
 
 import pitchside
-from tests.installs import build_wheel
+from tests.installs import build_dist, build_wheel_from_checkout
 from tests.support import REPO
 
 PYTHONS = ("3.11", "3.12", "3.13")
@@ -34,9 +35,7 @@ PYTHONS = ("3.11", "3.12", "3.13")
 def dist(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The sdist and the wheel built from it, as a release makes them (no network: --no-isolation)."""
     out = tmp_path_factory.mktemp("dist")
-    built = subprocess.run([sys.executable, "-m", "build", "--no-isolation", "--outdir", str(out), str(REPO)],
-                           capture_output=True, text=True, timeout=300)
-    assert built.returncode == 0, built.stdout[-3000:] + built.stderr[-3000:]
+    build_dist(out)
     return out
 
 
@@ -145,7 +144,7 @@ def test_the_long_description_renders_with_absolute_links(dist: Path) -> None:
 def test_the_sdist_builds_the_same_wheel_as_the_checkout(dist: Path, tmp_path: Path) -> None:
     """Nothing the program needs is left out of the sdist: the wheel made from it (offline) holds the same files as
     the wheel made from the checkout; the sdist carries the locks for the lock-file install and no tests."""
-    from_checkout = build_wheel(tmp_path / "checkout")
+    from_checkout = build_wheel_from_checkout(tmp_path / "checkout")
     with zipfile.ZipFile(_wheel(dist)) as a, zipfile.ZipFile(from_checkout) as b:
         names_a, names_b = set(a.namelist()), set(b.namelist())
     assert names_a == names_b, f"only from the sdist: {sorted(names_a - names_b)[:10]}, only from the checkout: " \
