@@ -82,7 +82,7 @@ def usage() -> str:
     if others:
         lines.append("another profile: pip install 'pitchside[PROFILE]' (from a clone: pip install --require-hashes "
                      "-r locks/PROFILE.txt)")
-    lines += ["", EXIT_CODES]
+    lines += ["", EXIT_CODES, "(2 also when the command's install profile is missing: one line names it)"]
     return "\n".join(lines)
 
 
