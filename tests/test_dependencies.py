@@ -19,11 +19,11 @@ from packaging.utils import canonicalize_name
 from pitchside.cli import COMMANDS, OWN_PACKAGES
 from tests.support import REPO
 
-PROGRAM = tuple(sorted(OWN_PACKAGES))
-OWN = {*PROGRAM, "tests", "bench"}
-# which profile runs a file: the first matching path prefix (the rest of the program is the core every part speaks);
-# each command's own module is in the profile the command table of pitchside.cli gives it
+PROGRAM = ("schemas", "wire", "robot_nodes", "robots", "server", "web", "pitchside")
+OWN = {*PROGRAM, "tests", "bench", "tools"}  # tools: developer tools of the checkout (docs reference)
+# which profile runs a file: the first matching path prefix (the rest of the program is the core every part speaks)
 PROFILE_OF = [
+    # each command's own module: the profile pitchside.cli's table gives the command
     *[(c.target.partition(":")[0].replace(".", "/") + ".py", c.profile) for c in COMMANDS.values()],
     ("robot_nodes/cm730/sim", "sim"),  # the MuJoCo world, its backend and its topics
     ("pitchside/local_run.py", "all"),
@@ -34,6 +34,10 @@ PROFILE_OF = [
     ("schemas/logs/", "dashboard"),  # MCAP logs: recorded, replayed and exported on the team laptop
     ("", "core"),
 ]
+
+
+def test_the_program_is_what_the_command_line_calls_its_own() -> None:
+    assert set(PROGRAM) == OWN_PACKAGES
 
 
 def _project() -> dict:
