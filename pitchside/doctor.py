@@ -1,9 +1,14 @@
-"""`pitchside doctor`: on the robot, before a match, checks what goes wrong at competitions and says how to fix it.
+"""`pitchside doctor`: before a match, checks what goes wrong at competitions and says how to fix it.
 
-Checks the servo bus's serial port (present, readable and writable by you), the Zenoh router (the team laptop's
-with ``--connect``, else this robot's own), the clock's offset to the team laptop (measured against its router),
-free disk for recordings, the team's telemetry key, and GameController packets on the network (it listens
-beside a running game_controller node, with address reuse). Exits with 1 when a check fails.
+On the robot (--role robot, the default where the robot profile is installed): the install profile, the servo
+bus's serial port (present, readable and writable by you), the Zenoh router (the team laptop's with ``--connect``,
+else this robot's own), the clock's offset to the team laptop (measured against its router), free disk for
+recordings, the team's telemetry key, and GameController packets on the network (it listens beside a running
+game_controller node, with address reuse).
+
+On the team laptop (--role laptop, the default elsewhere): the install profile, the dashboard's ports free, the
+team's Zenoh router reachable, free disk for recordings, and the browsers the tests drive when the test tools are
+installed. Exits with 1 when a check fails.
 """
 
 from __future__ import annotations
@@ -16,9 +21,6 @@ import shutil
 import socket
 import stat
 import time
-from collections.abc import Callable
-from dataclasses import dataclass
-from enum import Enum
 from pathlib import Path
 from typing import Any
 
@@ -26,6 +28,8 @@ import yaml
 import zenoh
 
 import robots
+from pitchside import laptop_checks, profiles
+from pitchside.checks import Check, Status, report
 from robot_nodes.game_controller.packets import DATA_PORT, GameControllerPacketError, parse_state_packet
 from wire.bus import DEFAULT_ROUTER, BusConfig, env_endpoints
 from wire.command_line import CommandParser
@@ -36,22 +40,6 @@ MAX_CLOCK_OFFSET_MS = 100.0  # logs of robot and laptop then line up within a fr
 MIN_FREE_GB = 2.0  # a half's recording of a robot and its images, with room to spare
 CLOCK_PROBES = 5
 HLC_COUNTER_BITS = 0xF  # the low bits of a Zenoh (uhlc) NTP64 time: a logical counter, 0 when the stamp is the clock
-
-
-class Status(Enum):
-    OK = "ok"
-    FAIL = "FAIL"
-    SKIP = "skip"
-
-
-@dataclass(frozen=True)
-class Check:
-    """One check's outcome; ``fix`` says what to do when it failed."""
-
-    name: str
-    status: Status
-    detail: str
-    fix: str = ""
 
 
 # ---------------------------------------------------------------- serial port
@@ -250,13 +238,29 @@ def robot_params(path: Path | None, model: str) -> dict[str, Any]:
     return data if isinstance(data, dict) else {}
 
 
+def laptop_checks_of(args: argparse.Namespace) -> list[Check]:
+    checks = [laptop_checks.profile("dashboard", "team laptop"),
+              laptop_checks.ports_free(laptop_checks.dashboard_ports(args.port, args.foxglove_port,
+                                                                     args.telemetry_port))]
+    check, session = router_reachable(args.connect or env_endpoints() or [DEFAULT_ROUTER], args.zenoh_config, False)
+    if session is not None:
+        session.close()
+    elif check.status is Status.FAIL:  # on the laptop the router is the laptop's own
+        check = Check(check.name, check.status, check.detail, "start it here: pitchside router --listen "
+                      "tcp/0.0.0.0:7447 (robots and the dashboard connect to it), or give --connect ENDPOINT")
+    checks += [check, free_disk(args.recordings, args.min_free_gb), laptop_checks.test_browsers()]
+    return checks
+
+
 def run_checks(args: argparse.Namespace) -> list[Check]:
+    if args.role == "laptop":
+        return laptop_checks_of(args)
     params = robot_params(args.params, args.model)
     cm730 = params.get("cm730") or {}
     device = args.device or (cm730.get("device", "/dev/ttyUSB0") if cm730.get("backend") == "dynamixel" else None)
     team = args.team or (params.get("game_controller") or {}).get("team_number")
     laptop = args.connect or env_endpoints()
-    checks = [serial_port(device)]
+    checks = [laptop_checks.profile("robot", "robot"), serial_port(device)]
     check, session = router_reachable(laptop or [DEFAULT_ROUTER], args.zenoh_config, bool(laptop))
     checks.append(check)
     if session is None:
@@ -276,19 +280,12 @@ def run_checks(args: argparse.Namespace) -> list[Check]:
     return checks
 
 
-def report(checks: list[Check], say: Callable[[str], None] = print) -> int:
-    """Prints the checks; returns how many failed."""
-    width = max(len(c.name) for c in checks)
-    for c in checks:
-        say(f"{c.status.value:<4}  {c.name.ljust(width)}  {c.detail}")
-        if c.status is Status.FAIL:
-            say(f"{'':<4}  {'':<{width}}  fix: {c.fix}")
-    return sum(c.status is Status.FAIL for c in checks)
-
-
 def main(argv: list[str] | None = None) -> None:
     parser = CommandParser(prog="pitchside doctor", description=__doc__,
                            formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--role", choices=["robot", "laptop"], default=None,
+                        help="which machine this is (default: robot where the robot profile is installed, else "
+                             "laptop)")
     parser.add_argument("--robot-id", default="robot1", help="the robot's id (its keys on the bus)")
     parser.add_argument("--model", default=robots.DEFAULT_MODEL, help="robot description folder under robots/")
     parser.add_argument("--params", type=Path, default=None,
@@ -310,8 +307,16 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--gc-wait", type=float, default=3.0, help="how long to listen for it (s)")
     parser.add_argument("--team", type=int, default=None,
                         help="this robot's team number (default game_controller.team_number of the params)")
+    laptop_only = parser.add_argument_group("on the laptop: the ports pitchside serve will take")
+    laptop_only.add_argument("--port", type=int, default=laptop_checks.DASHBOARD_PORT, help="the dashboard's port")
+    laptop_only.add_argument("--foxglove-port", type=int, default=laptop_checks.FOXGLOVE_PORT,
+                             help="the Foxglove endpoint's port")
+    laptop_only.add_argument("--telemetry-port", type=int, default=laptop_checks.TELEMETRY_PORT,
+                             help="the UDP port telemetry arrives on")
     args = parser.parse_args(argv)
-    print(f"pitchside doctor: {args.robot_id}")
+    if args.role is None:
+        args.role = "laptop" if profiles.missing("robot") else "robot"
+    print(f"pitchside doctor: {args.robot_id if args.role == 'robot' else 'the team laptop'}")
     failed = report(run_checks(args))
     if failed:
         raise SystemExit(f"{failed} check{'s' if failed > 1 else ''} failed")

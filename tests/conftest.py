@@ -4,6 +4,7 @@ Playwright, and paths to the shared test data."""
 from __future__ import annotations
 
 import os
+import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -14,6 +15,7 @@ import zenoh
 from robot_nodes.runtime import BusConfig, open_router, open_session
 from robot_nodes.runtime.local_bus import CHECK_FROZEN_ENV, THAWED
 from tests.dashboard_server import RunningServer, dashboard_server
+from tests.installs import build_wheel, fresh_venv, pip_install_extra, provide_profile
 from tests.support import TESTDATA, free_port, launch_chromium
 from tests.teststand import SceneStand
 
@@ -111,3 +113,29 @@ def scene(router_endpoint: str, stands: dict[str, SceneStand], tmp_path: Path) -
     """A dashboard server that hears the stand-in robots over the test's Zenoh router."""
     with dashboard_server(["--connect", router_endpoint, "--no-telemetry"], tmp_path) as server:
         yield server
+
+
+@pytest.fixture(scope="session")
+def pitchside_wheel(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The checkout's wheel, built once per test process for every install test."""
+    return build_wheel(tmp_path_factory.mktemp("wheel"))
+
+
+@pytest.fixture(scope="session")
+def profile_venv(tmp_path_factory: pytest.TempPathFactory, pitchside_wheel: Path) -> Iterator[Any]:
+    """A fresh virtualenv outside the checkout per install profile, made once per test process: the profile's
+    dependencies provided offline, then pip install 'pitchside[profile]' from the wheel as a user types it.
+    Call it with the profile's name; how long each took is printed (pytest -s, or in a failure's output)."""
+    made: dict[str, Path] = {}
+
+    def venv(profile: str) -> Path:
+        if profile not in made:
+            started = time.perf_counter()
+            where = fresh_venv(tmp_path_factory.mktemp(f"install-{profile}") / "venv")
+            provide_profile(where, profile)
+            pip_install_extra(where, pitchside_wheel, profile)
+            made[profile] = where
+            print(f"{profile} profile installed in a fresh virtualenv in {time.perf_counter() - started:.1f} s")
+        return made[profile]
+
+    yield venv

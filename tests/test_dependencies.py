@@ -16,28 +16,28 @@ import pytest
 from packaging.requirements import Requirement
 from packaging.utils import canonicalize_name
 
+from pitchside.cli import COMMANDS, OWN_PACKAGES
 from tests.support import REPO
 
 PROGRAM = ("schemas", "wire", "robot_nodes", "robots", "server", "web", "pitchside")
 OWN = {*PROGRAM, "tests", "bench", "tools"}  # tools: developer tools of the checkout (docs reference)
 # which profile runs a file: the first matching path prefix (the rest of the program is the core every part speaks)
 PROFILE_OF = [
+    # each command's own module: the profile pitchside.cli's table gives the command
+    *[(c.target.partition(":")[0].replace(".", "/") + ".py", c.profile) for c in COMMANDS.values()],
     ("robot_nodes/cm730/sim", "sim"),  # the MuJoCo world, its backend and its topics
-    ("pitchside/demo.py", "all"),
-    ("pitchside/match.py", "all"),
     ("pitchside/local_run.py", "all"),
     ("robot_nodes/", "robot"),
-    ("pitchside/robot.py", "robot"),
-    ("pitchside/doctor", "robot"),
     ("pitchside/service.py", "robot"),
     ("server/", "dashboard"),
     ("web/", "dashboard"),
     ("schemas/logs/", "dashboard"),  # MCAP logs: recorded, replayed and exported on the team laptop
-    ("pitchside/record.py", "dashboard"),
-    ("pitchside/replay.py", "dashboard"),
-    ("pitchside/export_rerun.py", "dashboard"),
     ("", "core"),
 ]
+
+
+def test_the_program_is_what_the_command_line_calls_its_own() -> None:
+    assert set(PROGRAM) == OWN_PACKAGES
 
 
 def _project() -> dict:

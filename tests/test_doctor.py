@@ -140,3 +140,57 @@ def test_gamecontroller_packets_are_seen_beside_the_running_node(bus: BusConfig)
             wait_for(lambda: node.packets > after + 1, 15, what="packets to the node after the doctor")
     finally:
         node.shutdown()
+
+
+def laptop_doctor(*args: str) -> subprocess.CompletedProcess[str]:
+    return doctor("--role", "laptop", "--min-free-gb", "0.01", *args)
+
+
+def test_a_ready_laptop_passes_every_check(router_endpoint: str, tmp_path: Path) -> None:
+    ran = laptop_doctor("--connect", router_endpoint, "--recordings", str(tmp_path), "--port", str(free_port()),
+                        "--foxglove-port", str(free_port()), "--telemetry-port", str(free_port(socket.SOCK_DGRAM)))
+    assert ran.returncode == 0, ran.stdout + ran.stderr
+    lines = ran.stdout.splitlines()
+    assert lines[0] == "pitchside doctor: the team laptop"
+    checks = {line[6:].split("  ")[0]: line for line in lines[1:-1]}
+    assert list(checks) == ["profile", "ports free", "zenoh router", "free disk", "test browsers"], ran.stdout
+    assert all(line.startswith("ok") for line in checks.values()), ran.stdout
+    assert "installed profiles: core, robot, dashboard, sim, all" in checks["profile"]
+    assert "/usr/bin/chromium" in checks["test browsers"]  # the test tools are installed here
+
+
+def test_the_laptop_names_a_taken_port_and_the_option_that_moves_it(tmp_path: Path) -> None:
+    with socket.socket() as web, socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as udp, socket.socket() as fox:
+        web.bind(("127.0.0.1", 0))
+        web.listen()
+        udp.bind(("", 0))
+        fox.bind(("127.0.0.1", 0))
+        fox.listen()
+        ports = [str(s.getsockname()[1]) for s in (web, udp, fox)]
+        ran = laptop_doctor("--connect", f"tcp/127.0.0.1:{free_port()}", "--recordings", str(tmp_path),
+                            "--port", ports[0], "--telemetry-port", ports[1], "--foxglove-port", ports[2])
+    assert ran.returncode == 1, ran.stdout
+    line = next(x for x in ran.stdout.splitlines() if x.startswith("FAIL  ports free"))
+    assert f"TCP {ports[0]} (dashboard) taken" in line and f"UDP {ports[1]} (telemetry) taken" in line
+    assert f"ss -tlpn 'sport = :{ports[0]}'" in ran.stdout and "pitchside serve --port PORT" in ran.stdout
+    assert "fix: start it here: pitchside router --listen" in ran.stdout  # no router on the laptop
+
+
+def test_the_browsers_only_when_the_test_tools_are_installed(tmp_path: Path) -> None:
+    from pitchside.laptop_checks import test_browsers
+
+    assert test_browsers(tools=False).status is Status.SKIP
+    missing = test_browsers(tools=True, browsers={"no-such-browser": tmp_path / "no-such-browser"})
+    assert missing.status is Status.FAIL and "apt-get install no-such-browser" in missing.fix
+
+
+def test_a_taken_foxglove_port_is_only_noted() -> None:
+    from pitchside.laptop_checks import dashboard_ports, ports_free
+
+    with socket.socket() as fox:
+        fox.bind(("127.0.0.1", 0))
+        fox.listen()
+        taken = fox.getsockname()[1]
+        check = ports_free(dashboard_ports(free_port(), taken, free_port(socket.SOCK_DGRAM)))
+    assert check.status is Status.OK, check
+    assert f"Foxglove port {taken} taken" in check.detail and "the server takes a free one" in check.detail

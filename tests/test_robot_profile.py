@@ -1,7 +1,8 @@
-"""The robot's install: locks/robot.txt and the wheel in a fresh virtualenv outside the checkout, as on a robot's
-computer. It holds no simulation and no dashboard, stays under the README's size, and `pitchside robot` from there
-drives the emulated Dynamixel bus: joint states from the servos, the HCM's state, a GameController's game state
-and every node's diagnostics reach the bus."""
+"""The robot's install: `pip install 'pitchside[robot]'` from the wheel in a fresh virtualenv outside the checkout, as
+on a robot's computer (tests/conftest.py: profile_venv; dependencies provided offline, the versions of the lock). It
+holds no simulation and no dashboard, stays under the README's size, and `pitchside robot` from there drives the
+emulated Dynamixel bus: joint states from the servos, the HCM's state, a GameController's game state and every
+node's diagnostics reach the bus."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ import os
 import signal
 import socket
 import subprocess
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -20,14 +21,14 @@ import zenoh
 import schemas
 from robot_nodes.game_controller.simulator import SimulatedGame, SimulatedGameController
 from robot_nodes.runtime import BusConfig, open_session
-from tests.installs import build_wheel, fresh_venv, install_locked, install_wheel, installed_megabytes
+from tests.installs import profile_megabytes
 from tests.servo_bus_emulator import ServoBusEmulator
 from tests.support import free_port
 from tests.waiting import wait_for
 from wire.keys import topic_key
 from wire.telemetry.datagram import write_new_key
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.install]
 
 ROBOT_GOAL_MB = 250  # README "Install": the robot profile's goal
 HEAVY = ["mujoco", "rerun", "viser", "yourdfpy", "trimesh", "scipy", "fastapi", "uvicorn", "foxglove", "pyarrow"]
@@ -36,12 +37,8 @@ TICK = 0.088 * 3.141592653589793 / 180  # MX servo: 0.088 degrees per tick
 
 
 @pytest.fixture(scope="module")
-def robot_venv(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    where = tmp_path_factory.mktemp("robot-install")
-    venv = fresh_venv(where / "venv")
-    install_locked(venv, "robot")
-    install_wheel(venv, build_wheel(where / "wheels"))
-    return venv
+def robot_venv(profile_venv: Callable[[str], Path]) -> Path:
+    return profile_venv("robot")
 
 
 def test_the_robot_install_has_no_simulation_and_no_dashboard(robot_venv: Path) -> None:
@@ -49,7 +46,7 @@ def test_the_robot_install_has_no_simulation_and_no_dashboard(robot_venv: Path) 
                             "m for m in sys.argv[1:] if importlib.util.find_spec(m)))", *HEAVY],
                            capture_output=True, text=True, check=True)
     assert found.stdout.split() == []
-    size = installed_megabytes(robot_venv)
+    size = profile_megabytes(robot_venv)
     print(f"robot profile installed: {size:.0f} MB")
     assert size < ROBOT_GOAL_MB, f"the robot's install takes {size:.0f} MB"
 
