@@ -110,6 +110,7 @@ OTHER_PROGRAMS = {
     "--require-hashes": "pip install", "--no-deps": "pip install",
     "--upgrade": "./run lock (uv pip compile)", "--upgrade-package": "./run lock (uv pip compile)",
     "--quick": "bench/match.py, bench/faults.py, bench/network.py",
+    "--strict": "twine check, mkdocs build",
 }
 
 
