@@ -11,8 +11,10 @@ machine's own address stands for another machine.
 
 from __future__ import annotations
 
+import asyncio
 import ipaddress
 import json
+import socket
 import ssl
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -28,8 +30,10 @@ from pitchside.team_keys import main as team_keys
 from robot_nodes.animation.node import AnimationNode
 from robot_nodes.hcm.pause import PauseNode
 from robot_nodes.runtime import BusConfig, Node, open_router, open_session
+from server.foxglove import subprotocols
 from server.foxglove.guard import GuardPolicy, Refused
 from server.foxglove.layout import layout_topics
+from server.foxglove.subprotocols import pass_to_websocket_v1, request_for_sdk, response_for_client
 from server.foxglove.tls import TlsError, server_context
 from server.security.credentials import Credentials
 from server.security.hosts import AllowedHosts
@@ -98,9 +102,9 @@ def lab(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Lab]:
         router.close()
 
 
-def hello(url: str, origin: str | None = None, subprotocols: tuple[str, ...] = (SDK,), *extra: str) -> dict[str, Any]:
+def hello(url: str, origin: str | None = None, offers: tuple[str, ...] = (SDK,), *extra: str) -> dict[str, Any]:
     """What an app sees when it connects: subprotocol, serverInfo and channels, or the refusal."""
-    args = [a for p in subprotocols for a in ("--subprotocol", p)] + (["--origin", origin] if origin else [])
+    args = [a for p in offers for a in ("--subprotocol", p)] + (["--origin", origin] if origin else [])
     return run_client("hello", url, *args, "--seconds", "10", *extra)
 
 
@@ -299,3 +303,62 @@ def test_foxglove_help_says_which_origins_are_trusted_for_what() -> None:
     for words in ("foxglove.websocket.v1", "Origin file://", "http://localhost:*", "Origin null",
                   "?token=<token>", "only to watch", "--foxglove-tls"):
         assert words in text, words
+
+
+def test_the_request_and_answer_name_the_subprotocol_each_side_knows() -> None:
+    request = (b"GET /?token=x HTTP/1.1\r\nHost: 127.0.0.1:8765\r\nSec-WebSocket-Protocol: foxglove.websocket.v1\r\n"
+               b"Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nsec-websocket-protocol: other\r\n\r\n")
+    rewritten = request_for_sdk(request)
+    assert rewritten.count(b"Sec-WebSocket-Protocol") == 1 and b"other" not in rewritten
+    assert b"Sec-WebSocket-Protocol: foxglove.sdk.v1\r\n\r\n" in rewritten and rewritten.endswith(b"\r\n\r\n")
+    assert b"Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n" in rewritten  # the SDK's accept key stays right
+    assert subprotocols.offered([(b"Sec-WebSocket-Protocol", b"a, foxglove.websocket.v1"), (b"host", b"x"),
+                    (b"sec-websocket-protocol", b"foxglove.sdk.v1")]) == ["a", V1, SDK]
+    answer = (b"HTTP/1.1 101 Switching Protocols\r\nconnection: Upgrade\r\nupgrade: websocket\r\n"
+              b"sec-websocket-protocol: foxglove.sdk.v1\r\nsec-websocket-accept: s3pPLMBiTxaQ9kYGzzhZRbK+xOo=\r\n\r\n")
+    assert response_for_client(answer) == answer.replace(SDK.encode(), V1.encode())
+
+
+def test_a_websocket_v1_client_gets_every_frame_but_the_sdks_playback_state() -> None:
+    """Frames as the SDK writes them (RFC 6455, unmasked, each length form) through the guard's copy for a
+    foxglove.websocket.v1 client, read back with the websockets library's own frame parser."""
+    from websockets.frames import Frame, Opcode
+    from websockets.streams import StreamReader
+
+    answer = b"HTTP/1.1 101 Switching Protocols\r\nsec-websocket-protocol: foxglove.sdk.v1\r\n\r\n"
+    kept = [Frame(Opcode.TEXT, b'{"op":"serverInfo"}'), Frame(Opcode.BINARY, b"\x01" + bytes(100)),
+            Frame(Opcode.BINARY, b"\x01" + bytes(70_000)),  # 64-bit length
+            Frame(Opcode.BINARY, b"\x02" + bytes(8)), Frame(Opcode.BINARY, b"\x04" + bytes(300)),  # 16-bit length
+            Frame(Opcode.PING, b""), Frame(Opcode.TEXT, b"\x05 text, not the binary opcode")]
+    playback = [Frame(Opcode.BINARY, b"\x05" + bytes(30)), Frame(Opcode.BINARY, b"\x05" + bytes(200))]
+    sent = [kept[0], playback[0], *kept[1:4], playback[1], *kept[4:], Frame(Opcode.CLOSE, b"\x03\xe8")]
+
+    async def through_the_guard() -> tuple[bytes, int]:
+        reader = asyncio.StreamReader()
+        reader.feed_data(answer + b"".join(f.serialize(mask=False) for f in sent))
+        reader.feed_eof()
+        ours, theirs = socket.socketpair()
+        _, writer = await asyncio.open_connection(sock=ours)
+        client, _ = await asyncio.open_connection(sock=theirs)
+        received = asyncio.create_task(client.read(-1))
+        dropped = await pass_to_websocket_v1(reader, writer)
+        writer.close()
+        return await received, dropped
+
+    out, dropped = asyncio.run(through_the_guard())
+    assert dropped == 2
+    head, _, frames = out.partition(b"\r\n\r\n")
+    assert head.endswith(b"sec-websocket-protocol: foxglove.websocket.v1")
+    parser = StreamReader()
+    parser.feed_data(frames)
+    parser.feed_eof()
+    parsed = []
+    while True:
+        try:
+            next(Frame.parse(parser.read_exact, mask=False))
+            raise AssertionError("a frame cut short")
+        except StopIteration as done:
+            parsed.append(done.value)
+        except EOFError:
+            break
+    assert [(f.opcode, bytes(f.data)) for f in parsed] == [(f.opcode, f.data) for f in [*kept, sent[-1]]]
