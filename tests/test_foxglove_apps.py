@@ -167,7 +167,9 @@ def test_changing_a_robot_needs_the_token_whatever_the_origin(lab: Lab) -> None:
              {"op": "publish", "topic": f"/{ROBOT}/cmd_vel", "encoding": "json", "schemaName": TWIST,
               "message": drive, "hz": 10, "count": 3},
              {"op": "callService", "service": f"/{ROBOT}/manual_penalize", "request": {"penalize": 0}}]
-    got = run_client("session", f"{lab.url}/?token={lab.server.token}", "--origin", DESKTOP, "--subprotocol", V1,
+    control_url = f"{lab.url}/?token={lab.server.token}"  # the URL the server prints for control
+    assert f"to control (parameters, services, cmd_vel): {control_url} " in lab.server.output()
+    got = run_client("session", control_url, "--origin", DESKTOP, "--subprotocol", V1,
                      "--script", json.dumps(steps), "--seconds", "20", timeout=60)
     assert got["errors"] == [] and got["subprotocol"] == V1, got
     on = next(r["response"] for r in got["results"] if r["op"] == "callService")
