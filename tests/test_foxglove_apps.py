@@ -12,10 +12,12 @@ machine's own address stands for another machine.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import ipaddress
 import json
 import socket
 import ssl
+import threading
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -176,6 +178,58 @@ def test_changing_a_robot_needs_the_token_whatever_the_origin(lab: Lab) -> None:
     assert on == {"penalized": True} and wait_for(lambda: True in lab.paused, timeout=10, what="paused")
     assert lab.stand.params.x == 2.5
     assert any(g[1:] == pytest.approx((0.3, 0.0, 0.0)) for g in lab.cmd_vel.got), lab.cmd_vel.got
+
+
+@contextlib.contextmanager
+def tunnel(to_port: int) -> Iterator[int]:
+    """What `ssh -L PORT:127.0.0.1:8765 laptop` is at the laptop's end: connections from loopback, to loopback,
+    the app's own Host (its local port) and Origin passed as they came. Yields the port the app connects to."""
+    listening = socket.create_server(("127.0.0.1", 0))
+    stop = threading.Event()
+    opened: list[socket.socket] = []
+
+    def copy(source: socket.socket, target: socket.socket) -> None:
+        with contextlib.suppress(OSError):
+            while chunk := source.recv(65536):
+                target.sendall(chunk)
+        with contextlib.suppress(OSError):
+            target.shutdown(socket.SHUT_WR)
+
+    def accept() -> None:
+        while not stop.is_set():
+            try:
+                app, _ = listening.accept()
+            except OSError:
+                return
+            laptop = socket.create_connection(("127.0.0.1", to_port))
+            opened.extend((app, laptop))
+            for pair in ((app, laptop), (laptop, app)):
+                threading.Thread(target=copy, args=pair, daemon=True).start()
+
+    acceptor = threading.Thread(target=accept, daemon=True)
+    acceptor.start()
+    try:
+        yield int(listening.getsockname()[1])
+    finally:
+        stop.set()
+        listening.close()
+        acceptor.join(5)
+        for sock in opened:
+            sock.close()
+
+
+def test_through_an_ssh_tunnel_a_laptop_without_the_team_ca_connects_as_on_the_laptop_itself(lab: Lab) -> None:
+    """A team without a CA: the other laptop forwards a local port to the team laptop's endpoint, which stays on
+    loopback. Its desktop app watches without the token; a browser app (an https page may open ws:// to
+    127.0.0.1) needs the token, as on the laptop itself."""
+    port = int(lab.url.rsplit(":", 1)[1])
+    with tunnel(port) as local:
+        here = f"ws://127.0.0.1:{local}"
+        desktop = hello(here, DESKTOP, (SDK, V1), "--min", "1")
+        assert desktop.get("subprotocol") == SDK and f"/{ROBOT}/joint_states" in desktop["channels"], desktop
+        assert hello(here, "https://app.foxglove.dev").get("refused") == 403
+        web = hello(f"{here}/?token={lab.server.token}", "https://app.foxglove.dev", (SDK, V1))
+        assert set(web["serverInfo"]["capabilities"]) >= CONTROL, web
 
 
 def test_the_layout_names_only_panels_it_configures_and_downloads_read_only(lab: Lab) -> None:
