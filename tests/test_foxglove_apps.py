@@ -316,7 +316,7 @@ def test_another_machine_connects_over_wss_with_the_token_and_the_team_ca(team: 
         assert got.get("subprotocol") == SDK and got["serverInfo"]["name"] == "pitchside", got
         assert set(got["serverInfo"]["capabilities"]) >= CONTROL
         old = hello(f"{there}/?token={server.token}", DESKTOP, (V1,), *ca)
-        assert old.get("subprotocol") == V1, old
+        assert old.get("subprotocol") == V1 and set(old["serverInfo"]["capabilities"]) >= CONTROL, old
         # without the token nobody beyond loopback, not even a desktop app
         for origin in (DESKTOP, "http://localhost:8080", None):
             assert hello(there, origin, (SDK,), *ca).get("refused") == 401, origin
