@@ -345,8 +345,9 @@ class FoxgloveEndpoint:
         urls = self.urls
         lines = [f"pitchside foxglove: {urls[0]}  (Foxglove or Lichtblick: Open connection -> Foxglove WebSocket)"]
         lines += [f"                    {url}" for url in urls[1:]]
-        if not self.state.config.beyond_loopback:  # beyond loopback every URL above carries the token already
-            what = "parameters, services, cmd_vel" if self.lab else "replay playback"
+        controls = self.lab or self.playback is not None  # match mode: only a replay's playback bar
+        if controls and not self.state.config.beyond_loopback:  # beyond loopback every URL carries the token already
+            what = "parameters, services, cmd_vel" if self.lab else "the replay's playback"
             lines.append(f"  to control ({what}): {urls[0]}/?token={self.state.config.token}  (apps keep this URL "
                          "in their recent connections)")
         return "\n".join(lines)
