@@ -231,10 +231,11 @@ class FoxgloveGuard:
             upstream = asyncio.create_task(_pass(reader, up_writer))
             downstream = asyncio.create_task(pass_to_websocket_v1(up_reader, writer) if older
                                              else _pass(up_reader, writer))
-            _, pending = await asyncio.wait({upstream, downstream}, return_when=asyncio.FIRST_COMPLETED)
+            done, pending = await asyncio.wait({upstream, downstream}, return_when=asyncio.FIRST_COMPLETED)
             for task in pending:
                 task.cancel()
-            await asyncio.gather(*pending, return_exceptions=True)
+            # a side that ended with a reset connection is how a client leaves: taken, not logged as a lost error
+            await asyncio.gather(*done, *pending, return_exceptions=True)
         finally:
             up_writer.close()
 
