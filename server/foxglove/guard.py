@@ -105,10 +105,11 @@ class GuardPolicy:
             raise Refused(401, "wrong token")
         if self.token_needed:
             raise Refused(401, "the Foxglove endpoint listens beyond loopback: connect to the URL printed at start, "
-                               "ws://<host>:<port>/?token=<token>")
+                               "which carries the token (?token=<token>)")
         origin = headers.get("origin")
         if not watches_without_token(origin, self.allowed_origins):
-            raise Refused(403, f"a web page of another origin ({origin}) needs the token in the URL, "
+            shown = (origin or "")[:100]
+            raise Refused(403, f"a web page of another origin ({shown!r}) needs the token in the URL, "
                                "?token=<token> (or --allow-origin)")
         return False
 
