@@ -131,6 +131,8 @@ def create_team(folder: Path, team: str, robots: Iterable[str], laptops: Iterabl
     if old is not None:
         for stale in _config_paths(folder, old):
             stale.unlink(missing_ok=True)
+    for stale in (folder / WEB_CERTIFICATE, folder / WEB_KEY):  # signed by the CA being replaced
+        stale.unlink(missing_ok=True)
     authority = TeamAuthority.create(new.name)
     _write_private(folder / CA_KEY, authority.key_pem)
     _write_private(folder / CA_CERTIFICATE, authority.certificate_pem)

@@ -298,6 +298,17 @@ def test_team_keys_makes_a_web_certificate_browsers_accept(team: Path, capsys: p
     assert context.get_ca_certs()
 
 
+def test_a_new_team_can_have_its_web_certificate_at_once_and_a_new_ca_drops_the_old_one(tmp_path: Path) -> None:
+    folder = tmp_path / "team"
+    team_keys([str(folder), "--team", "Testers", "--robots", "robot1", "--web-names", "laptop.local"])
+    first = x509.load_pem_x509_certificates((folder / "web.pem").read_bytes())
+    assert first[1].subject == x509.load_pem_x509_certificate((folder / "team-ca.pem").read_bytes()).subject
+    team_keys([str(folder), "--team", "Testers", "--robots", "robot1", "--force"])  # a new CA, no web names
+    assert not (folder / "web.pem").exists() and not (folder / "web.key").exists()
+    with pytest.raises(SystemExit):  # names are host names or addresses
+        team_keys([str(folder), "--web-names", "bad name"])
+
+
 def test_another_machine_connects_over_wss_with_the_token_and_the_team_ca(team: Path, tmp_path: Path) -> None:
     address = other_address()
     if not (team / "web.pem").exists():
