@@ -14,7 +14,9 @@ telemetry); a feeder process publishes 11 robots with the demo's topic mix at th
 - latency_p50_ms / p99: joint_states stamped by the feeder when it sends -> Foxglove client (so hub -> client plus
   one Zenoh hop on loopback), with 1 client; the dashboard's own /ws client on the same stream is the baseline;
 - cpu_overhead_pct: server CPU (% of one core) with the endpoint and 1 client subscribed to everything, minus
-  the same server with --no-foxglove; the 5-client figure too.
+  the same server with --no-foxglove; the 5-client figure too;
+- *_v1: the same 1 client offering only the older subprotocol foxglove.websocket.v1 (Lichtblick before 2026), whose
+  bytes the guard copies frame by frame (server.foxglove.subprotocols) instead of in chunks.
 """
 
 from __future__ import annotations
@@ -181,8 +183,9 @@ def measure(server: Server, seconds: float, client: Any = None) -> dict[str, Any
     return result
 
 
-def foxglove_clients(url: str, n: int, seconds: float) -> dict[str, Any]:
-    return run_client("latency", url, "--clients", str(n), "--seconds", str(seconds), timeout=seconds + 60)
+def foxglove_clients(url: str, n: int, seconds: float, subprotocol: str = "foxglove.sdk.v1") -> dict[str, Any]:
+    return run_client("latency", url, "--clients", str(n), "--seconds", str(seconds), "--subprotocol", subprotocol,
+                      timeout=seconds + 60)
 
 
 def dashboard_latency(url: str, seconds: float) -> list[float]:
@@ -222,7 +225,10 @@ def main() -> None:
             try:
                 wait_for(lambda: server.published() > 1000, timeout=30, interval=0.2, what="the feed reaches the hub")
                 idle = measure(server, s)
-                runs = {n: measure(server, s, lambda n=n: foxglove_clients(server.foxglove_url, n, s)) for n in (1, 5)}
+                runs: dict[Any, dict[str, Any]] = {
+                    n: measure(server, s, lambda n=n: foxglove_clients(server.foxglove_url, n, s)) for n in (1, 5)}
+                runs["1 (foxglove.websocket.v1)"] = measure(server, s, lambda: foxglove_clients(
+                    server.foxglove_url, 1, s, "foxglove.websocket.v1"))
             finally:
                 server.close()
         print(f"with the endpoint, no client: server CPU {idle['cpu']:.0f} %")
@@ -233,7 +239,7 @@ def main() -> None:
                   f"{sum(got['msgs_per_s']):.0f} msg/s in total (per client min {min(got['msgs_per_s']):.0f}), "
                   f"every client kept up: {'yes' if kept else 'NO'}; joint_states latency p50 {got['p50_ms']:.2f} ms "
                   f"p99 {got['p99_ms']:.2f} ms ({got['timed']} timed)")
-        one, five = runs[1], runs[5]
+        one, five, older = runs[1], runs[5], runs["1 (foxglove.websocket.v1)"]
         ws_p50 = statistics.median(ws_delays)
         overhead_1, overhead_5 = one["cpu"] - without["cpu"], five["cpu"] - without["cpu"]
         print(f"latency against the dashboard's /ws client: {one['client']['p50_ms'] / ws_p50:.2f}x; CPU overhead "
@@ -244,7 +250,10 @@ def main() -> None:
               f"msgs_per_s_5={sum(five['client']['msgs_per_s']):.0f} latency_p50_ms={one['client']['p50_ms']:.2f} "
               f"latency_p99_ms={one['client']['p99_ms']:.2f} cpu_overhead_pct={overhead_1:.1f} "
               f"cpu_overhead_5_pct={overhead_5:.1f} fed_msgs_per_s={one['hub_msgs_per_s']:.0f} "
-              f"min_client_share={min_ratio:.3f} ws_latency_p50_ms={ws_p50:.2f}")
+              f"min_client_share={min_ratio:.3f} ws_latency_p50_ms={ws_p50:.2f} "
+              f"msgs_per_s_v1={sum(older['client']['msgs_per_s']):.0f} "
+              f"latency_p50_v1_ms={older['client']['p50_ms']:.2f} latency_p99_v1_ms={older['client']['p99_ms']:.2f} "
+              f"cpu_overhead_v1_pct={older['cpu'] - without['cpu']:.1f}")
     finally:
         router.close()
 

@@ -8,6 +8,8 @@ revocation: a lost key is answered by a new team (``pitchside team-keys --force`
 from __future__ import annotations
 
 import datetime
+import ipaddress
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 from cryptography import x509
@@ -16,6 +18,10 @@ from cryptography.hazmat.primitives.asymmetric import ec
 from cryptography.x509.oid import ExtendedKeyUsageOID, NameOID
 
 VALID_DAYS = 5 * 365
+# browsers refuse a server certificate valid for longer than this (Apple's platforms: 825 days, for roots a user
+# installed too); a year and a month, as public CAs issue them
+WEB_VALID_DAYS = 397
+WEB_LOOPBACK = ("localhost", "127.0.0.1", "::1")  # always named: a browser on the laptop itself
 _CLOCK_SKEW = datetime.timedelta(days=1)  # a robot whose clock is a little behind still accepts the certificate
 
 
@@ -100,6 +106,38 @@ class TeamAuthority:
             .sign(self.key, hashes.SHA256())
         )
         return MemberCredentials(member, role, _private_pem(key), certificate.public_bytes(serialization.Encoding.PEM))
+
+
+    def issue_web(self, names: Iterable[str]) -> MemberCredentials:
+        """A TLS server certificate for a web server of the team (the Foxglove endpoint's wss://), valid for the
+        host names and addresses given (and loopback), as browsers check them; its PEM holds the team CA after it, so
+        a server sends the whole chain."""
+        wanted = list(dict.fromkeys([*names, *WEB_LOOPBACK]))
+        alternatives: list[x509.GeneralName] = []
+        for name in wanted:
+            try:
+                alternatives.append(x509.IPAddress(ipaddress.ip_address(name.strip("[]"))))
+            except ValueError:
+                alternatives.append(x509.DNSName(name))
+        key = ec.generate_private_key(ec.SECP256R1())
+        now = datetime.datetime.now(datetime.UTC)
+        subject = x509.Name([*self.certificate.subject.get_attributes_for_oid(NameOID.ORGANIZATION_NAME),
+                             x509.NameAttribute(NameOID.ORGANIZATIONAL_UNIT_NAME, "web"),
+                             x509.NameAttribute(NameOID.COMMON_NAME, wanted[0])])
+        certificate = (
+            x509.CertificateBuilder().subject_name(subject).issuer_name(self.certificate.subject)
+            .public_key(key.public_key()).serial_number(x509.random_serial_number())
+            .not_valid_before(now - _CLOCK_SKEW).not_valid_after(now + datetime.timedelta(days=WEB_VALID_DAYS))
+            .add_extension(x509.BasicConstraints(ca=False, path_length=None), critical=True)
+            .add_extension(_key_usage(sign_certificates=False), critical=True)
+            .add_extension(x509.ExtendedKeyUsage([ExtendedKeyUsageOID.SERVER_AUTH]), critical=False)
+            .add_extension(x509.SubjectAlternativeName(alternatives), critical=False)
+            .add_extension(x509.SubjectKeyIdentifier.from_public_key(key.public_key()), critical=False)
+            .add_extension(x509.AuthorityKeyIdentifier.from_issuer_public_key(self.key.public_key()), critical=False)
+            .sign(self.key, hashes.SHA256())
+        )
+        chain = certificate.public_bytes(serialization.Encoding.PEM) + self.certificate_pem
+        return MemberCredentials(wanted[0], "web", _private_pem(key), chain)
 
 
 def member_credentials(key_pem: bytes, certificate_pem: bytes) -> MemberCredentials:

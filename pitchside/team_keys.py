@@ -10,7 +10,11 @@ topology (one router per machine, machines linked router to router):
   and listens for the robot's nodes on loopback only, where they join it in plain TCP (the robot is trusted, the
   network is not; its private key stays in the router's process);
 * laptop.json5: the dashboard (``pitchside serve``), a peer of the team router on the same laptop;
-* viewers' files: read-only clients of the team router, from any machine.
+* viewers' files: read-only clients of the team router, from any machine;
+* with ``--web-names``: web.pem and web.key, a TLS server certificate for the team laptop's web endpoints
+  (``pitchside serve --foxglove-tls team/`` serves the Foxglove endpoint as wss://), signed by the same CA, valid for
+  the names and addresses given. A browser on another laptop trusts it once the team CA (team-ca.pem) is installed
+  there; ``pitchside team-keys team/ --web-names ...`` alone makes a new one for an existing team.
 
 Each file is complete on its own: the member's key and certificate (inline, so the file is mode 0600 and
 belongs on that one machine), the team CA as the only trust root, and the access control of its place
@@ -42,6 +46,8 @@ from wire.telemetry.datagram import check_robot_id
 TEAM_FILE = "team.json"
 CA_KEY = "team-ca.key"
 CA_CERTIFICATE = "team-ca.pem"
+WEB_CERTIFICATE = "web.pem"  # server.foxglove.tls reads these names from a team folder
+WEB_KEY = "web.key"
 ROUTER = "router"
 DEFAULT_PORT = 7447
 MEMBER_LISTEN = "tls/127.0.0.1:0"  # as BusConfig's default: peers of one machine meet directly on loopback
@@ -125,6 +131,8 @@ def create_team(folder: Path, team: str, robots: Iterable[str], laptops: Iterabl
     if old is not None:
         for stale in _config_paths(folder, old):
             stale.unlink(missing_ok=True)
+    for stale in (folder / WEB_CERTIFICATE, folder / WEB_KEY):  # signed by the CA being replaced
+        stale.unlink(missing_ok=True)
     authority = TeamAuthority.create(new.name)
     _write_private(folder / CA_KEY, authority.key_pem)
     _write_private(folder / CA_CERTIFICATE, authority.certificate_pem)
@@ -160,6 +168,27 @@ def add_members(folder: Path, robots: Iterable[str] = (), laptops: Iterable[str]
     credentials.update({name: authority.issue(name, role.value) for name, role in team.members.items()
                         if name not in before})
     return _write_team(folder, team, authority, credentials)
+
+
+def write_web_certificate(folder: Path, names: Iterable[str]) -> tuple[Path, Path]:
+    """web.pem (the certificate, then the team CA) and web.key in the team's folder, for these host names and
+    addresses (and loopback), signed by the team's CA; a new key each time."""
+    folder = Path(folder)
+    wanted = list(names)
+    for name in wanted:
+        _check_host(name)
+    if not wanted:
+        raise TeamKeysError("--web-names needs the names or addresses browsers reach the laptop by")
+    try:
+        authority = TeamAuthority.load((folder / CA_KEY).read_bytes(), (folder / CA_CERTIFICATE).read_bytes())
+    except FileNotFoundError as exc:
+        raise TeamKeysError(f"the team CA is missing ({exc.filename}): make the team first (--team NAME)") from None
+    except TeamCertificateError as exc:
+        raise TeamKeysError(str(exc)) from None
+    web = authority.issue_web(wanted)
+    _write_private(folder / WEB_KEY, web.key_pem)
+    _write_private(folder / WEB_CERTIFICATE, web.certificate_pem)
+    return folder / WEB_CERTIFICATE, folder / WEB_KEY
 
 
 def member_config(team: Team, member: str, credentials: MemberCredentials, ca_pem: bytes) -> dict[str, Any]:
@@ -326,8 +355,16 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--rewrite", action="store_true",
                         help="write every member's file in folder again, keys kept (after a pitchside update)")
     parser.add_argument("--force", action="store_true", help="replace the team in folder: new keys for everyone")
+    parser.add_argument("--web-names", metavar="NAME,ADDRESS",
+                        help="also write web.pem and web.key: a TLS server certificate for the team laptop's web "
+                             "endpoints (`pitchside serve --foxglove-tls DIR`), valid for these host names and IP "
+                             "addresses and loopback; alone, for an existing team, it only makes that certificate")
     args = parser.parse_args(argv)
     updating = args.add or args.rewrite
+    web_names = _names(args.web_names)
+    if web_names and not updating and not args.team and not args.robots:
+        _web_only(args.folder, web_names)
+        return
     try:
         before = _existing_team(args.folder) if updating else None
         old_files = {p.name: p.read_bytes() for p in args.folder.glob("*.json5")} if updating else {}
@@ -356,7 +393,20 @@ def main(argv: list[str] | None = None) -> None:
     if before is not None:
         print("Copy each new and rewritten file to its machine (a robot's file names only the team router: new "
               "members leave it unchanged).")
+    if web_names:
+        _web_only(args.folder, web_names)
     print(f"Keep {CA_KEY} here: it signs new members (--add) and belongs on no robot.")
+
+
+def _web_only(folder: Path, names: list[str]) -> None:
+    try:
+        certificate, key = write_web_certificate(folder, names)
+    except TeamKeysError as exc:
+        print(f"pitchside team-keys: {exc}", file=sys.stderr)
+        raise SystemExit(2) from None
+    print(f"  {certificate.name:<20} web     pitchside serve --foxglove-tls {folder}  (wss:// for "
+          f"{', '.join(names)} and loopback; {key.name} is its key: keep both on the team laptop)")
+    print(f"  {CA_CERTIFICATE:<20} trust   install once on each laptop whose browser opens the wss:// URL")
 
 if __name__ == "__main__":
     main()

@@ -74,8 +74,21 @@ def arguments(prog: str = "pitchside serve", description: str = "the pitchside d
     p.add_argument("--plots-memory", type=plots_memory, default=os.environ.get("PITCHSIDE_PLOTS_MEMORY", "256MiB"),
                    help="the most plot history kept for viewers, e.g. 256MiB (the oldest goes first; default "
                         "$PITCHSIDE_PLOTS_MEMORY, else 256MiB)")
-    p.add_argument("--foxglove-port", type=int, default=8765, help="Foxglove WebSocket endpoint (a free one if taken)")
+    p.add_argument("--foxglove-port", type=int, default=8765,
+                   help="Foxglove WebSocket endpoint (a free one if taken), for Foxglove and Lichtblick, subprotocol "
+                        "foxglove.sdk.v1 or foxglove.websocket.v1. Who may connect: with ?token=<token> in the URL "
+                        "anyone, to watch and to control (parameters, services, publishing cmd_vel; lab only). "
+                        "Without the token, only while --host is loopback and only to watch: clients sending no "
+                        "Origin (scripts), the desktop apps (Origin file://), pages served on this machine "
+                        "(http://localhost:*, http://127.0.0.1:*, a self-hosted Lichtblick) and --allow-origin "
+                        "origins; Origin null and every other web page need the token")
     p.add_argument("--no-foxglove", action="store_true", help="no Foxglove WebSocket endpoint")
+    p.add_argument("--foxglove-tls", default=None, metavar="CERT|TEAM_DIR",
+                   help="serve the Foxglove endpoint as wss:// (for app.foxglove.dev or an https Lichtblick on "
+                        "another machine): a PEM certificate (chain) file, or the team folder of `pitchside "
+                        "team-keys` after `pitchside team-keys DIR --web-names NAME,ADDRESS`")
+    p.add_argument("--foxglove-tls-key", default=None, metavar="KEY",
+                   help="the private key of --foxglove-tls CERT (default: in the certificate file)")
     p.add_argument("--recordings", default=None, metavar="DIR", help="recordings folder (default: recordings/)")
     p.add_argument("--no-auto-record", action="store_true", help="do not record matches automatically")
     p.add_argument("--replay", default=None, metavar="FILE", help="open this MCAP log in the replay source")
@@ -103,6 +116,13 @@ def config_from(args: argparse.Namespace) -> ServerConfig:
         descriptions[robot] = RobotDescription(Path(path), packages)
     if packages and not descriptions:
         descriptions["*"] = RobotDescription(packages=packages)
+    if args.foxglove_tls:  # said at start, not when the first app connects
+        from server.foxglove.tls import TlsError, server_context
+
+        try:
+            server_context(Path(args.foxglove_tls), Path(args.foxglove_tls_key) if args.foxglove_tls_key else None)
+        except TlsError as exc:
+            raise SystemExit(str(exc)) from None
     try:
         return ServerConfig(match_mode=args.match, host=args.host, port=args.port, token=args.token, bus=bus,
                             allowed_hosts=args.allow_host, allowed_origins=args.allow_origin,
@@ -114,7 +134,9 @@ def config_from(args: argparse.Namespace) -> ServerConfig:
                             plots_web_port=args.plots_port,
                             plots_grpc_port=args.plots_grpc_port, plots_max_hz=args.plots_max_hz,
                             plots_all_topics=args.plots_all_topics, plots_memory=args.plots_memory,
-                            foxglove_port=None if args.no_foxglove else args.foxglove_port)
+                            foxglove_port=None if args.no_foxglove else args.foxglove_port,
+                            foxglove_tls=Path(args.foxglove_tls) if args.foxglove_tls else None,
+                            foxglove_tls_key=Path(args.foxglove_tls_key) if args.foxglove_tls_key else None)
     except ValueError as exc:
         raise SystemExit(str(exc)) from None
 

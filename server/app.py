@@ -19,6 +19,7 @@ from server.recording.wiring import attach_recording
 from server.routers import (
     animations,
     dashboard,
+    foxglove,
     graph,
     message_schemas,
     parameters,
@@ -87,7 +88,7 @@ def create_app(config: ServerConfig) -> FastAPI:
     recording = attach_recording(state)
     install_error_statuses(app)
     for module in (recordings, replay, session, dashboard, robots, message_schemas, sources, parameters, animations,
-                   teleop, ws, plots, robot3d, state_graphs, graph):
+                   teleop, ws, plots, robot3d, state_graphs, graph, foxglove):
         app.include_router(module.router)
     app.mount("/", StaticFiles(directory=config.web_dir, html=True), name="web")
     return app

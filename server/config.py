@@ -63,6 +63,10 @@ class ServerConfig:
     plots_all_topics: bool = False  # also every numeric field of every topic, a tab per topic
     plots_memory: str = "256MiB"  # the most history rerun's server keeps for viewers (oldest dropped first)
     foxglove_port: int | None = None  # the Foxglove WebSocket endpoint (server.foxglove; 0: any port); None: off
+    # wss:// instead of ws:// (server.foxglove.tls): a certificate file (its key beside it or in foxglove_tls_key),
+    # or a team folder with the web.pem and web.key `pitchside team-keys --web-names` wrote
+    foxglove_tls: Path | None = None
+    foxglove_tls_key: Path | None = None
     web_dir: Path = WEB_DIR
     # where recordings go and replay looks for bare file names: recordings/ in the folder the server starts in
     # (the checkout's, for ./run demo); $PITCHSIDE_RECORDINGS or --recordings elsewhere

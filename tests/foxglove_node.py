@@ -17,7 +17,7 @@ from tests.support import REPO
 CLIENT_DIR = REPO / "tests" / "foxglove_client"
 CLIENT = CLIENT_DIR / "client.mjs"
 # what the server prints at start (server.foxglove.endpoint.FoxgloveEndpoint.banner)
-BANNER = re.compile(r"pitchside foxglove: (ws://\S+)")
+BANNER = re.compile(r"pitchside foxglove: (wss?://\S+)")
 
 
 class MissingClient(RuntimeError):

@@ -31,6 +31,7 @@ from server.config import ServerConfig
 from server.foxglove.channels import channel_topic, stream_ended
 from server.foxglove.endpoint import urls_of
 from server.foxglove.guard import GuardPolicy, Refused
+from server.foxglove.layout import layout_topics
 from server.hub import RobotSeen, StreamStats
 from server.loopback_ports import BROWSER_BLOCKED_PORTS
 from server.security.credentials import Credentials
@@ -223,7 +224,7 @@ def test_the_guard_asks_what_the_dashboard_asks() -> None:
             return refused.status
         return 101
 
-    assert status() == 101  # Foxglove desktop, a script: no Origin header
+    assert status() == 101  # a script, a ROS tool: no Origin header
     assert status(origin="http://laptop2:8080") == 101
     assert status(origin="https://evil.example") == 403  # a web page the laptop's browser opened
     assert status("/?token=s3cret", origin="https://app.foxglove.dev") == 101
@@ -400,6 +401,14 @@ def test_foxglove_decodes_the_demo_robot_live_and_over_one_way_telemetry(tmp_pat
         image = decoded["camera/image/compressed"]
         assert image["format"] == "jpeg" and image["data"]["head"][:2] == [0xFF, 0xD8]
         assert "/robot1/camera/annotations" in channels_of(url)  # the detections, for the Image panel
+        if mode == "lab":  # the layout pitchside ships: every topic it names is one the demo's robot has
+            layout = httpx.get(f"{demo.url}/api/foxglove/layout", headers=demo.auth).json()
+            named = layout_topics(layout)
+            wait_for(lambda: named <= set(channels_of(url)), timeout=60, interval=0.5,
+                     what=lambda: f"the layout's topics {sorted(named - set(channels_of(url)))}")
+            efforts = layout["configById"]["Plot!efforts"]["paths"]  # joint_states.effort[i], labelled by joint
+            names = decoded["joint_states"]["name"]
+            assert [names[int(p["value"].split("[")[1].rstrip("]"))] for p in efforts] == [p["label"] for p in efforts]
         # the robot in 3D, in both modes; control only in the lab (and with the token)
         steps: list[dict[str, Any]] = [{"op": "waitChannel", "topic": "/robot1/tf"},
                                        {"op": "subscribe", "topic": "/robot1/tf", "count": 6}]

@@ -50,12 +50,28 @@ def test_foxglove_plays_pauses_seeks_and_sets_the_speed_of_the_replay_in_step_wi
         progress = [json.loads(session.stdout.readline()) for _ in range(4)]
         assert progress[-1] == {"progress": "playback"}  # Foxglove paused the replay: the panel shows it
         assert replay_status(server)["state"] == "paused"
+        # an app of the older subprotocol (Lichtblick before 2026) watching meanwhile, with the token: the SDK pushes
+        # PlaybackState to the clients of its control server, which foxglove.websocket.v1 does not define
+        older = node_client("session", f"{url}/?token={server.token}", "--subprotocol", "foxglove.websocket.v1",
+                            "--script", json.dumps([{"op": "waitChannel", "topic": "/replay.r1/joint_states"},
+                                                    {"op": "subscribe", "topic": "/replay.r1/joint_states",
+                                                     "count": 5},  # once the panel plays
+                                                    {"op": "wait", "ms": 6000}]), "--seconds", "30")
+        assert older.stdout is not None
+        assert json.loads(older.stdout.readline()) == {"progress": "waitChannel"}
         assert server.http.post(f"{server.url}/api/replay/play").status_code == 200
         assert json.loads(session.stdout.readline()) == {"progress": "waitPlayback"}
         assert server.http.post(f"{server.url}/api/replay/seek", json={"t_s": 3.0}).status_code == 200
         out, err = session.communicate(timeout=90)
         got = json.loads(out.splitlines()[-1])
         panel = replay_status(server)
+        assert older.poll() is None  # still connected while the pushes the other client waited for went out
+        older_out, older_err = older.communicate(timeout=60)
+        old = json.loads(older_out.splitlines()[-1])
+    assert old["subprotocol"] == "foxglove.websocket.v1" and old["errors"] == [], (old["errors"], older_err[-2000:])
+    assert old["playback"] == [] and "playbackControl" in old["serverInfo"]["capabilities"]  # pushed, not passed
+    [watched] = [r for r in old["results"] if r["op"] == "subscribe"]
+    assert len(watched["messages"]) == 5
     assert got["errors"] == [], (got["errors"], err[-2000:])
     info = got["serverInfo"]
     assert {"playbackControl", "time"} <= set(info["capabilities"])

@@ -1,4 +1,4 @@
-"""The Foxglove WebSocket server (foxglove-sdk, subprotocol ``foxglove.sdk.v1``) the dashboard runs beside itself.
+"""The Foxglove WebSocket server (foxglove-sdk; foxglove.sdk.v1 and foxglove.websocket.v1) beside the dashboard.
 
 Clients connect to the guard (server.foxglove.guard), which listens where the dashboard listens (port 8765, or a
 free one when it is taken) and asks for the dashboard's token as the dashboard does; the SDK's servers
@@ -32,6 +32,7 @@ from server.foxglove.scene import REPEAT_S, RobotScene
 from server.foxglove.servers import Offer, SdkServers, ServerStartError
 from server.foxglove.services import SERVED_BY, RobotServices, service_name
 from server.foxglove.teleop import FoxgloveTeleop
+from server.foxglove.tls import TlsError, server_context
 from server.foxglove.transforms import DEFAULT_MAX_HZ
 from server.hub import HubMessage
 from server.node_graph import service_providers, topic_links
@@ -70,12 +71,14 @@ def guard_policy(config: ServerConfig) -> GuardPolicy:
 
 
 def urls_of(config: ServerConfig, port: int) -> list[str]:
-    """Where Foxglove reaches the endpoint; beyond loopback with the token, which it then needs."""
+    """Where Foxglove reaches the endpoint (wss:// with --foxglove-tls); beyond loopback with the token, which it then
+    needs."""
     hosts = [config.host]
     if config.host in ("0.0.0.0", "::"):
         hosts = ["127.0.0.1", *sorted(a for a in machine_addresses() if ":" not in a and not a.startswith("127."))]
     query = f"/?token={config.token}" if config.beyond_loopback else ""
-    return [f"ws://{f'[{h}]' if ':' in h else h}:{port}{query}" for h in hosts]
+    scheme = "wss" if config.foxglove_tls is not None else "ws"
+    return [f"{scheme}://{f'[{h}]' if ':' in h else h}:{port}{query}" for h in hosts]
 
 
 def shows_live(msg: HubMessage) -> bool:
@@ -101,7 +104,7 @@ class FoxgloveEndpoint:
         self.assets = RobotAssets(descriptions)
         self.listeners = {door: EndpointListener(self._subscribed) for door in ("view", "control")}
         self.servers = SdkServers(self.context, self.listeners, self.assets)
-        self.guard = FoxgloveGuard(guard_policy(config), config.host, SdkPorts())
+        self.guard = FoxgloveGuard(guard_policy(config), config.host, SdkPorts())  # TLS: set in start
         self.services = RobotServices(state)
         self.parameters: RobotParameters | None = None
         self.playback: ReplayPlayback | None = None
@@ -133,6 +136,11 @@ class FoxgloveEndpoint:
             self.parameters = control.parameters = RobotParameters(self.state.link, lambda: self.live_robots,
                                                                    self._status)
             control.teleop = FoxgloveTeleop(self.state, loop, self._status)
+        if self.state.config.foxglove_tls is not None:
+            try:
+                self.guard.tls = server_context(self.state.config.foxglove_tls, self.state.config.foxglove_tls_key)
+            except TlsError as exc:
+                raise FoxgloveError(str(exc)) from None
         offer = self._offer()
         await self._serve(offer)
         self.channels.shows = shows_replay if offer.replay else shows_live
@@ -142,7 +150,7 @@ class FoxgloveEndpoint:
             if not preferred_port:
                 raise FoxgloveError(f"Foxglove endpoint not started on {self.guard.host}: {exc}") from None
             log.warning("foxglove: port %d is taken, using a free one", preferred_port)
-            self.guard = FoxgloveGuard(self.guard.policy, self.guard.host, self.guard.sdk_ports)
+            self.guard = FoxgloveGuard(self.guard.policy, self.guard.host, self.guard.sdk_ports, self.guard.tls)
             await asyncio.to_thread(self.guard.start, 0)
         self.channels.start()
         if self.parameters is not None and self.state.graph is not None:  # the server watches the bus (lab)
@@ -337,13 +345,19 @@ class FoxgloveEndpoint:
         urls = self.urls
         lines = [f"pitchside foxglove: {urls[0]}  (Foxglove or Lichtblick: Open connection -> Foxglove WebSocket)"]
         lines += [f"                    {url}" for url in urls[1:]]
+        controls = self.lab or self.playback is not None  # match mode: only a replay's playback bar
+        if controls and not self.state.config.beyond_loopback:  # beyond loopback every URL carries the token already
+            what = "parameters, services, cmd_vel" if self.lab else "the replay's playback"
+            lines.append(f"  to control ({what}): {urls[0]}/?token={self.state.config.token}  (apps keep this URL "
+                         "in their recent connections)")
         return "\n".join(lines)
 
     def status(self) -> dict[str, Any]:
         offer = self.servers.offer
         return {"urls": self.urls, "channels": len(self.channels.channels), "logged": self.channels.logged,
                 "dropped": self.channels.dropped, "accepted": self.guard.counters.accepted,
-                "with_token": self.guard.counters.with_token, "refused": self.guard.counters.refused,
+                "with_token": self.guard.counters.with_token, "websocket_v1": self.guard.counters.websocket_v1,
+                "refused": self.guard.counters.refused, "tls": self.guard.tls is not None,
                 "serving": "replay" if offer is not None and offer.replay else "live",
                 "scene_robots": sorted(self.scene.robots), "assets_served": self.assets.served,
                 "assets_refused": self.assets.refused}

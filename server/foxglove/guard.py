@@ -3,14 +3,19 @@
 foxglove-sdk 0.30 accepts every WebSocket handshake: no token, no Host or Origin check. A web page the laptop's
 browser opens could read every stream from ws://127.0.0.1:8765 (WebSockets are not bound by the same-origin
 policy), and beyond loopback anyone at the venue could. So the SDK listens on loopback ports browsers refuse
-(server.loopback_ports), and this guard listens where the dashboard listens. It reads the HTTP upgrade request
-(h11), answers it itself when refused, and otherwise hands the request and then the raw bytes both ways to the
-SDK: it does not speak the Foxglove protocol and looks at no message. The rules, as the dashboard's (DESIGN.md
+(server.loopback_ports), and this guard listens where the dashboard listens (with TLS, ``wss://``, when given a
+certificate). It reads the HTTP upgrade request (h11), answers it itself when refused, and otherwise hands the
+request and then the raw bytes both ways to the SDK: it does not speak the Foxglove protocol and looks at no message,
+except for a client of the older subprotocol (server.foxglove.subprotocols). The rules, as the dashboard's (DESIGN.md
 section 11):
 
 - the ``Host`` must be a name the server is reached by (DNS rebinding);
-- with the token (``?token=`` in the URL, or ``Authorization: Bearer``) anyone may connect;
-- without it only on loopback, and not from a web page of a foreign origin (``--allow-origin`` adds origins).
+- with the token (``?token=`` in the URL, or ``Authorization: Bearer``) anyone may connect, and control;
+- without it, only while the server listens on loopback, and only to watch: clients that send no ``Origin``
+  (scripts, ROS tools), the desktop apps (Foxglove and Lichtblick desktop load their window from ``file://``, so
+  Electron sends ``Origin: file://``), pages served on this machine (``http://localhost:*``, ``http://127.0.0.1:*``,
+  ``http://[::1]:*``: the dashboard, a self-hosted Lichtblick) and origins given with ``--allow-origin``. Any other web
+  page, and ``Origin: null`` (a sandboxed frame of any site, a local HTML file), needs the token.
 
 The SDK has two servers behind the guard (server.foxglove.servers): a connection that showed the token reaches the
 one that offers control (parameters, services, publishing cmd_vel, playback control), as the dashboard's control API
@@ -26,22 +31,50 @@ import asyncio
 import contextlib
 import logging
 import socket
+import ssl
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 from urllib.parse import parse_qs, urlsplit
 
 import h11
 
+from server.foxglove.subprotocols import (
+    NoSubprotocol,
+    Subprotocol,
+    chosen,
+    offered,
+    pass_to_websocket_v1,
+    request_for_sdk,
+)
 from server.security.credentials import Credentials
 from server.security.guard import normalized_origin
 from server.security.hosts import AllowedHosts, host_name_of
+from wire.machine import is_loopback
 
 log = logging.getLogger(__name__)
 MAX_REQUEST_BYTES = 16 << 10
 REQUEST_TIMEOUT_S = 10.0
 MAX_CLIENTS = 32  # Foxglove windows on one laptop; more is a flood
 CHUNK = 256 << 10
+DESKTOP_ORIGIN = "file://"  # what Electron sends for a window loaded from a file: the desktop apps
+
+
+def watches_without_token(origin: str | None, allowed_origins: frozenset[str]) -> bool:
+    """May a client sending this ``Origin`` watch without the token (the server listening on loopback)?
+
+    No Origin: not a web page. ``file://``: a desktop app. A page served on this machine, or an origin given with
+    --allow-origin. Never ``null`` nor any other page: a browser on this machine opens sites of anyone."""
+    if origin is None:
+        return True
+    if origin.strip().lower() == DESKTOP_ORIGIN:
+        return True
+    normal = normalized_origin(origin)
+    if normal is None:  # "null", malformed
+        return False
+    host = host_name_of(normal.split("://", 1)[1])
+    return normal in allowed_origins or (host is not None and is_loopback(host))
 
 
 class Refused(Exception):
@@ -72,10 +105,12 @@ class GuardPolicy:
             raise Refused(401, "wrong token")
         if self.token_needed:
             raise Refused(401, "the Foxglove endpoint listens beyond loopback: connect to the URL printed at start, "
-                               "ws://<host>:<port>/?token=<token>")
+                               "which carries the token (?token=<token>)")
         origin = headers.get("origin")
-        if origin is not None and normalized_origin(origin) not in self.allowed_origins:
-            raise Refused(403, "a web page of another origin needs the token in the URL (or --allow-origin)")
+        if not watches_without_token(origin, self.allowed_origins):
+            shown = (origin or "")[:100]
+            raise Refused(403, f"a web page of another origin ({shown!r}) needs the token in the URL, "
+                               "?token=<token> (or --allow-origin)")
         return False
 
 
@@ -83,6 +118,7 @@ class GuardPolicy:
 class GuardCounters:
     accepted: int = 0
     with_token: int = 0  # of the accepted: passed to the SDK server that offers control
+    websocket_v1: int = 0  # of the accepted: clients of the older subprotocol, foxglove.websocket.v1
     refused: dict[int, int] = field(default_factory=dict)  # HTTP status -> count
 
 
@@ -97,9 +133,11 @@ class SdkPorts:
 class FoxgloveGuard:
     """Listens on (host, port) in a thread of its own and passes checked connections to the SDK's ports."""
 
-    def __init__(self, policy: GuardPolicy, host: str, sdk_ports: SdkPorts) -> None:
+    def __init__(self, policy: GuardPolicy, host: str, sdk_ports: SdkPorts,
+                 tls: ssl.SSLContext | None = None) -> None:
         self.policy = policy
         self.host = host
+        self.tls = tls  # wss://: the TLS handshake comes first, before the HTTP request is read
         self.sdk_ports = sdk_ports  # read at each connection: the endpoint replaces its servers (replay)
         self.port = 0
         self.counters = GuardCounters()
@@ -120,7 +158,8 @@ class FoxgloveGuard:
             raise
 
     async def _listen(self, port: int) -> int:
-        self._server = await asyncio.start_server(self._serve, self.host, port, limit=MAX_REQUEST_BYTES)
+        tls: dict[str, Any] = {"ssl": self.tls, "ssl_handshake_timeout": REQUEST_TIMEOUT_S} if self.tls else {}
+        self._server = await asyncio.start_server(self._serve, self.host, port, limit=MAX_REQUEST_BYTES, **tls)
         return int(self._server.sockets[0].getsockname()[1])
 
     def stop(self) -> None:
@@ -163,6 +202,10 @@ class FoxgloveGuard:
                 raise Refused(503, f"at most {MAX_CLIENTS} Foxglove clients at once")
             headers = {k.decode("latin-1").lower(): v.decode("latin-1") for k, v in request.headers}
             with_token = self.policy.check(request.target, headers)
+            try:
+                subprotocol = chosen(offered(request.headers))
+            except NoSubprotocol as exc:
+                raise Refused(400, str(exc)) from None
         except Refused as refusal:
             self.counters.refused[refusal.status] = self.counters.refused.get(refusal.status, 0) + 1
             writer.write(_response(refusal.status, str(refusal)))
@@ -175,6 +218,10 @@ class FoxgloveGuard:
             return
         self.counters.accepted += 1
         self.counters.with_token += with_token
+        older = subprotocol is Subprotocol.WEBSOCKET
+        self.counters.websocket_v1 += older
+        if older:
+            head = request_for_sdk(head)
         port = self.sdk_ports.control if with_token else self.sdk_ports.view
         up_reader, up_writer = await asyncio.open_connection("127.0.0.1", port)
         _nodelay(up_writer)
@@ -183,11 +230,13 @@ class FoxgloveGuard:
         try:
             up_writer.write(head)
             upstream = asyncio.create_task(_pass(reader, up_writer))
-            downstream = asyncio.create_task(_pass(up_reader, writer))
-            _, pending = await asyncio.wait({upstream, downstream}, return_when=asyncio.FIRST_COMPLETED)
+            downstream = asyncio.create_task(pass_to_websocket_v1(up_reader, writer) if older
+                                             else _pass(up_reader, writer))
+            done, pending = await asyncio.wait({upstream, downstream}, return_when=asyncio.FIRST_COMPLETED)
             for task in pending:
                 task.cancel()
-            await asyncio.gather(*pending, return_exceptions=True)
+            # a side that ended with a reset connection is how a client leaves: taken, not logged as a lost error
+            await asyncio.gather(*done, *pending, return_exceptions=True)
         finally:
             up_writer.close()
 

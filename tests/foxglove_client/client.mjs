@@ -5,6 +5,15 @@
 //       each message with @foxglove/rosmsg2-serialization and prints one JSON object: channels, per topic the
 //       count, decode errors and the last message decoded (and its bytes when small); channels in another
 //       encoding (protobuf) are not decoded: their schema and bytes are printed for the test to decode.
+//   node client.mjs hello URL [--seconds S] [--min N]
+//       connects and prints what a user's app would see first: the subprotocol the server chose, its serverInfo
+//       (name, capabilities) and the channels advertised (waits for at least N, default 0, at most S seconds), the
+//       client's errors; or {refused: HTTP status, reason} when the server refused the handshake, or {error, code}
+//       when the connection failed (a certificate not trusted).
+//   every mode takes the connection options of a real app:
+//       --subprotocol P (repeatable; default foxglove.sdk.v1): the subprotocols offered, as Lichtblick offers
+//       foxglove.websocket.v1 (before its pull request #819) or both; --origin O: the Origin header a browser or
+//       Electron sends (file:// for the desktop apps); --ca FILE: trust this CA for wss:// (else Node's own list).
 //   node client.mjs list URL [--seconds S]
 //       the channels the server advertises within S seconds (default 1), without subscribing.
 //   node client.mjs stall URL
@@ -35,6 +44,7 @@
 //         for it, so its binary request is written here as the SDK's protocol defines it, and the server's
 //         PlaybackState read back).
 import crypto from "node:crypto";
+import fs from "node:fs";
 import wsProtocol from "@foxglove/ws-protocol";
 import { parse } from "@foxglove/rosmsg";
 import { MessageReader, MessageWriter } from "@foxglove/rosmsg2-serialization";
@@ -42,6 +52,7 @@ import WebSocket from "ws";
 
 const { FoxgloveClient } = wsProtocol;
 const SUBPROTOCOL = "foxglove.sdk.v1";
+const connection = { subprotocols: [], origin: undefined, ca: undefined }; // set from the options
 // channels the server computes from the hub's streams (server/foxglove/scene.py, annotations.py)
 const DERIVED = /\/(tf|tf_static|markers|robot_description|camera\/annotations)$/;
 
@@ -49,6 +60,9 @@ function options(argv) {
   const out = { topics: [], seconds: 5, min: 1, clients: 1, latencyOf: "/joint_states", script: "[]" };
   for (let i = 0; i < argv.length; i++) {
     if (argv[i] === "--topic") out.topics.push(argv[++i]);
+    else if (argv[i] === "--subprotocol") connection.subprotocols.push(argv[++i]);
+    else if (argv[i] === "--origin") connection.origin = argv[++i];
+    else if (argv[i] === "--ca") connection.ca = fs.readFileSync(argv[++i]);
     else if (argv[i] === "--seconds") out.seconds = Number(argv[++i]);
     else if (argv[i] === "--min") out.min = Number(argv[++i]);
     else if (argv[i] === "--clients") out.clients = Number(argv[++i]);
@@ -72,7 +86,9 @@ function plain(value) {
 }
 
 function connect(url) {
-  const ws = new WebSocket(url, [SUBPROTOCOL], { maxPayload: 256 * 1024 * 1024 });
+  const subprotocols = connection.subprotocols.length ? connection.subprotocols : [SUBPROTOCOL];
+  const ws = new WebSocket(url, subprotocols, { maxPayload: 256 * 1024 * 1024, origin: connection.origin,
+                                               ca: connection.ca });
   const client = new FoxgloveClient({ ws });
   return { ws, client };
 }
@@ -293,7 +309,10 @@ async function session(url, opts) {
   const readers = new Map();
   client.on("message", (msg) => emit("message", msg));
   client.on("error", (err) => {
-    if (!String(err).includes(`binary message: ${PLAYBACK_STATE}`)) out.errors.push(String(err));
+    // PlaybackState is the SDK's (foxglove.sdk.v1), not in @foxglove/ws-protocol 0.8: read below. A client of
+    // foxglove.websocket.v1 must never get it
+    const playback = String(err).includes(`binary message: ${PLAYBACK_STATE}`) && ws.protocol === SUBPROTOCOL;
+    if (!playback) out.errors.push(String(err));
   });
   ws.on("message", (data, isBinary) => {
     if (!isBinary) return;
@@ -301,6 +320,7 @@ async function session(url, opts) {
     if (state) { out.playback.push(state); emit("playback", state); }
   });
   const finish = (code) => {
+    out.subprotocol = ws.protocol;
     out.channels = [...channels.values()].map((c) => c.topic).sort();
     out.services = [...services.keys()].sort();
     print(out);
@@ -441,11 +461,42 @@ async function session(url, opts) {
   finish(0);
 }
 
+async function hello(url, opts) {
+  const { ws, client } = connect(url);
+  const channels = new Map();
+  const errors = [];
+  let serverInfo = null;
+  const finish = () => {
+    print({ subprotocol: ws.protocol, serverInfo, channels: [...channels.values()].map((c) => c.topic).sort(),
+            errors });
+    client.close();
+    process.exit(0);
+  };
+  const ready = () => serverInfo && channels.size >= opts.min;
+  ws.on("unexpected-response", (_request, response) => {
+    let reason = "";
+    response.on("data", (chunk) => { reason += chunk; });
+    response.on("end", () => { print({ refused: response.statusCode, reason: reason.trim() }); process.exit(0); });
+  });
+  ws.on("error", (err) => { print({ error: String(err), code: err.code ?? null }); process.exit(0); });
+  client.on("serverInfo", (info) => {
+    serverInfo = { name: info.name, capabilities: info.capabilities, supportedEncodings: info.supportedEncodings };
+    if (ready()) finish();
+  });
+  client.on("advertise", (list) => { for (const c of list) channels.set(c.id, c); if (ready()) finish(); });
+  client.on("error", (err) => errors.push(String(err)));
+  setTimeout(finish, opts.seconds * 1000);
+}
+
 const [mode, url, ...rest] = process.argv.slice(2);
 const opts = options(rest);
 if (mode === "probe") await probe(url, opts);
 else if (mode === "stall") await stall(url);
 else if (mode === "latency") await latency(url, opts);
+else if (mode === "hello") await hello(url, { ...opts, min: rest.includes("--min") ? opts.min : 0 });
 else if (mode === "list") await list(url, { ...opts, seconds: rest.includes("--seconds") ? opts.seconds : 1 });
 else if (mode === "session") await session(url, { ...opts, seconds: rest.includes("--seconds") ? opts.seconds : 20 });
-else { console.error("usage: node client.mjs probe|list|stall|latency|session URL [options]"); process.exit(64); }
+else {
+  console.error("usage: node client.mjs probe|hello|list|stall|latency|session URL [options]");
+  process.exit(64);
+}
