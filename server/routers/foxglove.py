@@ -32,7 +32,13 @@ def layout_robot(robot: str = LAYOUT_ROBOT) -> str:
     return valid_robot(robot)
 
 
-@router.get("/layout")
+# the answer is the layout file itself (Foxglove's and Lichtblick's LayoutData), sent as it is written
+LAYOUT_ANSWER = {200: {"content": {"application/json": {"schema": {
+    "type": "object", "description": "a Foxglove/Lichtblick layout (configById, layout, globalVariables, ...)"}}}}}
+
+
+@router.get("/layout", responses=LAYOUT_ANSWER)
 def foxglove_layout(robot: str = Depends(layout_robot)) -> Response:
+    """The shipped layout for ``robot``, as a file to import in Foxglove or Lichtblick."""
     return Response(layout_text(robot), media_type="application/json",
                     headers={"Content-Disposition": f'attachment; filename="pitchside-{robot}.json"'})
