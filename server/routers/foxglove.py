@@ -33,7 +33,7 @@ def layout_robot(robot: str = LAYOUT_ROBOT) -> str:
 
 
 # the answer is the layout file itself (Foxglove's and Lichtblick's LayoutData), sent as it is written
-LAYOUT_ANSWER = {200: {"content": {"application/json": {"schema": {
+LAYOUT_ANSWER: dict[int | str, dict[str, Any]] = {200: {"content": {"application/json": {"schema": {
     "type": "object", "description": "a Foxglove/Lichtblick layout (configById, layout, globalVariables, ...)"}}}}}
 
 
