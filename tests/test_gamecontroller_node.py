@@ -200,3 +200,25 @@ def test_simulator_plays_both_halves_and_takes_manual_penalties() -> None:
         assert packet.team(4).player(2).penalty == Penalty.MANUAL  # type: ignore[union-attr]
         assert gc.execute("unpenalize 4 2") == "ok" and gc.execute("goal 9").startswith("error: team 9")
         assert parse_state_packet(gc.tick()).team(4).player(2).penalty == 0  # type: ignore[union-attr]
+
+
+def test_hsl_v20_reaches_the_gamestate_and_bad_input_is_named(node: GameControllerNode, watcher: GameStateWatcher,
+                                                               gc_port: int) -> None:
+    from tests.test_gamecontroller_hsl import spec_packet
+    # the node is team 5 player 2: a v20 packet where team 13 is renumbered 5
+    raw = bytearray(spec_packet(own={2: (3, 0, 1)}, stopped=1, set_play=6, kicking=7, own_budget=4321))
+    raw[18] = 5
+    bad = [bytes(raw[:100]), bytes(raw) + b"\0\0", b"RGme\x15" + bytes(raw[5:]), b"RGTD" + bytes(raw[4:])]
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        for b in bad:
+            s.sendto(b, ("127.0.0.1", gc_port))
+        msg = wait_for(lambda: s.sendto(bytes(raw), ("127.0.0.1", gc_port)) and watcher.latest(), 10, interval=0.2,
+                       what="gamestate from a v20 packet")
+    assert (msg.version, msg.set_play, msg.kicking_team, msg.stopped, msg.message_budget) == (20, 6, 7, True, 4321)
+    assert msg.penalty == msg.PENALTY_MOTION_IN_STOP and msg.penalized_in_place and msg.cautions == 1
+    assert msg.secondary_state == msg.STATE_CORNER_KICK and not msg.allowed_to_move
+    diag = wait_for(lambda: watcher.gc_diagnostics.get("bad_packets_wrong_header") == "1" and watcher.gc_diagnostics,
+                    10, what="bad packets by kind in diagnostics")
+    assert (diag["bad_packets_truncated"], diag["bad_packets_over_long"], diag["bad_packets_wrong_version"]) == (
+        "1", "1", "1")
+    assert diag["gc_version"] == "20" and diag["bad_packets"] == "4"

@@ -13,6 +13,13 @@ from dataclasses import dataclass
 from typing import Any
 
 import schemas
+from robot_nodes.game_controller.game_data import (
+    IN_PLACE_PENALTIES,
+    UNKNOWN,
+    HslPenalty,
+    TeamInfo,
+    penalty_v20,
+)
 from robot_nodes.game_controller.packets import (
     DATA_PORT,
     RETURN_PORT,
@@ -31,6 +38,8 @@ from robot_nodes.runtime.udp import UdpPort
 from schemas.messages import GameState
 from schemas.std import Bool
 
+MESSAGE_BUDGET_UNKNOWN = 65535
+BAD_PACKET_KINDS = ("truncated", "over_long", "wrong_header", "wrong_version", "bad_value")
 UNPENALISE_PACKETS = 6  # MAN_UNPENALISE packets at most after a manual penalty ends (3 s at the usual 2 Hz)
 # MAN_UNPENALISE packets sent whatever the GameController last said: its state packets tell a penalty it gave only
 # a packet later, so a button pressed and released within that time would otherwise end in ALIVE, and the
@@ -52,17 +61,22 @@ class GameControllerParams:
 
 
 def allowed_to_move(data: GameControlData, penalized: bool) -> bool:
-    """Robots may move in READY and PLAYING, but not while penalised, in a timeout or in a set piece's freeze."""
+    """Robots may move in READY and PLAYING, but not while penalised, in a timeout, while play is stopped or in a
+    set piece's freeze."""
     if penalized:
         return False
     if data.state == GameStateValue.READY:
         return True
     if data.state != GameStateValue.PLAYING:
         return False
-    if data.secondary_state == SecondaryState.TIMEOUT:
-        return False
+    if data.secondary_state == SecondaryState.TIMEOUT or data.stopped:
+        return False  # HSL: nobody moves while play is stopped (a v12 set piece's freeze is `stopped` too)
     # set piece sub-phases 0 and 2 freeze every robot (referee places the ball / removes robots)
     return not (data.secondary_state in SET_PIECES and data.secondary_state_info[1] in (0, 2))
+
+
+def _budget(data: GameControlData, team: TeamInfo) -> int:
+    return team.message_budget if data.hsl else MESSAGE_BUDGET_UNKNOWN
 
 
 def gamestate_fields(data: GameControlData, team_number: int, player_number: int) -> dict[str, Any] | None:
@@ -73,8 +87,10 @@ def gamestate_fields(data: GameControlData, team_number: int, player_number: int
         return None
     me = own.player(player_number)
     penalized = me.penalized if me is not None else True
-    active = own.active_players(data.players_per_team)
+    active = own.active_players(data.players_per_team, data.substitute_penalty)
     mates = {n: p for n, p in active.items() if n != player_number}
+    sent_off = HslPenalty.SENT_OFF
+    penalty = penalty_v20(data.version, me.penalty) if me is not None else HslPenalty.NONE
     return {
         "game_state": int(data.state),
         "secondary_state": int(data.secondary_state),
@@ -96,7 +112,30 @@ def gamestate_fields(data: GameControlData, team_number: int, player_number: int
         "single_shots": own.single_shots,
         "coach_message": own.coach_text,
         "team_mates_with_penalty": sorted(n for n, p in mates.items() if p.penalized),
-        "team_mates_with_red_card": sorted(n for n, p in mates.items() if p.red_cards > 0),
+        "team_mates_with_red_card": sorted(
+            n for n, p in mates.items() if p.red_cards > 0 or penalty_v20(data.version, p.penalty) == sent_off),
+        "version": data.version,
+        "team_number": team_number,
+        "competition_type": int(data.competition_type) if data.hsl else UNKNOWN,
+        "players_per_team": data.players_per_team,
+        "stopped": data.stopped,
+        "game_phase": int(data.game_phase),
+        "set_play": int(data.set_play),
+        "kicking_team": data.kicking_team,
+        "goalkeeper_color": own.goalkeeper_color,
+        "rival_team_color": rival.team_color,
+        "rival_goalkeeper_color": rival.goalkeeper_color,
+        "goalkeeper": own.goalkeeper_number,
+        "message_budget": _budget(data, own),
+        "rival_message_budget": _budget(data, rival),
+        "penalty": penalty,
+        "penalized_in_place": penalty in IN_PLACE_PENALTIES,
+        "cautions": me.cautions if me is not None else 0,
+        "warnings": me.warnings if me is not None else 0,
+        "player_penalties": [penalty_v20(data.version, p.penalty) for p in own.players],
+        "player_seconds_till_unpenalized": [p.secs_till_unpenalized for p in own.players],
+        "player_cautions": [p.cautions for p in own.players],
+        "player_warnings": [p.warnings for p in own.players],
     }
 
 
@@ -111,6 +150,7 @@ class GameControllerNode(Node):
         self.packets = 0
         self.bad_packets = 0
         self.foreign_packets = 0
+        self.bad_by_kind: dict[str, int] = {}  # GameControllerPacketError.kind -> count
         self.returns_sent = 0
         self.gc_address: str | None = None
         self.last_data: GameControlData | None = None
@@ -150,6 +190,7 @@ class GameControllerNode(Node):
             packet = parse_state_packet(data)
         except GameControllerPacketError as exc:
             self.bad_packets += 1
+            self.bad_by_kind[exc.kind] = self.bad_by_kind.get(exc.kind, 0) + 1
             self.record_error(f"bad GameController packet from {sender}: {exc}")
             self._update_diagnostics()
             return
@@ -235,6 +276,9 @@ class GameControllerNode(Node):
         self.set_diagnostic("packets", self.packets)
         self.set_diagnostic("bad_packets", self.bad_packets)
         self.set_diagnostic("foreign_packets", self.foreign_packets)
+        for kind in BAD_PACKET_KINDS:
+            self.set_diagnostic(f"bad_packets_{kind}", self.bad_by_kind.get(kind, 0))
+        self.set_diagnostic("gc_version", self.last_data.version if self.last_data is not None else "")
         self.set_diagnostic("return_packets_sent", self.returns_sent)
         self.set_diagnostic("gc_address", self.gc_address or "")
 
