@@ -1,10 +1,14 @@
-"""GameController receiver node: GC state packets on UDP -> `gamestate`, and return packets to the GC.
+"""GameController receiver node: GC state packets on UDP -> `gamestate`, and return packets to the GC, in the
+version the GameController speaks.
 
-The return packets say ALIVE; while the robot is manually penalised (`manual_penalty`, from the pause logic: its
-button or the manual_penalize service) they say MAN_PENALISE, and when that ends MAN_UNPENALISE (at least
-UNPENALISE_AT_LEAST of them) until the GameController no longer reports the robot penalised (at most
-UNPENALISE_PACKETS of them), then ALIVE again. The GameController acts when a robot's message changes, so a lost
-packet is made good by the next one.
+To an HSL GameController (v19/v20) the node sends the RGrt v4 status packet at 0.5-2 Hz: fallen from the HCM
+(`robot_state`), the pose from `position` and the newest ball from `ball_relative` (module status).
+
+To an HL v12 GameController it sends the v2 return packet. It says ALIVE; while the robot is manually penalised
+(`manual_penalty`, from the pause logic: its button or the manual_penalize service) it says MAN_PENALISE, and when
+that ends MAN_UNPENALISE (at least UNPENALISE_AT_LEAST of them) until the GameController no longer reports the
+robot penalised (at most UNPENALISE_PACKETS of them), then ALIVE again. The GameController acts when a robot's
+message changes, so a lost packet is made good by the next one.
 """
 
 from __future__ import annotations
@@ -31,11 +35,13 @@ from robot_nodes.game_controller.packets import (
     RobotInfo,
     SecondaryState,
     build_return_packet,
+    build_status_packet,
     parse_state_packet,
 )
+from robot_nodes.game_controller.status import RobotStatus, status_rate_hz
 from robot_nodes.runtime import Node, header, param, run
 from robot_nodes.runtime.udp import UdpPort
-from schemas.messages import GameState
+from schemas.messages import BallRelative, GameState, Position2D, RobotControlState
 from schemas.std import Bool
 
 MESSAGE_BUDGET_UNKNOWN = 65535
@@ -165,6 +171,10 @@ class GameControllerNode(Node):
         self._keepalive_timer = self.timer(10.0, self._keepalive, "keepalive")
         self._idle()  # both timers wait for the first packet of a GameController
         self.subscribe("manual_penalty", self._on_manual_penalty)
+        self.status = RobotStatus()  # what an HSL GameController's status packet says
+        self.subscribe("robot_state", self._on_robot_state)
+        self.subscribe("position", self._on_position)
+        self.subscribe("ball_relative", self._on_ball)
         self._update_diagnostics()
 
     # -- socket ---------------------------------------------------------------------------------------------
@@ -201,6 +211,9 @@ class GameControllerNode(Node):
             return
         self.packets += 1
         self.gc_address = sender
+        if self.last_data is None or self.last_data.hsl != packet.hsl:
+            self.last_data = packet
+            self._return_timer.set_rate(self._return_rate_hz())
         self.last_data = packet
         self._last_packet_time = self.now()
         self._keepalive_timer.resume(at_once=False)
@@ -237,7 +250,8 @@ class GameControllerNode(Node):
             return
         self.manual_penalty = manual
         self._unpenalise_left = 0 if manual else UNPENALISE_PACKETS
-        self._send_return()  # tell the GameController now, not at the next tick
+        if self.last_data is None or not self.last_data.hsl:  # an HSL GC has no manual penalty to tell at once
+            self._send_return()  # tell the GameController now, not at the next tick
 
     def return_message(self) -> ReturnMessage:
         """What the next return packet says (see the module's docstring)."""
@@ -255,20 +269,41 @@ class GameControllerNode(Node):
         own = self.last_data.team(self.params.team_number) if self.last_data is not None else None
         return own.player(self.params.player_number) if own is not None else None
 
+    def _on_robot_state(self, msg: RobotControlState) -> None:
+        self.status.on_robot_state(msg)
+
+    def _on_position(self, msg: Position2D) -> None:
+        self.status.on_position(msg)
+
+    def _on_ball(self, msg: BallRelative) -> None:
+        self.status.on_ball(msg, self.now())
+
+    def _return_rate_hz(self) -> float:
+        """return_rate_hz, within 0.5-2 Hz for an HSL GameController (its rule for status packets)."""
+        hsl = self.last_data is not None and self.last_data.hsl
+        return status_rate_hz(self.params.return_rate_hz) if hsl else self.params.return_rate_hz
+
     def _send_return(self) -> None:
-        if self.gc_address is None or self._udp is None:
+        """To a v12 GameController the HL v2 return packet; to a v19/v20 one the v4 status packet (the HSL
+        GameController has no manual penalty: a robot's own penalty is the referee's call there)."""
+        if self.gc_address is None or self._udp is None or self.last_data is None:
             return
         if self.now() - self._last_packet_time > self.params.gc_timeout_s:
             return
+        hsl = self.last_data.hsl
         message = self.return_message()
-        packet = build_return_packet(self.params.team_number, self.params.player_number, message)
+        if hsl:
+            packet = build_status_packet(self.status.packet(self.params.team_number, self.params.player_number,
+                                                            self.now()))
+        else:
+            packet = build_return_packet(self.params.team_number, self.params.player_number, message)
         try:
             self._udp.sendto(packet, (self.gc_address, self.params.return_port))
             self.returns_sent += 1
-            if message == ReturnMessage.MAN_UNPENALISE:
+            if message == ReturnMessage.MAN_UNPENALISE and not hsl:
                 self._unpenalise_left -= 1
             self.set_diagnostic("return_packets_sent", self.returns_sent)
-            self.set_diagnostic("return_message", message.name)
+            self.set_diagnostic("return_message", "STATUS_V4" if hsl else message.name)
         except OSError as exc:
             self.record_error(f"cannot send return packet to {self.gc_address}:{self.params.return_port}: {exc}")
 
@@ -285,7 +320,7 @@ class GameControllerNode(Node):
     # -- lifecycle ------------------------------------------------------------------------------------------
     def on_parameters_changed(self, changed: dict[str, Any]) -> None:
         if "return_rate_hz" in changed:
-            self._return_timer.set_rate(self.params.return_rate_hz)
+            self._return_timer.set_rate(self._return_rate_hz())
         if {"team_number", "player_number"} & set(changed):
             self._last_fields = None  # the next packet is published whatever it says
         if {"listen_address", "listen_port"} & set(changed):
