@@ -686,6 +686,9 @@ class pitchside_msgs__msg__TeamCommStatus:
     window_s: float
     expected_rate_hz: float
     memory_s: float
+    send_rate_hz: float
+    message_budget: int
+    budget_rate_hz: float
     __msgtype__: ClassVar[str] = 'pitchside_msgs/msg/TeamCommStatus'
 
 
@@ -1271,12 +1274,15 @@ FIELDDEFS: Typesdict = {
             ('window_s', (T.BASE, ('float32', 0))),
             ('expected_rate_hz', (T.BASE, ('float32', 0))),
             ('memory_s', (T.BASE, ('float32', 0))),
+            ('send_rate_hz', (T.BASE, ('float32', 0))),
+            ('message_budget', (T.BASE, ('uint16', 0))),
+            ('budget_rate_hz', (T.BASE, ('float32', 0))),
         ],
     ),
 }
 
 
-SOURCES_SHA256 = '6b2138de3099e355c6854f469cf0b5ff3a5c69238820f7c7f0dcb28b61e3bbd7'
+SOURCES_SHA256 = 'c41abe4f55f81b9f2fdebbf4d4d4903f5c6cb7b25c512f1de113591752f05a94'
 
 # short names
 AdditionalServoData = humanoid_league_msgs__msg__AdditionalServoData
