@@ -141,6 +141,7 @@ class humanoid_league_msgs__msg__GameState:
     player_seconds_till_unpenalized: np.ndarray[tuple[int, ...], np.dtype[np.uint8]]
     player_cautions: np.ndarray[tuple[int, ...], np.dtype[np.uint8]]
     player_warnings: np.ndarray[tuple[int, ...], np.dtype[np.uint8]]
+    state_from_whistle: bool
     GAMESTATE_INITIAL: ClassVar[int] = 0
     GAMESTATE_READY: ClassVar[int] = 1
     GAMESTATE_SET: ClassVar[int] = 2
@@ -849,6 +850,7 @@ FIELDDEFS: Typesdict = {
             ('player_seconds_till_unpenalized', (T.SEQUENCE, ((T.BASE, ('uint8', 0)), 0))),
             ('player_cautions', (T.SEQUENCE, ((T.BASE, ('uint8', 0)), 0))),
             ('player_warnings', (T.SEQUENCE, ((T.BASE, ('uint8', 0)), 0))),
+            ('state_from_whistle', (T.BASE, ('bool', 0))),
         ],
     ),
     'humanoid_league_msgs/msg/GoalInImage': (
@@ -1282,7 +1284,7 @@ FIELDDEFS: Typesdict = {
 }
 
 
-SOURCES_SHA256 = 'c41abe4f55f81b9f2fdebbf4d4d4903f5c6cb7b25c512f1de113591752f05a94'
+SOURCES_SHA256 = '0e21738389e9c7a46f826cee7845e9738608d779514abd56956127d02783990a'
 
 # short names
 AdditionalServoData = humanoid_league_msgs__msg__AdditionalServoData

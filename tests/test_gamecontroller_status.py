@@ -123,3 +123,61 @@ def test_node_answers_an_hsl_gamecontroller_with_status_packets(bus: BusConfig,
     finally:
         topics.shutdown()
         node.shutdown()
+
+
+def test_whistle_starts_playing_ahead_of_the_delayed_gamecontroller() -> None:
+    from robot_nodes.game_controller.fake_state import WhistleStart
+    from robot_nodes.game_controller.packets import parse_state_packet
+    from robot_nodes.game_controller.receiver import gamestate_fields
+
+    def told(state: int, **extra: int) -> dict[str, object]:
+        f = gamestate_fields(parse_state_packet(spec_packet(state=state, **extra)), 13, 2)  # type: ignore[arg-type]
+        assert f is not None
+        return f
+
+    rule = WhistleStart(hold_s=10.0)
+    assert not rule.on_whistle(0.0, 1), "a whistle in READY starts nothing"
+    assert rule.on_whistle(100.0, 2)
+    ahead = rule.apply(told(2), 104.0)
+    assert (ahead["game_state"], ahead["state_from_whistle"], ahead["allowed_to_move"]) == (3, True, True)
+    assert rule.apply(told(2, stopped=1), 105.0)["allowed_to_move"] is False
+    assert rule.apply(told(3), 106.0)["state_from_whistle"] is False and rule.confirmed == 1
+    assert rule.on_whistle(200.0, 2)
+    assert rule.apply(told(2), 210.5)["game_state"] == 2 and rule.expired == 1, "a false whistle ends after 10 s"
+    assert rule.on_whistle(300.0, 2)
+    assert rule.apply(told(1), 301.0)["game_state"] == 1 and rule.contradicted == 1, "READY contradicts"
+    assert not WhistleStart(hold_s=0).on_whistle(0.0, 2), "whistle_hold_s 0 switches it off"
+
+
+def test_node_plays_on_the_whistle_while_the_gamecontroller_still_says_set(bus: BusConfig,
+                                                                          sockets: tuple[int, socket.socket]) -> None:
+    from schemas.std import Bool
+    from tests.test_gamecontroller_node import GameStateWatcher
+    gc_port, gc_return = sockets
+    node = GameControllerNode(robot_id="whistle_robot", bus=bus, overrides={
+        "team_number": 13, "player_number": 2, "listen_address": "127.0.0.1", "listen_port": gc_port,
+        "return_port": gc_return.getsockname()[1]}).start()
+    watcher = GameStateWatcher(robot_id="whistle_robot", bus=bus).start()
+
+    class Detector(Node):
+        name = "whistle_detector"
+
+        def setup(self) -> None:
+            self.pub = self.publisher("whistle")
+
+    detector = Detector(robot_id="whistle_robot", bus=bus).start()
+    try:
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as gc:
+            wait_for(lambda: gc.sendto(spec_packet(state=2), ("127.0.0.1", gc_port)) and watcher.latest(), 10,
+                     interval=0.2, what="SET from the GameController")
+            msg = wait_for(lambda: detector.pub.publish(schemas.make(Bool, data=True)) or watcher.latest(
+                lambda m: m.state_from_whistle), 10, interval=0.2, what="PLAYING on the whistle")
+            assert msg.game_state == 3 and msg.allowed_to_move
+            gc.sendto(spec_packet(state=3), ("127.0.0.1", gc_port))
+            wait_for(lambda: watcher.latest(lambda m: m.game_state == 3 and not m.state_from_whistle), 10,
+                     what="the GameController's own PLAYING")
+        assert node.whistle.confirmed == 1
+    finally:
+        detector.shutdown()
+        watcher.shutdown()
+        node.shutdown()

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import schemas
+from robot_nodes.game_controller.fake_state import WhistleStart
 from robot_nodes.game_controller.game_data import (
     IN_PLACE_PENALTIES,
     UNKNOWN,
@@ -64,6 +65,9 @@ class GameControllerParams:
     return_rate_hz: float = param(2.0, range=(0.1, 10.0), doc="rate of ALIVE return packets to the GC")
     keepalive_hz: float = param(1.0, range=(0.1, 10.0), doc="republish an unchanged gamestate at this rate")
     gc_timeout_s: float = param(5.0, range=(0.5, 60.0), doc="after this silence the GC counts as lost")
+    whistle_hold_s: float = param(10.0, range=(0.0, 15.0),
+                                  doc="a whistle heard in SET means PLAYING for up to this long while the GC still "
+                                      "says SET (its delayed state); 0: only the GC's state counts")
 
 
 def allowed_to_move(data: GameControlData, penalized: bool) -> bool:
@@ -142,6 +146,7 @@ def gamestate_fields(data: GameControlData, team_number: int, player_number: int
         "player_seconds_till_unpenalized": [p.secs_till_unpenalized for p in own.players],
         "player_cautions": [p.cautions for p in own.players],
         "player_warnings": [p.warnings for p in own.players],
+        "state_from_whistle": False,
     }
 
 
@@ -160,7 +165,10 @@ class GameControllerNode(Node):
         self.returns_sent = 0
         self.gc_address: str | None = None
         self.last_data: GameControlData | None = None
-        self._last_fields: dict[str, Any] | None = None
+        self._last_fields: dict[str, Any] | None = None  # as published
+        self._gc_fields: dict[str, Any] | None = None  # as the GameController says
+        self.whistle = WhistleStart(hold_s=self.params.whistle_hold_s)
+        self.whistles_heard = 0
         self._last_packet_time = 0.0
         self._last_publish_time = 0.0
         self._udp: UdpPort | None = None
@@ -171,6 +179,7 @@ class GameControllerNode(Node):
         self._keepalive_timer = self.timer(10.0, self._keepalive, "keepalive")
         self._idle()  # both timers wait for the first packet of a GameController
         self.subscribe("manual_penalty", self._on_manual_penalty)
+        self.subscribe("whistle", self._on_whistle)
         self.status = RobotStatus()  # what an HSL GameController's status packet says
         self.subscribe("robot_state", self._on_robot_state)
         self.subscribe("position", self._on_position)
@@ -218,10 +227,25 @@ class GameControllerNode(Node):
         self._last_packet_time = self.now()
         self._keepalive_timer.resume(at_once=False)
         self._return_timer.resume(at_once=False)
+        self._gc_fields = fields
+        self._tell(fields)
+        self._update_diagnostics()
+
+    def _tell(self, gc_fields: dict[str, Any]) -> None:
+        """Publishes at once what changed: the GameController's fields, PLAYING on a whistle ahead of them."""
+        fields = self.whistle.apply(gc_fields, self.now())
         if fields != self._last_fields:
             self._last_fields = fields
             self._publish()
-        self._update_diagnostics()
+
+    def _on_whistle(self, msg: Bool) -> None:
+        if not msg.data:
+            return
+        gc_state = self._gc_fields["game_state"] if self._gc_fields is not None else None
+        if self.whistle.on_whistle(self.now(), gc_state) and self._gc_fields is not None:
+            self._tell(self._gc_fields)
+        self.set_diagnostic("whistles_heard", self.whistles_heard + 1)
+        self.whistles_heard += 1
 
     def _publish(self) -> None:
         if self._last_fields is None:
@@ -236,6 +260,8 @@ class GameControllerNode(Node):
         if self._last_fields is None or now - self._last_packet_time > self.params.gc_timeout_s:
             self._idle()
             return
+        if self._gc_fields is not None and self.whistle.heard_at is not None:
+            self._tell(self._gc_fields)  # a whistle's PLAYING ends after hold_s
         if now - self._last_publish_time >= 1.0 / self.params.keepalive_hz:
             self._publish()
 
@@ -321,6 +347,8 @@ class GameControllerNode(Node):
     def on_parameters_changed(self, changed: dict[str, Any]) -> None:
         if "return_rate_hz" in changed:
             self._return_timer.set_rate(self._return_rate_hz())
+        if "whistle_hold_s" in changed:
+            self.whistle.hold_s = self.params.whistle_hold_s
         if {"team_number", "player_number"} & set(changed):
             self._last_fields = None  # the next packet is published whatever it says
         if {"listen_address", "listen_port"} & set(changed):
