@@ -15,6 +15,7 @@ from robot_nodes.game_controller.packets import (
     GameControlData,
     Penalty,
     RobotInfo,
+    StatusPacket,
     TeamInfo,
     build_state_packet,
     parse_state_packet,
@@ -116,16 +117,18 @@ def test_simulated_game_reaches_the_robot(node: GameControllerNode, watcher: Gam
         bad = httpx.post(f"{api}/penalize", json={"team": 9, "player": 1}, timeout=10)
         assert bad.status_code == 400 and "team 9" in bad.json()["error"]
 
-        # return packets from team 5 player 2 arrive at the GC at about 2 Hz
+        # status packets (RGrt v4: the simulated GC speaks HSL v20) from team 5 player 2 arrive at about 2 Hz
         wait_for(lambda: len(gc.returns_from(5, 2)) >= 6, 15, what="six return packets")
         returns = gc.returns_from(5, 2)
-        assert all(r.address[0] == "127.0.0.1" and r.packet.message == 2 for r in returns)
+        assert all(r.address[0] == "127.0.0.1" and isinstance(r.packet, StatusPacket) for r in returns)
+        assert initial.version == 20 and initial.message_budget == 12_000
         span = returns[-1].time - returns[0].time
         rate = (len(returns) - 1) / span
         assert 1.0 <= rate <= 4.0, f"return packets at {rate:.2f} Hz"
         status = httpx.get(f"{api}/status", timeout=10).json()
         assert status["state"] == "FINISHED" and status["return_count"] >= 6
-        assert any(r["team"] == 5 and r["player"] == 2 and r["message"] == "ALIVE" for r in status["returns"])
+        assert any(r["team"] == 5 and r["player"] == 2 and r["message"] == "STATUS" and r["fallen"] == 255
+                   for r in status["returns"])
 
 
 def test_every_field_reaches_the_gamestate(node: GameControllerNode, watcher: GameStateWatcher,
@@ -183,7 +186,7 @@ def test_garbage_is_counted_and_the_node_keeps_working(node: GameControllerNode,
 
 def test_simulator_plays_both_halves_and_takes_manual_penalties() -> None:
     game = SimulatedGame(teams=(3, 4), players_per_team=2, initial_s=0.2, ready_s=0.2, set_s=0.2, half_s=1,
-                         half_time_s=0.2)
+                         half_time_s=0.2, version=12)
     nowhere = ("127.0.0.1", free_port(socket.SOCK_DGRAM))
     with SimulatedGameController(game, [nowhere], ("127.0.0.1", 0), rate_hz=10.0) as gc:
         assert gc.status()["teams"][0]["players"][2]["penalty"] == Penalty.SUBSTITUTE  # beyond playersPerTeam

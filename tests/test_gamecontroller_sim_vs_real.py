@@ -24,7 +24,7 @@ LINEUP = {"player_penalties", "goalkeeper"}
 
 
 def simulated(state: str, penalties: list[tuple[int, int, int]]) -> bytes:
-    game = SimulatedGame(teams=(2, 3), team_colors=(1, 0), players_per_team=6, auto_progress=False)
+    game = SimulatedGame(teams=(2, 3), team_colors=(1, 0), players_per_team=6, auto_progress=False, version=12)
     gc = SimulatedGameController(game, destinations=[], return_address=("127.0.0.1", 0))
     try:
         if state != "initial":

@@ -1,0 +1,84 @@
+"""The simulated GameController speaks HSL v20 by default (v19 and HL v12 on request) and counts each team's
+messages on UDP 10000 + team number against its budget, as the HSL GameController does."""
+
+from __future__ import annotations
+
+import socket
+
+import pytest
+
+from robot_nodes.game_controller.packets import HslPenalty, SetPlay, parse_state_packet
+from robot_nodes.game_controller.simulator import SimulatedGame, SimulatedGameController
+from tests.support import free_port
+from tests.waiting import wait_for
+
+
+def _gc(**game: object) -> SimulatedGameController:
+    return SimulatedGameController(SimulatedGame(teams=(3, 4), initial_s=0, auto_progress=False, **game),  # type: ignore[arg-type]
+                                   destinations=[], return_address=("127.0.0.1", 0))
+
+
+@pytest.mark.parametrize(("version", "size"), [(None, 158), (20, 158), (19, 198), (12, 688)])
+def test_packet_version_on_request(version: int | None, size: int) -> None:
+    gc = _gc() if version is None else _gc(version=version)
+    try:
+        raw = gc.tick()
+        assert len(raw) == size and parse_state_packet(raw).version == (version or 20)
+    finally:
+        gc.stop()
+
+
+def test_set_plays_and_penalties_in_v20() -> None:
+    gc = _gc()
+    try:
+        gc.set_state("playing")
+        gc.penalize(4, 2, seconds=30)  # the HL code "pickup or incapable" is HSL's pick-up
+        gc.set_play("throw_in", 3)
+        placing = parse_state_packet(gc.tick())
+        assert (placing.set_play, placing.kicking_team, placing.stopped) == (SetPlay.THROW_IN, 3, True)
+        gc.set_play("throw_in", 3)  # next sub-phase: robots may position
+        positioning = parse_state_packet(gc.tick())
+        assert (positioning.set_play, positioning.stopped) == (SetPlay.THROW_IN, False)
+        team = positioning.team(4)
+        assert team is not None and team.player(2).penalty == HslPenalty.PICK_UP  # type: ignore[union-attr]
+        assert team.player(5).penalty == HslPenalty.SUBSTITUTE  # type: ignore[union-attr]
+        assert team.message_budget == 12_000 and team.goalkeeper == 1
+    finally:
+        gc.stop()
+
+
+def test_team_messages_are_counted_against_the_budget() -> None:
+    base = free_port(socket.SOCK_DGRAM) - 3  # team 3's port is free; 10000 + team on a field
+    game = SimulatedGame(teams=(3, 4), initial_s=0, auto_progress=False, message_budget=3)
+    try:
+        gc = SimulatedGameController(game, destinations=[], return_address=("127.0.0.1", 0),
+                                     team_message_address="127.0.0.1", team_port_base=base)
+    except OSError:
+        pytest.skip("a team port next to a free one is taken")
+    try:
+        port = gc.team_message_port(3)
+        assert port == base + 3
+
+        def team3() -> dict[str, int]:
+            return next(t for t in gc.status()["teams"] if t["team"] == 3)
+
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as robot:
+            robot.sendto(b"m" * 100, ("127.0.0.1", port))  # INITIAL: not counted
+            wait_for(lambda: team3()["team_messages"] == 1, 10, what="message heard")
+            assert team3()["message_budget"] == 3
+            gc.set_state("playing")
+            for _ in range(2):
+                robot.sendto(b"m" * 512, ("127.0.0.1", port))
+            robot.sendto(b"m" * 513, ("127.0.0.1", port))  # too large: illegal
+            wait_for(lambda: team3()["team_messages"] == 4, 10, what="messages heard")
+            assert (team3()["message_budget"], team3()["illegal_messages"]) == (1, 1)
+            team = parse_state_packet(gc.tick()).team(3)
+            assert team is not None and team.message_budget == 1
+            robot.sendto(b"m", ("127.0.0.1", port))
+            robot.sendto(b"m", ("127.0.0.1", port))  # sent with budget 0: illegal
+            wait_for(lambda: team3()["team_messages"] == 6, 10, what="messages heard")
+            assert (team3()["message_budget"], team3()["illegal_messages"]) == (0, 2)
+        other = next(t for t in gc.status()["teams"] if t["team"] == 4)
+        assert (other["message_budget"], other["team_messages"]) == (3, 0)
+    finally:
+        gc.stop()
