@@ -1,6 +1,7 @@
 // Team overview: the robots grouped by team (the colour their GameController gives them), a card each in a grid:
 // number, role, HCM state, penalty with the seconds left, game state, battery, hottest servo, link health, and whom
-// it hears over team communication (age and loss of each teammate's messages). Its streams' table folds away when
+// it hears over team communication (age and loss of each teammate's messages, and how many messages a second it sends
+// itself); with an HSL GameController each team's heading shows the team messages it may still send. Its streams' table folds away when
 // the cards must be small (more than two robots).
 
 import { gameName, hcmName, hcmStateIsBad, hcmStateIsPenalty } from "../msgtypes.js";
@@ -36,6 +37,14 @@ export function robotFacts(store, robot) {
   const gameState = game ? game.game_state : (overview?.gamestate_known ? overview.game_state : undefined);
   const penalty = penaltyText(game) || (penalized ? "PENALIZED" : "");
   return { state, penalized, penalty, gameState, voltage, hottest };
+}
+
+/** What the robot sends over team communication: {rateHz, allowedHz} (allowedHz null: no budget to keep), null if
+ * its team_comm does not say (an older robot) or it has sent nothing in the last 10 s. */
+export function ownSending(store, robot) {
+  const status = store.get(robot, "team_comm")?.data;
+  if (!status || !(status.send_rate_hz > 0)) return null;
+  return { rateHz: status.send_rate_hz, allowedHz: status.budget_rate_hz >= 0 ? status.budget_rate_hz : null };
 }
 
 /** Whom the robot hears over team communication: [{mate, age, loss, received}] (its team_comm), null if unknown. */
@@ -78,7 +87,9 @@ export default {
       root.innerHTML = teams.map((team) => `<section class="team" data-team="${esc(team.name)}">
           <h4><span class="swatch" style="background:${esc(team.css)}"></span>${esc(team.name)}
           ${team.score === undefined ? "" : `<span class="team-score">${team.score}</span>`}
-          ${team.kickOff ? '<span class="badge">kick-off</span>' : ""}</h4>
+          ${team.kickOff ? '<span class="badge">kick-off</span>' : ""}
+          ${team.budget === undefined ? "" : `<span class="team-budget"
+            title="team messages left (the GameController's budget)">${team.budget.toLocaleString("en")} msgs left</span>`}</h4>
           <div class="cards">${team.robots.map((id) => card(id, infos.get(id), ids.length)).join("")}</div>
         </section>`).join("");
     }
@@ -139,8 +150,11 @@ export default {
         return `<span class="mate ${cls}" data-mate="${mate}" title="teammate #${mate}: newest message ${ageText} ago, ${
           loss.toFixed(0)} % of its messages missing">#${mate} ${ageText} ${loss.toFixed(0)}%</span>`;
       }).join("");
+      const own = ownSending(store, id);
+      const sends = own === null ? "" : `<span class="sends" title="team messages sent per second over the last 10 s${
+        own.allowedHz === null ? "" : `; the budget allows ${own.allowedHz.toFixed(2)}`}">sends ${own.rateHz.toFixed(1)}/s</span>`;
       return `<div class="hears" data-heard="${mates.length}"><span class="label">hears</span>${
-        chips || '<span class="mate bad">nobody</span>'}</div>`;
+        chips || '<span class="mate bad">nobody</span>'}${sends}</div>`;
     }
 
     const offs = [store.on("robots", render), store.on("focus", render)];
