@@ -151,8 +151,10 @@ def match_processes(plan: MatchPlan, endpoint: str, http_port: int, telemetry_po
 
 def main(argv: list[str] | None = None) -> None:
     parser = CommandParser(prog="pitchside match", description=__doc__)
-    parser.add_argument("--robots", default="2v2", help="robots per team: 1v1 .. 11v11 (default 2v2; 4v4 is the "
-                                                        "kid-size game)")
+    parser.add_argument("--robots", default=None, help="robots per team: 1v1 .. 11v11 (default 2v2)")
+    parser.add_argument("--players", type=int, default=None,
+                        help="robots per team, the same for both: 4 plays the HSL's Small Foundation (4 v 4), 7 its "
+                             "Small Advanced (7 v 7, a goalkeeper and six field players)")
     parser.add_argument("--half-minutes", type=float, default=10.0, help="length of a half (default 10)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the simulation's noise")
     parser.add_argument("--gamecontroller", choices=["sim", "external"], default="sim",
@@ -191,8 +193,11 @@ def main(argv: list[str] | None = None) -> None:
                              "simulated time: on a machine short of CPU their control then lags behind the physics "
                              "and they fall more, as robots with too slow a computer would")
     args = parser.parse_args(argv)
+    if args.players is not None and args.robots is not None:
+        parser.error("give --players N (N v N) or --robots NvM, not both")
+    robots_text = f"{args.players}v{args.players}" if args.players is not None else args.robots or "2v2"
     try:
-        lineup = Lineup.of((args.teams[0], args.teams[1]), parse_robots(args.robots))
+        lineup = Lineup.of((args.teams[0], args.teams[1]), parse_robots(robots_text))
         nodes = parse_nodes(args.nodes) if args.nodes else default_nodes()
         process_groups(nodes, args.compose)
     except (LineupError, ValueError) as exc:

@@ -18,7 +18,15 @@ import psutil
 import pytest
 
 from pitchside.local_run import BEHIND_THE_WORLD_NICE, ROBOTS_IN_MATCH_NICE
-from pitchside.match import GameControllerPlan, MatchPlan, default_nodes, match_processes, parse_nodes, robot_settings
+from pitchside.match import (
+    GameControllerPlan,
+    MatchPlan,
+    default_nodes,
+    match_processes,
+    parse_nodes,
+    robot_settings,
+)
+from pitchside.match import main as match_main
 from robot_nodes.cm730.sim.lineup import Lineup, LineupError, parse_robots
 from robot_nodes.game_controller.simulator import SimulatedGame, SimulatedGameController
 from robot_nodes.runtime.clock import SIM_TIME_ENV
@@ -143,6 +151,10 @@ def test_lineup_and_robot_settings() -> None:
         parse_nodes("cm730,hcm")
     with pytest.raises(ValueError, match="nosuchnode"):
         parse_nodes("hcm,nosuchnode")
+    for bad in (["--players", "7", "--robots", "2v2"], ["--players", "12"]):  # refused before anything starts
+        with pytest.raises(SystemExit) as exited:
+            match_main(bad)
+        assert exited.value.code == 2
 
 
 def test_the_world_waits_for_every_robot_unless_told_not_to() -> None:
