@@ -19,6 +19,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from robot_nodes.game_controller.monitor import parse_forwarded_status, parse_true_data
 from robot_nodes.game_controller.packets import (
     HSL_PACKET_SIZE,
     PACKET_SIZE,
@@ -173,6 +174,11 @@ def check_gc(data: bytes) -> None:
         if isinstance(status, StatusPacket) and all(math.isfinite(v) for v in (*status.pose_mm, *status.ball_mm,
                                                                                   status.ball_age_s)):
             assert build_status_packet(status) == data
+    for monitor_decoder in (parse_true_data, parse_forwarded_status):  # what a GameController monitor receives
+        try:
+            monitor_decoder(data)
+        except GameControllerPacketError as exc:
+            assert str(exc) and exc.kind in KINDS
 
 
 def check_mitecom(data: bytes) -> None:
