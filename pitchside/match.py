@@ -93,7 +93,7 @@ def robot_settings(team: Team, player: int, gc: GameControllerPlan, mitecom_port
         "head": field_side,
         "game_controller": ["--set", f"team_number={team.number}", "--set", f"player_number={player}",
                             "--set", f"listen_address={gc.listen_address}", "--set", f"listen_port={gc.port}",
-                            "--set", f"return_port={gc.return_port}"],
+                            "--set", f"return_port={gc.return_port}", *field_side],
         "mitecom": team_talk,
         "telemetry": telemetry_settings(telemetry_port, telemetry_key),
     }

@@ -69,6 +69,11 @@ def test_robot_status_in_mm_with_the_ball_age() -> None:
     s.on_robot_state(schemas.make(RobotControlState, state=RobotControlState.WALKING))
     assert s.packet(5, 2, now=13.0).fallen == 0
     assert (status_rate_hz(10.0), status_rate_hz(0.1), status_rate_hz(1.0)) == (2.0, 0.5, 1.0)
+    # a localization in the world's frame for a team that defends +x (the simulated match's away team)
+    away = RobotStatus(own_half="+x")
+    away.on_position(schemas.make(Position2D, pose=Pose2D(x=1.5, y=-0.8, theta=3.0), confidence=1.0))
+    pose = away.packet(6, 1, now=0.0).pose_mm
+    assert pose[:2] == pytest.approx((-1500.0, 800.0)) and pose[2] == pytest.approx(3.0 - 3.141592653589793)
 
 
 class RobotTopics(Node):

@@ -141,6 +141,7 @@ def test_lineup_and_robot_settings() -> None:
     # one field frame for both teams' stand-in localizations: the away team defends its +x half
     assert home2["behavior"] == home2["head"] == ["--set", "own_half=-x"]
     assert robot_settings(lineup.away, 1, sim, ports, 5800, None)["behavior"] == ["--set", "own_half=+x"]
+    assert "own_half=+x" in robot_settings(lineup.away, 1, sim, ports, 5800, None)["game_controller"]  # status pose
     external = GameControllerPlan("external", 3838, 3939, None)
     assert "listen_address=0.0.0.0" in robot_settings(lineup.away, 1, external, ports, 5800, None)["game_controller"]
     assert not any(a.startswith("peers=") for a in robot_settings(Lineup.of((1, 2), (1, 1)).home, 1, sim,

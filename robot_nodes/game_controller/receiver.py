@@ -40,6 +40,7 @@ from robot_nodes.game_controller.packets import (
     parse_state_packet,
 )
 from robot_nodes.game_controller.status import RobotStatus, status_rate_hz
+from robot_nodes.ground_pose import OWN_HALF_DOC, OWN_HALVES
 from robot_nodes.runtime import Node, header, param, run
 from robot_nodes.runtime.udp import UdpPort
 from schemas.messages import BallRelative, GameState, Position2D, RobotControlState
@@ -65,6 +66,7 @@ class GameControllerParams:
     return_rate_hz: float = param(2.0, range=(0.1, 10.0), doc="rate of ALIVE return packets to the GC")
     keepalive_hz: float = param(1.0, range=(0.1, 10.0), doc="republish an unchanged gamestate at this rate")
     gc_timeout_s: float = param(5.0, range=(0.5, 60.0), doc="after this silence the GC counts as lost")
+    own_half: str = param("-x", choices=OWN_HALVES, doc=OWN_HALF_DOC)
     whistle_hold_s: float = param(10.0, range=(0.0, 15.0),
                                   doc="a whistle heard in SET means PLAYING for up to this long while the GC still "
                                       "says SET (its delayed state); 0: only the GC's state counts")
@@ -180,7 +182,7 @@ class GameControllerNode(Node):
         self._idle()  # both timers wait for the first packet of a GameController
         self.subscribe("manual_penalty", self._on_manual_penalty)
         self.subscribe("whistle", self._on_whistle)
-        self.status = RobotStatus()  # what an HSL GameController's status packet says
+        self.status = RobotStatus(self.params.own_half)  # what an HSL GameController's status packet says
         self.subscribe("robot_state", self._on_robot_state)
         self.subscribe("position", self._on_position)
         self.subscribe("ball_relative", self._on_ball)
@@ -347,6 +349,8 @@ class GameControllerNode(Node):
     def on_parameters_changed(self, changed: dict[str, Any]) -> None:
         if "return_rate_hz" in changed:
             self._return_timer.set_rate(self._return_rate_hz())
+        if "own_half" in changed:
+            self.status.own_half = self.params.own_half
         if "whistle_hold_s" in changed:
             self.whistle.hold_s = self.params.whistle_hold_s
         if {"team_number", "player_number"} & set(changed):

@@ -2,13 +2,15 @@
 field frame (localization) and the ball it sees, with the ball's age.
 
 Kept apart from the receiver node so the arithmetic (metres -> mm, the age of the newest sighting) is one small
-thing with its own test. Position2D is already in the frame the packet wants: origin at the centre mark, +x
-towards the goal the robot attacks, +y to the left.
+thing with its own test. The packet wants the pose in the team's frame: origin at the centre mark, +x towards the
+goal the robot attacks, +y to the left; a localization whose `position` has the team defend +x (``own_half``,
+as the simulated match's stand-ins for the away team) is turned into it.
 """
 
 from __future__ import annotations
 
 from robot_nodes.game_controller.game_data import StatusPacket
+from robot_nodes.ground_pose import team_frame
 from schemas.messages import BallRelative, Position2D, RobotControlState
 
 # HCM states in which the robot is on the ground (GETTING_UP: still down until it stands)
@@ -20,7 +22,8 @@ STATUS_RATE_HZ = (0.5, 2.0)  # the HSL GameController's README: every robot betw
 class RobotStatus:
     """The newest HCM state, pose and ball sighting, and the status packet they make."""
 
-    def __init__(self) -> None:
+    def __init__(self, own_half: str = "-x") -> None:
+        self.own_half = own_half
         self.hcm_state: int | None = None
         self.pose: tuple[float, float, float] | None = None  # m, m, rad
         self.ball: tuple[float, float] | None = None  # m, relative to the robot
@@ -30,7 +33,7 @@ class RobotStatus:
         self.hcm_state = int(msg.state)
 
     def on_position(self, msg: Position2D) -> None:
-        self.pose = (float(msg.pose.x), float(msg.pose.y), float(msg.pose.theta))
+        self.pose = team_frame(float(msg.pose.x), float(msg.pose.y), float(msg.pose.theta), self.own_half)
 
     def on_ball(self, msg: BallRelative, now: float) -> None:
         """A sighting counts when its confidence is above 0 (the stand-ins say 0 when they see no ball)."""
