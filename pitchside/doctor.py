@@ -26,9 +26,9 @@ import yaml
 import zenoh
 
 import robots
-from robot_nodes.game_controller.packets import DATA_PORT, GameControllerPacketError, parse_state_packet
 from wire.bus import DEFAULT_ROUTER, BusConfig, env_endpoints
 from wire.command_line import CommandParser
+from wire.gamecontroller.packets import DATA_PORT, GameControllerPacketError, parse_state_packet
 from wire.keys import topic_key
 from wire.telemetry.datagram import DEV_KEY, key_fingerprint, load_key
 

@@ -30,11 +30,11 @@ from pitchside.local_run import (
 from pitchside.robot import MOTION_NODES, available, simulated_robots
 from robot_nodes.catalog import NODES
 from robot_nodes.cm730.sim.lineup import Lineup, LineupError, Team, parse_robots
-from robot_nodes.game_controller.packets import DATA_PORT, RETURN_PORT
 from robot_nodes.launch import COMPOSE_HELP, NodeProcess, RobotNodes, process_groups
 from robot_nodes.runtime.clock import LOCKSTEP, SIM_TIME_ENV
 from server.security.credentials import ENV_TOKEN, new_token
 from wire.command_line import CommandParser
+from wire.gamecontroller.packets import DATA_PORT, RETURN_PORT
 
 log = logging.getLogger("pitchside.match")
 # what every robot of a match runs (cm730: in the world's process); the behaviour's nodes join once they exist

@@ -9,7 +9,11 @@ from collections.abc import Iterator
 
 import pytest
 
-from robot_nodes.game_controller.packets import (
+from robot_nodes.game_controller.receiver import allowed_to_move
+from robot_nodes.game_controller.simulator import CommandError, SimulatedGame, SimulatedGameController
+from tests.support import free_port
+from tests.waiting import wait_for
+from wire.gamecontroller.packets import (
     GameControlData,
     GameStateValue,
     Penalty,
@@ -18,10 +22,6 @@ from robot_nodes.game_controller.packets import (
     build_return_packet,
     parse_state_packet,
 )
-from robot_nodes.game_controller.receiver import allowed_to_move
-from robot_nodes.game_controller.simulator import CommandError, SimulatedGame, SimulatedGameController
-from tests.support import free_port
-from tests.waiting import wait_for
 
 HOME, AWAY = 7, 9
 INITIAL, READY, SET, PLAYING, FINISHED = (GameStateValue.INITIAL, GameStateValue.READY, GameStateValue.SET,

@@ -10,14 +10,14 @@ import struct
 
 import pytest
 
-from robot_nodes.game_controller.packets import (
+from robot_nodes.game_controller.receiver import gamestate_fields
+from schemas.messages import GameState
+from wire.gamecontroller.packets import (
     GameControllerPacketError,
     build_state_packet,
     packet_version,
     parse_state_packet,
 )
-from robot_nodes.game_controller.receiver import gamestate_fields
-from schemas.messages import GameState
 
 # -- the spec's layout ----------------------------------------------------------------------------------------
 TOP = struct.Struct("<4s B B B B B B B B B B h h")  # header .. secondaryTime
@@ -191,7 +191,7 @@ def test_impossible_values_are_refused(offset: int, value: int, what: str) -> No
 
 
 def test_hl_v12_gets_the_hsl_view_derived() -> None:
-    from robot_nodes.game_controller.packets import GameControlData, RobotInfo, TeamInfo
+    from wire.gamecontroller.packets import GameControlData, RobotInfo, TeamInfo
     data = GameControlData(state=3, kick_off_team=5, secondary_state=8, secondary_state_info=(6, 1, 0, 0),
                            teams=(TeamInfo(5, 0, players=(RobotInfo(goalkeeper=True), RobotInfo(penalty=34))),
                                   TeamInfo(6, 1)))

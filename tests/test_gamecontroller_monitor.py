@@ -12,16 +12,16 @@ from collections.abc import Iterator
 
 import pytest
 
-from robot_nodes.game_controller.monitor import (
+from tests.support import free_port
+from tests.test_gamecontroller_hsl import spec_packet
+from tests.waiting import wait_for
+from wire.gamecontroller.monitor import (
     MONITOR_REQUEST,
     GameControllerMonitor,
     parse_forwarded_status,
     parse_true_data,
 )
-from robot_nodes.game_controller.packets import GameControllerPacketError, StatusPacket, build_status_packet
-from tests.support import free_port
-from tests.test_gamecontroller_hsl import spec_packet
-from tests.waiting import wait_for
+from wire.gamecontroller.packets import GameControllerPacketError, StatusPacket, build_status_packet
 
 MONITOR_HOST, ROBOT_HOST, GC_HOST = "127.0.0.2", "127.0.0.3", "127.0.0.1"
 

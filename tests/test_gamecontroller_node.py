@@ -11,7 +11,12 @@ import httpx
 import pytest
 
 import schemas
-from robot_nodes.game_controller.packets import (
+from robot_nodes.game_controller.receiver import GameControllerNode, gamestate_fields
+from robot_nodes.game_controller.simulator import SimulatedGame, SimulatedGameController
+from robot_nodes.runtime import BusConfig, Node
+from tests.support import free_port
+from tests.waiting import wait_for
+from wire.gamecontroller.packets import (
     GameControlData,
     Penalty,
     RobotInfo,
@@ -20,11 +25,6 @@ from robot_nodes.game_controller.packets import (
     build_state_packet,
     parse_state_packet,
 )
-from robot_nodes.game_controller.receiver import GameControllerNode, gamestate_fields
-from robot_nodes.game_controller.simulator import SimulatedGame, SimulatedGameController
-from robot_nodes.runtime import BusConfig, Node
-from tests.support import free_port
-from tests.waiting import wait_for
 
 ROBOT = "gc_robot"
 

@@ -7,7 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from robot_nodes.game_controller.packets import (
+from robot_nodes.game_controller.receiver import gamestate_fields
+from wire.gamecontroller.packets import (
     PACKET_SIZE,
     PACKET_SIZE_2018,
     GameControlData,
@@ -21,7 +22,6 @@ from robot_nodes.game_controller.packets import (
     parse_return_packet,
     parse_state_packet,
 )
-from robot_nodes.game_controller.receiver import gamestate_fields
 
 # What EXPECTED.md says each capture must decode to (written out, so a failing row names itself).
 # (state, secondary state, secondary info, secs remaining, secondary time, {team: score},

@@ -7,10 +7,10 @@ import socket
 
 import pytest
 
-from robot_nodes.game_controller.packets import HslPenalty, SetPlay, parse_state_packet
 from robot_nodes.game_controller.simulator import SimulatedGame, SimulatedGameController
 from tests.support import free_port
 from tests.waiting import wait_for
+from wire.gamecontroller.packets import HslPenalty, SetPlay, parse_state_packet
 
 
 def _gc(**game: object) -> SimulatedGameController:

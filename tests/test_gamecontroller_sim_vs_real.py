@@ -11,9 +11,9 @@ from typing import Any
 
 import pytest
 
-from robot_nodes.game_controller.packets import parse_state_packet
 from robot_nodes.game_controller.receiver import gamestate_fields
 from robot_nodes.game_controller.simulator import SimulatedGame, SimulatedGameController
+from wire.gamecontroller.packets import parse_state_packet
 
 # these follow the clocks, which a simulation started now cannot share with a capture
 CLOCKS = {"seconds_remaining", "secondary_seconds_remaining", "seconds_till_unpenalized",

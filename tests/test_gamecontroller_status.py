@@ -10,13 +10,6 @@ from collections.abc import Iterator
 import pytest
 
 import schemas
-from robot_nodes.game_controller.packets import (
-    GameControllerPacketError,
-    StatusPacket,
-    build_status_packet,
-    parse_any_return_packet,
-    parse_status_packet,
-)
 from robot_nodes.game_controller.receiver import GameControllerNode
 from robot_nodes.game_controller.status import RobotStatus, status_rate_hz
 from robot_nodes.runtime import BusConfig, Node
@@ -25,6 +18,13 @@ from schemas.std import Point, Pose2D
 from tests.support import free_port
 from tests.test_gamecontroller_hsl import spec_packet
 from tests.waiting import wait_for
+from wire.gamecontroller.packets import (
+    GameControllerPacketError,
+    StatusPacket,
+    build_status_packet,
+    parse_any_return_packet,
+    parse_status_packet,
+)
 
 # spec 4.2: header, version, playerNum, teamNum, fallen, pose[3], ballAge, ball[2]
 SPEC_STATUS = struct.Struct("<4s B B B B f f f f f f")
@@ -132,8 +132,8 @@ def test_node_answers_an_hsl_gamecontroller_with_status_packets(bus: BusConfig,
 
 def test_whistle_starts_playing_ahead_of_the_delayed_gamecontroller() -> None:
     from robot_nodes.game_controller.fake_state import WhistleStart
-    from robot_nodes.game_controller.packets import parse_state_packet
     from robot_nodes.game_controller.receiver import gamestate_fields
+    from wire.gamecontroller.packets import parse_state_packet
 
     def told(state: int, **extra: int) -> dict[str, object]:
         f = gamestate_fields(parse_state_packet(spec_packet(state=state, **extra)), 13, 2)  # type: ignore[arg-type]

@@ -11,13 +11,13 @@ from typing import Any
 import pytest
 
 import schemas
-from robot_nodes.game_controller.packets import Penalty, ReturnMessage
 from robot_nodes.game_controller.receiver import GameControllerNode
 from robot_nodes.game_controller.simulator import SimulatedGame, SimulatedGameController
 from robot_nodes.hcm.pause import PauseNode
 from robot_nodes.runtime import BusConfig, Node, open_session
 from tests.support import free_port
 from tests.waiting import wait_for
+from wire.gamecontroller.packets import Penalty, ReturnMessage
 from wire.services import call_service
 
 LOOPBACK_BROADCAST = "127.255.255.255"

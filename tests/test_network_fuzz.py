@@ -19,8 +19,13 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from robot_nodes.game_controller.monitor import parse_forwarded_status, parse_true_data
-from robot_nodes.game_controller.packets import (
+from robot_nodes.mitecom import codec, protobuf_codec
+from robot_nodes.mitecom import team_message_pb2 as pb
+from robot_nodes.mitecom.codec import MitecomError
+from robot_nodes.mitecom.protobuf_codec import TeamMessageError
+from tests.support import TESTDATA
+from wire.gamecontroller.monitor import parse_forwarded_status, parse_true_data
+from wire.gamecontroller.packets import (
     HSL_PACKET_SIZE,
     PACKET_SIZE,
     PACKET_SIZE_2018,
@@ -33,11 +38,6 @@ from robot_nodes.game_controller.packets import (
     parse_return_packet,
     parse_state_packet,
 )
-from robot_nodes.mitecom import codec, protobuf_codec
-from robot_nodes.mitecom import team_message_pb2 as pb
-from robot_nodes.mitecom.codec import MitecomError
-from robot_nodes.mitecom.protobuf_codec import TeamMessageError
-from tests.support import TESTDATA
 
 FAST_EXAMPLES = 500
 SLOW_EXAMPLES = 34_000  # per strategy; three strategies per decoder -> 102,000 inputs each

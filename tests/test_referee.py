@@ -19,7 +19,10 @@ from robot_nodes.cm730.sim.lineup import Lineup
 from robot_nodes.cm730.sim.placements import lineup_start
 from robot_nodes.cm730.sim.referee import TEAM_COLOURS, Call, Referee, RefereeRules
 from robot_nodes.game_controller.listener import GameControllerListener
-from robot_nodes.game_controller.packets import (
+from robot_nodes.game_controller.simulator import SimulatedGame, SimulatedGameController
+from tests.support import free_port
+from tests.waiting import wait_for
+from wire.gamecontroller.packets import (
     GameControlData,
     GameStateValue,
     Penalty,
@@ -27,9 +30,6 @@ from robot_nodes.game_controller.packets import (
     TeamInfo,
     build_state_packet,
 )
-from robot_nodes.game_controller.simulator import SimulatedGame, SimulatedGameController
-from tests.support import free_port
-from tests.waiting import wait_for
 
 HOME, AWAY = 3, 7
 PLAYING = GameStateValue.PLAYING

@@ -14,7 +14,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from robot_nodes.game_controller.game_data import GameStateValue
+from wire.gamecontroller.game_data import GameStateValue
 
 HOLD_S = 10.0  # the HSL GameController's README: the previous state for up to 10 s
 

@@ -30,7 +30,10 @@ from dataclasses import dataclass, field
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from typing import Any
 
-from robot_nodes.game_controller.packets import (
+from robot_nodes.mitecom.budget import HSL_MAX_PAYLOAD, HSL_TEAM_PORT_BASE
+from robot_nodes.runtime.udp import UdpPort
+from wire.command_line import CommandParser
+from wire.gamecontroller.packets import (
     DATA_PORT,
     HL_VERSION,
     HSL_NAMES,
@@ -52,9 +55,6 @@ from robot_nodes.game_controller.packets import (
     hl_to_hsl,
     parse_any_return_packet,
 )
-from robot_nodes.mitecom.budget import HSL_MAX_PAYLOAD, HSL_TEAM_PORT_BASE
-from robot_nodes.runtime.udp import UdpPort
-from wire.command_line import CommandParser
 
 log = logging.getLogger("pitchside.gc_simulator")
 

@@ -9,9 +9,9 @@ as the simulated match's stand-ins for the away team) is turned into it.
 
 from __future__ import annotations
 
-from robot_nodes.game_controller.game_data import StatusPacket
 from robot_nodes.ground_pose import team_frame
 from schemas.messages import BallRelative, Position2D, RobotControlState
+from wire.gamecontroller.game_data import StatusPacket
 
 # HCM states in which the robot is on the ground (GETTING_UP: still down until it stands)
 FALLEN_STATES = frozenset({RobotControlState.FALLING, RobotControlState.FALLEN, RobotControlState.GETTING_UP})

@@ -20,11 +20,11 @@ from robot_nodes.cm730.sim.lineup import Lineup, LineupError, parse_robots
 from robot_nodes.cm730.sim.placements import lineup_start
 from robot_nodes.cm730.sim.referee import LoggingWhistle, Referee, RefereeRules
 from robot_nodes.game_controller.listener import GameControllerListener
-from robot_nodes.game_controller.packets import DATA_PORT, RETURN_PORT
 from robot_nodes.game_controller.simulator import SimulatedGame, SimulatedGameController
 from robot_nodes.runtime.node import parse_overrides
 from wire.bus import add_bus_arguments, bus_from_arguments
 from wire.command_line import CommandParser
+from wire.gamecontroller.packets import DATA_PORT, RETURN_PORT
 from wire.heap import freeze_startup_heap
 
 log = logging.getLogger("pitchside.match_world")

@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 import struct
 
-from robot_nodes.game_controller.game_data import (
+from wire.gamecontroller.game_data import (
     HSL_MAX_NUM_PLAYERS,
     HSL_VERSION,
     HSL_VERSION_19,

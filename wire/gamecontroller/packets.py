@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import struct
 
-from robot_nodes.game_controller import hsl
-from robot_nodes.game_controller.game_data import (
+from wire.gamecontroller import hsl
+from wire.gamecontroller.game_data import (
     DROPBALL_TEAMS,
     HL_VERSION,
     HSL_VERSION,

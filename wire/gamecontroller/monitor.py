@@ -11,16 +11,18 @@ sender's IPv4 address (4 bytes), unvalidated. It refuses monitor requests from h
 
 from __future__ import annotations
 
+import contextlib
 import ipaddress
 import logging
+import socket
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
-from robot_nodes.game_controller.game_data import GameControlData, GameControllerPacketError, StatusPacket
-from robot_nodes.game_controller.hsl import parse_status_packet
-from robot_nodes.game_controller.packets import STATE_HEADER, parse_state_packet
-from robot_nodes.runtime.udp import UdpPort
+from wire.gamecontroller.game_data import GameControlData, GameControllerPacketError, StatusPacket
+from wire.gamecontroller.hsl import parse_status_packet
+from wire.gamecontroller.packets import STATE_HEADER, parse_state_packet
 
 log = logging.getLogger("pitchside.gc_monitor")
 
@@ -47,6 +49,46 @@ def parse_forwarded_status(data: bytes | bytearray | memoryview) -> tuple[str, S
     if len(data) < 4:
         raise GameControllerPacketError(f"forwarded status packet too short: {len(data)} bytes", "truncated")
     return str(ipaddress.IPv4Address(data[:4])), parse_status_packet(data[4:])
+
+
+class _Listener:
+    """A bound UDP socket and the thread that reads it (the monitor stands below the nodes' runtime)."""
+
+    def __init__(self, host: str, port: int, handler: Callable[[bytes, tuple[str, int]], None], name: str) -> None:
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)  # beside a team-communication monitor
+        try:
+            self.sock.bind((host, port))
+        except OSError:
+            self.sock.close()
+            raise
+        self._handler = handler
+        self._closed = threading.Event()
+        self._thread = threading.Thread(target=self._read, name=name, daemon=True)
+        self._thread.start()
+
+    @property
+    def port(self) -> int:
+        return int(self.sock.getsockname()[1])
+
+    def sendto(self, data: bytes, address: tuple[str, int]) -> None:
+        self.sock.sendto(data, address)
+
+    def _read(self) -> None:
+        while not self._closed.is_set():
+            try:
+                data, addr = self.sock.recvfrom(2048)
+            except OSError:
+                return
+            if not self._closed.is_set() and data:
+                self._handler(data, addr)
+
+    def close(self) -> None:
+        self._closed.set()
+        with contextlib.suppress(OSError):  # wakes the reader
+            self.sock.shutdown(socket.SHUT_RDWR)
+        self._thread.join(2.0)
+        self.sock.close()
 
 
 @dataclass
@@ -82,11 +124,9 @@ class GameControllerMonitor:
         self._lock = threading.Lock()
         self._latest: GameControlData | None = None
         self._stop = threading.Event()
-        self._data = UdpPort(listen_address, data_port, self._on_true_data, recv_size=2048, name="gc-monitor-data",
-                             reuse_address=True)
+        self._data = _Listener(listen_address, data_port, self._on_true_data, "gc-monitor-data")
         try:
-            self._forward = UdpPort(listen_address, forward_port, self._on_forwarded, recv_size=2048,
-                                    name="gc-monitor-status", reuse_address=True)
+            self._forward = _Listener(listen_address, forward_port, self._on_forwarded, "gc-monitor-status")
         except OSError:
             self._data.close()
             raise
