@@ -5,10 +5,12 @@ robot's status packet forwarded on its port 3940 behind the robot's IPv4 address
 
 from __future__ import annotations
 
+import math
 import socket
 import struct
 import threading
 from collections.abc import Iterator
+from pathlib import Path
 
 import pytest
 
@@ -124,3 +126,48 @@ def test_monitor_packets_decode_and_refuse() -> None:
         with pytest.raises(GameControllerPacketError):
             parse_forwarded_status(bad)
     assert struct.unpack_from("<f", status, 20)[0] == -1.0  # a ball never seen
+
+
+def test_the_dashboard_shows_both_teams_as_the_monitor_sees_them(fake_gc: FakeHslGameController,
+                                                                 tmp_path: Path) -> None:
+    """pitchside serve --gc-monitor HOST, in match mode: each robot that sends a status appears as gc<team>-<player>
+    with the true gamestate, its position on the field view (the second team turned half round), fallen, ball."""
+    from fastapi.testclient import TestClient
+
+    from server.app import create_app
+    from server.config import ServerConfig
+    data_port, forward_port = fake_gc.ports
+    config = ServerConfig(match_mode=True, allow_dev_key=True, live_source=False, telemetry_source=False,
+                          recordings_dir=tmp_path,
+                          foxglove_port=None, gc_monitor=GC_HOST,
+                          gc_monitor_ports=(fake_gc.requests.getsockname()[1], data_port, forward_port))
+    app = create_app(config)
+    hub = app.state.pitchside.hub
+    truth = spec_packet(state=3, own_budget=10_500, rival_budget=11_200)  # teams: 13 (first), 7 (second)
+    statuses = {(13, 3): StatusPacket(13, 3, 1, (-1500.0, 750.0, 0.5), 0.5, (250.0, -500.0)),
+                (7, 2): StatusPacket(7, 2, 0, (1000.0, 500.0, 0.0), -1.0, (0.0, 0.0))}
+    with TestClient(app, base_url="http://127.0.0.1", headers={"Authorization": f"Bearer {config.token}"}) as http, \
+            socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as robot:
+        robot.bind((ROBOT_HOST, 0))
+        wait_for(lambda: fake_gc.monitors, 10, what="the dashboard registered as a monitor")
+
+        def tell() -> object:
+            fake_gc.send_true_state(truth)
+            for status in statuses.values():
+                robot.sendto(build_status_packet(status), fake_gc.status.getsockname())
+            return all((r, t) in hub.latest for r in ("gc13-3", "gc7-2") for t in ("gamestate", "position"))
+
+        wait_for(tell, 10, interval=0.2, what="both robots on the dashboard")
+        first, second = hub.latest[("gc13-3", "position")].data.pose, hub.latest[("gc7-2", "position")].data.pose
+        assert (first.x, first.y, first.theta) == pytest.approx((-1.5, 0.75, 0.5))
+        assert (second.x, second.y) == pytest.approx((-1.0, -0.5)) and abs(second.theta) == pytest.approx(math.pi)
+        game = hub.latest[("gc13-3", "gamestate")].data
+        assert (game.version, game.game_state, game.message_budget, game.rival_message_budget) == (20, 3, 10_500,
+                                                                                                   11_200)
+        assert hub.latest[("gc7-2", "gamestate")].data.message_budget == 11_200
+        assert hub.latest[("gc13-3", "robot_state")].data.state == 2  # FALLEN
+        ball = hub.latest[("gc13-3", "ball_relative")].data.ball_relative
+        assert (ball.x, ball.y) == pytest.approx((0.25, -0.5))
+        assert ("gc7-2", "ball_relative") not in hub.latest  # it never saw the ball
+        status = next(s for s in http.get("/api/sources").json() if s["name"] == "gc_monitor")
+        assert status["running"] and status["robots"] == 2 and status["true_packets"] >= 1
