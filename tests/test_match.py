@@ -138,6 +138,11 @@ def test_lineup_and_robot_settings() -> None:
     assert "listen_address=127.255.255.255" in home2["game_controller"]  # hears the loopback broadcast only
     assert "team_number=5" in home2["game_controller"] and "player_number=2" in home2["game_controller"]
     assert "peers=127.0.0.1:4000,127.0.0.1:4002" in home2["mitecom"] and "port=4001" in home2["mitecom"]
+    # with the simulated GameController counting them: HSL team messages, broadcast on loopback to the team's port
+    hsl = GameControllerPlan("sim", 3838, 3939, 8038, {5: 6005, 9: 6009})
+    away1 = robot_settings(lineup.away, 1, hsl, ports, 5800, None, half_s=120)["mitecom"]
+    assert {"hsl=true", "team_port=6009", "broadcast_address=127.255.255.255", "half_s=120"} <= set(away1)
+    assert not any(a.startswith("peers=") for a in away1)
     # one field frame for both teams' stand-in localizations: the away team defends its +x half
     assert home2["behavior"] == home2["head"] == ["--set", "own_half=-x"]
     assert robot_settings(lineup.away, 1, sim, ports, 5800, None)["behavior"] == ["--set", "own_half=+x"]
@@ -250,6 +255,11 @@ def test_a_match_plays_both_halves_under_the_gamecontroller_and_records_them(tmp
         status = httpx.get(f"{api}/status", timeout=10).json()
         answered = {(r["team"], r["player"]) for r in status["returns"]}
         assert status["return_count"] > 20 and answered == {(1, 1), (1, 2), (2, 1), (2, 2)}
+        # HSL v20 and the team messages the HSL way: broadcast to each team's port, counted against its budget
+        assert status["version"] == 20
+        for team in status["teams"]:
+            assert team["team_messages"] > 0 and team["illegal_messages"] == 0, team
+            assert 0 < team["message_budget"] < 12_000, team
         output = match.output()
         # the referee is in the world; what it calls depends on the play (tests/test_referee.py judges each call)
         assert "refereed by the simulated GameController" in output

@@ -133,7 +133,7 @@ class SimulatedGameController:
         rate_hz: float = 2.0,
         clock: Callable[[], float] = time.monotonic,
         team_message_address: str | None = None,
-        team_port_base: int = HSL_TEAM_PORT_BASE,
+        team_message_ports: dict[int, int] | None = None,
     ) -> None:
         self.game = game or SimulatedGame()
         if len(set(self.game.teams)) != 2:
@@ -182,7 +182,8 @@ class SimulatedGameController:
             for team in (self._teams if team_message_address is not None else []):
                 assert team_message_address is not None
                 self._team_ports.append(UdpPort(
-                    team_message_address, team_port_base + team.number, self._team_message_handler(team),
+                    team_message_address, (team_message_ports or {}).get(team.number, HSL_TEAM_PORT_BASE + team.number),
+                    self._team_message_handler(team),
                     recv_size=65535, name=f"gc-sim-team-{team.number}", reuse_address=True))
         except OSError:
             self.stop()

@@ -58,6 +58,8 @@ class MitecomParams:
                                    doc="team_comm: a teammate silent this long is no longer listed")
     hsl: bool = param(False, doc="HSL team communication: broadcast to and listen on UDP 10000 + team_id (port, "
                                  "peers and broadcast are then not used), payloads of at most 512 bytes")
+    team_port: int = param(0, range=(0, 65535), doc="with hsl: the UDP port of the team's messages (0: 10000 + "
+                                                    "team_id, as on a field; a match on one machine picks free ones)")
     broadcast_address: str = param("255.255.255.255", doc="where HSL team messages go (the field network's "
                                                            "broadcast address)")
     half_s: float = param(600.0, range=(10.0, 3600.0), doc="length of a half: the GameController's message "
@@ -218,7 +220,9 @@ class MitecomNode(Node):
     @property
     def listen_port(self) -> int:
         """The port team messages arrive on: 10000 + team_id with hsl, else ``port``."""
-        return team_port(self.params.team_id) if self.params.hsl else self.params.port
+        if not self.params.hsl:
+            return self.params.port
+        return self.params.team_port or team_port(self.params.team_id)
 
     def _update_destinations(self) -> None:
         if self.params.hsl:
@@ -334,14 +338,17 @@ class MitecomNode(Node):
         now = self.now()
         self.links = {rid: link for rid, link in self.links.items() if now - link.newest <= p.status_memory_s}
         ids = sorted(self.links)
+        # teammates keep the same budget: they send no faster than it allows this robot, which is no loss
+        allowed = self.budget.allowed_rate_hz
+        expected_hz = p.send_rate_hz if allowed is None else max(0.01, min(p.send_rate_hz, allowed))
         for rid in ids:
             self.links[rid].forget(now, p.loss_window_s)
         self.team_comm_pub.publish(schemas.make(
             TeamCommStatus, header=header(), team_id=p.team_id, player_id=min(p.player_id, 255), mate_ids=ids,
             age=[now - self.links[rid].newest for rid in ids],
             received=[min(len(self.links[rid].arrivals), 65535) for rid in ids],
-            loss_pct=[self.links[rid].loss_pct(now, p.loss_window_s, p.send_rate_hz) for rid in ids],
-            window_s=p.loss_window_s, expected_rate_hz=p.send_rate_hz, memory_s=p.status_memory_s,
+            loss_pct=[self.links[rid].loss_pct(now, p.loss_window_s, expected_hz) for rid in ids],
+            window_s=p.loss_window_s, expected_rate_hz=expected_hz, memory_s=p.status_memory_s,
             send_rate_hz=self.budget.send_rate_hz(now), message_budget=min(self.budget.budget_left, BUDGET_UNKNOWN),
             budget_rate_hz=-1.0 if self.budget.allowed_rate_hz is None else self.budget.allowed_rate_hz))
 
@@ -351,9 +358,9 @@ class MitecomNode(Node):
             self._send_timer.set_rate(self.params.send_rate_hz)
         if {"half_s", "budget_reserve"} & set(changed):
             self.budget.half_s, self.budget.reserve = self.params.half_s, self.params.budget_reserve
-        if {"peers", "port", "broadcast", "hsl", "broadcast_address", "team_id"} & set(changed):
+        if {"peers", "port", "broadcast", "hsl", "broadcast_address", "team_id", "team_port"} & set(changed):
             self._update_destinations()
-        if {"listen_address", "port", "hsl", "team_id"} & set(changed):
+        if {"listen_address", "port", "hsl", "team_id", "team_port"} & set(changed):
             self._close_socket()
             try:
                 self._open_socket()
