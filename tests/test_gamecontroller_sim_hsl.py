@@ -79,3 +79,28 @@ def test_team_messages_are_counted_against_the_budget() -> None:
         assert (other["message_budget"], other["team_messages"]) == (3, 0)
     finally:
         gc.stop()
+
+
+def test_a_set_play_in_v20_stopped_while_the_ball_is_placed_then_on_the_clock() -> None:
+    """The referee's corner kick as robots see it: stopped while the ball is placed, then the kicking team's set play
+    on the secondary clock, then none (the simulated flow: 2 s placing, 15 s positioning, 1 s freeze)."""
+    now = [0.0]
+    game = SimulatedGame(teams=(3, 4), initial_s=0, auto_progress=True, set_play_place_s=2.0,
+                         set_play_position_s=15.0, set_play_freeze_s=1.0)
+    gc = SimulatedGameController(game, destinations=[], return_address=("127.0.0.1", 0), clock=lambda: now[0])
+    try:
+        gc.set_state("playing")
+        gc.set_play("corner_kick", 4)
+        seen = []
+        for _ in range(44):
+            p = parse_state_packet(gc.tick())
+            seen.append((p.set_play, p.kicking_team if p.set_play else None, p.stopped, p.secondary_time))
+            now[0] += 0.5
+        placing, positioning, frozen, after = seen[1], seen[6], seen[34], seen[-1]
+        assert placing[:3] == (SetPlay.CORNER_KICK, 4, True)
+        assert positioning[:3] == (SetPlay.CORNER_KICK, 4, False) and 10 <= positioning[3] <= 15
+        assert frozen[:3] == (SetPlay.CORNER_KICK, 4, True)
+        assert after[:3] == (SetPlay.NONE, None, False)
+        assert [s[2] for s in seen].count(True) >= 4 + 2  # 2 s and 1 s of stopped at 2 Hz
+    finally:
+        gc.stop()
