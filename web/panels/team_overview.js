@@ -1,8 +1,8 @@
 // Team overview: the robots grouped by team (the colour their GameController gives them), a card each in a grid:
 // number, role, HCM state, penalty with the seconds left, game state, battery, hottest servo, link health, and whom
 // it hears over team communication (age and loss of each teammate's messages, and how many messages a second it sends
-// itself); with an HSL GameController each team's heading shows the team messages it may still send. Its streams' table folds away when
-// the cards must be small (more than two robots).
+// itself); with an HSL GameController each team's heading shows the team messages it may still send. Its streams'
+// table folds away when the cards must be small (more than two robots).
 
 import { gameName, hcmName, hcmStateIsBad, hcmStateIsPenalty } from "../msgtypes.js";
 import { esc } from "../dom.js";
@@ -15,6 +15,7 @@ const EVENT_TITLE = "sent only when something happens: silence is normal";
 const OPEN_STREAMS_UP_TO = 2; // robots: with more, each card's streams table starts folded
 const MATE_STALE_S = 2; // a teammate not heard this long is shown stale (the mitecom node's teammate timeout)
 const MATE_LOSS_WARN = 20; // % of its messages missing
+const BUDGET_TITLE = "team messages left (the GameController's budget)";
 
 /** The card's facts from whatever arrived: full topics (live) or the compact overview (telemetry). */
 export function robotFacts(store, robot) {
@@ -88,8 +89,8 @@ export default {
           <h4><span class="swatch" style="background:${esc(team.css)}"></span>${esc(team.name)}
           ${team.score === undefined ? "" : `<span class="team-score">${team.score}</span>`}
           ${team.kickOff ? '<span class="badge">kick-off</span>' : ""}
-          ${team.budget === undefined ? "" : `<span class="team-budget"
-            title="team messages left (the GameController's budget)">${team.budget.toLocaleString("en")} msgs left</span>`}</h4>
+          ${team.budget === undefined ? "" : `<span class="team-budget" title="${BUDGET_TITLE}">${
+            team.budget.toLocaleString("en")} msgs left</span>`}</h4>
           <div class="cards">${team.robots.map((id) => card(id, infos.get(id), ids.length)).join("")}</div>
         </section>`).join("");
     }
@@ -151,8 +152,9 @@ export default {
           loss.toFixed(0)} % of its messages missing">#${mate} ${ageText} ${loss.toFixed(0)}%</span>`;
       }).join("");
       const own = ownSending(store, id);
+      const allows = own === null || own.allowedHz === null ? "" : `; the budget allows ${own.allowedHz.toFixed(2)}`;
       const sends = own === null ? "" : `<span class="sends" title="team messages sent per second over the last 10 s${
-        own.allowedHz === null ? "" : `; the budget allows ${own.allowedHz.toFixed(2)}`}">sends ${own.rateHz.toFixed(1)}/s</span>`;
+        allows}">sends ${own.rateHz.toFixed(1)}/s</span>`;
       return `<div class="hears" data-heard="${mates.length}"><span class="label">hears</span>${
         chips || '<span class="mate bad">nobody</span>'}${sends}</div>`;
     }
