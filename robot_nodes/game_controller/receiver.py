@@ -159,8 +159,8 @@ class GameControllerNode(Node):
         gc_state = self._gc_fields["game_state"] if self._gc_fields is not None else None
         if self.whistle.on_whistle(self.now(), gc_state) and self._gc_fields is not None:
             self._tell(self._gc_fields)
-        self.set_diagnostic("whistles_heard", self.whistles_heard + 1)
         self.whistles_heard += 1
+        self.set_diagnostic("whistles_heard", self.whistles_heard)
 
     def _publish(self) -> None:
         if self._last_fields is None:
