@@ -4,6 +4,7 @@ messages on UDP 10000 + team number against its budget, as the HSL GameControlle
 from __future__ import annotations
 
 import socket
+import time
 
 import pytest
 
@@ -104,3 +105,42 @@ def test_a_set_play_in_v20_stopped_while_the_ball_is_placed_then_on_the_clock() 
         assert [s[2] for s in seen].count(True) >= 4 + 2  # 2 s and 1 s of stopped at 2 Hz
     finally:
         gc.stop()
+
+
+class _Robot:
+    """A socket the simulated GameController sends to; each packet with the time it came."""
+
+    def __init__(self) -> None:
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.sock.bind(("127.0.0.1", 0))
+        self.sock.settimeout(5.0)
+        self.port = self.sock.getsockname()[1]
+
+    def next_packet(self) -> tuple[float, object]:
+        data, _ = self.sock.recvfrom(2048)
+        return time.monotonic(), parse_state_packet(data)
+
+
+@pytest.mark.parametrize("version", [20, 12])
+def test_sent_at_once_after_a_command_and_at_5_hz_while_stopped(version: int) -> None:
+    """HSL: a change goes out at once, and packets come at 5 Hz while play is stopped; HL v12 keeps its period.
+    The period here is 2 s (rate 0.5 Hz), so at once and at 5 Hz stand far from it."""
+    robot = _Robot()
+    game = SimulatedGame(teams=(3, 4), initial_s=0, auto_progress=False, version=version)
+    with SimulatedGameController(game, [("127.0.0.1", robot.port)], ("127.0.0.1", 0), rate_hz=0.5) as gc:
+        robot.next_packet()  # the first, at start
+        asked = time.monotonic()
+        gc.set_state("playing")
+        got: list[tuple[float, object]] = []
+        while not got or got[-1][1].state != 3:  # type: ignore[attr-defined]
+            got.append(robot.next_packet())
+        if version == 12:
+            following = robot.next_packet()
+            assert following[0] - got[-1][0] > 1.5, "HL: the change comes with the next packet, the period kept"
+            return
+        assert got[-1][0] - asked < 1.0, "HSL: the change at once"
+        gc.set_play("throw_in", 3)  # no auto progress: the ball is being placed until told
+        stopped = [robot.next_packet() for _ in range(6)]
+        assert all(p.stopped for _, p in stopped[1:])  # type: ignore[attr-defined]
+        span = stopped[-1][0] - stopped[1][0]
+        assert span < 2.0, f"4 periods while stopped took {span:.2f} s (5 Hz: 0.8 s; 0.5 Hz would be 8 s)"

@@ -61,6 +61,7 @@ log = logging.getLogger("pitchside.gc_simulator")
 # the sub-phases of a set play (secondaryStateInfo[1]): robots freeze while the referee places the ball, then
 # may position, then freeze while illegally placed robots are removed; then play goes on (NORMAL)
 PLACE_BALL, POSITIONING, REMOVE_ILLEGAL = 0, 1, 2
+STOPPED_RATE_HZ = 5.0  # the HSL GameController while play is stopped
 BALL_FREE_S = 10  # after a kick-off, the secondary clock counts the seconds until the ball is free (as the HL GC)
 
 
@@ -173,6 +174,8 @@ class SimulatedGameController:
         self._kicked_off_at: float | None = None  # PLAYING after a kick-off: when (the ball is free 10 s later)
         self._last_tick = clock()
         self._stop = threading.Event()
+        self._wake = threading.Event()  # a command changed the game: the next packet goes now (HSL)
+        self._stopped = False  # play stopped in the last packet
         self._threads: list[threading.Thread] = []
         self._udp = UdpPort(return_address[0], return_address[1], self._on_return, recv_size=2048,
                             name="gc-sim-returns")
@@ -204,6 +207,7 @@ class SimulatedGameController:
 
     def stop(self) -> None:
         self._stop.set()
+        self._wake.set()
         if self._http is not None:
             self._http.shutdown()
             self._http.server_close()
@@ -220,7 +224,8 @@ class SimulatedGameController:
         self.stop()
 
     def _send_loop(self) -> None:
-        period = 1.0 / self.rate_hz
+        """Every 1 / rate_hz; as the HSL GameController also at once after a command and at 5 Hz while play is
+        stopped (v19/v20)."""
         next_due = time.monotonic()
         while not self._stop.is_set():
             packet = self.tick()
@@ -229,8 +234,24 @@ class SimulatedGameController:
                     self._udp.sendto(packet, dest)
                 except OSError as exc:  # a robot that is not there yet must not stop the game
                     log.debug("cannot send to %s: %s", dest, exc)
-            next_due += period
-            self._stop.wait(max(0.0, next_due - time.monotonic()))
+            hsl = self.game.version != HL_VERSION
+            period = 1.0 / max(self.rate_hz, STOPPED_RATE_HZ) if hsl and self._stopped else 1.0 / self.rate_hz
+            next_due = max(next_due + period, time.monotonic() - period)  # no burst to catch up after a stall
+            if self._wait_until(next_due, at_once=hsl):
+                next_due = time.monotonic()  # sent at once; the period counts from here
+
+    def _wait_until(self, due: float, at_once: bool) -> bool:
+        """Waits for the next packet's time; True if a command cut it short (``at_once``: the HSL GameController
+        sends a change at once, the HL one at its next packet)."""
+        while not self._stop.is_set():
+            left = due - time.monotonic()
+            if left <= 0:
+                return False
+            if self._wake.wait(left):
+                self._wake.clear()
+                if at_once and not self._stop.is_set():
+                    return True
+        return False
 
     def team_message_port(self, team: int) -> int:
         """Where this GameController counts ``team``'s messages (0 if it does not listen)."""
@@ -292,6 +313,7 @@ class SimulatedGameController:
         """Advances the clocks to now and returns the next packet (the send loop calls it every 0.5 s)."""
         with self._lock:
             data = self._advance_to_now()
+            self._stopped = data.stopped
             self.packet_number = (self.packet_number + 1) % 256
             self.packets_sent += 1
         if self.game.version != HL_VERSION:
@@ -469,10 +491,12 @@ class SimulatedGameController:
             raise CommandError(f"penalty code must be 1..255, got {penalty}")
         with self._lock:
             self._penalize(team, player, penalty, seconds)
+        self._wake.set()
 
     def unpenalize(self, team: int, player: int) -> None:
         with self._lock:
             self._unpenalize(team, player)
+        self._wake.set()
 
     def goal(self, team: int) -> None:
         """Counts a goal (only in PLAYING, as the HL GC); both teams go to READY, the other team kicks off."""
@@ -484,6 +508,7 @@ class SimulatedGameController:
             scorer.score += 1
             self.kick_off_team = next(n for n in self.game.teams if n != team)
             self._enter(GameStateValue.READY)
+        self._wake.set()
 
     def set_state(self, state: int | str) -> None:
         try:
@@ -493,6 +518,7 @@ class SimulatedGameController:
         with self._lock:
             self._advance_to_now()
             self._enter(value)
+        self._wake.set()
 
     def set_play(self, kind: int | str, team: int) -> None:
         """Starts a set play for ``team`` (throw-in, goal kick, corner kick, direct/indirect free kick, penalty
@@ -521,6 +547,7 @@ class SimulatedGameController:
             else:
                 raise CommandError(f"{SecondaryState(self.secondary_state).name} for team {self.set_play_team} "
                                    "is running")
+        self._wake.set()
 
     def returns_from(self, team: int, player: int) -> list[ReceivedReturn]:
         with self._lock:
