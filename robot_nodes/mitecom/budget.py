@@ -18,6 +18,7 @@ BUDGET_UNKNOWN = 65_535  # GameState.MESSAGE_BUDGET_UNKNOWN: the GameController 
 MIN_GAME_LEFT_S = 60.0  # the end of a game does not turn the budget left into a burst
 _PLAYING_STATES = (1, 2, 3)  # READY, SET, PLAYING: where the GameController counts
 _PENALTY_SHOOT_OUT = 1
+_SLACK = 0.02  # a tick a little early still sends (the bucket would otherwise skip it and send two later)
 
 
 def team_port(team_number: int) -> int:
@@ -66,16 +67,20 @@ class BudgetPacer:
 
     def may_send(self, now: float, max_rate_hz: float) -> bool:
         """True if a message may go now; counts it as sent."""
-        rate = max_rate_hz if self.allowed_rate_hz is None else min(max_rate_hz, self.allowed_rate_hz)
-        if self.budget_left == 0:
-            rate = 0.0
         dt = 0.0 if self._last is None else max(0.0, now - self._last)
         self._last = now
-        self.credit = min(2.0, self.credit + rate * dt) if rate > 0 else 0.0
-        if self.credit < 1.0 or rate <= 0:
+        if self.budget_left == 0:
+            self.credit = 0.0
             self.held_back += 1
             return False
-        self.credit -= 1.0
+        if self.allowed_rate_hz is None or self.allowed_rate_hz >= max_rate_hz:
+            self.credit = 1.0  # nothing to keep: every tick sends (a timer that fires a little early included)
+        else:
+            self.credit = min(2.0, self.credit + self.allowed_rate_hz * dt)
+            if self.credit < 1.0 - _SLACK or self.allowed_rate_hz <= 0:
+                self.held_back += 1
+                return False
+        self.credit = max(0.0, self.credit - 1.0)
         self._sent.append(now)
         return True
 
