@@ -30,9 +30,9 @@ import zenoh
 import robots
 from pitchside import laptop_checks, profiles
 from pitchside.checks import Check, Status, report
-from robot_nodes.game_controller.packets import DATA_PORT, GameControllerPacketError, parse_state_packet
 from wire.bus import DEFAULT_ROUTER, BusConfig, env_endpoints
 from wire.command_line import CommandParser
+from wire.gamecontroller.packets import DATA_PORT, GameControllerPacketError, parse_state_packet
 from wire.keys import topic_key
 from wire.telemetry.datagram import DEV_KEY, key_fingerprint, load_key
 
@@ -190,6 +190,8 @@ def game_controller(port: int, wait_s: float, team: int | None) -> Check:
     name = "GameController"
     seen: dict[int, int] = {}  # team numbers -> packets
     bad = 0
+    last_error = ""
+    versions: set[int] = set()
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
         sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
         try:
@@ -207,15 +209,17 @@ def game_controller(port: int, wait_s: float, team: int | None) -> Check:
                 break
             try:
                 packet = parse_state_packet(data)
-            except GameControllerPacketError:
+            except GameControllerPacketError as exc:
                 bad += 1
+                last_error = str(exc)  # e.g. an SPL GameController's version, named
                 continue
+            versions.add(packet.version)
             for t in packet.teams:
                 seen[t.team_number] = seen.get(t.team_number, 0) + 1
             if team is None or team in seen:
                 break
     if not seen:
-        extra = f" ({bad} packets that are no GameController state)" if bad else ""
+        extra = f" ({bad} packets that are no GameController state pitchside reads: {last_error})" if bad else ""
         return Check(name, Status.FAIL, f"no GameController packet on UDP port {port} in {wait_s:g} s{extra}",
                      "is the GameController running and the robot on the field's network (wired or the field "
                      "Wi-Fi, same subnet)? It broadcasts to port 3838; a firewall (ufw) must let UDP 3838 in")
@@ -224,7 +228,8 @@ def game_controller(port: int, wait_s: float, team: int | None) -> Check:
         return Check(name, Status.FAIL, f"packets for teams {teams}, not for this robot's team {team}",
                      "set game_controller.team_number in the robot's params.yaml to the number the "
                      "GameController uses for your team")
-    return Check(name, Status.OK, f"packets on UDP port {port} for teams {teams}")
+    spoken = " and ".join(str(v) for v in sorted(versions))
+    return Check(name, Status.OK, f"version {spoken} packets on UDP port {port} for teams {teams}")
 
 
 # ---------------------------------------------------------------- the command

@@ -30,11 +30,11 @@ from pitchside.local_run import (
 from pitchside.robot import MOTION_NODES, available, simulated_robots
 from robot_nodes.catalog import NODES
 from robot_nodes.cm730.sim.lineup import Lineup, LineupError, Team, parse_robots
-from robot_nodes.game_controller.packets import DATA_PORT, RETURN_PORT
 from robot_nodes.launch import COMPOSE_HELP, NodeProcess, RobotNodes, process_groups
 from robot_nodes.runtime.clock import LOCKSTEP, SIM_TIME_ENV
 from server.security.credentials import ENV_TOKEN, new_token
 from wire.command_line import CommandParser
+from wire.gamecontroller.packets import DATA_PORT, RETURN_PORT
 
 log = logging.getLogger("pitchside.match")
 # what every robot of a match runs (cm730: in the world's process); the behaviour's nodes join once they exist
@@ -68,6 +68,9 @@ class GameControllerPlan:
     port: int  # UDP port the GameController sends to
     return_port: int
     http_port: int | None  # the simulated GameController's HTTP API
+    # team number -> the UDP port its team messages are broadcast to on loopback, counted by the simulated
+    # GameController (10000 + team number on a field); None: each robot's own port and its teammates as peers
+    team_message_ports: dict[int, int] | None = None
 
     @property
     def listen_address(self) -> str:
@@ -77,14 +80,20 @@ class GameControllerPlan:
 
 
 def robot_settings(team: Team, player: int, gc: GameControllerPlan, mitecom_ports: dict[str, int],
-                   telemetry_port: int, telemetry_key: Path | None) -> dict[str, list[str]]:
+                   telemetry_port: int, telemetry_key: Path | None, half_s: int = 600) -> dict[str, list[str]]:
     """One robot's settings per node: its team and number for the GameController and team communication."""
-    own = mitecom_ports[team.robot_id(player)]
-    mates = ",".join(f"127.0.0.1:{mitecom_ports[r]}" for r in team.robot_ids() if r != team.robot_id(player))
-    team_talk = ["--set", f"team_id={team.number}", "--set", f"player_id={player}",
-                 "--set", "listen_address=127.0.0.1", "--set", f"port={own}"]
-    if mates:  # a team of one has nobody to tell (the node's default, its own port, talks to itself)
-        team_talk += ["--set", f"peers={mates}"]
+    team_talk = ["--set", f"team_id={team.number}", "--set", f"player_id={player}"]
+    if gc.team_message_ports is not None:
+        # the HSL way, on loopback: broadcast to the team's port, where the simulated GameController counts
+        team_talk += ["--set", "hsl=true", "--set", f"team_port={gc.team_message_ports[team.number]}",
+                      "--set", f"listen_address={LOOPBACK_BROADCAST}",
+                      "--set", f"broadcast_address={LOOPBACK_BROADCAST}", "--set", f"half_s={half_s}"]
+    else:
+        own = mitecom_ports[team.robot_id(player)]
+        mates = ",".join(f"127.0.0.1:{mitecom_ports[r]}" for r in team.robot_ids() if r != team.robot_id(player))
+        team_talk += ["--set", "listen_address=127.0.0.1", "--set", f"port={own}"]
+        if mates:  # a team of one has nobody to tell (the node's default, its own port, talks to itself)
+            team_talk += ["--set", f"peers={mates}"]
     # the stand-in localization gives both teams the world's frame (the dashboard draws both where they are): the
     # away team defends its +x half
     field_side = ["--set", f"own_half={'+x' if team.own_goal > 0 else '-x'}"]
@@ -93,7 +102,7 @@ def robot_settings(team: Team, player: int, gc: GameControllerPlan, mitecom_port
         "head": field_side,
         "game_controller": ["--set", f"team_number={team.number}", "--set", f"player_number={player}",
                             "--set", f"listen_address={gc.listen_address}", "--set", f"listen_port={gc.port}",
-                            "--set", f"return_port={gc.return_port}"],
+                            "--set", f"return_port={gc.return_port}", *field_side],
         "mitecom": team_talk,
         "telemetry": telemetry_settings(telemetry_port, telemetry_key),
     }
@@ -136,10 +145,13 @@ def match_processes(plan: MatchPlan, endpoint: str, http_port: int, telemetry_po
             world.append("--lockstep")
     if gc.http_port is not None:
         world += ["--gc-http-port", str(gc.http_port)]
+    if gc.team_message_ports is not None:
+        world += ["--team-message-ports", *(str(gc.team_message_ports[t.number]) for t in lineup.teams)]
     processes = [NodeProcess("world", world)]
     for team in lineup.teams:
         robots = [RobotNodes(team.robot_id(player), plan.nodes,
-                             robot_settings(team, player, gc, mitecom_ports, telemetry_port, telemetry_key))
+                             robot_settings(team, player, gc, mitecom_ports, telemetry_port, telemetry_key,
+                                            plan.half_s))
                   for player in range(1, team.players + 1)]
         for process in simulated_robots(robots, [endpoint], plan.model, plan.compose, plan.robots_per_process):
             if plan.sim_time:
@@ -151,8 +163,10 @@ def match_processes(plan: MatchPlan, endpoint: str, http_port: int, telemetry_po
 
 def main(argv: list[str] | None = None) -> None:
     parser = CommandParser(prog="pitchside match", description=__doc__)
-    parser.add_argument("--robots", default="2v2", help="robots per team: 1v1 .. 11v11 (default 2v2; 4v4 is the "
-                                                        "kid-size game)")
+    parser.add_argument("--robots", default=None, help="robots per team: 1v1 .. 11v11 (default 2v2)")
+    parser.add_argument("--players", type=int, default=None,
+                        help="robots per team, the same for both: 4 plays the HSL's Small Foundation (4 v 4), 7 its "
+                             "Small Advanced (7 v 7, a goalkeeper and six field players)")
     parser.add_argument("--half-minutes", type=float, default=10.0, help="length of a half (default 10)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the simulation's noise")
     parser.add_argument("--gamecontroller", choices=["sim", "external"], default="sim",
@@ -191,8 +205,11 @@ def main(argv: list[str] | None = None) -> None:
                              "simulated time: on a machine short of CPU their control then lags behind the physics "
                              "and they fall more, as robots with too slow a computer would")
     args = parser.parse_args(argv)
+    if args.players is not None and args.robots is not None:
+        parser.error("give --players N (N v N) or --robots NvM, not both")
+    robots_text = f"{args.players}v{args.players}" if args.players is not None else args.robots or "2v2"
     try:
-        lineup = Lineup.of((args.teams[0], args.teams[1]), parse_robots(args.robots))
+        lineup = Lineup.of((args.teams[0], args.teams[1]), parse_robots(robots_text))
         nodes = parse_nodes(args.nodes) if args.nodes else default_nodes()
         process_groups(nodes, args.compose)
     except (LineupError, ValueError) as exc:
@@ -212,7 +229,9 @@ def main(argv: list[str] | None = None) -> None:
     robots = lineup.robot_ids()
     mitecom_ports = dict(zip(robots, kernel_ports(len(robots)), strict=True))
     if args.gamecontroller == "sim":
-        gc = GameControllerPlan("sim", args.gc_port or kernel_port(), kernel_port(), free_port(8038))
+        home_port, away_port = kernel_ports(2)
+        gc = GameControllerPlan("sim", args.gc_port or kernel_port(), kernel_port(), free_port(8038),
+                                {lineup.home.number: home_port, lineup.away.number: away_port})
         where = f"GameController http://127.0.0.1:{gc.http_port}/status"
     else:
         gc = GameControllerPlan("external", args.gc_port or DATA_PORT, args.gc_return_port or RETURN_PORT, None)

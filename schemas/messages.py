@@ -119,6 +119,29 @@ class humanoid_league_msgs__msg__GameState:
     coach_message: str
     team_mates_with_penalty: np.ndarray[tuple[int, ...], np.dtype[np.uint8]]
     team_mates_with_red_card: np.ndarray[tuple[int, ...], np.dtype[np.uint8]]
+    version: int
+    team_number: int
+    competition_type: int
+    players_per_team: int
+    stopped: bool
+    game_phase: int
+    set_play: int
+    kicking_team: int
+    goalkeeper_color: int
+    rival_team_color: int
+    rival_goalkeeper_color: int
+    goalkeeper: int
+    message_budget: int
+    rival_message_budget: int
+    penalty: int
+    penalized_in_place: bool
+    cautions: int
+    warnings: int
+    player_penalties: np.ndarray[tuple[int, ...], np.dtype[np.uint8]]
+    player_seconds_till_unpenalized: np.ndarray[tuple[int, ...], np.dtype[np.uint8]]
+    player_cautions: np.ndarray[tuple[int, ...], np.dtype[np.uint8]]
+    player_warnings: np.ndarray[tuple[int, ...], np.dtype[np.uint8]]
+    state_from_whistle: bool
     GAMESTATE_INITIAL: ClassVar[int] = 0
     GAMESTATE_READY: ClassVar[int] = 1
     GAMESTATE_SET: ClassVar[int] = 2
@@ -136,6 +159,47 @@ class humanoid_league_msgs__msg__GameState:
     STATE_THROW_IN: ClassVar[int] = 9
     BLUE: ClassVar[int] = 0
     RED: ClassVar[int] = 1
+    YELLOW: ClassVar[int] = 2
+    BLACK: ClassVar[int] = 3
+    WHITE: ClassVar[int] = 4
+    GREEN: ClassVar[int] = 5
+    ORANGE: ClassVar[int] = 6
+    PURPLE: ClassVar[int] = 7
+    BROWN: ClassVar[int] = 8
+    GRAY: ClassVar[int] = 9
+    COLOR_UNKNOWN: ClassVar[int] = 255
+    COMPETITION_SMALL: ClassVar[int] = 0
+    COMPETITION_MIDDLE: ClassVar[int] = 1
+    COMPETITION_LARGE: ClassVar[int] = 2
+    COMPETITION_UNKNOWN: ClassVar[int] = 255
+    GAME_PHASE_NORMAL: ClassVar[int] = 0
+    GAME_PHASE_PENALTY_SHOOT_OUT: ClassVar[int] = 1
+    GAME_PHASE_EXTRA_TIME: ClassVar[int] = 2
+    GAME_PHASE_TIMEOUT: ClassVar[int] = 3
+    SET_PLAY_NONE: ClassVar[int] = 0
+    SET_PLAY_DIRECT_FREE_KICK: ClassVar[int] = 1
+    SET_PLAY_INDIRECT_FREE_KICK: ClassVar[int] = 2
+    SET_PLAY_PENALTY_KICK: ClassVar[int] = 3
+    SET_PLAY_THROW_IN: ClassVar[int] = 4
+    SET_PLAY_GOAL_KICK: ClassVar[int] = 5
+    SET_PLAY_CORNER_KICK: ClassVar[int] = 6
+    NO_TEAM: ClassVar[int] = 255
+    MESSAGE_BUDGET_UNKNOWN: ClassVar[int] = 65535
+    PENALTY_NONE: ClassVar[int] = 0
+    PENALTY_ILLEGAL_POSITIONING: ClassVar[int] = 1
+    PENALTY_MOTION_IN_SET: ClassVar[int] = 2
+    PENALTY_MOTION_IN_STOP: ClassVar[int] = 3
+    PENALTY_LOCAL_GAME_STUCK: ClassVar[int] = 4
+    PENALTY_INCAPABLE_ROBOT: ClassVar[int] = 5
+    PENALTY_PICK_UP: ClassVar[int] = 6
+    PENALTY_BALL_HOLDING: ClassVar[int] = 7
+    PENALTY_LEAVING_THE_FIELD: ClassVar[int] = 8
+    PENALTY_PLAYING_WITH_ARMS_HANDS: ClassVar[int] = 9
+    PENALTY_PUSHING: ClassVar[int] = 10
+    PENALTY_CAUTIONED: ClassVar[int] = 11
+    PENALTY_SENT_OFF: ClassVar[int] = 12
+    PENALTY_SUBSTITUTE: ClassVar[int] = 13
+    PENALTY_HL_MANUAL: ClassVar[int] = 15
     __msgtype__: ClassVar[str] = 'humanoid_league_msgs/msg/GameState'
 
 
@@ -623,6 +687,9 @@ class pitchside_msgs__msg__TeamCommStatus:
     window_s: float
     expected_rate_hz: float
     memory_s: float
+    send_rate_hz: float
+    message_budget: int
+    budget_rate_hz: float
     __msgtype__: ClassVar[str] = 'pitchside_msgs/msg/TeamCommStatus'
 
 
@@ -696,6 +763,47 @@ FIELDDEFS: Typesdict = {
             ('STATE_THROW_IN', 'uint8', 9),
             ('BLUE', 'uint8', 0),
             ('RED', 'uint8', 1),
+            ('YELLOW', 'uint8', 2),
+            ('BLACK', 'uint8', 3),
+            ('WHITE', 'uint8', 4),
+            ('GREEN', 'uint8', 5),
+            ('ORANGE', 'uint8', 6),
+            ('PURPLE', 'uint8', 7),
+            ('BROWN', 'uint8', 8),
+            ('GRAY', 'uint8', 9),
+            ('COLOR_UNKNOWN', 'uint8', 255),
+            ('COMPETITION_SMALL', 'uint8', 0),
+            ('COMPETITION_MIDDLE', 'uint8', 1),
+            ('COMPETITION_LARGE', 'uint8', 2),
+            ('COMPETITION_UNKNOWN', 'uint8', 255),
+            ('GAME_PHASE_NORMAL', 'uint8', 0),
+            ('GAME_PHASE_PENALTY_SHOOT_OUT', 'uint8', 1),
+            ('GAME_PHASE_EXTRA_TIME', 'uint8', 2),
+            ('GAME_PHASE_TIMEOUT', 'uint8', 3),
+            ('SET_PLAY_NONE', 'uint8', 0),
+            ('SET_PLAY_DIRECT_FREE_KICK', 'uint8', 1),
+            ('SET_PLAY_INDIRECT_FREE_KICK', 'uint8', 2),
+            ('SET_PLAY_PENALTY_KICK', 'uint8', 3),
+            ('SET_PLAY_THROW_IN', 'uint8', 4),
+            ('SET_PLAY_GOAL_KICK', 'uint8', 5),
+            ('SET_PLAY_CORNER_KICK', 'uint8', 6),
+            ('NO_TEAM', 'uint8', 255),
+            ('MESSAGE_BUDGET_UNKNOWN', 'uint16', 65535),
+            ('PENALTY_NONE', 'uint8', 0),
+            ('PENALTY_ILLEGAL_POSITIONING', 'uint8', 1),
+            ('PENALTY_MOTION_IN_SET', 'uint8', 2),
+            ('PENALTY_MOTION_IN_STOP', 'uint8', 3),
+            ('PENALTY_LOCAL_GAME_STUCK', 'uint8', 4),
+            ('PENALTY_INCAPABLE_ROBOT', 'uint8', 5),
+            ('PENALTY_PICK_UP', 'uint8', 6),
+            ('PENALTY_BALL_HOLDING', 'uint8', 7),
+            ('PENALTY_LEAVING_THE_FIELD', 'uint8', 8),
+            ('PENALTY_PLAYING_WITH_ARMS_HANDS', 'uint8', 9),
+            ('PENALTY_PUSHING', 'uint8', 10),
+            ('PENALTY_CAUTIONED', 'uint8', 11),
+            ('PENALTY_SENT_OFF', 'uint8', 12),
+            ('PENALTY_SUBSTITUTE', 'uint8', 13),
+            ('PENALTY_HL_MANUAL', 'uint8', 15),
         ],
         [
             ('header', (T.NAME, 'std_msgs/msg/Header')),
@@ -720,6 +828,29 @@ FIELDDEFS: Typesdict = {
             ('coach_message', (T.BASE, ('string', 0))),
             ('team_mates_with_penalty', (T.SEQUENCE, ((T.BASE, ('uint8', 0)), 0))),
             ('team_mates_with_red_card', (T.SEQUENCE, ((T.BASE, ('uint8', 0)), 0))),
+            ('version', (T.BASE, ('uint8', 0))),
+            ('team_number', (T.BASE, ('uint8', 0))),
+            ('competition_type', (T.BASE, ('uint8', 0))),
+            ('players_per_team', (T.BASE, ('uint8', 0))),
+            ('stopped', (T.BASE, ('bool', 0))),
+            ('game_phase', (T.BASE, ('uint8', 0))),
+            ('set_play', (T.BASE, ('uint8', 0))),
+            ('kicking_team', (T.BASE, ('uint8', 0))),
+            ('goalkeeper_color', (T.BASE, ('uint8', 0))),
+            ('rival_team_color', (T.BASE, ('uint8', 0))),
+            ('rival_goalkeeper_color', (T.BASE, ('uint8', 0))),
+            ('goalkeeper', (T.BASE, ('uint8', 0))),
+            ('message_budget', (T.BASE, ('uint16', 0))),
+            ('rival_message_budget', (T.BASE, ('uint16', 0))),
+            ('penalty', (T.BASE, ('uint8', 0))),
+            ('penalized_in_place', (T.BASE, ('bool', 0))),
+            ('cautions', (T.BASE, ('uint8', 0))),
+            ('warnings', (T.BASE, ('uint8', 0))),
+            ('player_penalties', (T.SEQUENCE, ((T.BASE, ('uint8', 0)), 0))),
+            ('player_seconds_till_unpenalized', (T.SEQUENCE, ((T.BASE, ('uint8', 0)), 0))),
+            ('player_cautions', (T.SEQUENCE, ((T.BASE, ('uint8', 0)), 0))),
+            ('player_warnings', (T.SEQUENCE, ((T.BASE, ('uint8', 0)), 0))),
+            ('state_from_whistle', (T.BASE, ('bool', 0))),
         ],
     ),
     'humanoid_league_msgs/msg/GoalInImage': (
@@ -1145,12 +1276,15 @@ FIELDDEFS: Typesdict = {
             ('window_s', (T.BASE, ('float32', 0))),
             ('expected_rate_hz', (T.BASE, ('float32', 0))),
             ('memory_s', (T.BASE, ('float32', 0))),
+            ('send_rate_hz', (T.BASE, ('float32', 0))),
+            ('message_budget', (T.BASE, ('uint16', 0))),
+            ('budget_rate_hz', (T.BASE, ('float32', 0))),
         ],
     ),
 }
 
 
-SOURCES_SHA256 = 'be1b70200d70f2c920bb32a201310324843bbae551f55bdcc19b623283e58193'
+SOURCES_SHA256 = '0e21738389e9c7a46f826cee7845e9738608d779514abd56956127d02783990a'
 
 # short names
 AdditionalServoData = humanoid_league_msgs__msg__AdditionalServoData

@@ -57,6 +57,9 @@ _TABLE: tuple[Topic, ...] = (
         Topic("walking_active", "std_msgs/msg/Bool", "walking tells the HCM it is stepping"),
         Topic("gamestate", _HL + "GameState", "GameController state, game_controller -> all", Priority.CRITICAL),
         Topic("paused", "std_msgs/msg/Bool", "penalty/pause, pause logic -> hcm", Priority.CRITICAL),
+        Topic("whistle", "std_msgs/msg/Bool",
+              "the referee's whistle heard (true); a whistle detector -> game_controller, which starts PLAYING on it "
+              "while the GameController still sends its delayed SET", Priority.CRITICAL, event=True),
         Topic("manual_penalty", "std_msgs/msg/Bool",
               "the robot's own manual penalty (its button, the manual_penalize service), on change and with paused; "
               "pause logic -> game_controller, which tells the GameController (MAN_PENALISE / MAN_UNPENALISE)",

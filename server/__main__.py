@@ -47,6 +47,10 @@ def arguments(prog: str = "pitchside serve", description: str = "the pitchside d
     p.add_argument("--no-telemetry", action="store_true", help="do not listen for UDP telemetry")
     p.add_argument("--telemetry-host", default="0.0.0.0")
     p.add_argument("--telemetry-port", type=int, default=5800)
+    p.add_argument("--gc-monitor", default=None, metavar="HOST",
+                   help="register with the HSL GameController at HOST as a monitor and show the true game state and "
+                        "every robot's status packet (robots gc<team>-<player>); off by default. Beside the "
+                        "GameController, never on a robot: it refuses hosts that sent status packets")
     p.add_argument("--telemetry-key", default=None,
                    help="team telemetry key (a file made by `pitchside telemetry-key`, or hex; default: the "
                         "published development key, which --match refuses)")
@@ -129,7 +133,8 @@ def config_from(args: argparse.Namespace) -> ServerConfig:
                             allowed_folders=[Path(f) for f in args.allow_folder], allow_dev_key=args.allow_dev_key,
                             live_source=False if (args.no_live or args.match) else None,
                             telemetry_source=not args.no_telemetry, telemetry_host=args.telemetry_host,
-                            telemetry_port=args.telemetry_port, telemetry_key=args.telemetry_key, robot3d=args.robot3d,
+                            telemetry_port=args.telemetry_port, telemetry_key=args.telemetry_key,
+                            gc_monitor=args.gc_monitor, robot3d=args.robot3d,
                             robot3d_port=args.robot3d_port, descriptions=descriptions, plots=args.plots,
                             plots_web_port=args.plots_port,
                             plots_grpc_port=args.plots_grpc_port, plots_max_hz=args.plots_max_hz,

@@ -36,7 +36,8 @@ from server.routers import (
 )
 from server.security import AllowedHosts, Credentials, VenueGuard, VenuePolicy
 from server.security.guard import normalized_origin
-from server.sources import SourceError, SourceSet
+from server.sources import Source, SourceError, SourceSet
+from server.sources.gc_monitor import GameControllerMonitorSource
 from server.sources.live import LiveZenohSource
 from server.sources.telemetry import TelemetrySource
 from server.state import ServerState
@@ -50,18 +51,24 @@ def create_app(config: ServerConfig) -> FastAPI:
     """The app; sources, the 3D view and plots start with the app's lifespan (uvicorn or TestClient)."""
     hub = Hub(config.queue_size)
     link = ZenohLink(config.bus, config.match_mode)
-    source_set = SourceSet([
+    feeds: list[Source] = [
         LiveZenohSource(hub, link),
         TelemetrySource(hub, config.telemetry_host, config.telemetry_port, config.telemetry_key),
-    ])
+    ]
+    if config.gc_monitor:  # asks the GameController, never a robot: allowed in match mode too
+        request_port, data_port, forward_port = config.gc_monitor_ports
+        feeds.append(GameControllerMonitorSource(hub, config.gc_monitor, request_port, data_port=data_port,
+                                                 forward_port=forward_port))
+    source_set = SourceSet(feeds)
     state = ServerState(config, hub, source_set, link, telemetry_key=key_fingerprint(load_key(config.telemetry_key)))
 
     @asynccontextmanager
     async def lifespan(_app: FastAPI) -> AsyncIterator[None]:
         hub.bind(asyncio.get_running_loop())
-        wanted = {"live": bool(config.live_source) and not config.match_mode, "telemetry": config.telemetry_source}
+        wanted = {"live": bool(config.live_source) and not config.match_mode, "telemetry": config.telemetry_source,
+                  "gc_monitor": bool(config.gc_monitor)}
         for name, on in wanted.items():
-            if on:
+            if on and name in source_set.sources:
                 try:
                     await source_set.switch(name, True)
                 except SourceError as exc:

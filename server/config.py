@@ -48,6 +48,9 @@ class ServerConfig:
     telemetry_host: str = "0.0.0.0"
     telemetry_port: int = 5800  # wire.telemetry.datagram.DEFAULT_PORT
     telemetry_key: str | None = None  # team key (hex or a file); None: the development key
+    # an HSL GameController to register with as a monitor (true game state, every robot's status); None: off
+    gc_monitor: str | None = None
+    gc_monitor_ports: tuple[int, int, int] = (3636, 3838, 3940)  # its request port; our true-state and status ports
     allow_dev_key: bool = False  # match mode with the published development key (refused unless set)
     queue_size: int = 2000  # frames per WebSocket client before the oldest are dropped
     stale_after_s: float = 1.5  # no message for this long: the robot (or stream) is shown stale

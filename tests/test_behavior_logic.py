@@ -284,3 +284,20 @@ def test_a_place_where_a_robot_stands_moves_off_it() -> None:
     assert (x, y) == pytest.approx((1.7, 1.0))
     x, y = place_clear_of((2.0, 1.0), [(2.0, 1.0)], 0.6)  # right on it: moved, not left there
     assert math.hypot(x - 2.0, y - 1.0) == pytest.approx(0.6)
+
+
+def test_roles_and_kick_off_places_scale_to_seven() -> None:
+    """7 v 7 (the HSL's Small Advanced): a goalie, a striker, two defenders, three supporters; seven places."""
+    xs = {2: -1.0, 3: -2.0, 4: -3.0, 5: -0.5, 6: -3.5, 7: 0.5}
+    tts = {2: 1.0, 3: 5.0, 4: 6.0, 5: 3.0, 6: 8.0, 7: 4.0}
+    roles = {}
+    for me in xs:
+        mates = [mate(p, tts[p], xs[p]) for p in xs if p != me] + [mate(1, 9.0, -4.0)]
+        roles[me] = assign_roles(Candidate(me, tts[me], xs[me]), mates, 2.0)
+    assert roles == {2: STRIKER, 6: DEFENDER, 4: DEFENDER, 3: SUPPORTER, 5: SUPPORTER, 7: SUPPORTER}
+    for kicking in (True, False):
+        spots = kickoff_positions(FIELD, kicking)
+        assert len(spots) == 7 and len(set(spots)) == 7
+        assert all(ready_legal(FIELD, x, y, kicking, margin=0.25) for x, y, _ in spots), spots
+        apart = min(math.dist(a[:2], b[:2]) for i, a in enumerate(spots) for b in spots[i + 1:])
+        assert apart >= 0.6, f"two places {apart:.2f} m apart"

@@ -56,7 +56,7 @@ def test_a_ready_robot_passes_every_check(serial_pty: str, router_endpoint: str,
     assert len(checks) == 6 and all(line.startswith("ok") for line in checks.values()), ran.stdout
     assert serial_pty in checks["serial port"]
     assert "round trip" in checks["clock offset"]  # measured against the router's own time stamps
-    assert "teams 5 and 6" in checks["GameController"]
+    assert "teams 5 and 6" in checks["GameController"] and "version 20 packets" in checks["GameController"]
     assert ran.stdout.rstrip().endswith("all checks passed")
 
 

@@ -9,7 +9,11 @@ from collections.abc import Iterator
 
 import pytest
 
-from robot_nodes.game_controller.packets import (
+from robot_nodes.game_controller.receiver import allowed_to_move
+from robot_nodes.game_controller.simulator import CommandError, SimulatedGame, SimulatedGameController
+from tests.support import free_port
+from tests.waiting import wait_for
+from wire.gamecontroller.packets import (
     GameControlData,
     GameStateValue,
     Penalty,
@@ -18,10 +22,6 @@ from robot_nodes.game_controller.packets import (
     build_return_packet,
     parse_state_packet,
 )
-from robot_nodes.game_controller.receiver import allowed_to_move
-from robot_nodes.game_controller.simulator import CommandError, SimulatedGame, SimulatedGameController
-from tests.support import free_port
-from tests.waiting import wait_for
 
 HOME, AWAY = 7, 9
 INITIAL, READY, SET, PLAYING, FINISHED = (GameStateValue.INITIAL, GameStateValue.READY, GameStateValue.SET,
@@ -47,7 +47,7 @@ def clock() -> Clock:
 def gc(clock: Clock) -> Iterator[SimulatedGameController]:
     game = SimulatedGame(teams=(HOME, AWAY), team_colors=(2, 6), players_per_team=4, initial_s=1.0, ready_s=45.0,
                          set_s=3.0, half_s=120, half_time_s=30.0, set_play_place_s=2.0, set_play_position_s=15.0,
-                         set_play_freeze_s=1.0)
+                         set_play_freeze_s=1.0, version=12)
     nowhere = ("127.0.0.1", free_port(socket.SOCK_DGRAM))
     controller = SimulatedGameController(game, [nowhere], ("127.0.0.1", 0), clock=clock)
     yield controller  # not started: the test reads packets with tick(), no sending thread
@@ -202,7 +202,7 @@ def test_the_first_initial_waits_for_every_player_of_a_simulated_match(clock: Cl
     """As a referee waits for both teams: READY comes initial_s after the last awaited player is heard, or after
     wait_for_players_s without the missing ones."""
     game = SimulatedGame(teams=(HOME, AWAY), players_per_team=2, initial_s=2.0, ready_s=45.0, set_s=5.0, half_s=120,
-                         half_time_s=30.0, wait_for_players=(2, 1), wait_for_players_s=wait_s)
+                         half_time_s=30.0, wait_for_players=(2, 1), wait_for_players_s=wait_s, version=12)
     gc = SimulatedGameController(game, [("127.0.0.1", free_port(socket.SOCK_DGRAM))], ("127.0.0.1", 0), clock=clock)
     try:
         send_return(gc, HOME, 1)

@@ -11,19 +11,20 @@ import httpx
 import pytest
 
 import schemas
-from robot_nodes.game_controller.packets import (
-    GameControlData,
-    Penalty,
-    RobotInfo,
-    TeamInfo,
-    build_state_packet,
-    parse_state_packet,
-)
 from robot_nodes.game_controller.receiver import GameControllerNode, gamestate_fields
 from robot_nodes.game_controller.simulator import SimulatedGame, SimulatedGameController
 from robot_nodes.runtime import BusConfig, Node
 from tests.support import free_port
 from tests.waiting import wait_for
+from wire.gamecontroller.packets import (
+    GameControlData,
+    Penalty,
+    RobotInfo,
+    StatusPacket,
+    TeamInfo,
+    build_state_packet,
+    parse_state_packet,
+)
 
 ROBOT = "gc_robot"
 
@@ -116,16 +117,18 @@ def test_simulated_game_reaches_the_robot(node: GameControllerNode, watcher: Gam
         bad = httpx.post(f"{api}/penalize", json={"team": 9, "player": 1}, timeout=10)
         assert bad.status_code == 400 and "team 9" in bad.json()["error"]
 
-        # return packets from team 5 player 2 arrive at the GC at about 2 Hz
+        # status packets (RGrt v4: the simulated GC speaks HSL v20) from team 5 player 2 arrive at about 2 Hz
         wait_for(lambda: len(gc.returns_from(5, 2)) >= 6, 15, what="six return packets")
         returns = gc.returns_from(5, 2)
-        assert all(r.address[0] == "127.0.0.1" and r.packet.message == 2 for r in returns)
+        assert all(r.address[0] == "127.0.0.1" and isinstance(r.packet, StatusPacket) for r in returns)
+        assert initial.version == 20 and initial.message_budget == 12_000
         span = returns[-1].time - returns[0].time
         rate = (len(returns) - 1) / span
         assert 1.0 <= rate <= 4.0, f"return packets at {rate:.2f} Hz"
         status = httpx.get(f"{api}/status", timeout=10).json()
         assert status["state"] == "FINISHED" and status["return_count"] >= 6
-        assert any(r["team"] == 5 and r["player"] == 2 and r["message"] == "ALIVE" for r in status["returns"])
+        assert any(r["team"] == 5 and r["player"] == 2 and r["message"] == "STATUS" and r["fallen"] == 255
+                   for r in status["returns"])
 
 
 def test_every_field_reaches_the_gamestate(node: GameControllerNode, watcher: GameStateWatcher,
@@ -183,7 +186,7 @@ def test_garbage_is_counted_and_the_node_keeps_working(node: GameControllerNode,
 
 def test_simulator_plays_both_halves_and_takes_manual_penalties() -> None:
     game = SimulatedGame(teams=(3, 4), players_per_team=2, initial_s=0.2, ready_s=0.2, set_s=0.2, half_s=1,
-                         half_time_s=0.2)
+                         half_time_s=0.2, version=12)
     nowhere = ("127.0.0.1", free_port(socket.SOCK_DGRAM))
     with SimulatedGameController(game, [nowhere], ("127.0.0.1", 0), rate_hz=10.0) as gc:
         assert gc.status()["teams"][0]["players"][2]["penalty"] == Penalty.SUBSTITUTE  # beyond playersPerTeam
@@ -200,3 +203,25 @@ def test_simulator_plays_both_halves_and_takes_manual_penalties() -> None:
         assert packet.team(4).player(2).penalty == Penalty.MANUAL  # type: ignore[union-attr]
         assert gc.execute("unpenalize 4 2") == "ok" and gc.execute("goal 9").startswith("error: team 9")
         assert parse_state_packet(gc.tick()).team(4).player(2).penalty == 0  # type: ignore[union-attr]
+
+
+def test_hsl_v20_reaches_the_gamestate_and_bad_input_is_named(node: GameControllerNode, watcher: GameStateWatcher,
+                                                               gc_port: int) -> None:
+    from tests.test_gamecontroller_hsl import spec_packet
+    # the node is team 5 player 2: a v20 packet where team 13 is renumbered 5
+    raw = bytearray(spec_packet(own={2: (3, 0, 1)}, stopped=1, set_play=6, kicking=7, own_budget=4321))
+    raw[18] = 5
+    bad = [bytes(raw[:100]), bytes(raw) + b"\0\0", b"RGme\x15" + bytes(raw[5:]), b"RGTD" + bytes(raw[4:])]
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        for b in bad:
+            s.sendto(b, ("127.0.0.1", gc_port))
+        msg = wait_for(lambda: s.sendto(bytes(raw), ("127.0.0.1", gc_port)) and watcher.latest(), 10, interval=0.2,
+                       what="gamestate from a v20 packet")
+    assert (msg.version, msg.set_play, msg.kicking_team, msg.stopped, msg.message_budget) == (20, 6, 7, True, 4321)
+    assert msg.penalty == msg.PENALTY_MOTION_IN_STOP and msg.penalized_in_place and msg.cautions == 1
+    assert msg.secondary_state == msg.STATE_CORNER_KICK and not msg.allowed_to_move
+    diag = wait_for(lambda: watcher.gc_diagnostics.get("bad_packets_wrong_header") == "1" and watcher.gc_diagnostics,
+                    10, what="bad packets by kind in diagnostics")
+    assert (diag["bad_packets_truncated"], diag["bad_packets_over_long"], diag["bad_packets_wrong_version"]) == (
+        "1", "1", "1")
+    assert diag["gc_version"] == "20" and diag["bad_packets"] == "4"

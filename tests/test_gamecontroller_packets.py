@@ -7,7 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from robot_nodes.game_controller.packets import (
+from robot_nodes.game_controller.receiver import gamestate_fields
+from wire.gamecontroller.packets import (
     PACKET_SIZE,
     PACKET_SIZE_2018,
     GameControlData,
@@ -21,7 +22,6 @@ from robot_nodes.game_controller.packets import (
     parse_return_packet,
     parse_state_packet,
 )
-from robot_nodes.game_controller.receiver import gamestate_fields
 
 # What EXPECTED.md says each capture must decode to (written out, so a failing row names itself).
 # (state, secondary state, secondary info, secs remaining, secondary time, {team: score},
@@ -180,7 +180,7 @@ def test_wrong_header_is_rejected() -> None:
     (b"\x0a\x00", 588, "version 10 (Humanoid League version 10"),
     (b"\x12\x07", 118, "version 18 (SPL"),
     (b"\x0c\x05", 54, "version 12 (SPL"),
-    (b"\x13\x00", 198, "version 19 (Humanoid Soccer League"),
+    (b"\x15\x00", 158, "version 21"),
 ])
 def test_other_versions_are_rejected_by_name(version_bytes: bytes, length: int, named: str) -> None:
     raw = bytearray(b"RGme" + version_bytes + bytes(length - 6))

@@ -11,16 +11,20 @@ from typing import Any
 
 import pytest
 
-from robot_nodes.game_controller.packets import parse_state_packet
 from robot_nodes.game_controller.receiver import gamestate_fields
 from robot_nodes.game_controller.simulator import SimulatedGame, SimulatedGameController
+from wire.gamecontroller.packets import parse_state_packet
 
 # these follow the clocks, which a simulation started now cannot share with a capture
-CLOCKS = {"seconds_remaining", "secondary_seconds_remaining", "seconds_till_unpenalized"}
+CLOCKS = {"seconds_remaining", "secondary_seconds_remaining", "seconds_till_unpenalized",
+          "player_seconds_till_unpenalized"}
+# the line-up: the captured game had players 5 and 6 as substitutes and no goalkeeper flagged, the simulated one
+# plays all six with player 1 in goal
+LINEUP = {"player_penalties", "goalkeeper"}
 
 
 def simulated(state: str, penalties: list[tuple[int, int, int]]) -> bytes:
-    game = SimulatedGame(teams=(2, 3), team_colors=(1, 0), players_per_team=6, auto_progress=False)
+    game = SimulatedGame(teams=(2, 3), team_colors=(1, 0), players_per_team=6, auto_progress=False, version=12)
     gc = SimulatedGameController(game, destinations=[], return_address=("127.0.0.1", 0))
     try:
         if state != "initial":
@@ -35,7 +39,7 @@ def simulated(state: str, penalties: list[tuple[int, int, int]]) -> bytes:
 def fields(packet: bytes, team: int, player: int) -> dict[str, Any]:
     out = gamestate_fields(parse_state_packet(packet), team, player)
     assert out is not None
-    return {k: v for k, v in out.items() if k not in CLOCKS}
+    return {k: v for k, v in out.items() if k not in CLOCKS | LINEUP}
 
 
 @pytest.mark.parametrize(("capture", "state", "penalties"), [

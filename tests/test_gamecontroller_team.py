@@ -11,13 +11,13 @@ from typing import Any
 import pytest
 
 import schemas
-from robot_nodes.game_controller.packets import Penalty, ReturnMessage
 from robot_nodes.game_controller.receiver import GameControllerNode
 from robot_nodes.game_controller.simulator import SimulatedGame, SimulatedGameController
 from robot_nodes.hcm.pause import PauseNode
 from robot_nodes.runtime import BusConfig, Node, open_session
 from tests.support import free_port
 from tests.waiting import wait_for
+from wire.gamecontroller.packets import Penalty, ReturnMessage
 from wire.services import call_service
 
 LOOPBACK_BROADCAST = "127.255.255.255"
@@ -117,7 +117,7 @@ def test_a_unicast_reaches_only_one_of_them(gc_port: int) -> None:
 
 @pytest.fixture
 def game(gc_port: int) -> Iterator[SimulatedGameController]:
-    playing = SimulatedGame(teams=(5, 6), players_per_team=4, initial_s=0, auto_progress=False)
+    playing = SimulatedGame(teams=(5, 6), players_per_team=4, initial_s=0, auto_progress=False, version=12)
     with SimulatedGameController(playing, [("127.0.0.1", gc_port)], ("127.0.0.1", 0), rate_hz=4.0) as gc:
         gc.set_state("playing")
         yield gc

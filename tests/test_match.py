@@ -18,7 +18,15 @@ import psutil
 import pytest
 
 from pitchside.local_run import BEHIND_THE_WORLD_NICE, ROBOTS_IN_MATCH_NICE
-from pitchside.match import GameControllerPlan, MatchPlan, default_nodes, match_processes, parse_nodes, robot_settings
+from pitchside.match import (
+    GameControllerPlan,
+    MatchPlan,
+    default_nodes,
+    match_processes,
+    parse_nodes,
+    robot_settings,
+)
+from pitchside.match import main as match_main
 from robot_nodes.cm730.sim.lineup import Lineup, LineupError, parse_robots
 from robot_nodes.game_controller.simulator import SimulatedGame, SimulatedGameController
 from robot_nodes.runtime.clock import SIM_TIME_ENV
@@ -130,9 +138,15 @@ def test_lineup_and_robot_settings() -> None:
     assert "listen_address=127.255.255.255" in home2["game_controller"]  # hears the loopback broadcast only
     assert "team_number=5" in home2["game_controller"] and "player_number=2" in home2["game_controller"]
     assert "peers=127.0.0.1:4000,127.0.0.1:4002" in home2["mitecom"] and "port=4001" in home2["mitecom"]
+    # with the simulated GameController counting them: HSL team messages, broadcast on loopback to the team's port
+    hsl = GameControllerPlan("sim", 3838, 3939, 8038, {5: 6005, 9: 6009})
+    away1 = robot_settings(lineup.away, 1, hsl, ports, 5800, None, half_s=120)["mitecom"]
+    assert {"hsl=true", "team_port=6009", "broadcast_address=127.255.255.255", "half_s=120"} <= set(away1)
+    assert not any(a.startswith("peers=") for a in away1)
     # one field frame for both teams' stand-in localizations: the away team defends its +x half
     assert home2["behavior"] == home2["head"] == ["--set", "own_half=-x"]
     assert robot_settings(lineup.away, 1, sim, ports, 5800, None)["behavior"] == ["--set", "own_half=+x"]
+    assert "own_half=+x" in robot_settings(lineup.away, 1, sim, ports, 5800, None)["game_controller"]  # status pose
     external = GameControllerPlan("external", 3838, 3939, None)
     assert "listen_address=0.0.0.0" in robot_settings(lineup.away, 1, external, ports, 5800, None)["game_controller"]
     assert not any(a.startswith("peers=") for a in robot_settings(Lineup.of((1, 2), (1, 1)).home, 1, sim,
@@ -143,6 +157,10 @@ def test_lineup_and_robot_settings() -> None:
         parse_nodes("cm730,hcm")
     with pytest.raises(ValueError, match="nosuchnode"):
         parse_nodes("hcm,nosuchnode")
+    for bad in (["--players", "7", "--robots", "2v2"], ["--players", "12"]):  # refused before anything starts
+        with pytest.raises(SystemExit) as exited:
+            match_main(bad)
+        assert exited.value.code == 2
 
 
 def test_the_world_waits_for_every_robot_unless_told_not_to() -> None:
@@ -237,6 +255,11 @@ def test_a_match_plays_both_halves_under_the_gamecontroller_and_records_them(tmp
         status = httpx.get(f"{api}/status", timeout=10).json()
         answered = {(r["team"], r["player"]) for r in status["returns"]}
         assert status["return_count"] > 20 and answered == {(1, 1), (1, 2), (2, 1), (2, 2)}
+        # HSL v20 and the team messages the HSL way: broadcast to each team's port, counted against its budget
+        assert status["version"] == 20
+        for team in status["teams"]:
+            assert team["team_messages"] > 0 and team["illegal_messages"] == 0, team
+            assert 0 < team["message_budget"] < 12_000, team
         output = match.output()
         # the referee is in the world; what it calls depends on the play (tests/test_referee.py judges each call)
         assert "refereed by the simulated GameController" in output

@@ -44,7 +44,10 @@ TEAMS: dict[str, dict[str, Any]] = {
     "away4": {"team_color": RED, "player": 4, "x": 2.8, "y": -1.8, "theta": 3.14, "role": DEFENDER,
               "mates": "1:0.3:0"},
 }
-SCORES = {BLUE: {"own_score": 2, "rival_score": 1, "kick_off": True}, RED: {"own_score": 1, "rival_score": 2}}
+# blue plays under an HSL GameController's budget (home2 sends 1.3 messages a second), red under an HL v12 one
+SCORES = {BLUE: {"own_score": 2, "rival_score": 1, "kick_off": True, "gc_version": 20, "message_budget": 11_874},
+          RED: {"own_score": 1, "rival_score": 2}}
+TEAMS["home2"] |= {"send_rate_hz": 1.3, "budget_rate_hz": 1.29}
 
 
 def start_stand(bus: BusConfig, robot: str, params: dict[str, Any]) -> MatchStand:
@@ -120,6 +123,12 @@ def test_the_match_dashboard_with_two_teams_of_four(browser: Any, game: RunningS
     assert chips == [["1", "ok", "#1 0.4 s 0%"], ["3", "ok", "#3 0.5 s 0%"], ["4", "bad", "#4 4.2 s 60%"]]
     assert page.get_attribute(card.format("home4") + ' .mate[data-mate="2"]', "class") == "mate warn"  # 30 % lost
     assert page.text_content(card.format("away2") + " .hears") == "hearsnobody"
+    # the team messages: the budget left per team (an HSL GameController's), each robot's send rate
+    assert page.text_content('section.team[data-team="blue"] .team-budget') == "11,874 msgs left"
+    assert page.locator('section.team[data-team="red"] .team-budget').count() == 0
+    assert page.text_content(card.format("home2") + " .sends") == "sends 1.3/s"
+    assert "allows 1.29" in (page.get_attribute(card.format("home2") + " .sends", "title") or "")
+    assert page.locator(card.format("home1") + " .sends").count() == 0
     # more than two robots: each card's streams table is folded, and opens on request
     assert page.get_attribute(card.format("home1") + " details.streams", "open") is None
     assert _fits(page) == []

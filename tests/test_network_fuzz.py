@@ -1,4 +1,5 @@
-"""Fuzzing the decoders of outside network input: GameController packets, Mitecom and the protobuf team message.
+"""Fuzzing the decoders of outside network input: GameController packets (HL v12, HSL v19/v20, return and status
+packets), Mitecom and the protobuf team message.
 
 Each decoder may only raise its documented error. The default run tries FAST_EXAMPLES inputs per strategy
 (three strategies per decoder). The full run brings every decoder to at least 100,000 generated inputs; it takes
@@ -18,19 +19,25 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from robot_nodes.game_controller.packets import (
-    PACKET_SIZE,
-    PACKET_SIZE_2018,
-    GameControllerPacketError,
-    build_state_packet,
-    parse_return_packet,
-    parse_state_packet,
-)
 from robot_nodes.mitecom import codec, protobuf_codec
 from robot_nodes.mitecom import team_message_pb2 as pb
 from robot_nodes.mitecom.codec import MitecomError
 from robot_nodes.mitecom.protobuf_codec import TeamMessageError
 from tests.support import TESTDATA
+from wire.gamecontroller.monitor import parse_forwarded_status, parse_true_data
+from wire.gamecontroller.packets import (
+    HSL_PACKET_SIZE,
+    PACKET_SIZE,
+    PACKET_SIZE_2018,
+    GameControllerPacketError,
+    StatusPacket,
+    build_state_packet,
+    build_status_packet,
+    hl_to_hsl,
+    parse_any_return_packet,
+    parse_return_packet,
+    parse_state_packet,
+)
 
 FAST_EXAMPLES = 500
 SLOW_EXAMPLES = 34_000  # per strategy; three strategies per decoder -> 102,000 inputs each
@@ -61,6 +68,15 @@ GC_STRATEGIES = {
     "header_and_size": st.sampled_from([PACKET_SIZE, PACKET_SIZE_2018]).flatmap(
         lambda n: st.binary(min_size=n - 6, max_size=n - 6).map(lambda body: b"RGme\x0c\x00" + body)),
     "mutated_captures": _mutated(CAPTURES),
+}
+
+_HSL_SEEDS = [build_state_packet(hl_to_hsl(parse_state_packet(c), v)) for c in CAPTURES[:4] for v in (19, 20)]
+_STATUS_SEED = build_status_packet(StatusPacket(5, 2, 0, (-1500.0, 800.0, 1.5), 0.4, (1200.0, -300.0)))
+HSL_STRATEGIES = {
+    "random": st.binary(max_size=260).map(lambda body: b"RGme" + body),
+    "header_and_size": st.sampled_from(sorted(HSL_PACKET_SIZE.items())).flatmap(
+        lambda vn: st.binary(min_size=vn[1] - 5, max_size=vn[1] - 5).map(lambda body: b"RGme" + bytes([vn[0]]) + body)),
+    "mutated_packets": _mutated([*_HSL_SEEDS, _STATUS_SEED]),
 }
 
 _MITECOM_SEED = codec.encode_pairs(5, 3, {0: 2, 1: 2, 2: 1, 0x10000: -1500, 0x10001: 800, 0x10002: 90,
@@ -133,18 +149,36 @@ PROTOBUF_STRATEGIES = {
 
 # -- properties ---------------------------------------------------------------------------------------------
 
+KINDS = {"truncated", "over_long", "wrong_header", "wrong_version", "bad_value"}
+
+
 def check_gc(data: bytes) -> None:
     try:
         packet = parse_state_packet(data)
     except GameControllerPacketError as exc:
-        assert str(exc)
+        assert str(exc) and exc.kind in KINDS
     else:
         # what was read can be sent again and reads the same
         assert parse_state_packet(build_state_packet(packet)) == packet
+        if packet.version in HSL_PACKET_SIZE:
+            assert build_state_packet(packet) == data, "an HSL packet keeps every byte"
     try:
         parse_return_packet(data)
     except GameControllerPacketError as exc:
         assert str(exc)
+    try:
+        status = parse_any_return_packet(data)
+    except GameControllerPacketError as exc:
+        assert str(exc) and exc.kind in KINDS
+    else:
+        if isinstance(status, StatusPacket) and all(math.isfinite(v) for v in (*status.pose_mm, *status.ball_mm,
+                                                                                  status.ball_age_s)):
+            assert build_status_packet(status) == data
+    for monitor_decoder in (parse_true_data, parse_forwarded_status):  # what a GameController monitor receives
+        try:
+            monitor_decoder(data)
+        except GameControllerPacketError as exc:
+            assert str(exc) and exc.kind in KINDS
 
 
 def check_mitecom(data: bytes) -> None:
@@ -170,6 +204,7 @@ def check_protobuf(data: bytes) -> None:
 
 CASES: list[tuple[str, Callable[[bytes], None], dict[str, st.SearchStrategy[bytes]]]] = [
     ("gamecontroller", check_gc, GC_STRATEGIES),
+    ("gamecontroller_hsl", check_gc, HSL_STRATEGIES),
     ("mitecom", check_mitecom, MITECOM_STRATEGIES),
     ("protobuf", check_protobuf, PROTOBUF_STRATEGIES),
 ]

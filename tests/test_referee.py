@@ -19,17 +19,19 @@ from robot_nodes.cm730.sim.lineup import Lineup
 from robot_nodes.cm730.sim.placements import lineup_start
 from robot_nodes.cm730.sim.referee import TEAM_COLOURS, Call, Referee, RefereeRules
 from robot_nodes.game_controller.listener import GameControllerListener
-from robot_nodes.game_controller.packets import (
+from robot_nodes.game_controller.simulator import SimulatedGame, SimulatedGameController
+from tests.support import free_port
+from tests.waiting import wait_for
+from wire.gamecontroller.packets import (
     GameControlData,
     GameStateValue,
     Penalty,
     SecondaryState,
+    SetPlay,
     TeamInfo,
     build_state_packet,
+    parse_state_packet,
 )
-from robot_nodes.game_controller.simulator import SimulatedGame, SimulatedGameController
-from tests.support import free_port
-from tests.waiting import wait_for
 
 HOME, AWAY = 3, 7
 PLAYING = GameStateValue.PLAYING
@@ -151,11 +153,14 @@ def test_a_robot_touching_the_ball_last_gives_the_throw_in_to_the_other_team() -
         match.world.set_ball(-1.3, 2.6, velocity=(0.0, 2.0))  # then out over the touch line
         game = match.until(lambda game: game.secondary_state != 0, 3, "a throw-in")
         assert (game.secondary_state, game.secondary_state_info[:2]) == (SecondaryState.THROW_IN, (AWAY, 0))
+        told = parse_state_packet(match.gc.tick())  # what the robots get: HSL v20, stopped while the ball is placed
+        assert (told.version, told.set_play, told.kicking_team, told.stopped) == (20, SetPlay.THROW_IN, AWAY, True)
         assert "home1" in match.calls("throw_in")[0].detail
         ball = match.world.ball_position()
         assert math.isclose(ball[1], FIELD_HALF_WIDTH, abs_tol=0.02) and -1.6 < ball[0] < -1.0  # where it left
         game = match.play(1.2)
         assert game.secondary_state_info[1] == 1  # robots may position now
+        assert not parse_state_packet(match.gc.tick()).stopped
         match.world.set_ball(-1.3, 2.6, velocity=(0.0, 2.0))  # out again during the set play: back to its spot
         match.play(1.0)
         assert math.isclose(match.world.ball_position()[1], FIELD_HALF_WIDTH, abs_tol=0.02)

@@ -161,6 +161,10 @@ class MatchStandParams:
     ball: str = param("", doc="the ball relative to the robot as 'x,y' (empty: not seen)")
     mates: str = param("", doc="teammates heard as 'number:age_s:loss_pct,...'")
     behavior: bool = param(False, doc="publish a behaviour state graph")
+    gc_version: int = param(0, range=(0, 255), doc="GameState.version (20: an HSL GameController with a budget)")
+    message_budget: int = param(65535, range=(0, 65535), doc="the team's messages left (GameState, team_comm)")
+    send_rate_hz: float = param(0.0, range=(0.0, 100.0), doc="team_comm: this robot's team messages per second")
+    budget_rate_hz: float = param(-1.0, range=(-1.0, 100.0), doc="team_comm: the rate its budget allows (-1: none)")
 
 
 class MatchStand(Node):
@@ -183,7 +187,8 @@ class MatchStand(Node):
         p["gamestate"].publish(schemas.make(
             HL + "GameState", header=header(), game_state=3, first_half=True, own_score=q.own_score,
             rival_score=q.rival_score, seconds_remaining=312, has_kick_off=q.kick_off, team_color=q.team_color,
-            penalized=q.penalty_s > 0, seconds_till_unpenalized=q.penalty_s, allowed_to_move=q.penalty_s == 0))
+            penalized=q.penalty_s > 0, seconds_till_unpenalized=q.penalty_s, allowed_to_move=q.penalty_s == 0,
+            version=q.gc_version, message_budget=q.message_budget))
         pose = schemas.make("geometry_msgs/msg/Pose2D", x=q.x, y=q.y, theta=q.theta)
         p["position"].publish(schemas.make(HL + "Position2D", header=header("map"), pose=pose, confidence=0.9))
         if q.ball:
@@ -196,7 +201,8 @@ class MatchStand(Node):
             "pitchside_msgs/msg/TeamCommStatus", header=header(), team_id=q.team_color + 1, player_id=q.player,
             mate_ids=[int(m[0]) for m in mates], age=[m[1] for m in mates], loss_pct=[m[2] for m in mates],
             received=[round(20 * (1 - m[2] / 100)) for m in mates], window_s=10.0, expected_rate_hz=2.0,
-            memory_s=30.0))
+            memory_s=30.0, send_rate_hz=q.send_rate_hz, message_budget=q.message_budget,
+            budget_rate_hz=q.budget_rate_hz))
         temps = [schemas.make("sensor_msgs/msg/Temperature", header=header("RKnee"), temperature=55.0 + q.player)]
         p["servo_data"].publish(schemas.make(HL + "AdditionalServoData", header=header(), temperature=temps,
                                              voltage=[14.8]))

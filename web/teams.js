@@ -39,8 +39,17 @@ export function roleOf(store, robot) {
   return role === undefined ? "" : (constantNames(STRATEGY, "ROLE_").get(role) ?? `role ${role}`).toLowerCase();
 }
 
-/** The teams heard: [{colour, name, css, robots, score, kickOff}] by colour number; robots without a gamestate
- * yet in a last group of colour undefined. */
+const BUDGET_UNKNOWN = 65535; // GameState.MESSAGE_BUDGET_UNKNOWN
+const FIRST_BUDGET_VERSION = 19; // the HSL GameController (struct v19 on) keeps a team-message budget
+
+/** The team messages a team may still send, as its GameController reports it; undefined without a budget (HL v12). */
+export function messageBudget(game) {
+  if (!game || !(game.version >= FIRST_BUDGET_VERSION) || game.message_budget === BUDGET_UNKNOWN) return undefined;
+  return game.message_budget;
+}
+
+/** The teams heard: [{colour, name, css, robots, score, kickOff, budget}] by colour number; robots without a
+ * gamestate yet in a last group of colour undefined. */
 export function teamsOf(store, robots = store.robotIds()) {
   const byColour = new Map();
   for (const robot of robots) {
@@ -54,7 +63,8 @@ export function teamsOf(store, robots = store.robotIds()) {
       || a.localeCompare(b));
     const game = members.map((r) => store.get(r, "gamestate")?.data).find((g) => g);
     const { name, css } = colour === undefined ? { name: "no team yet", css: "#8c8c8c" } : teamColour(colour);
-    return { colour, name, css, robots: members, score: game?.own_score, kickOff: Boolean(game?.has_kick_off) };
+    return { colour, name, css, robots: members, score: game?.own_score, kickOff: Boolean(game?.has_kick_off),
+      budget: messageBudget(game) };
   });
 }
 

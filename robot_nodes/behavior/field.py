@@ -81,9 +81,11 @@ def kickoff_positions(field: Field, kicking_off: bool) -> list[tuple[float, floa
     goal_x = -field.length / 2
     r = field.centre_circle_diameter / 2
     goalie = (goal_x + 0.5, 0.0, 0.0)
+    # six field players: the HSL's Small Advanced plays 7 v 7 (a seventh robot takes the last place)
     if kicking_off:
-        players = [(-0.35, 0.0, 0.0), (-1.0, -1.5, 0.0), (-2.5, 0.8, 0.0), (-1.5, 1.8, 0.0), (-2.5, -1.8, 0.0)]
+        players = [(-0.35, 0.0, 0.0), (-1.0, -1.5, 0.0), (-2.5, 0.8, 0.0), (-1.5, 1.8, 0.0), (-2.5, -1.8, 0.0),
+                   (-3.4, 0.0, 0.0)]
     else:
         players = [(-(r + 0.45), 0.0, 0.0), (-1.6, -1.5, 0.0), (-2.6, 0.8, 0.0), (-1.6, 1.8, 0.0),
-                   (-2.6, -1.8, 0.0)]
+                   (-2.6, -1.8, 0.0), (-3.4, 0.0, 0.0)]
     return [goalie, *players]

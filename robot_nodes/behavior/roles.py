@@ -1,6 +1,7 @@
 """Roles by team communication: player 1 keeps the goal; of the field players the one with the shortest time to the
 ball is the striker (the present striker keeps it unless another is clearly faster); the rest defend (the one nearest
-the own goal) and support. Everyone decides for itself from team_data, so all agree while they hear each other."""
+the own goal; the two nearest when five or more field players play, as in the HSL's 7 v 7) and support. Everyone
+decides for itself from team_data, so all agree while they hear each other."""
 
 from __future__ import annotations
 
@@ -15,6 +16,7 @@ GOALIE, STRIKER, SUPPORTER, DEFENDER = (Strategy.ROLE_GOALIE, Strategy.ROLE_STRI
 ROLE_NAMES = {GOALIE: "goalie", STRIKER: "striker", SUPPORTER: "supporter", DEFENDER: "defender",
               Strategy.ROLE_IDLING: "idling", Strategy.ROLE_OTHER: "other"}
 GOALIE_PLAYER = 1
+TWO_DEFENDERS_FROM = 5  # field players heard (this robot included)
 
 
 @dataclass(frozen=True)
@@ -49,7 +51,8 @@ def assign_roles(me: Candidate, mates: list[Teammate], keep_margin_s: float) -> 
         return STRIKER
     others = sorted((c for c in field if c.player != striker.player),
                     key=lambda c: (c.x if c.x is not None else 0.0, c.player))
-    return DEFENDER if others and others[0].player == me.player else SUPPORTER
+    defenders = 2 if len(field) >= TWO_DEFENDERS_FROM else 1
+    return DEFENDER if me.player in {c.player for c in others[:defenders]} else SUPPORTER
 
 
 def ready_rank(me: int, mates: list[Teammate]) -> int:

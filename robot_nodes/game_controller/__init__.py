@@ -1,6 +1,8 @@
-"""RoboCup GameController: the HL v12 codec (packets), the receiver node (receiver) and a simulated GC (simulator)."""
+"""RoboCup GameController: the receiver node (receiver), what it tells an HSL GameController (status), the delayed
+state after the whistle (fake_state) and a simulated GC (simulator); the codec is wire.gamecontroller's, re-exported
+here."""
 
-from robot_nodes.game_controller.packets import (
+from wire.gamecontroller.packets import (
     GameControlData,
     GameControllerPacketError,
     GameStateValue,

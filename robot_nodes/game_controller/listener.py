@@ -7,13 +7,13 @@ from __future__ import annotations
 import logging
 import threading
 
-from robot_nodes.game_controller.packets import (
+from robot_nodes.runtime.udp import UdpPort
+from wire.gamecontroller.packets import (
     DATA_PORT,
     GameControlData,
     GameControllerPacketError,
     parse_state_packet,
 )
-from robot_nodes.runtime.udp import UdpPort
 
 log = logging.getLogger("pitchside.gc_listener")
 

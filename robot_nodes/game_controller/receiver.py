@@ -1,10 +1,14 @@
-"""GameController receiver node: GC state packets on UDP -> `gamestate`, and return packets to the GC.
+"""GameController receiver node: GC state packets on UDP -> `gamestate`, and return packets to the GC, in the
+version the GameController speaks.
 
-The return packets say ALIVE; while the robot is manually penalised (`manual_penalty`, from the pause logic: its
-button or the manual_penalize service) they say MAN_PENALISE, and when that ends MAN_UNPENALISE (at least
-UNPENALISE_AT_LEAST of them) until the GameController no longer reports the robot penalised (at most
-UNPENALISE_PACKETS of them), then ALIVE again. The GameController acts when a robot's message changes, so a lost
-packet is made good by the next one.
+To an HSL GameController (v19/v20) the node sends the RGrt v4 status packet at 0.5-2 Hz: fallen from the HCM
+(`robot_state`), the pose from `position` and the newest ball from `ball_relative` (module status).
+
+To an HL v12 GameController it sends the v2 return packet. It says ALIVE; while the robot is manually penalised
+(`manual_penalty`, from the pause logic: its button or the manual_penalize service) it says MAN_PENALISE, and when
+that ends MAN_UNPENALISE (at least UNPENALISE_AT_LEAST of them) until the GameController no longer reports the
+robot penalised (at most UNPENALISE_PACKETS of them), then ALIVE again. The GameController acts when a robot's
+message changes, so a lost packet is made good by the next one.
 """
 
 from __future__ import annotations
@@ -13,24 +17,30 @@ from dataclasses import dataclass
 from typing import Any
 
 import schemas
-from robot_nodes.game_controller.packets import (
-    DATA_PORT,
-    RETURN_PORT,
-    SET_PIECES,
-    GameControlData,
-    GameControllerPacketError,
-    GameStateValue,
-    ReturnMessage,
-    RobotInfo,
-    SecondaryState,
-    build_return_packet,
-    parse_state_packet,
-)
+from robot_nodes.game_controller.fake_state import WhistleStart
+from robot_nodes.game_controller.status import RobotStatus, status_rate_hz
+from robot_nodes.ground_pose import OWN_HALF_DOC, OWN_HALVES
 from robot_nodes.runtime import Node, header, param, run
 from robot_nodes.runtime.udp import UdpPort
-from schemas.messages import GameState
+from schemas.messages import BallRelative, GameState, Position2D, RobotControlState
 from schemas.std import Bool
+from wire.gamecontroller.gamestate import MESSAGE_BUDGET_UNKNOWN, allowed_to_move, gamestate_fields
+from wire.gamecontroller.packets import (
+    DATA_PORT,
+    RETURN_PORT,
+    GameControlData,
+    GameControllerPacketError,
+    ReturnMessage,
+    RobotInfo,
+    build_return_packet,
+    build_status_packet,
+    parse_state_packet,
+)
 
+__all__ = ["MESSAGE_BUDGET_UNKNOWN", "GameControllerNode", "GameControllerParams", "allowed_to_move",
+           "gamestate_fields", "main"]
+
+BAD_PACKET_KINDS = ("truncated", "over_long", "wrong_header", "wrong_version", "bad_value")
 UNPENALISE_PACKETS = 6  # MAN_UNPENALISE packets at most after a manual penalty ends (3 s at the usual 2 Hz)
 # MAN_UNPENALISE packets sent whatever the GameController last said: its state packets tell a penalty it gave only
 # a packet later, so a button pressed and released within that time would otherwise end in ALIVE, and the
@@ -49,55 +59,10 @@ class GameControllerParams:
     return_rate_hz: float = param(2.0, range=(0.1, 10.0), doc="rate of ALIVE return packets to the GC")
     keepalive_hz: float = param(1.0, range=(0.1, 10.0), doc="republish an unchanged gamestate at this rate")
     gc_timeout_s: float = param(5.0, range=(0.5, 60.0), doc="after this silence the GC counts as lost")
-
-
-def allowed_to_move(data: GameControlData, penalized: bool) -> bool:
-    """Robots may move in READY and PLAYING, but not while penalised, in a timeout or in a set piece's freeze."""
-    if penalized:
-        return False
-    if data.state == GameStateValue.READY:
-        return True
-    if data.state != GameStateValue.PLAYING:
-        return False
-    if data.secondary_state == SecondaryState.TIMEOUT:
-        return False
-    # set piece sub-phases 0 and 2 freeze every robot (referee places the ball / removes robots)
-    return not (data.secondary_state in SET_PIECES and data.secondary_state_info[1] in (0, 2))
-
-
-def gamestate_fields(data: GameControlData, team_number: int, player_number: int) -> dict[str, Any] | None:
-    """The GameState message fields for our team, None if the packet does not concern it."""
-    own = data.team(team_number)
-    rival = data.rival(team_number)
-    if own is None or rival is None:
-        return None
-    me = own.player(player_number)
-    penalized = me.penalized if me is not None else True
-    active = own.active_players(data.players_per_team)
-    mates = {n: p for n, p in active.items() if n != player_number}
-    return {
-        "game_state": int(data.state),
-        "secondary_state": int(data.secondary_state),
-        "secondary_state_team": data.secondary_state_info[0],
-        "secondary_state_mode": data.secondary_state_info[1],
-        "first_half": data.first_half,
-        "own_score": own.score,
-        "rival_score": rival.score,
-        "seconds_remaining": data.secs_remaining,
-        "secondary_seconds_remaining": data.secondary_time,
-        "has_kick_off": data.kick_off_team == team_number,
-        "penalized": penalized,
-        "seconds_till_unpenalized": me.secs_till_unpenalized if me is not None else 0,
-        "allowed_to_move": allowed_to_move(data, penalized),
-        "team_color": own.team_color,
-        "drop_in_team": data.drop_in_team == team_number,
-        "drop_in_time": data.drop_in_time,
-        "penalty_shot": own.penalty_shot,
-        "single_shots": own.single_shots,
-        "coach_message": own.coach_text,
-        "team_mates_with_penalty": sorted(n for n, p in mates.items() if p.penalized),
-        "team_mates_with_red_card": sorted(n for n, p in mates.items() if p.red_cards > 0),
-    }
+    own_half: str = param("-x", choices=OWN_HALVES, doc=OWN_HALF_DOC)
+    whistle_hold_s: float = param(10.0, range=(0.0, 15.0),
+                                  doc="a whistle heard in SET means PLAYING for up to this long while the GC still "
+                                      "says SET (its delayed state); 0: only the GC's state counts")
 
 
 class GameControllerNode(Node):
@@ -111,10 +76,14 @@ class GameControllerNode(Node):
         self.packets = 0
         self.bad_packets = 0
         self.foreign_packets = 0
+        self.bad_by_kind: dict[str, int] = {}  # GameControllerPacketError.kind -> count
         self.returns_sent = 0
         self.gc_address: str | None = None
         self.last_data: GameControlData | None = None
-        self._last_fields: dict[str, Any] | None = None
+        self._last_fields: dict[str, Any] | None = None  # as published
+        self._gc_fields: dict[str, Any] | None = None  # as the GameController says
+        self.whistle = WhistleStart(hold_s=self.params.whistle_hold_s)
+        self.whistles_heard = 0
         self._last_packet_time = 0.0
         self._last_publish_time = 0.0
         self._udp: UdpPort | None = None
@@ -125,6 +94,11 @@ class GameControllerNode(Node):
         self._keepalive_timer = self.timer(10.0, self._keepalive, "keepalive")
         self._idle()  # both timers wait for the first packet of a GameController
         self.subscribe("manual_penalty", self._on_manual_penalty)
+        self.subscribe("whistle", self._on_whistle)
+        self.status = RobotStatus(self.params.own_half)  # what an HSL GameController's status packet says
+        self.subscribe("robot_state", self._on_robot_state)
+        self.subscribe("position", self._on_position)
+        self.subscribe("ball_relative", self._on_ball)
         self._update_diagnostics()
 
     # -- socket ---------------------------------------------------------------------------------------------
@@ -150,6 +124,7 @@ class GameControllerNode(Node):
             packet = parse_state_packet(data)
         except GameControllerPacketError as exc:
             self.bad_packets += 1
+            self.bad_by_kind[exc.kind] = self.bad_by_kind.get(exc.kind, 0) + 1
             self.record_error(f"bad GameController packet from {sender}: {exc}")
             self._update_diagnostics()
             return
@@ -160,14 +135,32 @@ class GameControllerNode(Node):
             return
         self.packets += 1
         self.gc_address = sender
+        if self.last_data is None or self.last_data.hsl != packet.hsl:
+            self.last_data = packet
+            self._return_timer.set_rate(self._return_rate_hz())
         self.last_data = packet
         self._last_packet_time = self.now()
         self._keepalive_timer.resume(at_once=False)
         self._return_timer.resume(at_once=False)
+        self._gc_fields = fields
+        self._tell(fields)
+        self._update_diagnostics()
+
+    def _tell(self, gc_fields: dict[str, Any]) -> None:
+        """Publishes at once what changed: the GameController's fields, PLAYING on a whistle ahead of them."""
+        fields = self.whistle.apply(gc_fields, self.now())
         if fields != self._last_fields:
             self._last_fields = fields
             self._publish()
-        self._update_diagnostics()
+
+    def _on_whistle(self, msg: Bool) -> None:
+        if not msg.data:
+            return
+        gc_state = self._gc_fields["game_state"] if self._gc_fields is not None else None
+        if self.whistle.on_whistle(self.now(), gc_state) and self._gc_fields is not None:
+            self._tell(self._gc_fields)
+        self.whistles_heard += 1
+        self.set_diagnostic("whistles_heard", self.whistles_heard)
 
     def _publish(self) -> None:
         if self._last_fields is None:
@@ -182,6 +175,8 @@ class GameControllerNode(Node):
         if self._last_fields is None or now - self._last_packet_time > self.params.gc_timeout_s:
             self._idle()
             return
+        if self._gc_fields is not None and self.whistle.heard_at is not None:
+            self._tell(self._gc_fields)  # a whistle's PLAYING ends after hold_s
         if now - self._last_publish_time >= 1.0 / self.params.keepalive_hz:
             self._publish()
 
@@ -196,7 +191,8 @@ class GameControllerNode(Node):
             return
         self.manual_penalty = manual
         self._unpenalise_left = 0 if manual else UNPENALISE_PACKETS
-        self._send_return()  # tell the GameController now, not at the next tick
+        if self.last_data is None or not self.last_data.hsl:  # an HSL GC has no manual penalty to tell at once
+            self._send_return()  # tell the GameController now, not at the next tick
 
     def return_message(self) -> ReturnMessage:
         """What the next return packet says (see the module's docstring)."""
@@ -214,20 +210,41 @@ class GameControllerNode(Node):
         own = self.last_data.team(self.params.team_number) if self.last_data is not None else None
         return own.player(self.params.player_number) if own is not None else None
 
+    def _on_robot_state(self, msg: RobotControlState) -> None:
+        self.status.on_robot_state(msg)
+
+    def _on_position(self, msg: Position2D) -> None:
+        self.status.on_position(msg)
+
+    def _on_ball(self, msg: BallRelative) -> None:
+        self.status.on_ball(msg, self.now())
+
+    def _return_rate_hz(self) -> float:
+        """return_rate_hz, within 0.5-2 Hz for an HSL GameController (its rule for status packets)."""
+        hsl = self.last_data is not None and self.last_data.hsl
+        return status_rate_hz(self.params.return_rate_hz) if hsl else self.params.return_rate_hz
+
     def _send_return(self) -> None:
-        if self.gc_address is None or self._udp is None:
+        """To a v12 GameController the HL v2 return packet; to a v19/v20 one the v4 status packet (the HSL
+        GameController has no manual penalty: a robot's own penalty is the referee's call there)."""
+        if self.gc_address is None or self._udp is None or self.last_data is None:
             return
         if self.now() - self._last_packet_time > self.params.gc_timeout_s:
             return
+        hsl = self.last_data.hsl
         message = self.return_message()
-        packet = build_return_packet(self.params.team_number, self.params.player_number, message)
+        if hsl:
+            packet = build_status_packet(self.status.packet(self.params.team_number, self.params.player_number,
+                                                            self.now()))
+        else:
+            packet = build_return_packet(self.params.team_number, self.params.player_number, message)
         try:
             self._udp.sendto(packet, (self.gc_address, self.params.return_port))
             self.returns_sent += 1
-            if message == ReturnMessage.MAN_UNPENALISE:
+            if message == ReturnMessage.MAN_UNPENALISE and not hsl:
                 self._unpenalise_left -= 1
             self.set_diagnostic("return_packets_sent", self.returns_sent)
-            self.set_diagnostic("return_message", message.name)
+            self.set_diagnostic("return_message", "STATUS_V4" if hsl else message.name)
         except OSError as exc:
             self.record_error(f"cannot send return packet to {self.gc_address}:{self.params.return_port}: {exc}")
 
@@ -235,13 +252,20 @@ class GameControllerNode(Node):
         self.set_diagnostic("packets", self.packets)
         self.set_diagnostic("bad_packets", self.bad_packets)
         self.set_diagnostic("foreign_packets", self.foreign_packets)
+        for kind in BAD_PACKET_KINDS:
+            self.set_diagnostic(f"bad_packets_{kind}", self.bad_by_kind.get(kind, 0))
+        self.set_diagnostic("gc_version", self.last_data.version if self.last_data is not None else "")
         self.set_diagnostic("return_packets_sent", self.returns_sent)
         self.set_diagnostic("gc_address", self.gc_address or "")
 
     # -- lifecycle ------------------------------------------------------------------------------------------
     def on_parameters_changed(self, changed: dict[str, Any]) -> None:
         if "return_rate_hz" in changed:
-            self._return_timer.set_rate(self.params.return_rate_hz)
+            self._return_timer.set_rate(self._return_rate_hz())
+        if "own_half" in changed:
+            self.status.own_half = self.params.own_half
+        if "whistle_hold_s" in changed:
+            self.whistle.hold_s = self.params.whistle_hold_s
         if {"team_number", "player_number"} & set(changed):
             self._last_fields = None  # the next packet is published whatever it says
         if {"listen_address", "listen_port"} & set(changed):

@@ -1,4 +1,5 @@
-"""A simulated GameController: real v12 packets at 2 Hz, a game that runs by itself, commands by stdin or HTTP.
+"""A simulated GameController: real packets at 2 Hz (HSL v20 by default, v19 or HL v12 on request), a game that
+runs by itself, commands by stdin or HTTP.
 
 It runs the Humanoid League flow as the league's GameController does: INITIAL, READY (with its time limit), SET,
 PLAYING; a goal sends both teams to READY with the kick-off for the other team; the end of the first half is
@@ -6,7 +7,10 @@ FINISHED, then after the half-time break INITIAL of the second half (penalties c
 the end of the second half is FINISHED. Set plays (throw-in, goal kick, corner kick, free kicks) run through their
 three sub-phases in the secondary state. A robot's return packet asks for a manual penalty or its end
 (MAN_PENALISE / MAN_UNPENALISE), acted on as the HL GameController does: only when the robot's message changes,
-a penalty only for a robot not penalised, its end only for a penalised one.
+a penalty only for a robot not penalised, its end only for a penalised one. A v4 status packet (what robots send
+an HSL GameController) tells that the robot is there. With ``team_message_address`` it also listens on UDP 10000 +
+team number and counts each team's messages against its budget in READY, SET and PLAYING as the HSL GameController
+does: a message over 512 bytes or one sent with budget 0 is counted as illegal and logged.
 
 Run: ``python -m robot_nodes.game_controller.simulator --teams 1 2 --http-port 8038``; in-process:
 ``with SimulatedGameController(SimulatedGame(teams=(1, 2)), destinations=[("127.0.0.1", port)]) as gc: ...``;
@@ -26,8 +30,14 @@ from dataclasses import dataclass, field
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from typing import Any
 
-from robot_nodes.game_controller.packets import (
+from robot_nodes.mitecom.budget import HSL_MAX_PAYLOAD, HSL_TEAM_PORT_BASE
+from robot_nodes.runtime.udp import UdpPort
+from wire.command_line import CommandParser
+from wire.gamecontroller.packets import (
     DATA_PORT,
+    HL_VERSION,
+    HSL_NAMES,
+    HSL_VERSION,
     MAX_NUM_PLAYERS,
     RETURN_PORT,
     SET_PIECES,
@@ -39,18 +49,19 @@ from robot_nodes.game_controller.packets import (
     ReturnPacket,
     RobotInfo,
     SecondaryState,
+    StatusPacket,
     TeamInfo,
     build_state_packet,
-    parse_return_packet,
+    hl_to_hsl,
+    parse_any_return_packet,
 )
-from robot_nodes.runtime.udp import UdpPort
-from wire.command_line import CommandParser
 
 log = logging.getLogger("pitchside.gc_simulator")
 
 # the sub-phases of a set play (secondaryStateInfo[1]): robots freeze while the referee places the ball, then
 # may position, then freeze while illegally placed robots are removed; then play goes on (NORMAL)
 PLACE_BALL, POSITIONING, REMOVE_ILLEGAL = 0, 1, 2
+STOPPED_RATE_HZ = 5.0  # the HSL GameController while play is stopped
 BALL_FREE_S = 10  # after a kick-off, the secondary clock counts the seconds until the ball is free (as the HL GC)
 
 
@@ -80,6 +91,9 @@ class SimulatedGame:
     # at most wait_for_players_s
     wait_for_players: tuple[int, int] = (0, 0)
     wait_for_players_s: float = 120.0
+    version: int = HSL_VERSION  # of the packets: 20 or 19 (Humanoid Soccer League) or 12 (Humanoid League)
+    message_budget: int = 12_000  # team messages per team and game (HSL 2026)
+    competition_type: int = 0  # HSL: 0 small, 1 middle, 2 large
 
 
 @dataclass
@@ -97,13 +111,16 @@ class _Team:
     color: int
     score: int = 0
     slots: list[_Slot] = field(default_factory=list)
+    message_budget: int = 0
+    team_messages: int = 0  # heard on 10000 + team number, counted or not
+    illegal_messages: int = 0  # over 512 bytes, or sent with budget 0
 
 
 @dataclass(frozen=True, slots=True)
 class ReceivedReturn:
     time: float  # monotonic
     address: tuple[str, int]
-    packet: ReturnPacket
+    packet: ReturnPacket | StatusPacket
 
 
 class SimulatedGameController:
@@ -116,10 +133,14 @@ class SimulatedGameController:
         return_address: tuple[str, int] = ("127.0.0.1", RETURN_PORT),
         rate_hz: float = 2.0,
         clock: Callable[[], float] = time.monotonic,
+        team_message_address: str | None = None,
+        team_message_ports: dict[int, int] | None = None,
     ) -> None:
         self.game = game or SimulatedGame()
         if len(set(self.game.teams)) != 2:
             raise CommandError(f"a game needs two different team numbers, got {self.game.teams}")
+        if self.game.version not in (HL_VERSION, *HSL_NAMES):
+            raise CommandError(f"protocol version {self.game.version} is not one of 20, 19, 12")
         if not 1 <= self.game.players_per_team <= MAX_NUM_PLAYERS:
             raise CommandError(f"players per team must be 1..{MAX_NUM_PLAYERS}")
         self.destinations = list(destinations or [("127.0.0.1", DATA_PORT)])
@@ -131,7 +152,7 @@ class SimulatedGameController:
                 _Slot(penalty=Penalty.NONE if i < self.game.players_per_team else Penalty.SUBSTITUTE,
                       goalkeeper=i == 0)
                 for i in range(MAX_NUM_PLAYERS)
-            ])
+            ], message_budget=self.game.message_budget)
             for number, color in zip(self.game.teams, self.game.team_colors, strict=True)
         ]
         self.state = GameStateValue.INITIAL
@@ -146,16 +167,30 @@ class SimulatedGameController:
         self.returns: list[ReceivedReturn] = []
         self.bad_returns = 0
         self._last_message: dict[tuple[int, int], int] = {}  # (team, player) -> last return message
+        self._heard: set[tuple[int, int]] = set()  # (team, player) of every return or status packet
         self._phase_started = clock()  # of the game state
         self._set_play_started = clock()  # of the set play's sub-phase
         self._players_heard = False  # the players the first INITIAL waits for are heard (or waited for long enough)
         self._kicked_off_at: float | None = None  # PLAYING after a kick-off: when (the ball is free 10 s later)
         self._last_tick = clock()
         self._stop = threading.Event()
+        self._wake = threading.Event()  # a command changed the game: the next packet goes now (HSL)
+        self._stopped = False  # play stopped in the last packet
         self._threads: list[threading.Thread] = []
         self._udp = UdpPort(return_address[0], return_address[1], self._on_return, recv_size=2048,
                             name="gc-sim-returns")
         self._http: ThreadingHTTPServer | None = None
+        self._team_ports: list[UdpPort] = []
+        try:
+            for team in (self._teams if team_message_address is not None else []):
+                assert team_message_address is not None
+                self._team_ports.append(UdpPort(
+                    team_message_address, (team_message_ports or {}).get(team.number, HSL_TEAM_PORT_BASE + team.number),
+                    self._team_message_handler(team),
+                    recv_size=65535, name=f"gc-sim-team-{team.number}", reuse_address=True))
+        except OSError:
+            self.stop()
+            raise
 
     # -- running ---------------------------------------------------------------------------------------------
     @property
@@ -172,12 +207,15 @@ class SimulatedGameController:
 
     def stop(self) -> None:
         self._stop.set()
+        self._wake.set()
         if self._http is not None:
             self._http.shutdown()
             self._http.server_close()
         for t in self._threads:
             t.join(2.0)
         self._udp.close()
+        for port in self._team_ports:
+            port.close()
 
     def __enter__(self) -> SimulatedGameController:
         return self.start()
@@ -186,7 +224,8 @@ class SimulatedGameController:
         self.stop()
 
     def _send_loop(self) -> None:
-        period = 1.0 / self.rate_hz
+        """Every 1 / rate_hz; as the HSL GameController also at once after a command and at 5 Hz while play is
+        stopped (v19/v20)."""
         next_due = time.monotonic()
         while not self._stop.is_set():
             packet = self.tick()
@@ -195,12 +234,53 @@ class SimulatedGameController:
                     self._udp.sendto(packet, dest)
                 except OSError as exc:  # a robot that is not there yet must not stop the game
                     log.debug("cannot send to %s: %s", dest, exc)
-            next_due += period
-            self._stop.wait(max(0.0, next_due - time.monotonic()))
+            hsl = self.game.version != HL_VERSION
+            period = 1.0 / max(self.rate_hz, STOPPED_RATE_HZ) if hsl and self._stopped else 1.0 / self.rate_hz
+            next_due = max(next_due + period, time.monotonic() - period)  # no burst to catch up after a stall
+            if self._wait_until(next_due, at_once=hsl):
+                next_due = time.monotonic()  # sent at once; the period counts from here
+
+    def _wait_until(self, due: float, at_once: bool) -> bool:
+        """Waits for the next packet's time; True if a command cut it short (``at_once``: the HSL GameController
+        sends a change at once, the HL one at its next packet)."""
+        while not self._stop.is_set():
+            left = due - time.monotonic()
+            if left <= 0:
+                return False
+            if self._wake.wait(left):
+                self._wake.clear()
+                if at_once and not self._stop.is_set():
+                    return True
+        return False
+
+    def team_message_port(self, team: int) -> int:
+        """Where this GameController counts ``team``'s messages (0 if it does not listen)."""
+        for t, port in zip(self._teams, self._team_ports, strict=False):
+            if t.number == team:
+                return port.port
+        return 0
+
+    def _team_message_handler(self, team: _Team) -> Callable[[bytes, tuple[str, int]], None]:
+        return lambda data, addr: self._on_team_message(team, data, addr)
+
+    def _on_team_message(self, team: _Team, data: bytes, addr: tuple[str, int]) -> None:
+        """Counted as the HSL GameController counts: in READY, SET and PLAYING, not in a penalty shoot-out."""
+        with self._lock:
+            team.team_messages += 1
+            counted = (self.state in (GameStateValue.READY, GameStateValue.SET, GameStateValue.PLAYING)
+                       and self.secondary_state != SecondaryState.PENALTYSHOOT)
+            if not counted:
+                return
+            if len(data) > HSL_MAX_PAYLOAD or team.message_budget <= 0:
+                team.illegal_messages += 1
+                log.warning("illegal team message from %s for team %d: %d bytes, budget %d", addr[0], team.number,
+                            len(data), team.message_budget)
+                return
+            team.message_budget -= 1
 
     def _on_return(self, data: bytes, addr: tuple[str, int]) -> None:
         try:
-            packet = parse_return_packet(data)
+            packet = parse_any_return_packet(data)
         except GameControllerPacketError as exc:
             self.bad_returns += 1
             log.info("bad return packet from %s: %s", addr, exc)
@@ -208,6 +288,9 @@ class SimulatedGameController:
         with self._lock:
             self.returns.append(ReceivedReturn(time.monotonic(), addr, packet))
             del self.returns[:-10000]
+            self._heard.add((packet.team, packet.player))
+            if isinstance(packet, StatusPacket):
+                return  # a robot's status: it is there; it asks for nothing
             key = (packet.team, packet.player)
             changed = self._last_message.get(key) != packet.message
             self._last_message[key] = packet.message
@@ -230,8 +313,11 @@ class SimulatedGameController:
         """Advances the clocks to now and returns the next packet (the send loop calls it every 0.5 s)."""
         with self._lock:
             data = self._advance_to_now()
+            self._stopped = data.stopped
             self.packet_number = (self.packet_number + 1) % 256
             self.packets_sent += 1
+        if self.game.version != HL_VERSION:
+            data = hl_to_hsl(data, self.game.version)
         return build_state_packet(data)
 
     def snapshot(self) -> GameControlData:
@@ -282,7 +368,7 @@ class SimulatedGameController:
         if not self.first_half or self._players_heard:
             return True
         missing = [(team.number, player) for team, count in zip(self._teams, self.game.wait_for_players, strict=True)
-                   for player in range(1, count + 1) if (team.number, player) not in self._last_message]
+                   for player in range(1, count + 1) if (team.number, player) not in self._heard]
         if missing and waited < self.game.wait_for_players_s:
             return False
         self._players_heard = True
@@ -354,7 +440,7 @@ class SimulatedGameController:
     def _snapshot(self, now: float) -> GameControlData:
         teams = tuple(
             TeamInfo(
-                team_number=t.number, team_color=t.color, score=t.score,
+                team_number=t.number, team_color=t.color, score=t.score, message_budget=t.message_budget,
                 players=tuple(RobotInfo(penalty=s.penalty, secs_till_unpenalized=min(255, round(s.secs)),
                                         yellow_cards=s.yellow_cards, red_cards=s.red_cards,
                                         goalkeeper=s.goalkeeper) for s in t.slots),
@@ -373,6 +459,7 @@ class SimulatedGameController:
             secs_remaining=round(self.secs_remaining),
             secondary_time=self._secondary_time(now),
             teams=(teams[0], teams[1]),
+            competition_type=self.game.competition_type,
         )
 
     def _team(self, number: int) -> _Team:
@@ -404,10 +491,12 @@ class SimulatedGameController:
             raise CommandError(f"penalty code must be 1..255, got {penalty}")
         with self._lock:
             self._penalize(team, player, penalty, seconds)
+        self._wake.set()
 
     def unpenalize(self, team: int, player: int) -> None:
         with self._lock:
             self._unpenalize(team, player)
+        self._wake.set()
 
     def goal(self, team: int) -> None:
         """Counts a goal (only in PLAYING, as the HL GC); both teams go to READY, the other team kicks off."""
@@ -419,6 +508,7 @@ class SimulatedGameController:
             scorer.score += 1
             self.kick_off_team = next(n for n in self.game.teams if n != team)
             self._enter(GameStateValue.READY)
+        self._wake.set()
 
     def set_state(self, state: int | str) -> None:
         try:
@@ -428,6 +518,7 @@ class SimulatedGameController:
         with self._lock:
             self._advance_to_now()
             self._enter(value)
+        self._wake.set()
 
     def set_play(self, kind: int | str, team: int) -> None:
         """Starts a set play for ``team`` (throw-in, goal kick, corner kick, direct/indirect free kick, penalty
@@ -456,6 +547,7 @@ class SimulatedGameController:
             else:
                 raise CommandError(f"{SecondaryState(self.secondary_state).name} for team {self.set_play_team} "
                                    "is running")
+        self._wake.set()
 
     def returns_from(self, team: int, player: int) -> list[ReceivedReturn]:
         with self._lock:
@@ -465,7 +557,9 @@ class SimulatedGameController:
         with self._lock:
             data = self._snapshot(time.monotonic())
             returns = list(self.returns[-20:])
+            messages = {t.number: (t.team_messages, t.illegal_messages) for t in self._teams}
         return {
+            "version": self.game.version,
             "state": GameStateValue(data.state).name,
             "first_half": data.first_half,
             "kick_off_team": data.kick_off_team,
@@ -482,17 +576,14 @@ class SimulatedGameController:
                     "team": t.team_number,
                     "color": t.team_color,
                     "score": t.score,
+                    "message_budget": t.message_budget,
+                    "team_messages": messages[t.team_number][0],
+                    "illegal_messages": messages[t.team_number][1],
                     "players": [dataclasses.asdict(p) | {"number": i + 1} for i, p in enumerate(t.players)],
                 }
                 for t in data.teams
             ],
-            "returns": [
-                {"age_s": round(time.monotonic() - r.time, 3), "address": f"{r.address[0]}:{r.address[1]}",
-                 "team": r.packet.team, "player": r.packet.player,
-                 "message": ReturnMessage(r.packet.message).name if r.packet.message in ReturnMessage._value2member_map_
-                 else r.packet.message}
-                for r in returns
-            ],
+            "returns": [_return_status(r) for r in returns],
             "return_count": len(self.returns),
             "bad_returns": self.bad_returns,
         }
@@ -532,6 +623,16 @@ class SimulatedGameController:
         t.start()
         self._threads.append(t)
         return int(self._http.server_address[1])
+
+
+def _return_status(r: ReceivedReturn) -> dict[str, Any]:
+    out: dict[str, Any] = {"age_s": round(time.monotonic() - r.time, 3), "address": f"{r.address[0]}:{r.address[1]}",
+                           "team": r.packet.team, "player": r.packet.player}
+    if isinstance(r.packet, StatusPacket):
+        return out | {"message": "STATUS", "fallen": r.packet.fallen, "pose_mm": list(r.packet.pose_mm),
+                      "ball_age_s": r.packet.ball_age_s, "ball_mm": list(r.packet.ball_mm)}
+    message = r.packet.message
+    return out | {"message": ReturnMessage(message).name if message in ReturnMessage._value2member_map_ else message}
 
 
 def _make_handler(gc: SimulatedGameController) -> type[BaseHTTPRequestHandler]:
@@ -594,7 +695,7 @@ def _address(text: str, default_port: int) -> tuple[str, int]:
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = CommandParser(description="Simulated RoboCup Humanoid League GameController (v12 packets)")
+    parser = CommandParser(description="Simulated RoboCup GameController (HSL v20 packets by default)")
     parser.add_argument("--teams", type=int, nargs=2, default=[1, 2], metavar=("HOME", "AWAY"))
     parser.add_argument("--players-per-team", type=int, default=4)
     parser.add_argument("--to", action="append", default=None, metavar="HOST[:PORT]",
@@ -608,13 +709,20 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--half", type=int, default=600, help="seconds per half")
     parser.add_argument("--half-time", type=float, default=5.0, help="seconds of the half-time break")
     parser.add_argument("--manual", action="store_true", help="do not progress the states by time")
+    parser.add_argument("--protocol", type=int, choices=[HSL_VERSION, 19, HL_VERSION], default=HSL_VERSION,
+                        help="packet version: 20 (HSL 2026, default), 19 (HSL, March 2026) or 12 (Humanoid League)")
+    parser.add_argument("--message-budget", type=int, default=12_000, help="team messages per team and game")
+    parser.add_argument("--count-team-messages", action="store_true",
+                        help="listen on UDP 10000 + team number and count team messages against the budget")
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s [gc-sim] %(message)s")
     game = SimulatedGame(teams=(args.teams[0], args.teams[1]), players_per_team=args.players_per_team,
                          initial_s=args.initial, ready_s=args.ready, set_s=args.set_s, half_s=args.half,
-                         half_time_s=args.half_time, auto_progress=not args.manual)
+                         half_time_s=args.half_time, auto_progress=not args.manual, version=args.protocol,
+                         message_budget=args.message_budget)
     destinations = [_address(d, args.port) for d in (args.to or ["127.0.0.1"])]
-    gc = SimulatedGameController(game, destinations, _address(args.return_address, RETURN_PORT))
+    gc = SimulatedGameController(game, destinations, _address(args.return_address, RETURN_PORT),
+                                 team_message_address="0.0.0.0" if args.count_team_messages else None)
     gc.start()
     if args.http_port is not None:
         log.info("HTTP API on http://127.0.0.1:%d", gc.serve_http(args.http_port))

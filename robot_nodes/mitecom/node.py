@@ -1,5 +1,10 @@
 """Mixed-team communication node: this robot's state to its teammates over UDP, theirs into `team_data`.
 
+With ``hsl`` it follows the Humanoid Soccer League's rules (2026): one UDP broadcast per message to port 10000 +
+team number, received on the same port, at most 512 bytes of payload (a larger message is refused here, with a log
+line), and no more messages than the GameController's budget allows, spread over the game time left (module
+budget); with budget 0 nothing is sent. The budget is kept whenever the GameController reports one (v19/v20).
+
 It also says what it hears (`team_comm`): each teammate heard lately, the age of its newest message and how many of
 its messages went missing, counted against the rate the team sends at (this node's send_rate_hz; team messages
 carry no sequence number). The thesis names this as further work: "the wireless connections are very instable
@@ -16,6 +21,7 @@ from typing import Any
 import schemas
 from robot_nodes.mitecom import codec as mitecom_codec
 from robot_nodes.mitecom import protobuf_codec
+from robot_nodes.mitecom.budget import BUDGET_UNKNOWN, HSL_MAX_PAYLOAD, BudgetPacer, team_port
 from robot_nodes.mitecom.codec import MitecomError, Orientation
 from robot_nodes.mitecom.protobuf_codec import TeamMessageError
 from robot_nodes.mitecom.report import HCM_PENALTY, NOT_TOLD, SeenRobot, TeammateReport
@@ -28,6 +34,7 @@ from schemas.std import Pose2D
 _RECV_SIZE = 65535
 _ROBOT_MAGENTA, _ROBOT_CYAN = 2, 3  # ObstacleRelative colours
 _BLUE = 0  # GameState.BLUE
+HSL_FIRST_VERSION = 19  # GameState.version of the first GameController with a message budget
 
 
 @dataclass
@@ -49,6 +56,16 @@ class MitecomParams:
     loss_window_s: float = param(10.0, range=(1.0, 120.0), doc="team_comm: loss counted over this many seconds")
     status_memory_s: float = param(30.0, range=(1.0, 600.0),
                                    doc="team_comm: a teammate silent this long is no longer listed")
+    hsl: bool = param(False, doc="HSL team communication: broadcast to and listen on UDP 10000 + team_id (port, "
+                                 "peers and broadcast are then not used), payloads of at most 512 bytes")
+    team_port: int = param(0, range=(0, 65535), doc="with hsl: the UDP port of the team's messages (0: 10000 + "
+                                                    "team_id, as on a field; a match on one machine picks free ones)")
+    broadcast_address: str = param("255.255.255.255", doc="where HSL team messages go (the field network's "
+                                                           "broadcast address)")
+    half_s: float = param(600.0, range=(10.0, 3600.0), doc="length of a half: the GameController's message "
+                                                           "budget is spread over the game time left")
+    budget_reserve: float = param(0.1, range=(0.0, 0.9), doc="share of the message budget kept back for "
+                                                             "stoppages and extra time")
 
 
 @dataclass
@@ -111,6 +128,8 @@ class MitecomNode(Node):
         self.malformed = 0
         self.other_teams = 0
         self.send_errors = 0
+        self.oversized = 0  # messages refused for being over 512 bytes (hsl)
+        self.budget = BudgetPacer(half_s=self.params.half_s, reserve=self.params.budget_reserve)
         self._destinations: list[tuple[str, int]] = []
         self._udp: UdpPort | None = None
         self._update_destinations()
@@ -198,7 +217,17 @@ class MitecomNode(Node):
             return protobuf_codec.decode(data)
         return mitecom_codec.decode(data, self._orientation)
 
+    @property
+    def listen_port(self) -> int:
+        """The port team messages arrive on: 10000 + team_id with hsl, else ``port``."""
+        if not self.params.hsl:
+            return self.params.port
+        return self.params.team_port or team_port(self.params.team_id)
+
     def _update_destinations(self) -> None:
+        if self.params.hsl:
+            self._destinations = [(self.params.broadcast_address, self.listen_port)]
+            return
         try:
             destinations = parse_peers(self.params.peers, self.params.port)
         except ValueError as exc:
@@ -209,7 +238,7 @@ class MitecomNode(Node):
         self._destinations = destinations
 
     def _open_socket(self) -> None:
-        self._udp = UdpPort(self.params.listen_address, self.params.port,
+        self._udp = UdpPort(self.params.listen_address, self.listen_port,
                             lambda data, _addr: self._on_datagram(data), loop=self.loop,
                             recv_size=_RECV_SIZE, name="mitecom-receiver", reuse_address=True)
 
@@ -223,13 +252,42 @@ class MitecomNode(Node):
         self._publish_team_data()
         self._publish_team_comm()
 
+    def _budget_allows(self) -> bool:
+        """Whether the GameController's message budget lets this tick's message go (always, without a budget)."""
+        gs = self._fresh("gamestate")
+        if gs is not None:
+            # only an HSL GameController (v19 on) keeps a budget; a GameState from elsewhere says version 0
+            budget = int(gs.message_budget) if int(gs.version) >= HSL_FIRST_VERSION else BUDGET_UNKNOWN
+            self.budget.update(budget, int(gs.players_per_team) or 1, gs.seconds_remaining,
+                               bool(gs.first_half), int(gs.game_state), int(gs.game_phase))
+        allowed = self.budget.may_send(self.now(), self.params.send_rate_hz)
+        left = self.budget.budget_left
+        self.set_diagnostic("message_budget", "unknown" if left == BUDGET_UNKNOWN else left)
+        rate = self.budget.allowed_rate_hz
+        self.set_diagnostic("budget_rate_hz", "unlimited" if rate is None else f"{rate:.3f}")
+        self.set_diagnostic("held_back_by_budget", self.budget.held_back)
+        return allowed
+
     def _send(self) -> None:
         if self._udp is None:
+            return
+        allowed = self._budget_allows()
+        self.set_diagnostic("send_rate_hz", f"{self.budget.send_rate_hz(self.now()):.2f}")
+        if not allowed:
             return
         try:
             data = self.encode(self.own_report())
         except (MitecomError, TeamMessageError) as exc:
+            if "more than the" in str(exc):
+                self.oversized += 1
+                self.set_diagnostic("oversized", self.oversized)
             self.record_error(f"cannot encode the team message: {exc}")
+            return
+        if self.params.hsl and len(data) > HSL_MAX_PAYLOAD:
+            self.oversized += 1
+            self.set_diagnostic("oversized", self.oversized)
+            self.record_error(f"team message of {len(data)} bytes not sent: the HSL allows at most "
+                              f"{HSL_MAX_PAYLOAD} bytes of payload (the GameController would void the team's goals)")
             return
         for dest in self._destinations:
             try:
@@ -280,27 +338,34 @@ class MitecomNode(Node):
         now = self.now()
         self.links = {rid: link for rid, link in self.links.items() if now - link.newest <= p.status_memory_s}
         ids = sorted(self.links)
+        # teammates keep the same budget: they send no faster than it allows this robot, which is no loss
+        allowed = self.budget.allowed_rate_hz
+        expected_hz = p.send_rate_hz if allowed is None else max(0.01, min(p.send_rate_hz, allowed))
         for rid in ids:
             self.links[rid].forget(now, p.loss_window_s)
         self.team_comm_pub.publish(schemas.make(
             TeamCommStatus, header=header(), team_id=p.team_id, player_id=min(p.player_id, 255), mate_ids=ids,
             age=[now - self.links[rid].newest for rid in ids],
             received=[min(len(self.links[rid].arrivals), 65535) for rid in ids],
-            loss_pct=[self.links[rid].loss_pct(now, p.loss_window_s, p.send_rate_hz) for rid in ids],
-            window_s=p.loss_window_s, expected_rate_hz=p.send_rate_hz, memory_s=p.status_memory_s))
+            loss_pct=[self.links[rid].loss_pct(now, p.loss_window_s, expected_hz) for rid in ids],
+            window_s=p.loss_window_s, expected_rate_hz=expected_hz, memory_s=p.status_memory_s,
+            send_rate_hz=self.budget.send_rate_hz(now), message_budget=min(self.budget.budget_left, BUDGET_UNKNOWN),
+            budget_rate_hz=-1.0 if self.budget.allowed_rate_hz is None else self.budget.allowed_rate_hz))
 
     # -- lifecycle ------------------------------------------------------------------------------------------
     def on_parameters_changed(self, changed: dict[str, Any]) -> None:
         if "send_rate_hz" in changed:
             self._send_timer.set_rate(self.params.send_rate_hz)
-        if {"peers", "port", "broadcast"} & set(changed):
+        if {"half_s", "budget_reserve"} & set(changed):
+            self.budget.half_s, self.budget.reserve = self.params.half_s, self.params.budget_reserve
+        if {"peers", "port", "broadcast", "hsl", "broadcast_address", "team_id", "team_port"} & set(changed):
             self._update_destinations()
-        if {"listen_address", "port"} & set(changed):
+        if {"listen_address", "port", "hsl", "team_id", "team_port"} & set(changed):
             self._close_socket()
             try:
                 self._open_socket()
             except OSError as exc:
-                self.record_error(f"cannot listen on {self.params.listen_address}:{self.params.port}: {exc}")
+                self.record_error(f"cannot listen on {self.params.listen_address}:{self.listen_port}: {exc}")
         if {"codec", "team_id"} & set(changed):
             self.mates.clear()
             self.links.clear()

@@ -1,6 +1,7 @@
 // Game state: what the GameController says, big enough to read from the bench: state, score (of both teams, by
 // colour, when both are heard), clock, half, kick-off, the secondary state (free kick, penalty shoot-out...) and
-// which robots are penalized, with the seconds left.
+// which robots are penalized, with the seconds left; with an HSL GameController also whether play is stopped (the
+// ball being placed) and the team messages each team has left.
 
 import { fmtClock, gameName, secondaryName } from "../msgtypes.js";
 import { teamsOf } from "../teams.js";
@@ -38,8 +39,12 @@ export default {
       const kicking = both ? teams.find((t) => t.kickOff) : null;
       $(".game-clock").textContent = `${fmtClock(game.seconds_remaining)} ${game.first_half ? "1st" : "2nd"} half` +
         (both ? (kicking ? ` · kick-off ${kicking.name}` : "") : `${game.has_kick_off ? " · our kick-off" : ""}`);
-      $(".game-secondary").textContent = game.secondary_state
+      const secondary = game.secondary_state
         ? `${secondaryName(game.secondary_state)} ${fmtClock(game.secondary_seconds_remaining)}` : "";
+      const budgets = teams.filter((t) => t.budget !== undefined)
+        .map((t) => `${t.name} ${t.budget.toLocaleString("en")} msgs left`);
+      $(".game-secondary").textContent = [secondary, game.stopped ? "STOPPED" : "", budgets.join(", ")]
+        .filter(Boolean).join(" · ");
       const penalized = robots.filter((id) => store.get(id, "gamestate")?.data?.penalized).map((id) => {
         const left = store.get(id, "gamestate").data.seconds_till_unpenalized;
         return left ? `${id} (${left} s)` : id;

@@ -1,7 +1,8 @@
 // Team overview: the robots grouped by team (the colour their GameController gives them), a card each in a grid:
 // number, role, HCM state, penalty with the seconds left, game state, battery, hottest servo, link health, and whom
-// it hears over team communication (age and loss of each teammate's messages). Its streams' table folds away when
-// the cards must be small (more than two robots).
+// it hears over team communication (age and loss of each teammate's messages, and how many messages a second it sends
+// itself); with an HSL GameController each team's heading shows the team messages it may still send. Its streams'
+// table folds away when the cards must be small (more than two robots).
 
 import { gameName, hcmName, hcmStateIsBad, hcmStateIsPenalty } from "../msgtypes.js";
 import { esc } from "../dom.js";
@@ -14,6 +15,7 @@ const EVENT_TITLE = "sent only when something happens: silence is normal";
 const OPEN_STREAMS_UP_TO = 2; // robots: with more, each card's streams table starts folded
 const MATE_STALE_S = 2; // a teammate not heard this long is shown stale (the mitecom node's teammate timeout)
 const MATE_LOSS_WARN = 20; // % of its messages missing
+const BUDGET_TITLE = "team messages left (the GameController's budget)";
 
 /** The card's facts from whatever arrived: full topics (live) or the compact overview (telemetry). */
 export function robotFacts(store, robot) {
@@ -36,6 +38,14 @@ export function robotFacts(store, robot) {
   const gameState = game ? game.game_state : (overview?.gamestate_known ? overview.game_state : undefined);
   const penalty = penaltyText(game) || (penalized ? "PENALIZED" : "");
   return { state, penalized, penalty, gameState, voltage, hottest };
+}
+
+/** What the robot sends over team communication: {rateHz, allowedHz} (allowedHz null: no budget to keep), null if
+ * its team_comm does not say (an older robot) or it has sent nothing in the last 10 s. */
+export function ownSending(store, robot) {
+  const status = store.get(robot, "team_comm")?.data;
+  if (!status || !(status.send_rate_hz > 0)) return null;
+  return { rateHz: status.send_rate_hz, allowedHz: status.budget_rate_hz >= 0 ? status.budget_rate_hz : null };
 }
 
 /** Whom the robot hears over team communication: [{mate, age, loss, received}] (its team_comm), null if unknown. */
@@ -78,7 +88,9 @@ export default {
       root.innerHTML = teams.map((team) => `<section class="team" data-team="${esc(team.name)}">
           <h4><span class="swatch" style="background:${esc(team.css)}"></span>${esc(team.name)}
           ${team.score === undefined ? "" : `<span class="team-score">${team.score}</span>`}
-          ${team.kickOff ? '<span class="badge">kick-off</span>' : ""}</h4>
+          ${team.kickOff ? '<span class="badge">kick-off</span>' : ""}
+          ${team.budget === undefined ? "" : `<span class="team-budget" title="${BUDGET_TITLE}">${
+            team.budget.toLocaleString("en")} msgs left</span>`}</h4>
           <div class="cards">${team.robots.map((id) => card(id, infos.get(id), ids.length)).join("")}</div>
         </section>`).join("");
     }
@@ -139,8 +151,12 @@ export default {
         return `<span class="mate ${cls}" data-mate="${mate}" title="teammate #${mate}: newest message ${ageText} ago, ${
           loss.toFixed(0)} % of its messages missing">#${mate} ${ageText} ${loss.toFixed(0)}%</span>`;
       }).join("");
+      const own = ownSending(store, id);
+      const allows = own === null || own.allowedHz === null ? "" : `; the budget allows ${own.allowedHz.toFixed(2)}`;
+      const sends = own === null ? "" : `<span class="sends" title="team messages sent per second over the last 10 s${
+        allows}">sends ${own.rateHz.toFixed(1)}/s</span>`;
       return `<div class="hears" data-heard="${mates.length}"><span class="label">hears</span>${
-        chips || '<span class="mate bad">nobody</span>'}</div>`;
+        chips || '<span class="mate bad">nobody</span>'}${sends}</div>`;
     }
 
     const offs = [store.on("robots", render), store.on("focus", render)];

@@ -20,11 +20,11 @@ from robot_nodes.cm730.sim.lineup import Lineup, LineupError, parse_robots
 from robot_nodes.cm730.sim.placements import lineup_start
 from robot_nodes.cm730.sim.referee import LoggingWhistle, Referee, RefereeRules
 from robot_nodes.game_controller.listener import GameControllerListener
-from robot_nodes.game_controller.packets import DATA_PORT, RETURN_PORT
 from robot_nodes.game_controller.simulator import SimulatedGame, SimulatedGameController
 from robot_nodes.runtime.node import parse_overrides
 from wire.bus import add_bus_arguments, bus_from_arguments
 from wire.command_line import CommandParser
+from wire.gamecontroller.packets import DATA_PORT, RETURN_PORT
 from wire.heap import freeze_startup_heap
 
 log = logging.getLogger("pitchside.match_world")
@@ -50,6 +50,9 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--gc-return-port", type=int, default=RETURN_PORT,
                         help="sim: UDP port (on 127.0.0.1) for the robots' return packets")
     parser.add_argument("--gc-http-port", type=int, default=None, help="sim: the GameController's HTTP API here")
+    parser.add_argument("--team-message-ports", type=int, nargs=2, default=None, metavar=("HOME", "AWAY"),
+                        help="sim: count each team's messages broadcast on loopback to these UDP ports against its "
+                             "budget (10000 + team number on a field)")
     parser.add_argument("--half-seconds", type=int, default=600)
     parser.add_argument("--ready-seconds", type=float, default=45.0)
     parser.add_argument("--set-seconds", type=float, default=5.0)
@@ -83,8 +86,12 @@ def main(argv: list[str] | None = None) -> None:
         if args.gamecontroller == "sim":
             game = simulated_game(lineup, args.half_seconds, args.ready_seconds, args.set_seconds,
                                   args.initial_seconds, args.half_time_seconds)
-            gc = SimulatedGameController(game, [(LOOPBACK_BROADCAST, args.gc_port)],
-                                         ("127.0.0.1", args.gc_return_port), clock=lambda: world.time).start()
+            ports = args.team_message_ports
+            gc = SimulatedGameController(
+                game, [(LOOPBACK_BROADCAST, args.gc_port)], ("127.0.0.1", args.gc_return_port),
+                clock=lambda: world.time, team_message_address=LOOPBACK_BROADCAST if ports else None,
+                team_message_ports={lineup.home.number: ports[0], lineup.away.number: ports[1]} if ports else None,
+            ).start()
             if args.gc_http_port is not None:
                 log.info("GameController HTTP API on http://127.0.0.1:%d/status", gc.serve_http(args.gc_http_port))
             Referee(world, lineup, gc.snapshot, gc).attach(served.runner)

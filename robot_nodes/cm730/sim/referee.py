@@ -27,7 +27,7 @@ from robot_nodes.cm730.sim.lineup import Lineup, Team
 from robot_nodes.cm730.sim.runner import SimRunner
 from robot_nodes.cm730.sim.scene import Placement
 from robot_nodes.cm730.sim.world import RobotHandle, SimWorld
-from robot_nodes.game_controller.packets import SET_PIECES, GameControlData, GameStateValue, Penalty, SecondaryState
+from wire.gamecontroller.packets import SET_PIECES, GameControlData, GameStateValue, Penalty, SecondaryState
 
 log = logging.getLogger("pitchside.referee")
 

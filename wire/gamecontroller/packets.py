@@ -1,4 +1,6 @@
-"""Humanoid League GameController wire format: the v12 state packet (RGme) and the v2 return packet (RGrt).
+"""GameController wire format: which codec reads a datagram (by version byte and length), the Humanoid League v12
+state packet (RGme, 688 bytes, and its 640-byte 2018 form) and the HL v2 return packet (RGrt); the Humanoid Soccer
+League v19/v20 packets and the v4 status packet are in ``hsl``.
 
 Pure codec, no sockets. Layout and constants: /work/shared/specs/gamecontroller.md (little endian, no padding).
 """
@@ -6,16 +8,37 @@ Pure codec, no sockets. Layout and constants: /work/shared/specs/gamecontroller.
 from __future__ import annotations
 
 import struct
-from dataclasses import dataclass, field
-from enum import IntEnum
+
+from wire.gamecontroller import hsl
+from wire.gamecontroller.game_data import (
+    DROPBALL_TEAMS,
+    HL_VERSION,
+    HSL_VERSION,
+    HSL_VERSION_19,
+    MAX_NUM_PLAYERS,
+    SET_PIECES,
+    GameControlData,
+    GameControllerPacketError,
+    GamePhase,
+    GameStateValue,
+    HslPenalty,
+    HslPenaltyV19,
+    Penalty,
+    ReturnMessage,
+    ReturnPacket,
+    RobotInfo,
+    SecondaryState,
+    SetPlay,
+    StatusPacket,
+    TeamInfo,
+)
 
 STATE_HEADER = b"RGme"
 RETURN_HEADER = b"RGrt"
-STATE_VERSION = 12
+STATE_VERSION = HL_VERSION
 RETURN_VERSION = 2
 DATA_PORT = 3838
 RETURN_PORT = 3939
-MAX_NUM_PLAYERS = 11
 COACH_MESSAGE_SIZE = 253
 
 _TOP = struct.Struct("<4sHBBBBBBB4sBHhh")  # 24 bytes
@@ -40,158 +63,9 @@ _OTHER_PROTOCOLS: dict[tuple[int, int], str] = {
     (16, 118): "SPL version 16",
     (17, 118): "SPL version 17",
     (18, 118): "SPL version 18",
-    (19, 198): "Humanoid Soccer League version 19",
-    (20, 158): "Humanoid Soccer League version 20",
 }
-
-
-class GameControllerPacketError(ValueError):
-    """A datagram that is not a valid Humanoid League v12 GameController packet; the message says why."""
-
-
-class GameStateValue(IntEnum):
-    INITIAL = 0
-    READY = 1
-    SET = 2
-    PLAYING = 3
-    FINISHED = 4
-
-
-class SecondaryState(IntEnum):
-    NORMAL = 0
-    PENALTYSHOOT = 1
-    OVERTIME = 2
-    TIMEOUT = 3
-    DIRECT_FREEKICK = 4
-    INDIRECT_FREEKICK = 5
-    PENALTYKICK = 6
-    CORNER_KICK = 7
-    GOAL_KICK = 8
-    THROW_IN = 9
-
-
-SET_PIECES = frozenset(range(SecondaryState.DIRECT_FREEKICK, SecondaryState.THROW_IN + 1))
-
-
-class Penalty(IntEnum):
-    NONE = 0
-    SUBSTITUTE = 14
-    MANUAL = 15
-    BALL_MANIPULATION = 30
-    PHYSICAL_CONTACT = 31
-    ILLEGAL_ATTACK = 32
-    ILLEGAL_DEFENSE = 33
-    PICKUP_OR_INCAPABLE = 34
-    SERVICE = 35
-    UNKNOWN = 255
-
-
-class ReturnMessage(IntEnum):
-    MAN_PENALISE = 0
-    MAN_UNPENALISE = 1
-    ALIVE = 2
-    GOALKEEPER = 3
-    GAME_INTERRUPTION_READY = 4
-
-
-DROPBALL_TEAMS = frozenset({128, 255})  # Java GC writes 0x80, the C header and Rust GC 255
-
-
-@dataclass(frozen=True, slots=True)
-class RobotInfo:
-    """One player slot of a team (players[0] is player number 1)."""
-
-    penalty: int = 0
-    secs_till_unpenalized: int = 0
-    warnings: int = 0
-    yellow_cards: int = 0
-    red_cards: int = 0
-    goalkeeper: bool = False
-
-    @property
-    def penalized(self) -> bool:
-        return self.penalty != Penalty.NONE
-
-    @property
-    def substitute(self) -> bool:
-        return self.penalty == Penalty.SUBSTITUTE
-
-
-def _substitute_slots() -> tuple[RobotInfo, ...]:
-    return tuple(RobotInfo(penalty=Penalty.SUBSTITUTE) for _ in range(MAX_NUM_PLAYERS))
-
-
-@dataclass(frozen=True, slots=True)
-class TeamInfo:
-    team_number: int = 0
-    team_color: int = 0
-    score: int = 0
-    penalty_shot: int = 0
-    single_shots: int = 0
-    coach_sequence: int = 0
-    coach_message: bytes = b""
-    coach: RobotInfo = field(default_factory=RobotInfo)
-    players: tuple[RobotInfo, ...] = field(default_factory=_substitute_slots)
-
-    def player(self, number: int) -> RobotInfo | None:
-        """Player by its number (1-based), None if out of the 11 slots."""
-        return self.players[number - 1] if 1 <= number <= len(self.players) else None
-
-    def active_players(self, players_per_team: int) -> dict[int, RobotInfo]:
-        """Player number -> slot for robots that may be on the field: substitutes and unused slots are not."""
-        return {
-            i + 1: p for i, p in enumerate(self.players[:players_per_team]) if p.penalty != Penalty.SUBSTITUTE
-        }
-
-    @property
-    def coach_text(self) -> str:
-        return self.coach_message.split(b"\0", 1)[0].decode("utf-8", errors="replace")
-
-
-@dataclass(frozen=True, slots=True)
-class GameControlData:
-    """One Humanoid League v12 state packet."""
-
-    packet_number: int = 0
-    players_per_team: int = 4
-    game_type: int = 0
-    state: int = GameStateValue.INITIAL
-    first_half: bool = True
-    kick_off_team: int = 0
-    secondary_state: int = SecondaryState.NORMAL
-    secondary_state_info: tuple[int, int, int, int] = (0, 0, 0, 0)
-    drop_in_team: int = 0
-    drop_in_time: int = 0xFFFF
-    secs_remaining: int = 600
-    secondary_time: int = 0
-    teams: tuple[TeamInfo, TeamInfo] = (TeamInfo(), TeamInfo())
-    version: int = STATE_VERSION
-
-    def team(self, team_number: int) -> TeamInfo | None:
-        """Our team by number: team order in the packet is not fixed (side mapping)."""
-        for t in self.teams:
-            if t.team_number == team_number:
-                return t
-        return None
-
-    def rival(self, team_number: int) -> TeamInfo | None:
-        if self.team(team_number) is None:
-            return None
-        return next((t for t in self.teams if t.team_number != team_number), self.teams[1])
-
-    @property
-    def dropball(self) -> bool:
-        return self.kick_off_team in DROPBALL_TEAMS
-
-
-@dataclass(frozen=True, slots=True)
-class ReturnPacket:
-    """HL return packet v2: a robot tells the GC it is alive (or asks for a manual (un)penalty)."""
-
-    team: int
-    player: int
-    message: int = ReturnMessage.ALIVE
-    version: int = RETURN_VERSION
+HSL_NAMES = {HSL_VERSION_19: "Humanoid Soccer League version 19", HSL_VERSION: "Humanoid Soccer League version 20"}
+READS = "Humanoid Soccer League versions 20 and 19 and Humanoid League version 12"
 
 
 # -- state packet -----------------------------------------------------------------------------------------
@@ -207,21 +81,41 @@ def _version_error(data: bytes) -> GameControllerPacketError:
     if other is not None:
         return GameControllerPacketError(
             f"GameController packet version {data[4]} ({other}, {len(data)} bytes) is not supported; "
-            f"this receiver reads Humanoid League version {STATE_VERSION}"
-        )
+            f"this receiver reads {READS}", "wrong_version")
     return GameControllerPacketError(
-        f"GameController packet version {raw} is not supported; this receiver reads Humanoid League "
-        f"version {STATE_VERSION}"
-    )
+        f"GameController packet version {raw} (first byte {data[4]}, {len(data)} bytes) is not supported; "
+        f"this receiver reads {READS}", "wrong_version")
+
+
+def _size_error(version: int, length: int, expected: int, also: str = "") -> GameControllerPacketError:
+    return GameControllerPacketError(
+        f"wrong size for a version {version} GameController packet: {length} bytes, expected {expected}{also}",
+        "truncated" if length < expected else "over_long")
+
+
+def packet_version(data: bytes | bytearray | memoryview) -> int | None:
+    """The version a datagram claims (12, 19, 20), None if it claims none pitchside reads."""
+    if len(data) < 6 or bytes(data[:4]) != STATE_HEADER:
+        return None
+    if data[4] in HSL_NAMES:
+        return int(data[4])
+    return HL_VERSION if int.from_bytes(bytes(data[4:6]), "little") == HL_VERSION else None
 
 
 def parse_state_packet(data: bytes | bytearray | memoryview) -> GameControlData:
-    """Decodes one datagram; GameControllerPacketError (and nothing else) for anything that is not HL v12."""
+    """Decodes one datagram of HSL v20 or v19 or HL v12 (chosen by version byte and length);
+    GameControllerPacketError (and nothing else) for anything else."""
     data = bytes(data)
     if len(data) < 6:
-        raise GameControllerPacketError(f"GameController packet too short: {len(data)} bytes")
+        raise GameControllerPacketError(f"GameController packet too short: {len(data)} bytes", "truncated")
     if data[:4] != STATE_HEADER:
-        raise GameControllerPacketError(f"wrong GameController header {data[:4]!r}, expected {STATE_HEADER!r}")
+        raise GameControllerPacketError(f"wrong GameController header {data[:4]!r}, expected {STATE_HEADER!r}",
+                                        "wrong_header")
+    if data[4] in HSL_NAMES:
+        expected = hsl.PACKET_SIZE[data[4]]
+        if len(data) != expected:
+            raise _size_error(data[4], len(data), expected, f" ({HSL_NAMES[data[4]]})")
+        return hsl.parse_hsl_state_packet(data)
     if int.from_bytes(data[4:6], "little") != STATE_VERSION:
         raise _version_error(data)
     if len(data) == PACKET_SIZE:
@@ -229,10 +123,11 @@ def parse_state_packet(data: bytes | bytearray | memoryview) -> GameControlData:
     elif len(data) == PACKET_SIZE_2018:
         robot, team_size = _ROBOT4, TEAM_SIZE_2018
     else:
-        raise GameControllerPacketError(
-            f"wrong size for a version {STATE_VERSION} GameController packet: {len(data)} bytes, "
-            f"expected {PACKET_SIZE} (or {PACKET_SIZE_2018} for the 2018 form)"
-        )
+        if (data[4], len(data)) in _OTHER_PROTOCOLS:  # SPL v12 with packet number 0 looks like HL v12
+            raise _version_error(data)
+        raise _size_error(STATE_VERSION, len(data), PACKET_SIZE if len(data) > PACKET_SIZE_2018 else PACKET_SIZE_2018,
+                          f" (or {PACKET_SIZE_2018} for the 2018 form)" if len(data) > PACKET_SIZE_2018
+                          else f" (or {PACKET_SIZE})")
     (_, version, packet_number, players_per_team, game_type, state, first_half, kick_off_team, secondary_state,
      info, drop_in_team, drop_in_time, secs_remaining, secondary_time) = _TOP.unpack_from(data, 0)
     _check_range("players per team", players_per_team, 0, MAX_NUM_PLAYERS)
@@ -287,7 +182,13 @@ def _parse_robot(data: bytes, offset: int, robot: struct.Struct) -> RobotInfo:
 
 
 def build_state_packet(data: GameControlData) -> bytes:
-    """The 688-byte v12 datagram a GameController sends (used by the simulated GC)."""
+    """The datagram a GameController sends, in ``data.version``: 688-byte HL v12, 158-byte v20 or 198-byte v19
+    (used by the simulated GC and tests)."""
+    if data.version in HSL_NAMES:
+        return hsl.build_hsl_state_packet(data)
+    if data.version != STATE_VERSION:
+        raise GameControllerPacketError(f"cannot encode version {data.version}; one of 12, 19, 20",
+                                        "wrong_version")
     try:
         out = bytearray(_TOP.pack(
             STATE_HEADER, STATE_VERSION, data.packet_number & 0xFF, data.players_per_team, data.game_type,
@@ -329,7 +230,8 @@ def parse_return_packet(data: bytes | bytearray | memoryview) -> ReturnPacket:
     """What a GameController receives on port 3939; GameControllerPacketError if it is not an HL v2 return."""
     data = bytes(data)
     if len(data) < 5 or data[:4] != RETURN_HEADER:
-        raise GameControllerPacketError(f"wrong return packet header {data[:4]!r}, expected {RETURN_HEADER!r}")
+        raise GameControllerPacketError(f"wrong return packet header {data[:4]!r}, expected {RETURN_HEADER!r}",
+                                        "wrong_header")
     if data[4] != RETURN_VERSION:
         raise GameControllerPacketError(
             f"return packet version {data[4]} is not supported; expected {RETURN_VERSION}"
@@ -339,3 +241,27 @@ def parse_return_packet(data: bytes | bytearray | memoryview) -> ReturnPacket:
     _, version, team, player, message = _RETURN.unpack(data)
     _check_range("player number", player, 1, 20)
     return ReturnPacket(team=team, player=player, message=message, version=version)
+
+
+def parse_any_return_packet(data: bytes | bytearray | memoryview) -> ReturnPacket | StatusPacket:
+    """What arrives on port 3939: an HL v2 return packet or an HSL v4 status packet, by its version byte."""
+    data = bytes(data)
+    if len(data) >= 5 and data[:4] == RETURN_HEADER and data[4] == hsl.STATUS_VERSION:
+        return hsl.parse_status_packet(data)
+    return parse_return_packet(data)
+
+
+build_status_packet = hsl.build_status_packet
+parse_status_packet = hsl.parse_status_packet
+hl_to_hsl = hsl.hl_to_hsl
+HSL_PACKET_SIZE = hsl.PACKET_SIZE
+STATUS_SIZE = hsl.STATUS_SIZE
+
+__all__ = [
+    "DATA_PORT", "DROPBALL_TEAMS", "HL_VERSION", "HSL_NAMES", "HSL_PACKET_SIZE", "HSL_VERSION", "HSL_VERSION_19",
+    "MAX_NUM_PLAYERS", "PACKET_SIZE", "PACKET_SIZE_2018", "RETURN_PORT", "RETURN_SIZE", "SET_PIECES", "STATUS_SIZE",
+    "GameControlData", "GameControllerPacketError", "GamePhase", "GameStateValue", "HslPenalty", "HslPenaltyV19",
+    "Penalty", "ReturnMessage", "ReturnPacket", "RobotInfo", "SecondaryState", "SetPlay", "StatusPacket", "TeamInfo",
+    "build_return_packet", "build_state_packet", "build_status_packet", "hl_to_hsl", "packet_version",
+    "parse_any_return_packet", "parse_return_packet", "parse_state_packet", "parse_status_packet",
+]
