@@ -212,7 +212,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--match", action="store_true",
                         help="match configuration: the robot's Zenoh connects to nobody (nothing reaches the team "
                              "PC but the telemetry, nothing needs to come back); needs --telemetry-to and a key")
-    service = parser.add_argument_group("as a systemd service (README: On the robot)")
+    service = parser.add_argument_group("as a systemd service (docs/guides/on-the-robot.md)")
     service.add_argument("--install-service", action="store_true",
                          help="write a systemd unit that runs this command with these options at every boot "
                               "(restart on failure, output to the journal), enable it, and exit")

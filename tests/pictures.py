@@ -1,4 +1,5 @@
-"""Test helper: what a screenshot shows, for views drawn with WebGL that a page script cannot read back."""
+"""Test helper: what a screenshot shows, for views drawn with WebGL that a page script cannot read back, and whether
+a layout preset fits the window (shared by the browser tests and `./run pictures`)."""
 
 from __future__ import annotations
 
@@ -7,6 +8,8 @@ from io import BytesIO
 from typing import Any
 
 from tests.waiting import wait_for
+
+MIN_DRAWN = 0.004  # a panel body with less than this share of non-background pixels draws nothing
 
 
 def picture(png: bytes) -> Any:
@@ -55,3 +58,30 @@ def drawn_share(picture: Any) -> float:
     background = colours[int(np.argmax(counts))]
     differ = int(np.count_nonzero(np.abs(pixels - background).sum(axis=1) > 60))
     return differ / len(pixels)
+
+
+def layout_problems(page: Any, panels: list[str]) -> list[str]:
+    """Page scrolling, panels outside the window or under the playback bar."""
+    found: list[str] = page.evaluate("""(panels) => {
+        const problems = [], doc = document.documentElement;
+        if (doc.scrollHeight > innerHeight || doc.scrollWidth > innerWidth)
+          problems.push(`the page scrolls: ${doc.scrollWidth}x${doc.scrollHeight} in ${innerWidth}x${innerHeight}`);
+        const bar = document.querySelector('.playback-bar:not([hidden])')?.getBoundingClientRect();
+        for (const id of panels) {
+          const r = document.querySelector(`section[data-panel="${id}"]`).getBoundingClientRect();
+          if (r.left < 0 || r.top < 0 || r.right > innerWidth || r.bottom > innerHeight) problems.push(`${id} cut off`);
+          if (bar && bar.height && r.bottom > bar.top) problems.push(`${id} under the playback bar`);
+        }
+        return problems; }""", panels)
+    return found
+
+
+def silent_panels(page: Any, panels: list[str], min_drawn: float = MIN_DRAWN) -> dict[str, float]:
+    """Panels whose body draws (almost) nothing: one picture of the whole page, cut at each body's box (a screenshot
+    per panel makes Chromium draw every WebGL view again each time, seconds apiece here)."""
+    boxes: dict[str, list[float]] = page.evaluate("""(panels) => Object.fromEntries(panels.map((id) => {
+        const r = document.querySelector(`section[data-panel="${id}"] > .panel-body`).getBoundingClientRect();
+        return [id, [r.left, r.top, r.right, r.bottom]]; }))""", panels)
+    whole = picture(page.screenshot(animations="disabled"))
+    shares = {panel: drawn_share(whole.crop(tuple(round(v) for v in box))) for panel, box in boxes.items()}
+    return {panel: share for panel, share in shares.items() if share < min_drawn}

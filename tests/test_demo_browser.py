@@ -1,9 +1,9 @@
-"""`pitchside demo` in Debian's chromium: every panel shows the live simulation, and the README's pictures.
+"""`pitchside demo` in Debian's chromium: every panel shows the live simulation, and each layout preset fits the screen.
 
 Runs the real demo (MuJoCo world, robot nodes, GameController, server with 3D view and plots) as a
 subprocess, once for both tests; an independent WebSocket client reads the same data the page gets, so each panel
-is checked against what the robot published. Screenshots go to test-output/demo/ for review; the pictures of the
-three layout presets go to docs/pictures/.
+is checked against what the robot published. Screenshots go to test-output/demo/ for review (the documentation's
+pictures are taken on request by `./run pictures`, never by the suite).
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ import httpx
 import pytest
 
 import schemas
-from tests.pictures import drawn_share, picture
+from tests.pictures import layout_problems, silent_panels
 from tests.running_demo import DashboardObserver, RunningDemo, running_demo
 from tests.state_graph_view import measure_state_graph
 from tests.support import REPO, launch_chromium
@@ -31,13 +31,11 @@ ROBOT = "robot1"
 HCM_NAMES = schemas.constant_names("humanoid_league_msgs/msg/RobotControlState")
 DATA_PANELS = ("team", "field", "relative", "hcm", "camera", "diagnostics")
 WEBGL_VIEWS = ("robot3d", "plots")
-PICTURES = REPO / "docs" / "pictures"
 PRESETS = {
     "match": ["field", "team", "game", "links", "recordings"],
     "lab": ["parameters", "animation", "robot3d", "teleop", "plots", "camera"],
     "replay": ["field", "hcm", "replay", "recordings", "plots", "robot3d"],
 }
-MIN_DRAWN = 0.004  # a panel body with less than this share of non-background pixels draws nothing
 # alone: the 3D view and the plots, drawn by WebGL in software, need the machine's cores (./run test runs these
 # tests after the others; beside a worker running simulations, chromium made no frame within 60 s in CI)
 pytestmark = [pytest.mark.slow, pytest.mark.browser, pytest.mark.alone, pytest.mark.timeout(240)]
@@ -213,43 +211,16 @@ def _record(demo: RunningDemo, seconds: float) -> str:
     return Path(stopped.json()["path"]).name
 
 
-def _layout_problems(page: Any, panels: list[str]) -> list[str]:
-    """Page scrolling, panels outside the window or under the playback bar."""
-    found: list[str] = page.evaluate("""(panels) => {
-        const problems = [], doc = document.documentElement;
-        if (doc.scrollHeight > innerHeight || doc.scrollWidth > innerWidth)
-          problems.push(`the page scrolls: ${doc.scrollWidth}x${doc.scrollHeight} in ${innerWidth}x${innerHeight}`);
-        const bar = document.querySelector('.playback-bar:not([hidden])')?.getBoundingClientRect();
-        for (const id of panels) {
-          const r = document.querySelector(`section[data-panel="${id}"]`).getBoundingClientRect();
-          if (r.left < 0 || r.top < 0 || r.right > innerWidth || r.bottom > innerHeight) problems.push(`${id} cut off`);
-          if (bar && bar.height && r.bottom > bar.top) problems.push(`${id} under the playback bar`);
-        }
-        return problems; }""", panels)
-    return found
-
-
-def _silent_panels(page: Any, panels: list[str]) -> dict[str, float]:
-    """Panels whose body draws (almost) nothing: one picture of the whole page, cut at each body's box (a screenshot
-    per panel makes Chromium draw every WebGL view again each time, seconds apiece here)."""
-    boxes: dict[str, list[float]] = page.evaluate("""(panels) => Object.fromEntries(panels.map((id) => {
-        const r = document.querySelector(`section[data-panel="${id}"] > .panel-body`).getBoundingClientRect();
-        return [id, [r.left, r.top, r.right, r.bottom]]; }))""", panels)
-    whole = picture(page.screenshot(animations="disabled"))
-    shares = {panel: drawn_share(whole.crop(tuple(round(v) for v in box))) for panel, box in boxes.items()}
-    return {panel: share for panel, share in shares.items() if share < MIN_DRAWN}
-
-
 # one rerun: on a loaded 2-core machine chromium once produced no frame for a screenshot within 60 s (software GL
 # drawing the 3D view and the plots while the suite's other worker ran a simulation)
 @pytest.mark.flaky(reruns=1)
 @pytest.mark.timeout(600)
 def test_each_preset_fits_1920x1080_draws_every_panel_and_is_pictured(demo: RunningDemo, wide_page: Any) -> None:
-    """The README's pictures: the three layout presets at 1920x1080, taken into docs/pictures/, so the README
-    always shows today's dashboard. Fails when a preset needs page scrolling or one of its panels draws nothing.
+    """The three layout presets at 1920x1080, each pictured into test-output/demo/ for review. Fails when a preset
+    needs page scrolling or one of its panels draws nothing.
     The Replay preset shows a replay of a recording the test makes (last in this file: it leaves the replay open)."""
     page = wide_page
-    PICTURES.mkdir(parents=True, exist_ok=True)
+    OUTPUT.mkdir(parents=True, exist_ok=True)
     name = _record(demo, 5.0)
     http = httpx.Client(base_url=demo.url, headers=demo.auth, timeout=60.0)
     for chosen in http.get("/api/plots").json().get("chosen", []):  # the plots as a fresh demo has them
@@ -273,16 +244,16 @@ def test_each_preset_fits_1920x1080_draws_every_panel_and_is_pictured(demo: Runn
             http.post("/api/replay/pause")
             assert http.post("/api/replay/seek", json={"t_s": 2.5}).status_code == 200
         page.mouse.move(1919, 1079)  # no hover marks in the picture
-        assert _layout_problems(page, panels) == [], preset
+        assert layout_problems(page, panels) == [], preset
         # the 3D robot and the plots (software WebGL here) come in last: every panel draws something in time
         silent: dict[str, float] = {}
 
         def every_panel_draws(shown: list[str] = panels, silent: dict[str, float] = silent) -> bool:
             silent.clear()
-            silent.update(_silent_panels(page, shown))
+            silent.update(silent_panels(page, shown))
             return not silent
         wait_for(every_panel_draws, 120.0, 2.0,
                  lambda preset=preset, silent=silent: f"every panel of {preset} drawing ({silent} drew nothing)")
-        page.screenshot(path=str(PICTURES / f"{preset}.png"))
-        assert _layout_problems(page, panels) == [], preset
+        page.screenshot(path=str(OUTPUT / f"preset-{preset}.png"))
+        assert layout_problems(page, panels) == [], preset
     assert not page.errors, page.errors

@@ -19,7 +19,7 @@ from packaging.utils import canonicalize_name
 from tests.support import REPO
 
 PROGRAM = ("schemas", "wire", "robot_nodes", "robots", "server", "web", "pitchside")
-OWN = {*PROGRAM, "tests", "bench"}
+OWN = {*PROGRAM, "tests", "bench", "tools"}  # tools: developer tools of the checkout (docs reference)
 # which profile runs a file: the first matching path prefix (the rest of the program is the core every part speaks)
 PROFILE_OF = [
     ("robot_nodes/cm730/sim", "sim"),  # the MuJoCo world, its backend and its topics
@@ -195,3 +195,16 @@ def test_the_lock_files_are_current_and_hashed(profile: str, extra: str) -> None
         assert not {"mujoco", "rerun-sdk", "viser", "fastapi", "trimesh", "scipy"} & pins.keys()
     if profile == "all":  # what ./run demo installs: the program, no test tools
         assert not {"pytest", "playwright", "mypy", "ruff", "uv", "mkdocs"} & pins.keys()
+
+
+def test_the_build_backend_is_locked() -> None:
+    """./run installs pitchside itself with the build backend of locks/build.txt (a new venv's setuptools can be too
+    old for pyproject.toml): every [build-system] requirement pinned there with hashes."""
+    import tomllib
+
+    pins = locked("build")
+    for text in tomllib.loads((REPO / "pyproject.toml").read_text())["build-system"]["requires"]:
+        req = Requirement(text)
+        entries = pins.get(canonicalize_name(req.name), [])
+        assert entries and all(hashes for _, hashes in entries), f"{req.name} not in locks/build.txt: ./run lock"
+        assert all(req.specifier.contains(str(pin.specifier).removeprefix("==")) for pin, _ in entries)

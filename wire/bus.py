@@ -184,7 +184,7 @@ def router_config(listen: list[str] | None = None, connect: list[str] | None = N
     if exposed := open_to_strangers(conf):
         log.warning("Zenoh router listening on %s without access control: anyone who reaches it may publish "
                     "motor_goals and cmd_vel to every robot; `pitchside team-keys` makes the team's secured bus "
-                    "(README, 'A team on a secured bus')", ", ".join(exposed))
+                    "(docs/guides/secured-bus.md)", ", ".join(exposed))
     return conf
 
 

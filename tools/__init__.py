@@ -1,0 +1,1 @@
+"""Developer tools run by ./run: pictures for the documentation."""
