@@ -83,6 +83,8 @@ def robot_settings(team: Team, player: int, gc: GameControllerPlan, mitecom_port
     mates = ",".join(f"127.0.0.1:{mitecom_ports[r]}" for r in team.robot_ids() if r != team.robot_id(player))
     team_talk = ["--set", f"team_id={team.number}", "--set", f"player_id={player}",
                  "--set", "listen_address=127.0.0.1", "--set", f"port={own}"]
+    if telemetry_key:  # the run's key: each team signs with its own key derived from it (team number)
+        team_talk += ["--set", f"team_key={telemetry_key}"]
     if mates:  # a team of one has nobody to tell (the node's default, its own port, talks to itself)
         team_talk += ["--set", f"peers={mates}"]
     # the stand-in localization gives both teams the world's frame (the dashboard draws both where they are): the
