@@ -99,7 +99,8 @@ class ServerConfig:
         if self.allow_dev_key or not self.telemetry_key:
             raise ValueError("a secured team's dashboard needs the team's telemetry key: team.key beside the "
                              "team's Zenoh config (`pitchside team-keys` writes it) or --telemetry-key FILE; the "
-                             "published development key is refused on a secured team (--allow-dev-key too)")
+                             "published development key is refused on a secured team (--allow-dev-key too). A "
+                             "viewer, which holds no team key, reads the bus only: --no-telemetry")
         if load_key(self.telemetry_key) == DEV_KEY:
             raise ValueError("the telemetry key given is the published development key, refused on a secured team")
 
