@@ -94,6 +94,8 @@ def robot_settings(team: Team, player: int, gc: GameControllerPlan, mitecom_port
         team_talk += ["--set", "listen_address=127.0.0.1", "--set", f"port={own}"]
         if mates:  # a team of one has nobody to tell (the node's default, its own port, talks to itself)
             team_talk += ["--set", f"peers={mates}"]
+    if telemetry_key:  # the run's key: each team signs with its own key derived from it (team number)
+        team_talk += ["--set", f"team_key={telemetry_key}"]
     # the stand-in localization gives both teams the world's frame (the dashboard draws both where they are): the
     # away team defends its +x half
     field_side = ["--set", f"own_half={'+x' if team.own_goal > 0 else '-x'}"]

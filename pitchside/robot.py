@@ -31,6 +31,7 @@ from robot_nodes.launch import (
 from wire.bus import add_bus_arguments, env_endpoints, load_config_file
 from wire.command_line import CommandParser
 from wire.machine_router import MachineRouter, is_router_config, start_machine_router
+from wire.team_key import secured_bus, team_key_beside
 from wire.telemetry.datagram import DEFAULT_PORT
 
 MOTION_NODES = ["hcm", "animation", "pause", "speaker"]
@@ -139,6 +140,39 @@ def telemetry_arguments(args: argparse.Namespace) -> list[str] | None:
     return out
 
 
+def team_key_arguments(args: argparse.Namespace) -> None:
+    """The team key: --telemetry-key, else team.key beside a secured team's file; a secured team never falls back
+    to the published development key (its bus would be bypassed over UDP)."""
+    if not args.zenoh_config or not secured_bus(args.zenoh_config):
+        return
+    if args.allow_dev_key:
+        raise SystemExit("pitchside robot: a secured team's robot never sends under the published development key; "
+                         "drop --allow-dev-key (the team's key is team.key, written by `pitchside team-keys`)")
+    if not args.telemetry_key:
+        found = team_key_beside(args.zenoh_config)
+        args.telemetry_key = str(found) if found else None
+
+
+def team_comm_arguments(args: argparse.Namespace) -> list[str]:
+    """The team communication's settings: signed with the team key; on the field's network only in a match (or
+    where --team-comm-address says), loopback in the lab."""
+    out: list[str] = []
+    if "mitecom" not in [n.strip() for n in args.nodes.split(",")]:
+        return out
+    if args.unsigned_team_messages:
+        out += ["--set", "unsigned=true"]
+    elif args.telemetry_key:
+        out += ["--set", f"team_key={Path(args.telemetry_key).resolve()}"]
+    elif args.match:
+        raise SystemExit("pitchside robot --match: team messages are signed with the team's key (--telemetry-key "
+                         "FILE); --unsigned-team-messages sends and believes unsigned ones (a mixed team whose "
+                         "partners do not sign: anyone on the field can then forge a teammate)")
+    address = args.team_comm_address or ("0.0.0.0" if args.match else None)
+    if address:
+        out += ["--set", f"listen_address={address}"]
+    return out
+
+
 def service_command(args: argparse.Namespace, robot_id: str) -> list[str]:
     """This command line again, for the unit: the same options, paths absolute, the service's own options left out."""
     command = [*robot_program(), "robot", "--robot-id", robot_id, "--model", args.model]
@@ -159,6 +193,10 @@ def service_command(args: argparse.Namespace, robot_id: str) -> list[str]:
         command += ["--telemetry-key", str(Path(args.telemetry_key).resolve())]
     if args.allow_dev_key:
         command.append("--allow-dev-key")
+    if args.unsigned_team_messages:
+        command.append("--unsigned-team-messages")
+    if args.team_comm_address:
+        command += ["--team-comm-address", args.team_comm_address]
     if args.match:
         command.append("--match")
     return command
@@ -174,7 +212,9 @@ def install_service(args: argparse.Namespace) -> None:
     if args.params and not args.params.is_file():
         raise SystemExit(f"pitchside robot: params file {args.params} does not exist")
     robot_id = robot_id_for(args.robot_id, args.zenoh_config)
+    team_key_arguments(args)
     telemetry_arguments(args)
+    team_comm_arguments(args)
     unit = RobotService(service_command(args, robot_id), args.service_user or invoking_user(), Path.cwd(), robot_id,
                         args.service_name)
     if args.dry_run:
@@ -206,9 +246,16 @@ def main(argv: list[str] | None = None) -> None:
                                   "access control); the nodes join that router on loopback")
     parser.add_argument("--telemetry-to", default=None, metavar="HOST[:PORT]",
                         help=f"the team PC's telemetry listener (UDP, port {DEFAULT_PORT} by default)")
-    parser.add_argument("--telemetry-key", default=None, metavar="FILE", help="the team's telemetry key file")
+    parser.add_argument("--telemetry-key", default=None, metavar="FILE",
+                        help="the team's key file (telemetry and signed team messages; default on a secured team: "
+                             "team.key beside --zenoh-config)")
     parser.add_argument("--allow-dev-key", action="store_true",
                         help="send telemetry under the published development key (lab only)")
+    parser.add_argument("--unsigned-team-messages", action="store_true",
+                        help="send and believe unsigned team messages (a mixed team whose partners do not sign)")
+    parser.add_argument("--team-comm-address", default=None, metavar="ADDRESS",
+                        help="where the team communication listens (default 127.0.0.1 in the lab, 0.0.0.0 with "
+                             "--match)")
     parser.add_argument("--match", action="store_true",
                         help="match configuration: the robot's Zenoh connects to nobody (nothing reaches the team "
                              "PC but the telemetry, nothing needs to come back); needs --telemetry-to and a key")
@@ -236,7 +283,9 @@ def main(argv: list[str] | None = None) -> None:
         raise SystemExit("pitchside robot --match: a robot in a match connects to no other machine (the team PC "
                          "would answer with packets the rules forbid); drop --connect")
     robot_id = robot_id_for(args.robot_id, args.zenoh_config)
+    team_key_arguments(args)
     telemetry = telemetry_arguments(args)
+    team_comm = team_comm_arguments(args)
     wanted = [n.strip() for n in args.nodes.split(",") if n.strip()]
     if telemetry is None and "telemetry" in wanted:
         wanted.remove("telemetry")
@@ -250,8 +299,8 @@ def main(argv: list[str] | None = None) -> None:
     router = robot_router(args)
     # the nodes join the robot's router on loopback; a team file (the robot's key) stays with the router
     launcher = Launcher(robot_nodes(robot_id, [router.local_endpoint], args.model, names,
-                                    {"telemetry": telemetry or []}, params=args.params, mode=args.mode,
-                                    compose=args.compose, alone=alone))
+                                    {"telemetry": telemetry or [], "mitecom": team_comm}, params=args.params,
+                                    mode=args.mode, compose=args.compose, alone=alone))
     try:
         run_until_signal(launcher)
     finally:

@@ -2,8 +2,9 @@
 
     pitchside team-keys team/ --team Bit-Bots --robots robot1,robot2 --laptop laptop --router-host 10.0.0.5
 
-writes into team/ a team CA, one Zenoh config per member and team.json (who is who). The files follow the bus's
-topology (one router per machine, machines linked router to router):
+writes into team/ a team CA, one Zenoh config per member, team.json (who is who) and team.key, the team's shared
+key for what goes around the bus (the robots' telemetry, signed team messages: wire.team_key). The files follow
+the bus's topology (one router per machine, machines linked router to router):
 
 * router.json5: the team router on the team laptop (``pitchside router``), on every interface, mutual TLS only;
 * robot1.json5, ...: the robot's own router (``pitchside robot``): it links to the team router over mutual TLS
@@ -41,7 +42,8 @@ from pitchside.team_access import Role, access_control, robot_router_access_cont
 from pitchside.team_certificates import MemberCredentials, TeamAuthority, TeamCertificateError, member_credentials
 from wire.bus import DEFAULT_LISTEN, BusConfig, router_settings
 from wire.command_line import CommandParser
-from wire.telemetry.datagram import check_robot_id
+from wire.team_key import TEAM_KEY_FILE
+from wire.telemetry.datagram import check_robot_id, write_new_key
 
 TEAM_FILE = "team.json"
 CA_KEY = "team-ca.key"
@@ -137,6 +139,8 @@ def create_team(folder: Path, team: str, robots: Iterable[str], laptops: Iterabl
     _write_private(folder / CA_KEY, authority.key_pem)
     _write_private(folder / CA_CERTIFICATE, authority.certificate_pem)
     credentials = {name: authority.issue(name, role.value) for name, role in new.members.items()}
+    (folder / TEAM_KEY_FILE).unlink(missing_ok=True)  # a new team, a new key (force)
+    _write_team_key(folder)
     return _write_team(folder, new, authority, credentials)
 
 
@@ -167,6 +171,7 @@ def add_members(folder: Path, robots: Iterable[str] = (), laptops: Iterable[str]
             raise TeamKeysError(f"{name}.json5 holds the key of {found.name!r}, not of {name!r}")
     credentials.update({name: authority.issue(name, role.value) for name, role in team.members.items()
                         if name not in before})
+    _write_team_key(folder)  # kept if there (every robot holds it); made for a team from an older pitchside
     return _write_team(folder, team, authority, credentials)
 
 
@@ -284,6 +289,15 @@ def _write_private(path: Path, data: bytes) -> None:
     os.replace(tmp, path)
 
 
+def _write_team_key(folder: Path) -> bool:
+    """team.key (telemetry, team messages) unless the team has one; whether it was made now."""
+    try:
+        write_new_key(folder / TEAM_KEY_FILE)
+    except FileExistsError:
+        return False
+    return True
+
+
 def _existing_team(folder: Path) -> Team | None:
     path = folder / TEAM_FILE
     if path.exists():
@@ -393,6 +407,8 @@ def main(argv: list[str] | None = None) -> None:
     if before is not None:
         print("Copy each new and rewritten file to its machine (a robot's file names only the team router: new "
               "members leave it unchanged).")
+    print(f"  {TEAM_KEY_FILE:<20} all     the team's key for telemetry and team messages: copy it to every robot "
+          "and keep it beside laptop.json5 (pitchside serve finds it there)")
     if web_names:
         _web_only(args.folder, web_names)
     print(f"Keep {CA_KEY} here: it signs new members (--add) and belongs on no robot.")

@@ -13,9 +13,10 @@ from pathlib import Path
 from server.config import RobotDescription, ServerConfig
 from server.security.credentials import ENV_TOKEN
 from server.security.token_file import remove_token_file, write_token_file
-from wire.bus import add_bus_arguments, bus_from_arguments, load_config_file
+from wire.bus import add_bus_arguments, bus_from_arguments
 from wire.command_line import CommandParser
 from wire.machine import machine_addresses
+from wire.team_key import secured_bus, team_key_beside
 
 
 def plots_memory(text: str) -> str:
@@ -45,15 +46,18 @@ def arguments(prog: str = "pitchside serve", description: str = "the pitchside d
                                       "tcp/127.0.0.1:7447); on another machine the server joins as a client")
     p.add_argument("--no-live", action="store_true", help="do not join the Zenoh network at start")
     p.add_argument("--no-telemetry", action="store_true", help="do not listen for UDP telemetry")
-    p.add_argument("--telemetry-host", default="0.0.0.0")
+    p.add_argument("--telemetry-host", default="", metavar="ADDRESS",
+                   help="the address telemetry is heard on: where the robots send from (default every interface; "
+                        "on a secured team's lab dashboard, whose robots use the bus, 127.0.0.1)")
     p.add_argument("--telemetry-port", type=int, default=5800)
     p.add_argument("--gc-monitor", default=None, metavar="HOST",
                    help="register with the HSL GameController at HOST as a monitor and show the true game state and "
                         "every robot's status packet (robots gc<team>-<player>); off by default. Beside the "
                         "GameController, never on a robot: it refuses hosts that sent status packets")
     p.add_argument("--telemetry-key", default=None,
-                   help="team telemetry key (a file made by `pitchside telemetry-key`, or hex; default: the "
-                        "published development key, which --match refuses)")
+                   help="team telemetry key (a file made by `pitchside telemetry-key`, or hex; default: team.key "
+                        "beside a secured team's --zenoh-config, else the published development key, which --match "
+                        "and a secured team refuse)")
     p.add_argument("--allow-dev-key", action="store_true",
                    help="let --match run with the published development telemetry key (anyone can forge it)")
     p.add_argument("--token", default=None,
@@ -102,11 +106,16 @@ def arguments(prog: str = "pitchside serve", description: str = "the pitchside d
 
 def config_from(args: argparse.Namespace) -> ServerConfig:
     bus = bus_from_arguments(args)
+    secured = False
+    telemetry_key = args.telemetry_key
     if args.zenoh_config:
         try:
-            load_config_file(args.zenoh_config)  # said at start, not when the first panel opens the session
+            secured = secured_bus(args.zenoh_config)  # said at start, not when the first panel opens the session
         except ValueError as exc:
             raise SystemExit(str(exc)) from None
+        if secured and not telemetry_key:
+            found = team_key_beside(args.zenoh_config)
+            telemetry_key = str(found) if found else None
     packages = {}
     for item in args.package:
         name, sep, folder = item.partition("=")
@@ -133,8 +142,8 @@ def config_from(args: argparse.Namespace) -> ServerConfig:
                             allowed_folders=[Path(f) for f in args.allow_folder], allow_dev_key=args.allow_dev_key,
                             live_source=False if (args.no_live or args.match) else None,
                             telemetry_source=not args.no_telemetry, telemetry_host=args.telemetry_host,
-                            telemetry_port=args.telemetry_port, telemetry_key=args.telemetry_key,
-                            gc_monitor=args.gc_monitor, robot3d=args.robot3d,
+                            telemetry_port=args.telemetry_port, telemetry_key=telemetry_key,
+                            gc_monitor=args.gc_monitor, robot3d=args.robot3d, secured_team=secured,
                             robot3d_port=args.robot3d_port, descriptions=descriptions, plots=args.plots,
                             plots_web_port=args.plots_port,
                             plots_grpc_port=args.plots_grpc_port, plots_max_hz=args.plots_max_hz,
@@ -172,7 +181,9 @@ def start_banner(config: ServerConfig) -> str:
         lines.append("(this machine only; other machines need --host 0.0.0.0, or the address to listen on)")
     if config.match_mode:
         lines.append("MATCH MODE: telemetry only, nothing is sent to robots, control is off")
-        lines.append(f"telemetry key: {telemetry_key_name(config)}")
+    if config.telemetry_source and (config.match_mode or config.secured_team):
+        lines.append(f"telemetry key: {telemetry_key_name(config)}, heard on UDP {config.telemetry_host}:"
+                     f"{config.telemetry_port}")
     lines.append(f"control token: {config.token}  (scripts: header 'Authorization: Bearer <token>'; "
                  "`pitchside record` on this machine finds it by itself)")
     if config.beyond_loopback:

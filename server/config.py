@@ -45,13 +45,16 @@ class ServerConfig:
     bus: BusConfig = field(default_factory=BusConfig)
     live_source: bool | None = None  # None: on outside match mode, off in match mode
     telemetry_source: bool = True
-    telemetry_host: str = "0.0.0.0"
+    # where telemetry is heard: "" chooses by mode (every interface, except a secured team's lab dashboard, whose
+    # robots talk over the bus: loopback)
+    telemetry_host: str = ""
     telemetry_port: int = 5800  # wire.telemetry.datagram.DEFAULT_PORT
     telemetry_key: str | None = None  # team key (hex or a file); None: the development key
     # an HSL GameController to register with as a monitor (true game state, every robot's status); None: off
     gc_monitor: str | None = None
     gc_monitor_ports: tuple[int, int, int] = (3636, 3838, 3940)  # its request port; our true-state and status ports
     allow_dev_key: bool = False  # match mode with the published development key (refused unless set)
+    secured_team: bool = False  # the bus is a secured team's (mutual TLS): never the development telemetry key
     queue_size: int = 2000  # frames per WebSocket client before the oldest are dropped
     stale_after_s: float = 1.5  # no message for this long: the robot (or stream) is shown stale
     lost_after_s: float = 5.0  # ... and lost
@@ -88,8 +91,25 @@ class ServerConfig:
             raise ValueError("match mode needs the team's telemetry key (--telemetry-key FILE, made by `pitchside "
                              "telemetry-key FILE`): with the published development key anyone at the venue can "
                              "forge your robots' data. Pass --allow-dev-key to run with it anyway")
+        if self.secured_team and self.telemetry_source:
+            self._check_team_key()
+        if not self.telemetry_host:
+            self.telemetry_host = "127.0.0.1" if self.secured_team and not self.match_mode else "0.0.0.0"
         if not self.token:
             self.token = os.environ.get(ENV_TOKEN) or new_token()
+
+    def _check_team_key(self) -> None:
+        """A secured team's telemetry takes its team key only: the development key is published, so anyone could
+        forge robots past the bus's mutual TLS."""
+        from wire.telemetry.datagram import DEV_KEY, load_key
+
+        if self.allow_dev_key or not self.telemetry_key:
+            raise ValueError("a secured team's dashboard needs the team's telemetry key: team.key beside the "
+                             "team's Zenoh config (`pitchside team-keys` writes it) or --telemetry-key FILE; the "
+                             "published development key is refused on a secured team (--allow-dev-key too). A "
+                             "viewer, which holds no team key, reads the bus only: --no-telemetry")
+        if load_key(self.telemetry_key) == DEV_KEY:
+            raise ValueError("the telemetry key given is the published development key, refused on a secured team")
 
     @property
     def beyond_loopback(self) -> bool:

@@ -9,6 +9,11 @@ It also says what it hears (`team_comm`): each teammate heard lately, the age of
 its messages went missing, counted against the rate the team sends at (this node's send_rate_hz; team messages
 carry no sequence number). The thesis names this as further work: "the wireless connections are very instable
 during competition".
+
+Anyone on the field's network can send to a team's port, so with ``team_key`` every message is signed and only
+teammates' signed messages are believed (module signing; refusals counted in diagnostics by reason). Unsigned
+messages, for a mixed team whose partners do not sign, need ``unsigned``; without either the node hears loopback
+only (the lab, a simulation on one machine) and refuses to listen beyond it.
 """
 
 from __future__ import annotations
@@ -25,11 +30,14 @@ from robot_nodes.mitecom.budget import BUDGET_UNKNOWN, HSL_MAX_PAYLOAD, BudgetPa
 from robot_nodes.mitecom.codec import MitecomError, Orientation
 from robot_nodes.mitecom.protobuf_codec import TeamMessageError
 from robot_nodes.mitecom.report import HCM_PENALTY, NOT_TOLD, SeenRobot, TeammateReport
+from robot_nodes.mitecom.signing import REASONS, SignatureError, TeamMessageGuard, TeamMessageSigner
 from robot_nodes.runtime import Node, header, param, run
 from robot_nodes.runtime.udp import UdpPort
 from schemas.codec import Message
 from schemas.messages import Position2D, TeamCommStatus, TeamData
 from schemas.std import Pose2D
+from wire.machine import is_loopback
+from wire.telemetry.datagram import DEV_KEY, load_key
 
 _RECV_SIZE = 65535
 _ROBOT_MAGENTA, _ROBOT_CYAN = 2, 3  # ObstacleRelative colours
@@ -43,7 +51,8 @@ class MitecomParams:
     team_id: int = param(1, range=(0, 65535), doc="team number; Mitecom messages of other teams are ignored")
     player_id: int = param(1, range=(1, 255), doc="this robot's id in the team messages")
     send_rate_hz: float = param(2.0, range=(0.2, 10.0), doc="team messages per second")
-    listen_address: str = param("0.0.0.0", doc="address to receive teammates' messages on")
+    listen_address: str = param("127.0.0.1", doc="address to receive teammates' messages on (loopback in the lab; "
+                                                  "0.0.0.0 on a field, with team_key or unsigned)")
     port: int = param(mitecom_codec.DEFAULT_PORT, range=(1, 65535), doc="UDP port this robot listens on")
     peers: str = param("127.0.0.1", doc="comma-separated host[:port] to send to (port defaults to `port`)")
     broadcast: bool = param(False, doc="also send to 255.255.255.255:port (real fields; not needed on loopback)")
@@ -66,6 +75,12 @@ class MitecomParams:
                                                            "budget is spread over the game time left")
     budget_reserve: float = param(0.1, range=(0.0, 0.9), doc="share of the message budget kept back for "
                                                              "stoppages and extra time")
+    team_key: str = param("", doc="the team key file (team.key of `pitchside team-keys`, or hex): messages are "
+                                  "signed with a key derived from it, and only teammates' signed ones believed")
+    unsigned: bool = param(False, doc="send and believe unsigned messages (a mixed team whose partners do not "
+                                      "sign): anyone who reaches the port can then forge a teammate")
+    signature_window_s: float = param(30.0, range=(1.0, 3600.0), doc="a signed message is believed only if sent "
+                                                                     "within this of the receiver's clock")
 
 
 @dataclass
@@ -132,6 +147,7 @@ class MitecomNode(Node):
         self.budget = BudgetPacer(half_s=self.params.half_s, reserve=self.params.budget_reserve)
         self._destinations: list[tuple[str, int]] = []
         self._udp: UdpPort | None = None
+        self.guard = self._make_guard()
         self._update_destinations()
         self._open_socket()
         self._send_timer = self.timer(self.params.send_rate_hz, self._tick, "team_messages")
@@ -237,7 +253,38 @@ class MitecomNode(Node):
             destinations.append(("255.255.255.255", self.params.port))
         self._destinations = destinations
 
+    def _make_guard(self) -> TeamMessageGuard | None:
+        """How messages are signed and checked; None when the node may neither listen nor send (why: last_error)."""
+        p = self.params
+        if p.unsigned:
+            guard = TeamMessageGuard(None)
+        elif p.team_key:
+            try:
+                key = load_key(p.team_key)
+            except (ValueError, OSError) as exc:
+                self.record_error(f"team_key: {exc}; the team communication is off")
+                return None
+            if key == DEV_KEY:
+                self.record_error("team_key is the published development key: it signs nothing a stranger could "
+                                  "not; the team communication is off")
+                return None
+            guard = TeamMessageGuard(TeamMessageSigner(key, p.team_id, min(p.player_id, 255), p.signature_window_s))
+        elif is_loopback(p.listen_address):
+            guard = TeamMessageGuard(None)  # only this machine reaches the port
+        else:
+            self.record_error(f"not listening on {p.listen_address}: anyone on the network could forge teammates; "
+                              "give team_key=team.key (signed messages), or unsigned=true for a mixed team that "
+                              "does not sign; the team communication is off")
+            return None
+        self.set_diagnostic("team_messages", guard.mode)
+        for reason in REASONS:
+            self.set_diagnostic(f"refused_{reason}", 0)
+        return guard
+
     def _open_socket(self) -> None:
+        if self.guard is None:
+            self.set_diagnostic("team_messages", "off")
+            return
         self._udp = UdpPort(self.params.listen_address, self.listen_port,
                             lambda data, _addr: self._on_datagram(data), loop=self.loop,
                             recv_size=_RECV_SIZE, name="mitecom-receiver", reuse_address=True)
@@ -269,7 +316,7 @@ class MitecomNode(Node):
         return allowed
 
     def _send(self) -> None:
-        if self._udp is None:
+        if self._udp is None or self.guard is None:
             return
         allowed = self._budget_allows()
         self.set_diagnostic("send_rate_hz", f"{self.budget.send_rate_hz(self.now()):.2f}")
@@ -283,6 +330,7 @@ class MitecomNode(Node):
                 self.set_diagnostic("oversized", self.oversized)
             self.record_error(f"cannot encode the team message: {exc}")
             return
+        data = self.guard.outgoing(data)  # the signature counts against the HSL's 512 bytes
         if self.params.hsl and len(data) > HSL_MAX_PAYLOAD:
             self.oversized += 1
             self.set_diagnostic("oversized", self.oversized)
@@ -298,7 +346,22 @@ class MitecomNode(Node):
                 self.set_diagnostic("last_send_error", f"{dest[0]}:{dest[1]}: {exc}")
         self.set_diagnostic("sent", self.sent)
 
+    def _refused(self, reason: str, detail: str) -> None:
+        """Counted by reason; logged the first time only (a stranger's flood must not flood the log)."""
+        if self.guard is not None:
+            count = self.guard.rejected[reason]
+            self.set_diagnostic(f"refused_{reason}", count)
+            if count == 1:
+                self.record_error(f"team message refused ({reason}): {detail}")
+
     def _on_datagram(self, data: bytes) -> None:
+        if self.guard is None:
+            return
+        try:
+            signer, data = self.guard.incoming(data)
+        except SignatureError as exc:
+            self._refused(exc.reason, str(exc))
+            return
         try:
             report = self.decode(data)
         except (MitecomError, TeamMessageError) as exc:
@@ -313,6 +376,10 @@ class MitecomNode(Node):
         if report.robot_id > 255:
             self.malformed += 1
             self.record_error(f"team message from robot id {report.robot_id}: team_data holds ids up to 255")
+            return
+        if signer is not None and signer != report.robot_id:
+            self.guard.rejected["forged"] += 1  # a teammate's signature on another robot's name
+            self._refused("forged", f"signed by {signer}, names robot {report.robot_id}")
             return
         if report.robot_id == self.params.player_id:
             return  # our own message, back through broadcast or a peer list that names us
@@ -360,7 +427,10 @@ class MitecomNode(Node):
             self.budget.half_s, self.budget.reserve = self.params.half_s, self.params.budget_reserve
         if {"peers", "port", "broadcast", "hsl", "broadcast_address", "team_id", "team_port"} & set(changed):
             self._update_destinations()
-        if {"listen_address", "port", "hsl", "team_id", "team_port"} & set(changed):
+        if {"team_key", "unsigned", "signature_window_s", "player_id", "team_id", "listen_address"} & set(changed):
+            self.guard = self._make_guard()
+        if {"listen_address", "port", "hsl", "team_id", "team_port", "team_key", "unsigned", "signature_window_s",
+                "player_id"} & set(changed):
             self._close_socket()
             try:
                 self._open_socket()
