@@ -30,9 +30,9 @@ from dataclasses import dataclass, field
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from typing import Any
 
-from robot_nodes.mitecom.budget import HSL_MAX_PAYLOAD, HSL_TEAM_PORT_BASE
 from robot_nodes.runtime.udp import UdpPort
 from wire.command_line import CommandParser
+from wire.gamecontroller.game_data import HSL_MAX_PAYLOAD, HSL_TEAM_PORT_BASE
 from wire.gamecontroller.packets import (
     DATA_PORT,
     HL_VERSION,

@@ -12,8 +12,10 @@ from __future__ import annotations
 from collections import deque
 from dataclasses import dataclass, field
 
-HSL_TEAM_PORT_BASE = 10_000  # team messages go to UDP 10000 + team number
-HSL_MAX_PAYLOAD = 512  # bytes of payload per team message
+from wire.gamecontroller.game_data import HSL_MAX_PAYLOAD, HSL_TEAM_PORT_BASE
+
+__all__ = ["BUDGET_UNKNOWN", "HSL_MAX_PAYLOAD", "HSL_TEAM_PORT_BASE", "BudgetPacer", "budget_rate_hz", "game_left_s",
+           "team_port"]
 BUDGET_UNKNOWN = 65_535  # GameState.MESSAGE_BUDGET_UNKNOWN: the GameController (HL v12) keeps no budget
 MIN_GAME_LEFT_S = 60.0  # the end of a game does not turn the budget left into a burst
 _PLAYING_STATES = (1, 2, 3)  # READY, SET, PLAYING: where the GameController counts

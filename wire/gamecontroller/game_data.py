@@ -14,6 +14,8 @@ from enum import IntEnum
 HL_VERSION = 12
 HSL_VERSION_19 = 19
 HSL_VERSION = 20
+HSL_TEAM_PORT_BASE = 10_000  # team messages go by UDP broadcast to 10000 + team number
+HSL_MAX_PAYLOAD = 512  # bytes of payload per team message
 STATE_VERSIONS = (HL_VERSION, HSL_VERSION_19, HSL_VERSION)
 MAX_NUM_PLAYERS = 11  # HL v12 player slots
 HSL_MAX_NUM_PLAYERS = 20  # HSL v19/v20 player slots
