@@ -7,6 +7,7 @@ from __future__ import annotations
 import fcntl
 import importlib.metadata
 import os
+import shutil
 import subprocess
 import sys
 import sysconfig
@@ -56,6 +57,9 @@ def build_wheel(into: Path) -> Path:
 def build_wheel_from_checkout(into: Path) -> Path:
     """The wheel built straight from the checkout (pip wheel), without a network."""
     with _building():
+        # setuptools keeps build/lib between builds and packs what it holds: a file deleted from the checkout since
+        # the last build would still ship (a stale build/ is an artefact, never the checkout's content)
+        shutil.rmtree(REPO / "build", ignore_errors=True)
         built = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q", "-w",
                                 str(into), str(REPO)], capture_output=True, text=True, timeout=300)
     assert built.returncode == 0, built.stderr[-3000:]

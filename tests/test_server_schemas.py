@@ -23,7 +23,8 @@ T0 = 1_700_000_000_000_000_000  # ns
 CONSTANT = re.compile(r"^\s*(\w+)\s+([A-Z][A-Z0-9_]*)\s*=\s*(\S+)", re.MULTILINE)
 LITERAL = re.compile(r"""["'`]([A-Z][A-Z0-9_]+)["'`]""")
 # words of HTTP, the DOM and the page's own labels, not message constants
-NOT_MESSAGE_WORDS = {"GET", "POST", "PUT", "DELETE", "INPUT", "LOST", "PENALIZED", "HCM"}
+NOT_MESSAGE_WORDS = {"GET", "POST", "PUT", "DELETE", "INPUT", "LOST", "PENALIZED", "HCM",
+                     "STOPPED"}  # GameState.stopped (a bool) shown as a word
 
 
 def msg_file_constants() -> dict[str, dict[str, int]]:
