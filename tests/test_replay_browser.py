@@ -1,6 +1,8 @@
 """The replay task as a team member does it, in Debian's chromium at 1920x1080 beside a live robot (slow): open a
-half from the recordings list, play, seek while playing, jump to a GameController event, plot a joint by name, close.
-Asserts what the user must see at each step and counts the user's actions (issue 21)."""
+half from the recordings list, play, seek while playing, bookmark the position with a name, jump to a GameController
+event, plot a joint by name, close; open the half again and find the bookmark. Asserts what the user must see at each
+step and counts the user's actions (issues 21 and 51): the whole tour, and the job of issue 51 (open, seek while
+playing, bookmark at the position, close) on its own."""
 
 from __future__ import annotations
 
@@ -82,7 +84,7 @@ def _position_s(page: Any) -> float:
     return int(minutes) * 60 + float(seconds)
 
 
-def test_replay_task(browser: Any, live_and_recorded: RunningServer) -> None:
+def test_replay_task(browser: Any, live_and_recorded: RunningServer, tmp_path: Path) -> None:
     server = live_and_recorded
     OUTPUT.mkdir(exist_ok=True)
     page = browser.new_page(bypass_csp=True, viewport={"width": 1920, "height": 1080})
@@ -92,6 +94,7 @@ def test_replay_task(browser: Any, live_and_recorded: RunningServer) -> None:
     page.evaluate("localStorage.clear()")
     page.reload()
     actions = 0
+    task = 0  # issue 51's job: open a recording, seek while playing, bookmark at the position, close
     live_card = page.locator('.card[data-robot="r1"]')
     live_card.locator(".game-state", has_text="READY").wait_for(timeout=30_000)
     bar = page.locator(".playback-bar")
@@ -106,6 +109,7 @@ def test_replay_task(browser: Any, live_and_recorded: RunningServer) -> None:
     assert download.value.suggested_filename == "half.mcap"
     row.locator("button[data-open]").click()
     actions += 1
+    task += 1
     bar.wait_for(state="visible", timeout=20_000)
     assert bar.locator(".playback-banner").inner_text() == "▶ REPLAY"
     assert bar.locator(".playback-file").inner_text() == "half.mcap"
@@ -122,6 +126,7 @@ def test_replay_task(browser: Any, live_and_recorded: RunningServer) -> None:
     # 2. play: the log's robots appear as robots of their own, marked; the live r1 stays as it is
     bar.locator(".playback-play").click()
     actions += 1
+    task += 1
     bar.locator(".playback-state", has_text="playing").wait_for(timeout=10_000)
     replay_card = page.locator('.card[data-robot="replay.r1"]')
     replay_card.locator(".game-state", has_text="PLAYING").wait_for(timeout=20_000)
@@ -139,8 +144,21 @@ def test_replay_task(browser: Any, live_and_recorded: RunningServer) -> None:
     box = track.bounding_box()
     track.click(position={"x": box["width"] * 0.25, "y": box["height"] / 2})
     actions += 1
+    task += 1
     wait_for(lambda: 5.5 < _position_s(page) < 15, 15.0, 0.1, "the position advancing after a seek while playing")
     assert bar.locator(".playback-state").inner_text() == "playing"
+
+    # 3b. bookmark here, with a name: a note on the timeline at the position shown, beside the log's own marks
+    bar.locator(".playback-note").fill("fell here")
+    shown_s = _position_s(page)
+    bar.locator(".playback-bookmark").click()
+    actions += 2
+    task += 2
+    note = bar.locator('.playback-mark[data-kind="note"][data-name="fell here"]')
+    note.wait_for(timeout=10_000)
+    assert abs(float(note.get_attribute("data-t")) - shown_s) < 1.0  # where the user pressed (the bar's 4 Hz)
+    assert "fell here" in bar.locator(".playback-noted").inner_text()
+    assert bar.locator(".playback-note").input_value() == ""
 
     # 4. a GameController event by name: the goal
     bar.locator('.playback-mark[data-name="goal own 1:0"]').click()
@@ -173,17 +191,56 @@ def test_replay_task(browser: Any, live_and_recorded: RunningServer) -> None:
     bar.locator(".playback-state", has_text="paused").wait_for(timeout=10_000)
     bar.locator(".playback-close").click()
     actions += 1
+    task += 1
     bar.wait_for(state="hidden", timeout=10_000)
     replay_card.wait_for(state="detached", timeout=10_000)
     assert live_card.locator(".game-state").inner_text() == "READY"
     assert not page.evaluate("window.pitchside.store.robotIds().some((id) => id.startsWith('replay.'))")
     print(f"TASK replay actions={actions}")
+    print(f"TASK replay-bookmark actions={task}")  # open, play, seek, name, bookmark here, close
+    assert task <= 8
 
-    # recording from the same list (not part of the task): start, stop, the new file is listed
+    # another session: the note is still on the log's timeline; the recordings panel bookmarks the replay too
+    assert (tmp_path / "rec" / "half.mcap.notes.json").is_file()  # beside the log
+    page.reload()
+    row = page.locator('.rec-files tr[data-file="half.mcap"]')
+    row.locator("button[data-open]").click()
+    bar.locator('.playback-mark[data-kind="note"][data-name="fell here"]').wait_for(timeout=20_000)
+    assert bar.locator(".playback-mark").count() == 4
+    mark = page.locator(".rec-mark")
+    wait_for(lambda: mark.inner_text() == "bookmark replay" and mark.is_enabled(), 10.0, 0.1,
+             "the recordings panel's bookmark aimed at the replay")
+    page.once("dialog", lambda dialog: dialog.accept("from the list"))
+    mark.click()
+    bar.locator('.playback-mark[data-kind="note"][data-name="from the list"]').wait_for(timeout=10_000)
+    bar.locator(".playback-close").click()
+    bar.wait_for(state="hidden", timeout=10_000)
+
+    # recording from the same list (not part of the task): start, stop, the new file is listed; while it records
+    # (the list refreshes every 2 s) the finished file's row and its buttons stay the same elements under the pointer
     recordings = page.locator(".rec-controls").locator("..")
+    page.evaluate("document.querySelector('.rec-files tr[data-file=\"half.mcap\"]').dataset.probe = 'kept'")
+    row.locator("button[data-open]").hover()
     recordings.locator(".rec-name").fill("browser")
     recordings.locator(".rec-start").click()
     recordings.locator(".rec-running").wait_for(timeout=10_000)
+    refreshed = recordings.locator(".rec-running").inner_text()
+    wait_for(lambda: recordings.locator(".rec-running").inner_text() != refreshed, 10.0, 0.1, "a refresh of the list")
+    assert page.evaluate("document.querySelector('.rec-files tr[data-file=\"half.mcap\"]').dataset.probe") == "kept"
     recordings.locator(".rec-stop").click()
     recordings.locator('tr[data-file$="_browser.mcap"]').wait_for(timeout=10_000)
+
+    # wide enough for its buttons in every preset that shows it: nothing sticks out or scrolls sideways
+    for preset in ("match", "replay", "all"):
+        page.click(f'#presets button[data-preset="{preset}"]')
+        panel = page.locator('[data-panel="recordings"]')
+        panel.locator('tr[data-file="half.mcap"] button[data-open]').wait_for(timeout=10_000)
+        outside = panel.evaluate("""(el) => {
+            const box = el.getBoundingClientRect(), body = el.querySelector('.panel-body');
+            const out = [...el.querySelectorAll('button, a.button, input')].filter((b) => {
+              const r = b.getBoundingClientRect(); return r.width && (r.left < box.left - 1 || r.right > box.right + 1);
+            }).map((b) => b.textContent || b.className);
+            if (body.scrollWidth > body.clientWidth + 1) out.push(`scrolls sideways ${body.scrollWidth}`);
+            return out; }""")
+        assert outside == [], (preset, outside)
     assert not errors, errors
