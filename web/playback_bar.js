@@ -14,7 +14,9 @@ const SEEK_STEP_S = 5; // the arrow keys on the timeline
 
 /** m:ss.s (or m:ss for labels). */
 export function clock(seconds, decimals = 1) {
-  const s = Math.max(0, seconds);
+  // rounded first, so 59.98 s reads 1:00.0 (not 0:60.0); labels without decimals are cut, as a clock shows seconds
+  const scale = 10 ** decimals;
+  const s = decimals ? Math.round(Math.max(0, seconds) * scale) / scale : Math.max(0, seconds);
   const m = Math.floor(s / 60);
   const rest = decimals ? (s % 60).toFixed(decimals).padStart(3 + decimals, "0") : String(Math.floor(s % 60)).padStart(2, "0");
   return `${m}:${rest}`;
