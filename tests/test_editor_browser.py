@@ -233,7 +233,7 @@ def test_keyframe_insert_duplicate_reorder_delete(browser: Any, server: RunningS
     click(page, "insert")
     kfs = wait_keyframes(page, "kfs.length === 4", "a keyframe inserted")
     assert kfs[2]["goals"] == {"LShoulderPitch": 40.0, "LShoulderRoll": -60.0, "HeadPan": 10.0, "LElbow": -30.0}
-    assert kfs[2]["duration"] == 1.0 and [kf.get("name") for kf in kfs[:2]] == ["up", "out"]
+    assert kfs[2]["duration"] == 1.0 and [kf.get("name") for kf in kfs[:3]] == ["up", "out", "kf 3"]
     assert page.evaluate("window.pitchside.animEditor.selected") == 2
     assert page.locator(f'{EDITOR} tr[data-kf="2"]').get_attribute("class") == "selected"
 
@@ -248,7 +248,7 @@ def test_keyframe_insert_duplicate_reorder_delete(browser: Any, server: RunningS
     kfs = wait_keyframes(page, "kfs[3].name === 'down'", "down moved up")
     page.click(f'{EDITOR} tr[data-kf="0"] button[data-kact="down"]')
     kfs = wait_keyframes(page, "kfs[1].name === 'up' && kfs[0].name === 'up'", "up moved down")
-    assert [kf.get("name") for kf in kfs] == ["up", "up", "out", "down", None]
+    assert [kf.get("name") for kf in kfs] == ["up", "up", "out", "down", "kf 3"]  # the inserted one, named by default
 
     # delete the inserted keyframe (now the last), then the duplicate
     page.click(f'{EDITOR} tr[data-kf="4"] button[data-kact="delete"]')
@@ -285,8 +285,22 @@ def test_joint_limit_and_servo_speed_warnings_and_preview(browser: Any, server: 
     goal.fill("80")
     goal.press("Tab")
     page.wait_for_selector(f'{EDITOR} .lab-status.bad:has-text("LElbow: 80 deg is outside its limits [-90.0, 44.7] '
-                           'deg: set to 44.7")', timeout=TIMEOUT_MS)
-    assert keyframes(page)[1]["goals"]["LElbow"] == pytest.approx(44.69, abs=0.01)
+                           'deg: set to 44.6")', timeout=TIMEOUT_MS)
+    # the tenth of a degree inside the limit (44.69 deg), not 44.6896..., and said beside the joint too
+    assert keyframes(page)[1]["goals"]["LElbow"] == 44.6
+    assert page.locator(f'{EDITOR} [data-role="detail"] tr[data-joint="LElbow"] [data-note]').text_content() == \
+        "outside [-90.0, 44.7]: set to 44.6"
+
+    # the controls stay in view while the tables scroll: toolbar, play buttons and status line
+    body = f'{EDITOR} .panel-body'
+    page.locator(body).evaluate("(el) => { el.style.maxHeight = '420px'; el.scrollTop = el.scrollHeight; }")
+    page.wait_for_function(f"document.querySelector('{body}').scrollTop > 100", timeout=TIMEOUT_MS)
+    seen = page.evaluate(f"""(() => {{ const box = document.querySelector('{body}').getBoundingClientRect();
+        return ['[data-act="insert"]', '[data-act="save"]', '[data-act="play"]', '[data-role="status"]'].map((sel) => {{
+          const r = document.querySelector('{EDITOR} ' + sel).getBoundingClientRect();
+          return r.top >= box.top - 1 && r.bottom <= box.bottom + 1; }}); }})()""")
+    assert seen == [True, True, True, True]
+    page.locator(body).evaluate("(el) => { el.style.maxHeight = ''; el.scrollTop = 0; }")
     assert page.locator(warnings).count() == 0
     goal = page.locator(f'{EDITOR} [data-role="detail"] tr[data-joint="LElbow"] input[data-goal]')
     goal.fill("-30")

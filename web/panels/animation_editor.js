@@ -13,9 +13,14 @@ const RESEND_MS = 300; // in RECORD the held pose is sent again and again: a los
 const GHOSTS_AFTER_MS = 150; // keyframe ghosts follow edits and the selection, at most this often
 const PLAY_POLL_MS = 250; // how often a play's progress is asked for
 const DRAFT_KEY = "pitchside.animDraft."; // + robot: the unsaved animation, kept until saved or discarded
+// A Dynamixel MX/XM servo resolves 4096 positions per turn, 0.088 deg: goals are kept and shown to a tenth of a
+// degree, the finest step a person reads that the servo still tells apart, so a field never reads 90.000210459 (the
+// URDF's limit of 1.5708 rad) and a typed -30 stays -30.
+export const SERVO_STEP_DEG = 0.1;
 
 // The panel's markup; rows and the keyframe detail are rendered into its tbody and div below.
-const LAYOUT = `<div class="lab-bar">
+const LAYOUT = `<div class="anim-controls" data-role="controls">
+      <div class="lab-bar">
         <label>robot <select data-role="robot"></select></label>
         <select data-role="files" title="animation files in the robot's animation folder"></select>
         <button data-act="open">open</button>
@@ -46,7 +51,8 @@ const LAYOUT = `<div class="lab-bar">
         <button data-act="stop" class="stop" title="cancel the animation and leave RECORD">■ STOP</button>
         <label title="lab only: save and play goals outside the URDF joint limits all the same (the robot's servo
           node still clamps them)"><input type="checkbox" data-role="override"> override limits</label>
-        <span class="lab-status" data-role="status"></span>
+        <span class="lab-status" data-role="status" role="status"></span>
+      </div>
       </div>
       <ul class="anim-warnings" data-role="warnings"></ul>
       <div class="kf-timeline" data-role="timeline" title="keyframes in time (duration, then pause hatched): click to
@@ -100,6 +106,7 @@ function newEditor(body, ctx) {
   const state = {
     robot: "", file: "", anim: null, selected: -1, undo: [], redo: [], check: null, joints: [],
     held: {}, limp: new Set(), recordJoints: new Set(), recordOn: false, lastError: "", saved: 0,
+    notes: {}, // "goal|<keyframe>|joint" or "held|joint" -> a limit message shown beside that joint
     ghosts: "off", ghostsShown: 0, ghostsFor: "",
     savedText: null, // the animation as last opened or saved (JSON): anything else is unsaved
     play: null, // the play under way or last ended: {name, status, percent, message}
@@ -143,10 +150,25 @@ async function listFiles(ed) {
   const { state, $ } = ed;
   if (!state.robot) return;
   const list = await api("GET", `${base(ed)}/animations`);
+  state.files = list.animations.map((a) => a.file);
   $('[data-role="files"]').innerHTML = list.animations.map((a) => `<option value="${esc(a.file)}">${esc(a.file)}${
     a.error ? " (broken)" : ""}</option>`).join("");
-  if (list.animations.some((a) => a.file === state.file)) $('[data-role="files"]').value = state.file;
   state.folder = list.folder;
+  showEdited(ed);
+}
+
+/** The file menu says what is being edited: its file, or a new animation that is no file yet (never the file opened
+ * before it). The "open" button opens the file chosen in it. */
+function showEdited(ed) {
+  const { state, $ } = ed;
+  const select = $('[data-role="files"]');
+  select.querySelector("option[data-editing]")?.remove();
+  if (!state.anim) return;
+  if ((state.files ?? []).includes(state.file)) { select.value = state.file; return; }
+  const option = new Option(`${state.file || state.anim.name} (new, not saved yet)`, "");
+  option.dataset.editing = "";
+  select.prepend(option);
+  select.value = "";
 }
 
 /** The robot's joints and limits, for the record table; every joint is recorded until the user says otherwise. */
@@ -171,19 +193,40 @@ function holdMeasuredPose(ed, pose) {
 
 // -- joint limits and order ------------------------------------------------------------------------
 
-/** A goal (deg) rounded to 0.01 and inside the joint's URDF limits; clamped says it had to be moved. */
-function inLimits(ed, joint, deg) {
-  const j = ed.state.joints.find((x) => x.name === joint);
-  const rounded = Math.round(deg * 100) / 100;
-  if (!j) return { value: rounded, clamped: false };
-  const value = Math.min(Math.max(rounded, j.lower), j.upper);
-  return { value, clamped: Math.abs(value - rounded) > 1e-9 && (deg < j.lower || deg > j.upper), j };
+/** A goal (deg) at the nearest step the editor keeps (SERVO_STEP_DEG). */
+export function servoDeg(deg) {
+  return Number((Math.round(deg / SERVO_STEP_DEG) * SERVO_STEP_DEG).toFixed(1));
 }
 
-/** The status line's word on a clamped goal: what was typed, the limits, what was set instead. */
+/** A goal as the fields show it: one decimal at most, no trailing zero (44.6, -90, 12.3). */
+export function fmtDeg(deg) {
+  return String(Number(Number(deg).toFixed(1)));
+}
+
+/** A goal (deg) at a servo step inside the joint's URDF limits (the step nearest inside a limit that falls between
+ * two); clamped says it had to be moved. */
+function inLimits(ed, joint, deg) {
+  const j = ed.state.joints.find((x) => x.name === joint);
+  const rounded = servoDeg(deg);
+  if (!j) return { value: rounded, clamped: false };
+  let value = servoDeg(Math.min(Math.max(deg, j.lower), j.upper));
+  if (value > j.upper) value = servoDeg(value - SERVO_STEP_DEG);
+  if (value < j.lower) value = servoDeg(value + SERVO_STEP_DEG);
+  return { value, clamped: deg < j.lower - 1e-9 || deg > j.upper + 1e-9, j };
+}
+
+/** The word on a clamped goal: what was typed, the limits, what was set instead. */
 function clampedText(joint, typed, limit) {
   return `${joint}: ${typed} deg is outside its limits [${limit.j.lower.toFixed(1)}, ${limit.j.upper.toFixed(1)}] ` +
-    `deg: set to ${limit.value.toFixed(1)}`;
+    `deg: set to ${fmtDeg(limit.value)}`;
+}
+
+/** A note beside a joint of the record table: said where the user looks, kept until that joint is set again. */
+function noteJoint(ed, where, joint, text) {
+  const key = `${where}|${joint}`;
+  if (text) ed.state.notes[key] = text; else delete ed.state.notes[key];
+  const el = ed.$(`[data-role="joints"] tr[data-joint="${CSS.escape(joint)}"] [data-note]`);
+  if (el) el.textContent = text;
 }
 
 /** Goals and torques of every keyframe in the robot's joint order (the URDF's), whatever the file or an edit did;
@@ -217,7 +260,7 @@ function keepDraft(ed) {
   try {
     if (isDirty(state)) {
       localStorage.setItem(DRAFT_KEY + state.robot, JSON.stringify({ file: state.file, anim: state.anim,
-        savedText: state.savedText }));
+        savedText: state.savedText, selected: state.selected })); // where the user was
     } else localStorage.removeItem(DRAFT_KEY + state.robot);
   } catch { /* storage full or off: the beforeunload warning still guards the work */ }
 }
@@ -230,9 +273,14 @@ function restoreDraft(ed) {
   try { draft = JSON.parse(localStorage.getItem(DRAFT_KEY + state.robot) ?? "null"); } catch { draft = null; }
   if (!draft?.anim?.keyframes) return;
   state.file = draft.file ?? ""; state.savedText = draft.savedText ?? null;
-  state.undo = []; state.redo = []; state.selected = draft.anim.keyframes.length ? 0 : -1;
+  const n = draft.anim.keyframes.length;
+  state.undo = []; state.redo = [];
+  state.selected = Number.isInteger(draft.selected) && draft.selected < n ? Math.max(draft.selected, n ? 0 : -1)
+    : n ? 0 : -1; // the keyframe the user was on
   setAnimation(ed, draft.anim, null, { history: false });
-  ed.status(`restored unsaved changes to ${state.file || draft.anim.name}: save them, or open another file`);
+  ed.$(`[data-role="keyframes"] tr[data-kf="${state.selected}"]`)?.scrollIntoView({ block: "nearest" });
+  ed.status(`restored unsaved changes to ${state.file || draft.anim.name} at keyframe ${state.selected}: save them, ` +
+    "or open another file");
 }
 
 /** Before the animation shown is replaced: true if it is saved, or the user agrees to lose its changes. */
@@ -296,13 +344,21 @@ function poseAfter(anim, k) {
   return pose;
 }
 
+/** A name for a new keyframe ("kf 3"), one no keyframe of the animation has: named by default, renamed in its row. */
+export function newKeyframeName(anim) {
+  const taken = new Set((anim?.keyframes ?? []).map((kf) => kf.name));
+  let n = (anim?.keyframes ?? []).length;
+  while (taken.has(`kf ${n}`)) n++;
+  return `kf ${n}`;
+}
+
 /** "+ keyframe": a new keyframe after the selected one, posed where that one ends, so nothing jumps. */
 async function insertKeyframe(ed) {
   const { state } = ed;
   if (!state.anim) throw new Error("open, upload or start a new animation first");
   const index = state.selected + 1;
-  await edit(ed, "insert", { index, keyframe: { duration: 1.0, pause: 0.0, goals: poseAfter(state.anim, state.selected),
-    torque: {} } });
+  await edit(ed, "insert", { index, keyframe: { name: newKeyframeName(state.anim), duration: 1.0, pause: 0.0,
+    goals: poseAfter(state.anim, state.selected), torque: {} } });
   state.selected = index;
   render(ed);
   ed.status(`inserted keyframe ${index} (posed where keyframe ${index - 1} ends)`);
@@ -526,6 +582,7 @@ function renderFileBar(ed) {
   if (anim && document.activeElement !== $('[data-role="author"]')) $('[data-role="author"]').value = anim.author ?? "";
   $('[data-act="undo"]').disabled = !state.undo.length;
   $('[data-act="redo"]').disabled = !state.redo.length;
+  showEdited(ed);
   const dirty = isDirty(state);
   $('[data-role="dirty"]').textContent = dirty ? "● unsaved" : anim ? "saved" : "";
   $('[data-role="dirty"]').classList.toggle("unsaved", dirty);
@@ -590,15 +647,22 @@ function renderDetail(ed) {
   if (!kf) { el.innerHTML = ""; return; }
   const missing = state.joints.filter((j) => !(j.name in kf.goals));
   el.innerHTML = `<b>keyframe ${state.selected}</b> goals (deg) and torque
-        <table class="grid-table"><tbody>${Object.entries(kf.goals).map(([j, v]) => goalRow(kf, j, v)).join("")}</tbody></table>
+        <table class="grid-table"><tbody>${Object.entries(kf.goals).map(([j, v]) => goalRow(kf, j, v, notesOf(state, `goal|${state.selected}|`))).join("")}</tbody></table>
         ${missing.length ? `<select data-role="add-joint">${missing.map((j) => `<option>${esc(j.name)}</option>`).join("")}</select>
         <button data-act="add-joint">add joint</button>` : ""}`;
 }
 
+/** The limit notes under a prefix, by joint. */
+function notesOf(state, prefix) {
+  return Object.fromEntries(Object.entries(state.notes).filter(([k]) => k.startsWith(prefix))
+    .map(([k, v]) => [k.slice(prefix.length), v]));
+}
+
 /** One joint of the selected keyframe: its goal, its torque (on, off, unchanged), a button to remove it. */
-function goalRow(kf, j, v) {
+function goalRow(kf, j, v, notes) {
   return `<tr data-joint="${esc(j)}">
-          <td>${esc(j)}</td><td><input type="number" step="0.5" data-goal value="${esc(v)}"></td>
+          <td>${esc(j)}</td><td><input type="number" step="${SERVO_STEP_DEG}" data-goal value="${esc(fmtDeg(v))}">
+            <span class="limit-note" data-note>${esc(notes[j] ?? "")}</span></td>
           <td><select data-torque><option value="">torque unchanged</option>
             <option value="1" ${torqueLabel(kf.torque?.[j]) === "on" ? "selected" : ""}>torque on</option>
             <option value="0" ${torqueLabel(kf.torque?.[j]) === "off" ? "selected" : ""}>torque off</option></select></td>
@@ -614,9 +678,10 @@ function renderJoints(ed) {
           ${state.recordJoints.has(j.name) ? "checked" : ""}></td>
         <td><input type="checkbox" data-limp aria-label="${esc(j.name)} limp" ${state.limp.has(j.name) ? "checked" : ""}></td>
         <td><input type="range" data-slider aria-label="${esc(j.name)} goal (slider)" min="${esc(j.lower)}"
-          max="${esc(j.upper)}" step="0.5" value="${esc(state.held[j.name] ?? 0)}">
-          <input type="number" data-held aria-label="${esc(j.name)} goal (deg)" step="0.5"
-          value="${(state.held[j.name] ?? 0).toFixed(1)}"></td></tr>`).join("");
+          max="${esc(j.upper)}" step="${SERVO_STEP_DEG}" value="${esc(state.held[j.name] ?? 0)}">
+          <input type="number" data-held aria-label="${esc(j.name)} goal (deg)" step="${SERVO_STEP_DEG}"
+          value="${fmtDeg(state.held[j.name] ?? 0)}">
+          <span class="limit-note" data-note>${esc(state.notes[`held|${j.name}`] ?? "")}</span></td></tr>`).join("");
 }
 
 // -- recording --------------------------------------------------------------------------------------
@@ -677,7 +742,8 @@ async function recordKeyframe(ed) {
     state.savedText = null;
   }
   const index = state.selected + 1;
-  await edit(ed, "insert", { index, keyframe: { duration: 1.0, pause: 0.0, goals, torque: {} } });
+  await edit(ed, "insert", { index, keyframe: { name: newKeyframeName(state.anim), duration: 1.0, pause: 0.0, goals,
+    torque: {} } });
   state.selected = index;
   render(ed);
   ed.status(`recorded keyframe ${index} (${Object.keys(goals).length} joints)`);
@@ -883,8 +949,10 @@ function editGoal(ed, t, j) {
     }
     const limit = inLimits(ed, j, v);
     kf.goals[j] = limit.value;
+    state.notes[`goal|${state.selected}|${j}`] = limit.clamped ? `outside [${limit.j.lower.toFixed(1)}, ${limit.j.upper.toFixed(1)}]: ` +
+      `set to ${fmtDeg(limit.value)}` : "";
     edited(ed);
-    ed.status(limit.clamped ? clampedText(j, v, limit) : `keyframe ${state.selected}: ${j} ${limit.value} deg`,
+    ed.status(limit.clamped ? clampedText(j, v, limit) : `keyframe ${state.selected}: ${j} ${fmtDeg(limit.value)} deg`,
       limit.clamped);
     return;
   }
@@ -908,14 +976,16 @@ function editRecordJoint(ed, t, row) {
   if (t.dataset.held !== undefined) {
     const typed = t.value.trim() === "" ? NaN : Number(t.value);
     if (!Number.isFinite(typed)) {
-      t.value = (state.held[j] ?? 0).toFixed(1); ed.status(`${j}: a goal is a number of degrees`, true);
+      t.value = fmtDeg(state.held[j] ?? 0); ed.status(`${j}: a goal is a number of degrees`, true);
       return;
     }
     const limit = inLimits(ed, j, typed);
     state.held[j] = limit.value;
-    t.value = limit.value.toFixed(1);
+    t.value = fmtDeg(limit.value);
     row.querySelector("[data-slider]").value = limit.value;
     sendGoals(ed, true);
+    noteJoint(ed, "held", j, limit.clamped ? `outside [${limit.j.lower.toFixed(1)}, ${limit.j.upper.toFixed(1)}]: ` +
+      `set to ${fmtDeg(limit.value)}` : "");
     if (limit.clamped) ed.status(clampedText(j, typed, limit), true);
   }
 }
@@ -925,7 +995,8 @@ function onSliderInput(ed, e) {
   const t = e.target;
   if (t.dataset.slider === undefined) return;
   const row = t.closest("tr[data-joint]");
-  ed.state.held[row.dataset.joint] = Number(t.value);
-  row.querySelector("[data-held]").value = Number(t.value).toFixed(1);
+  ed.state.held[row.dataset.joint] = servoDeg(Number(t.value));
+  row.querySelector("[data-held]").value = fmtDeg(ed.state.held[row.dataset.joint]);
+  noteJoint(ed, "held", row.dataset.joint, ""); // a slider stays inside the limits
   sendGoals(ed);
 }
