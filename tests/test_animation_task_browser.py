@@ -213,6 +213,17 @@ def test_new_animation_from_the_robots_pose_played_saved_and_kept_across_a_reloa
     assert keyframes(page) == edited and page.locator(f'{EDITOR} [data-role="dirty"]').text_content() == "● unsaved"
     assert len(load_animation(folder / "lab_wave.json").keyframes) == 3  # the file is as saved
 
+    # a joint group's pose from the robot into a keyframe: the head (held at 10 deg) into keyframe 0, the rest kept
+    page.click(f'{EDITOR} tr[data-kf="0"] td:first-child')
+    before = keyframes(page)[0]
+    page.click(f'{EDITOR} [data-role="groups"] tr[data-group="head"] button[data-group-copy]')
+    status(page, "keyframe 0: the head's pose from the robot (2 joints)")
+    after = keyframes(page)[0]
+    assert after["goals"]["HeadPan"] == pytest.approx(measured(server, "HeadPan"), abs=1.0)
+    assert abs(after["goals"]["HeadPan"] - before["goals"]["HeadPan"]) > 5
+    assert {j: v for j, v in after["goals"].items() if not j.startswith("Head")} == \
+        {j: v for j, v in before["goals"].items() if not j.startswith("Head")}
+
     page.click(f'{EDITOR} button[data-act="stop"]')
     status(page, "stopped")
     OUTPUT.mkdir(exist_ok=True)

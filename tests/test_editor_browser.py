@@ -362,7 +362,7 @@ def test_out_of_limit_keyframe_refused_unless_overridden(browser: Any, server: R
     assert not page.errors, page.errors
 
 
-def test_timeline_shows_time_and_drags_to_reorder(browser: Any, server: RunningServer) -> None:
+def test_timeline_shows_time_drags_to_reorder_and_to_time_and_joint_groups(browser: Any, server: RunningServer) -> None:
     page = editor_page(browser, server)
     blocks = f'{EDITOR} [data-role="timeline"] [data-tl]'
     assert page.locator(blocks).count() == 3
@@ -381,6 +381,34 @@ def test_timeline_shows_time_and_drags_to_reorder(browser: Any, server: RunningS
     page.wait_for_selector(f'{EDITOR} .lab-status:has-text("moved keyframe 2 to 0")', timeout=TIMEOUT_MS)
     assert page.locator(f'{EDITOR} [data-tl="0"]').get_attribute("class") == "kf-block selected"
     assert page.locator(f'{EDITOR} [data-role="dirty"]').text_content() == "● unsaved"
+
+    # a block's right edge dragged: that keyframe's duration follows (half a second further right: +0.5 s)
+    total_s = sum(kf["duration"] + kf["pause"] for kf in kfs)
+    width_px = page.locator(f'{EDITOR} [data-role="timeline"]').bounding_box()["width"]
+    before = kfs[1]["duration"]
+    edge = page.locator(f'{EDITOR} [data-resize="1"]').bounding_box()
+    x, y = edge["x"] + edge["width"] / 2, edge["y"] + edge["height"] / 2
+    page.mouse.move(x, y)
+    page.mouse.down()
+    page.mouse.move(x + 0.25 * width_px / total_s, y, steps=4)
+    page.mouse.move(x + 0.5 * width_px / total_s, y, steps=4)
+    page.mouse.up()
+    kfs = wait_keyframes(page, f"kfs[1].duration !== {before}", "a duration dragged")
+    assert kfs[1]["duration"] == pytest.approx(before + 0.5, abs=0.051)
+    assert [kf["name"] for kf in kfs] == ["down", "up", "out"]  # a duration, not an order
+    page.wait_for_selector(f'{EDITOR} .lab-status:has-text("keyframe 1: duration")', timeout=TIMEOUT_MS)
+    page.click(f'{EDITOR} button[data-act="undo"]')  # one undo step
+    wait_keyframes(page, f"kfs[1].duration === {before}", "the drag undone")
+
+    # joint groups: a group's "rec" un-ticks all its joints at once (RecordUI's head / arms / legs)
+    groups = f'{EDITOR} [data-role="groups"] tr[data-group]'
+    assert page.locator(groups).evaluate_all("rows => rows.map(r => r.dataset.group)") == [
+        "head", "L-arm", "R-arm", "L-leg", "R-leg"]
+    page.uncheck(f'{EDITOR} [data-role="groups"] tr[data-group="L-arm"] input[data-group-rec]')
+    recorded = set(page.evaluate("[...window.pitchside.animEditor.recordJoints]"))
+    assert {"LShoulderPitch", "LShoulderRoll", "LElbow"}.isdisjoint(recorded) and "RElbow" in recorded
+    assert len(recorded) == 17
+    assert not page.is_checked(f'{EDITOR} [data-role="joints"] tr[data-joint="LElbow"] input[data-rec]')
     assert not page.errors, page.errors
 
 

@@ -67,6 +67,8 @@ const LAYOUT = `<div class="anim-controls" data-role="controls">
           <button data-act="record-update" title="the robot's current pose into the selected keyframe">update keyframe</button>
           <button data-act="rec-all">record all joints</button><button data-act="rec-none">none</button>
         </div>
+        <table class="grid-table joint-groups" title="a group of joints at once, as in RecordUI"><thead><tr>
+          <th>group</th><th>rec</th><th>limp</th><th></th></tr></thead><tbody data-role="groups"></tbody></table>
         <table class="grid-table"><thead><tr><th>joint</th><th>rec</th><th>limp</th><th>goal (deg)</th></tr></thead>
           <tbody data-role="joints"></tbody></table>
       </details>`;
@@ -88,6 +90,7 @@ export default {
     body.addEventListener("change", (e) => onChange(ed, e));
     body.addEventListener("input", (e) => onSliderInput(ed, e));
     body.addEventListener("dragstart", (e) => onTimelineDrag(ed, e));
+    body.addEventListener("pointerdown", (e) => startResize(ed, e));
     body.addEventListener("dragover", (e) => { if (e.target.closest("[data-tl]")) e.preventDefault(); });
     body.addEventListener("drop", (e) => onTimelineDrop(ed, e));
     ed.resend = setInterval(() => { if (ed.state.recordOn && ed.state.robot) sendGoals(ed); }, RESEND_MS);
@@ -599,7 +602,8 @@ function renderTimeline(ed) {
   el.innerHTML = kfs.map((kf, i) => `<div class="kf-block${i === state.selected ? " selected" : ""}" data-tl="${i}"
       draggable="true" title="keyframe ${i}${kf.name ? ` (${esc(kf.name)})` : ""}: ${kf.duration} s${
       kf.pause ? ` + ${kf.pause} s pause` : ""}"><span>${i}${kf.name ? ` ${esc(kf.name)}` : ""}</span>
-      <i class="kf-pause"></i></div>`).join("");
+      <i class="kf-pause"></i><b class="kf-resize" data-resize="${i}" title="drag to change keyframe ${i}'s duration
+      (${kf.duration} s)"></b></div>`).join("");
   // widths through the CSSOM: the page's Content-Security-Policy need not allow inline styles
   el.querySelectorAll("[data-tl]").forEach((block, i) => {
     const kf = kfs[i];
@@ -672,6 +676,7 @@ function goalRow(kf, j, v, notes) {
 /** The record table: per joint whether it is recorded, whether it is limp, and the goal it is held at. */
 function renderJoints(ed) {
   const { state } = ed;
+  renderGroups(ed);
   ed.$('[data-role="joints"]').innerHTML = state.joints.map((j) => `<tr data-joint="${esc(j.name)}">
         <td>${esc(j.name)}</td>
         <td><input type="checkbox" data-rec aria-label="record ${esc(j.name)}"
@@ -782,6 +787,63 @@ async function goToKeyframe(ed) {
     : ""}: move the sliders, then "update keyframe" or "record keyframe"`);
 }
 
+// -- joint groups: head, arms, legs, by the joints' names (RecordUI's groups) -------------------------------
+
+export const GROUPS = [["head", "head"], ["left arm", "L-arm"], ["right arm", "R-arm"], ["left leg", "L-leg"],
+  ["right leg", "R-leg"]];
+
+/** The group a joint belongs to, from its name (HeadPan; LShoulderPitch, LElbow; RHipYaw, RKnee, RAnkleRoll ...);
+ * "" for a joint of no group. */
+export function jointGroup(name) {
+  if (/^head/i.test(name)) return "head";
+  const side = /^(?:L|l|left|Left)(?=[A-Z_])/.test(name) ? "L" : /^(?:R|r|right|Right)(?=[A-Z_])/.test(name) ? "R" : "";
+  if (!side) return "";
+  if (/shoulder|elbow|arm|wrist|hand/i.test(name)) return `${side}-arm`;
+  if (/hip|knee|ankle|foot|leg/i.test(name)) return `${side}-leg`;
+  return "";
+}
+
+/** The joint groups' table: per group whether all its joints are recorded / limp, and "pose → keyframe". */
+function renderGroups(ed) {
+  const { state } = ed;
+  const rows = GROUPS.map(([label, id]) => {
+    const joints = state.joints.filter((j) => jointGroup(j.name) === id).map((j) => j.name);
+    if (!joints.length) return "";
+    const all = (set) => joints.every((j) => set.has(j));
+    return `<tr data-group="${esc(id)}" title="${esc(joints.join(", "))}"><td>${esc(label)}</td>
+      <td><input type="checkbox" data-group-rec aria-label="record the ${esc(label)}" ${all(state.recordJoints) ? "checked" : ""}></td>
+      <td><input type="checkbox" data-group-limp aria-label="${esc(label)} limp" ${all(state.limp) ? "checked" : ""}></td>
+      <td><button data-group-copy title="the robot's pose of the ${esc(label)} into the selected keyframe">pose → keyframe</button></td></tr>`;
+  }).join("");
+  ed.$('[data-role="groups"]').innerHTML = rows;
+}
+
+/** A group's rec or limp ticked: every joint of it at once (limp is sent to the robot at once). */
+function editGroup(ed, t, id) {
+  const { state } = ed;
+  const joints = state.joints.filter((j) => jointGroup(j.name) === id).map((j) => j.name);
+  const set = t.dataset.groupRec !== undefined ? state.recordJoints : state.limp;
+  for (const j of joints) { if (t.checked) set.add(j); else set.delete(j); }
+  renderJoints(ed);
+  if (t.dataset.groupLimp !== undefined) sendGoals(ed, true);
+  ed.status(`${id}: ${joints.length} joints ${t.dataset.groupRec !== undefined ? (t.checked ? "recorded" : "not recorded")
+    : (t.checked ? "limp" : "held")}`);
+}
+
+/** "pose → keyframe": the robot's pose of one group's joints into the selected keyframe (the other joints stay). */
+async function copyGroup(ed, id) {
+  const { state } = ed;
+  const kf = state.anim?.keyframes[state.selected];
+  if (!kf) throw new Error("select a keyframe to copy the pose into");
+  const pose = await measuredPose(ed);
+  const joints = state.joints.filter((j) => jointGroup(j.name) === id && j.name in pose).map((j) => j.name);
+  if (!joints.length) throw new Error(`no pose of the ${id} from the robot`);
+  snapshot(ed);
+  for (const j of joints) kf.goals[j] = inLimits(ed, j, pose[j]).value;
+  edited(ed);
+  ed.status(`keyframe ${state.selected}: the ${id}'s pose from the robot (${joints.length} joints)`);
+}
+
 /** "record all joints" / "none". */
 function chooseRecordJoints(ed, all) {
   ed.state.recordJoints = new Set(all ? ed.state.joints.map((j) => j.name) : []);
@@ -829,6 +891,11 @@ function onClick(ed, e) {
   const block = e.target.closest("[data-tl]");
   if (block) { ed.state.selected = +block.dataset.tl; render(ed); }
   if (kact) { guarded(ed, () => keyframeAction(ed, kact, +row.dataset.kf)); return; }
+  if (e.target.dataset?.groupCopy !== undefined) {
+    const id = e.target.closest("tr[data-group]").dataset.group;
+    guarded(ed, () => copyGroup(ed, id));
+    return;
+  }
   if (e.target.dataset?.remove !== undefined && e.target.closest("[data-role=detail]")) {
     removeGoal(ed, e.target.closest("tr").dataset.joint);
     return;
@@ -836,10 +903,45 @@ function onClick(ed, e) {
   if (act && Object.hasOwn(ACTIONS, act)) guarded(ed, () => ACTIONS[act](ed));
 }
 
+const DURATION_STEP_S = 0.05;
+const MIN_DURATION_S = 0.05;
+
+/** A keyframe's right edge on the timeline dragged: its duration follows the pointer (at the timeline's scale when
+ * the drag began, in steps of 0.05 s), shown as it goes and written once, on release, as one undo step. */
+function startResize(ed, e) {
+  const handle = e.target.closest?.("[data-resize]");
+  if (!handle || !ed.state.anim) return;
+  e.preventDefault(); // not the block's drag to reorder
+  e.stopPropagation();
+  const i = +handle.dataset.resize;
+  const kfs = ed.state.anim.keyframes;
+  const total = kfs.reduce((t, kf) => t + kf.duration + kf.pause, 0);
+  const timeline = ed.$('[data-role="timeline"]');
+  const perPx = total / Math.max(timeline.getBoundingClientRect().width, 1); // s per px
+  const x0 = e.clientX, d0 = kfs[i].duration;
+  const durationAt = (x) => Math.max(MIN_DURATION_S,
+    Math.round((d0 + (x - x0) * perPx) / DURATION_STEP_S) * DURATION_STEP_S);
+  handle.setPointerCapture(e.pointerId);
+  const move = (ev) => ed.status(`keyframe ${i}: duration ${durationAt(ev.clientX).toFixed(2)} s (release to set)`);
+  const up = (ev) => {
+    handle.removeEventListener("pointermove", move);
+    handle.removeEventListener("pointerup", up);
+    const duration = Number(durationAt(ev.clientX).toFixed(2));
+    if (duration === d0) { ed.status(`keyframe ${i}: duration ${d0} s`); return; }
+    snapshot(ed);
+    kfs[i].duration = duration;
+    edited(ed);
+    ed.status(`keyframe ${i}: duration ${duration} s`);
+  };
+  handle.addEventListener("pointermove", move);
+  handle.addEventListener("pointerup", up);
+}
+
 /** A timeline block picked up: which keyframe is being dragged. */
 function onTimelineDrag(ed, e) {
   const block = e.target.closest?.("[data-tl]");
   if (!block) return;
+  if (e.target.closest?.("[data-resize]")) { e.preventDefault(); return; } // its edge: a duration, not an order
   ed.dragged = +block.dataset.tl;
   e.dataTransfer.effectAllowed = "move";
   e.dataTransfer.setData("text/plain", block.dataset.tl);
@@ -916,7 +1018,9 @@ function onChange(ed, e) {
   const detailRow = t.closest("[data-role=detail] tr[data-joint]");
   if (detailRow) { editGoal(ed, t, detailRow.dataset.joint); return; }
   const jointRow = t.closest("[data-role=joints] tr[data-joint]");
-  if (jointRow) editRecordJoint(ed, t, jointRow);
+  if (jointRow) { editRecordJoint(ed, t, jointRow); renderGroups(ed); }
+  const groupRow = t.closest("[data-role=groups] tr[data-group]");
+  if (groupRow) editGroup(ed, t, groupRow.dataset.group);
   if (t.dataset.role === "name" && ed.state.anim) {
     snapshot(ed); ed.state.anim.name = t.value; edited(ed); ed.status(`renamed to ${t.value}`);
   }
