@@ -18,7 +18,7 @@ from tests.waiting import wait_for
 pytestmark = [pytest.mark.slow, pytest.mark.browser]
 MATCH = ["field", "team", "game", "links", "recordings"]
 LAB = ["parameters", "animation", "robot3d", "hcm", "teleop", "plots", "node_log", "diagnostics"]
-REPLAY = ["field", "hcm", "team", "replay", "recordings", "plots", "robot3d"]
+REPLAY = ["field", "hcm", "replay", "recordings", "team", "plots", "robot3d"]
 
 
 def _panels(page: Any) -> list[str]:

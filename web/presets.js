@@ -16,8 +16,8 @@ export const PRESETS = {
   },
   replay: {
     title: "Replay", key: "R", columns: 6, rows: 3,
-    // the robot cards: the REPLAY badge says which robots are the log's
-    panels: [["field", 3, 2], ["hcm", 2, 2], ["team", 1, 2], ["replay", 2, 1], ["recordings", 1, 1], ["plots", 2, 1],
+    // the robot cards: the REPLAY badge says which robots are the log's (the HCM graph keeps its width: readable)
+    panels: [["field", 3, 2], ["hcm", 3, 2], ["replay", 2, 1], ["recordings", 1, 1], ["team", 1, 1], ["plots", 1, 1],
       ["robot3d", 1, 1]],
   },
   all: { title: "All panels", key: "A", columns: 3, rows: 0, panels: null }, // every panel at its own size
