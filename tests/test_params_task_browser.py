@@ -119,6 +119,13 @@ def test_find_change_save_revert_undo_reset(browser: Any, server: RunningServer,
             .map((c) => c.closest('[data-node]').dataset.node + ': ' + c.textContent.trim().slice(0, 30)); }})()""")
     assert outside == [], f"cells beyond the panel's right edge: {outside[:5]}"
     assert page.locator(f'{PANEL} [data-node="telemetry"] th:has-text("back to")').is_visible()
+    # in a narrow panel the headers wrap inside their columns instead of running into the next one
+    overlapping = page.evaluate(f"""(() => {{ const panel = document.querySelector('{PANEL}');
+        panel.style.width = '360px';  // three quarters of the Lab preset's
+        const out = [...panel.querySelectorAll('[data-node="walking"] table.params th')]
+            .filter((th) => th.scrollWidth > th.clientWidth + 1).map((th) => th.textContent);
+        panel.style.width = ''; return out; }})()""")
+    assert overlapping == []
 
     # -- the task: find the walking node's step frequency and change it to 2.2 --------------------------------------
     act = Actions(page)
