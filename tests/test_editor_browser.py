@@ -409,6 +409,17 @@ def test_timeline_shows_time_drags_to_reorder_and_to_time_and_joint_groups(brows
     assert {"LShoulderPitch", "LShoulderRoll", "LElbow"}.isdisjoint(recorded) and "RElbow" in recorded
     assert len(recorded) == 17
     assert not page.is_checked(f'{EDITOR} [data-role="joints"] tr[data-joint="LElbow"] input[data-rec]')
+
+    # upload: one button reading "upload…" whole (the browser's own "No file chosen" was cut to "N...n"); a file
+    # chosen there is uploaded and opened (the unsaved changes above given up when asked)
+    upload = page.locator(f'{EDITOR} label.file-button')
+    assert upload.inner_text() == "upload…"
+    assert upload.evaluate("(el) => el.scrollWidth <= el.clientWidth + 1")
+    page.once("dialog", lambda dialog: dialog.accept())
+    hop = {"name": "hop", "keyframes": [{"duration": 0.5, "goals": {"HeadPan": 5.0}}]}
+    page.set_input_files(f'{EDITOR} [data-role="upload"]', files=[{
+        "name": "hop.json", "mimeType": "application/json", "buffer": json.dumps(hop).encode()}])
+    page.wait_for_function("window.pitchside.animEditor.anim?.name === 'hop'", timeout=TIMEOUT_MS)
     assert not page.errors, page.errors
 
 

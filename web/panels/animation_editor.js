@@ -24,7 +24,8 @@ const LAYOUT = `<div class="anim-controls" data-role="controls">
         <label>robot <select data-role="robot"></select></label>
         <select data-role="files" title="animation files in the robot's animation folder"></select>
         <button data-act="open">open</button>
-        <label title="upload a Bit-Bots JSON file">upload <input type="file" data-role="upload" accept=".json,application/json"></label>
+        <label class="button file-button" title="upload a Bit-Bots JSON file">upload…<input type="file" data-role="upload"
+          class="visually-hidden" accept=".json,application/json"></label>
         <input data-role="new-name" placeholder="new name" size="10"><button data-act="new"
           title="a new animation whose first keyframe is the robot's current pose">new from robot pose</button>
       </div>
