@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from schemas.logs import LogError, LogSeriesReader
+from schemas.logs import LogError, LogNotes, LogSeriesReader
 from schemas.numeric import numeric_fields
 from wire.command_line import CommandParser
 
@@ -67,7 +67,8 @@ def export(path: Path, out: Path, topics: list[str] | None = None, robots: list[
     rec = rr.RecordingStream("pitchside_log")
     rec.save(out)
     with LogSeriesReader(path) as reader:
-        bookmarks = reader.bookmarks
+        # the log's bookmarks and the notes added to it since (its sidecar, schemas.logs.notes)
+        bookmarks = reader.bookmarks + LogNotes(reader.paths[0] if reader.paths else Path(path)).notes
         start, span = reader.start_ns, max(reader.end_ns - reader.start_ns, 1)
         for item in reader.messages(topics=topics, robots=robots):
             if item.raw:

@@ -9,6 +9,7 @@ from fastapi.responses import JSONResponse
 from starlette.requests import Request
 
 from robots import UnknownModel
+from schemas.logs import NotesError
 from server.recorder import RecorderError
 from server.sources import SourceError
 from server.sources.replay import BadTimelineRequest, LogNotFound, NoLogOpen, ReplayRefused, UnreadableLog
@@ -27,6 +28,7 @@ STATUS_BY_TYPE: dict[type[Exception], int] = {
     ParameterError: 422,
     AnimationError: 422,
     UnreadableLog: 422,
+    NotesError: 422,
     BadTimelineRequest: 422,
     GraphTooLarge: 422,
     # what was asked for is not there

@@ -10,6 +10,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import fnmatch
+import logging
 import time
 from collections import deque
 from collections.abc import Callable, Iterable
@@ -18,6 +19,8 @@ from typing import Any
 
 import schemas
 from server.lateness import LATE_AFTER_S, Lateness
+
+log = logging.getLogger(__name__)
 
 ANY = "*"
 # Big messages get their own short queue per subscriber: memory stays bounded by a few images, not thousands.
@@ -111,6 +114,16 @@ class Subscriber:
             if sub.matches(msg):
                 return sub
         return None
+
+    def discard_robot(self, robot: str) -> None:
+        """Drops the queued messages of a robot that is gone for good, so none of it is shown after it left."""
+        for queue in (self._queue, self._bulk):
+            kept = [m for m in queue if m.robot != robot]
+            if len(kept) != len(queue):
+                queue.clear()
+                queue.extend(kept)
+        for key in [k for k in self._held if k[0] == robot]:
+            del self._held[key]
 
     # -- the hub side ---------------------------------------------------------------------------------
     def offer(self, msg: HubMessage) -> None:
@@ -245,6 +258,7 @@ class Hub:
         self.lateness = Lateness()  # per robot and source: which messages arrive late (server.lateness)
         self.loop: asyncio.AbstractEventLoop | None = None
         self._robot_listeners: list[Callable[[str], None]] = []
+        self._gone_listeners: list[Callable[[str], None]] = []
 
     def bind(self, loop: asyncio.AbstractEventLoop) -> None:
         """The loop whose thread owns the hub; sources on other threads hand messages to it."""
@@ -262,6 +276,10 @@ class Hub:
 
     def on_new_robot(self, listener: Callable[[str], None]) -> None:
         self._robot_listeners.append(listener)
+
+    def on_robot_gone(self, listener: Callable[[str], None]) -> None:
+        """listener(robot) when a robot is forgotten (a closed replay's): views drop what they show of it."""
+        self._gone_listeners.append(listener)
 
     def publish(self, msg: HubMessage) -> None:
         """On the loop thread only. A message that arrives late is counted and recorded but not shown as live:
@@ -314,6 +332,14 @@ class Hub:
             self.streams -= len(gone.streams)
         for key in [k for k in self.latest if k[0] == robot]:
             del self.latest[key]
+        for sub in self.subscribers:
+            if not sub.include_late:  # a recorder keeps what it was handed
+                sub.discard_robot(robot)
+        for listener in self._gone_listeners:
+            try:
+                listener(robot)
+            except Exception:  # one view failing must not keep the robot in the others
+                log.exception("a view did not let go of %s", robot)
 
     def latest_matching(self, sub: Subscription) -> list[HubMessage]:
         return [m for m in self.latest.values() if sub.matches(m)]

@@ -33,6 +33,7 @@ if TYPE_CHECKING:
 TELEOP_HZ = 10.0
 TELEOP_HOLD_S = 0.5  # a command not refreshed for this long stops the robot
 PREVIEW_HZ = 20.0
+PREVIEW_HOLD_S = 1.0  # the preview ghost shows the animation's last pose this long, then leaves the scene
 GOAL_TIMEOUT_S = 3.0
 
 
@@ -195,19 +196,13 @@ class LabTools:
     async def preview(self, robot: str, anim: Animation, start: dict[str, float] | None) -> float:
         """Plays the animation on a ghost robot in the 3D view; the real robot does not move."""
         view = self._view()
-        ghost = self._previews.get(robot)
-        if ghost is None:
-            from server.robot3d import RobotModel
-
-            ghost = await asyncio.to_thread(RobotModel, view.server, f"{robot}_preview",
-                                            self.state.config.description_for(robot), 0,
-                                            position=self._ghost_slot(robot, view))
-            self._previews[robot] = ghost
         old = self._preview_tasks.pop(robot, None)
         if old is not None:
             old.cancel()
+        ghost = await asyncio.to_thread(view.add_preview, robot, self._ghost_slot(robot, view))
+        self._previews[robot] = ghost
         player = AnimationPlayer(anim, start)
-        self._preview_tasks[robot] = asyncio.create_task(self._preview_loop(ghost, player))
+        self._preview_tasks[robot] = asyncio.create_task(self._preview_loop(robot, ghost, player))
         return float(player.duration)
 
     async def show_keyframes(self, robot: str, anim: Animation, keyframes: list[int], selected: int,
@@ -239,14 +234,20 @@ class LabTools:
         ghosts = self._keyframe_ghosts.get(robot)
         return 0 if ghosts is None else int(await asyncio.to_thread(ghosts.clear))
 
-    async def _preview_loop(self, ghost: Any, player: AnimationPlayer) -> None:
+    async def _preview_loop(self, robot: str, ghost: Any, player: AnimationPlayer) -> None:
+        """Plays the preview on the ghost, holds its last pose a moment, then takes the ghost out of the scene: a
+        preview robot is there only while it previews (a new preview of the same robot takes over the ghost)."""
         t0 = time.monotonic()
         while True:
             t = min(time.monotonic() - t0, player.duration)
             await asyncio.to_thread(ghost.apply, list(player.joint_names), player.positions(t))
             if t >= player.duration:
-                return
+                break
             await asyncio.sleep(1.0 / PREVIEW_HZ)
+        await asyncio.sleep(PREVIEW_HOLD_S)
+        if self._preview_tasks.get(robot) is asyncio.current_task():
+            del self._preview_tasks[robot]
+            await asyncio.to_thread(self._view().remove_preview, robot)
 
     def keyframe_status(self, robot: str) -> dict[str, Any]:
         """The keyframe ghosts (with the joint angles the scene holds) and the ghost nodes in the scene."""

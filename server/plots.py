@@ -156,6 +156,7 @@ class PlotFeed:
             await self.server.stop()
             raise
         self._sub = self.hub.subscribe("plots", maxlen=4096)
+        self.hub.on_robot_gone(self.forget)
         for topic in STATE_TOPICS:  # first: a subscriber takes a message by its first matching subscription
             self._sub.subscribe("*", topic)
         for topic in CURATED_TOPICS if not self.config.plots_all_topics else ("*",):
@@ -175,6 +176,20 @@ class PlotFeed:
             if self._blueprint_due and time.monotonic() - self._blueprint_sent > BLUEPRINT_EVERY_S:
                 self.rec.send_blueprint(blueprint(self.topics))
                 self._blueprint_due, self._blueprint_sent = False, time.monotonic()
+
+    def forget(self, robot: str) -> None:
+        """A robot gone for good (a closed replay's): its tabs leave the viewer and its lines are cleared."""
+        import rerun as rr
+
+        known = self.topics.pop(robot, None) is not None
+        self._robots.pop(robot, None)
+        for table in (self._states, self._names):
+            for entity in [e for e in table if e.startswith(f"{robot}/")]:
+                del table[entity]
+        if known and self.rec is not None:
+            self.rec.log(robot, rr.Clear(recursive=True))
+            self.rec.send_blueprint(blueprint(self.topics))  # at once: no tab of a closed log lingers
+            self._blueprint_sent = time.monotonic()
 
     def _take(self, msg: HubMessage, rows: PlotRows) -> None:
         """One message's numbers into ``rows``; its state changes logged at once (a few a second at most)."""

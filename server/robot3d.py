@@ -31,6 +31,26 @@ GROUND_SIZE_M = 4.0
 # keyframe ghosts (onion skin): faint copies of the robot, the selected keyframe stronger and in another colour
 GHOST_RGBA = (0.35, 0.55, 0.95, 0.2)
 GHOST_SELECTED_RGBA = (1.0, 0.55, 0.1, 0.5)
+# which robot is which: a live robot in its URDF's own colours, a replayed one in the page's replay purple, the
+# editor's preview as a translucent green ghost; each with its name above it (a replayed one's higher, so the labels
+# of a live and a replayed robot never cover each other)
+REPLAY_CSS = "#9b2fd1"  # the field view's replay colour (web/panels/field_view.js)
+KIND_RGBA: dict[str, tuple[float, float, float, float] | None] = {
+    "live": None, "replay": (*(int(REPLAY_CSS[i:i + 2], 16) / 255 for i in (1, 3, 5)), 1.0),  # type: ignore[dict-item]
+    "preview": (0.1, 0.75, 0.45, 0.55)}
+LABEL_HEIGHT_M = {"live": 0.78, "replay": 0.92, "preview": 0.85}
+
+
+def kind_of(robot: str) -> str:
+    """"replay" for a replayed robot (replay.<id>), else "live"; previews are made as such (Robot3DView)."""
+    from wire import keys
+
+    return "replay" if keys.is_replayed(robot) else "live"
+
+
+def css_colour(rgba: tuple[float, float, float, float] | None) -> str:
+    """The figure's colour as the page draws its legend ("" for the URDF's own colours)."""
+    return "" if rgba is None else "#" + "".join(f"{round(255 * c):02x}" for c in rgba[:3])
 
 
 def package_resolver(description: RobotDescription) -> Any:
@@ -93,7 +113,8 @@ class RobotModel:
 
     def __init__(self, server: Any, robot: str, description: RobotDescription, index: int, *,
                  color: tuple[float, float, float, float] | None = None, urdf: Any = None,
-                 position: tuple[float, float, float] | None = None) -> None:
+                 position: tuple[float, float, float] | None = None, label: str = "",
+                 label_height_m: float = LABEL_HEIGHT_M["live"]) -> None:
         from viser.extras import ViserUrdf
 
         if urdf is None:
@@ -102,6 +123,9 @@ class RobotModel:
         self.frame = server.scene.add_frame(self.name, show_axes=False,
                                             position=position or (0.0, index * ROBOT_SPACING_M, 0.0))
         self.view = ViserUrdf(server, urdf, root_node_name=self.name, mesh_color_override=color)
+        # the name above the robot, a child of its frame: it moves, hides and goes with it
+        self.label = server.scene.add_label(f"{self.name}/label", label, position=(0.0, 0.0, label_height_m),
+                                            anchor="bottom-center") if label else None
         self.joint_names = list(self.view.get_actuated_joint_names())
         self.cfg = np.zeros(len(self.joint_names))
         self._index = {name: i for i, name in enumerate(self.joint_names)}
@@ -151,8 +175,16 @@ class RobotModel:
             out[joint.name] = math.atan2(sin, cos)
         return out
 
+    @property
+    def visible(self) -> bool:
+        return bool(self.frame.visible)
+
+    @visible.setter
+    def visible(self, shown: bool) -> None:
+        self.frame.visible = shown  # hides the URDF's meshes and the label, its children
+
     def remove(self) -> None:
-        self.frame.remove()  # the URDF's frames and meshes are its children
+        self.frame.remove()  # the URDF's frames, meshes and label are its children
 
 
 class KeyframeGhosts:
@@ -232,6 +264,9 @@ class Robot3DView:
         self._sub: Subscriber | None = None
         self._unshown: dict[str, HubMessage] = {}  # robot -> its newest joint_states not yet applied
         self._posing = asyncio.Lock()
+        self.previews: dict[str, RobotModel] = {}  # robot -> the editor's preview ghost, only while it plays
+        self.hidden: set[str] = set()  # figures the user hid (kept for a figure that comes back, e.g. a preview)
+        self._forgetting: set[asyncio.Task[None]] = set()
 
     async def start(self) -> None:
         import viser
@@ -257,6 +292,7 @@ class Robot3DView:
         self.server._websock_server.on_client_connect(
             lambda _connection: asyncio.run_coroutine_threadsafe(self._show_unshown(), loop) and None)
         self._sub = self.hub.subscribe("robot3d", maxlen=64)
+        self.hub.on_robot_gone(self._on_gone)
         self._sub.subscribe("*", "joint_states", max_hz=self.config.robot3d_max_hz)
         self._task = asyncio.create_task(self._run())
 
@@ -289,7 +325,61 @@ class Robot3DView:
             self.failed[robot] = str(exc)
 
     def _add_model(self, robot: str) -> None:
-        self.robots[robot] = RobotModel(self.server, robot, self.config.description_for(robot), len(self.robots))
+        kind = kind_of(robot)
+        model = RobotModel(self.server, robot, self.config.description_for(robot), len(self.robots),
+                           color=KIND_RGBA[kind], label=robot, label_height_m=LABEL_HEIGHT_M[kind])
+        model.visible = robot not in self.hidden
+        self.robots[robot] = model
+
+    def _on_gone(self, robot: str) -> None:
+        task = asyncio.get_running_loop().create_task(self.forget(robot))
+        self._forgetting.add(task)
+        task.add_done_callback(self._forgetting.discard)
+
+    async def forget(self, robot: str) -> None:
+        """A robot gone for good (a closed replay's) leaves the scene."""
+        async with self._posing:
+            self._unshown.pop(robot, None)
+            self.failed.pop(robot, None)
+            model = self.robots.pop(robot, None)
+            if model is not None:
+                await asyncio.to_thread(model.remove)
+
+    # -- the editor's preview ghost: in the scene only while a preview plays --------------------------------
+    def add_preview(self, robot: str, position: tuple[float, float, float]) -> RobotModel:
+        """Blocking (loads the URDF): the preview ghost of ``robot``, made or reused."""
+        model = self.previews.get(robot)
+        if model is None:
+            name = f"{robot}_preview"
+            model = RobotModel(self.server, name, self.config.description_for(robot), 0, position=position,
+                               color=KIND_RGBA["preview"], label=f"{robot} preview",
+                               label_height_m=LABEL_HEIGHT_M["preview"])
+            model.visible = name not in self.hidden
+            self.previews[robot] = model
+        return model
+
+    def remove_preview(self, robot: str) -> None:
+        model = self.previews.pop(robot, None)
+        if model is not None:
+            model.remove()
+
+    def figures(self) -> list[dict[str, Any]]:
+        """Every robot figure in the scene: its name, kind (live, replay, preview), colour and whether it is shown."""
+        out = [{"name": robot, "kind": kind_of(robot), "visible": model.visible,
+                "color": css_colour(KIND_RGBA[kind_of(robot)])} for robot, model in sorted(self.robots.items())]
+        out += [{"name": model.name.lstrip("/"), "kind": "preview", "visible": model.visible,
+                 "color": css_colour(KIND_RGBA["preview"])} for _, model in sorted(self.previews.items())]
+        return out
+
+    def set_visible(self, name: str, visible: bool) -> bool:
+        """Shows or hides a figure by name; False if no such figure is in the scene (the choice is kept anyway)."""
+        (self.hidden.discard if visible else self.hidden.add)(name)
+        models = {**self.robots, **{m.name.lstrip("/"): m for m in self.previews.values()}}
+        model = models.get(name)
+        if model is None:
+            return False
+        model.visible = visible
+        return True
 
     async def _show_unshown(self) -> None:
         """Poses each robot as its newest joint_states say (also what a viewer that just connected sees first)."""
@@ -306,7 +396,8 @@ class Robot3DView:
     def status(self) -> dict[str, Any]:
         viewers = self._viewers() if self.server is not None else 0  # pages showing the scene
         return {"port": self.port, "viewers": viewers, "failed": dict(self.failed),
-                "robots": {r: {"updates": m.updates, "joints": m.joint_names} for r, m in self.robots.items()}}
+                "robots": {r: {"updates": m.updates, "joints": m.joint_names} for r, m in self.robots.items()},
+                "figures": self.figures() if self.server is not None else []}
 
     async def stop(self) -> None:
         if self._task is not None:

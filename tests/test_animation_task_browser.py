@@ -126,6 +126,9 @@ def test_new_animation_from_the_robots_pose_played_saved_and_kept_across_a_reloa
     assert len(start) == 20 and abs(start["HeadPan"] - measured(server, "HeadPan")) < 1.0
     assert list(start)[:2] == ["HeadPan", "HeadTilt"]  # the robot's joint order
     assert page.locator(f'{EDITOR} [data-role="dirty"]').text_content() == "● unsaved"
+    # the file menu shows what is edited: the new animation, not a file opened before
+    chosen = page.locator(f'{EDITOR} [data-role="files"]').evaluate("(el) => el.selectedOptions[0]?.textContent")
+    assert chosen == "lab_wave (new, not saved yet)"
 
     # 2. RECORD, the head to each pose by its goal box, a keyframe recorded at each
     user.click(f'{EDITOR} button[data-act="record-on"]')
@@ -138,6 +141,9 @@ def test_new_animation_from_the_robots_pose_played_saved_and_kept_across_a_reloa
         status(page, f"recorded keyframe {k}")
     kfs = keyframes(page)
     assert len(kfs) == 3 and [kf["goals"]["HeadPan"] for kf in kfs[1:]] == pytest.approx(HEAD, abs=3)
+    assert [kf.get("name") for kf in kfs] == ["start", "kf 1", "kf 2"]  # named by default (editable in the row)
+    # goals to a tenth of a degree (the servo resolves 0.088 deg), never 90.000210459
+    assert all(abs(v * 10 - round(v * 10)) < 1e-6 for kf in kfs for v in kf["goals"].values())
 
     # 3. play: the version shown, nothing saved; progress, then done; the robot ends at the last keyframe
     user.click(f'{EDITOR} button[data-act="play"]')
@@ -175,8 +181,13 @@ def test_new_animation_from_the_robots_pose_played_saved_and_kept_across_a_reloa
     elbow = page.locator(f'{EDITOR} [data-role="detail"] tr[data-joint="LElbow"] input[data-goal]')
     elbow.fill("-150")
     elbow.press("Tab")
-    status(page, "LElbow: -150 deg is outside its limits [-90.0, 44.7] deg: set to -90.0")
+    status(page, "LElbow: -150 deg is outside its limits [-90.0, 44.7] deg: set to -90")
     assert keyframes(page)[1]["goals"]["LElbow"] == pytest.approx(-90.0, abs=0.01)
+    # ... and beside the joint itself, where the user typed
+    note = page.locator(f'{EDITOR} [data-role="detail"] tr[data-joint="LElbow"] [data-note]')
+    assert note.text_content() == "outside [-90.0, 44.7]: set to -90"
+    goal = page.locator(f'{EDITOR} [data-role="detail"] tr[data-joint="LElbow"] input[data-goal]')
+    assert goal.input_value() == "-90"
     edited = keyframes(page)
 
     # reload with unsaved changes: the browser asks; staying keeps the edit on the page
@@ -195,10 +206,23 @@ def test_new_animation_from_the_robots_pose_played_saved_and_kept_across_a_reloa
     dialogs: list[str] = []
     page.once("dialog", lambda d: (dialogs.append(d.type), d.accept()))
     page.reload()
-    status(page, "restored unsaved changes to lab_wave")
+    status(page, "restored unsaved changes to lab_wave at keyframe 1")  # where the user was
     assert dialogs == ["beforeunload"]
+    assert page.evaluate("window.pitchside.animEditor.selected") == 1
+    assert page.locator(f'{EDITOR} [data-role="detail"] b').text_content() == "keyframe 1"
     assert keyframes(page) == edited and page.locator(f'{EDITOR} [data-role="dirty"]').text_content() == "● unsaved"
     assert len(load_animation(folder / "lab_wave.json").keyframes) == 3  # the file is as saved
+
+    # a joint group's pose from the robot into a keyframe: the head (held at 10 deg) into keyframe 0, the rest kept
+    page.click(f'{EDITOR} tr[data-kf="0"] td:first-child')
+    before = keyframes(page)[0]
+    page.click(f'{EDITOR} [data-role="groups"] tr[data-group="head"] button[data-group-copy]')
+    status(page, "keyframe 0: the head's pose from the robot (2 joints)")
+    after = keyframes(page)[0]
+    assert after["goals"]["HeadPan"] == pytest.approx(measured(server, "HeadPan"), abs=1.0)
+    assert abs(after["goals"]["HeadPan"] - before["goals"]["HeadPan"]) > 5
+    assert {j: v for j, v in after["goals"].items() if not j.startswith("Head")} == \
+        {j: v for j, v in before["goals"].items() if not j.startswith("Head")}
 
     page.click(f'{EDITOR} button[data-act="stop"]')
     status(page, "stopped")

@@ -33,8 +33,8 @@ DATA_PANELS = ("team", "field", "relative", "hcm", "camera", "diagnostics")
 WEBGL_VIEWS = ("robot3d", "plots")
 PRESETS = {
     "match": ["field", "team", "game", "links", "recordings"],
-    "lab": ["parameters", "animation", "robot3d", "teleop", "plots", "camera"],
-    "replay": ["field", "hcm", "replay", "recordings", "plots", "robot3d"],
+    "lab": ["parameters", "animation", "robot3d", "hcm", "teleop", "plots", "node_log", "diagnostics"],
+    "replay": ["field", "hcm", "replay", "recordings", "team", "plots", "robot3d"],
 }
 # alone: the 3D view and the plots, drawn by WebGL in software, need the machine's cores (./run test runs these
 # tests after the others; beside a worker running simulations, chromium made no frame within 60 s in CI)

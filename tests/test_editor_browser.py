@@ -233,7 +233,7 @@ def test_keyframe_insert_duplicate_reorder_delete(browser: Any, server: RunningS
     click(page, "insert")
     kfs = wait_keyframes(page, "kfs.length === 4", "a keyframe inserted")
     assert kfs[2]["goals"] == {"LShoulderPitch": 40.0, "LShoulderRoll": -60.0, "HeadPan": 10.0, "LElbow": -30.0}
-    assert kfs[2]["duration"] == 1.0 and [kf.get("name") for kf in kfs[:2]] == ["up", "out"]
+    assert kfs[2]["duration"] == 1.0 and [kf.get("name") for kf in kfs[:3]] == ["up", "out", "kf 3"]
     assert page.evaluate("window.pitchside.animEditor.selected") == 2
     assert page.locator(f'{EDITOR} tr[data-kf="2"]').get_attribute("class") == "selected"
 
@@ -248,7 +248,7 @@ def test_keyframe_insert_duplicate_reorder_delete(browser: Any, server: RunningS
     kfs = wait_keyframes(page, "kfs[3].name === 'down'", "down moved up")
     page.click(f'{EDITOR} tr[data-kf="0"] button[data-kact="down"]')
     kfs = wait_keyframes(page, "kfs[1].name === 'up' && kfs[0].name === 'up'", "up moved down")
-    assert [kf.get("name") for kf in kfs] == ["up", "up", "out", "down", None]
+    assert [kf.get("name") for kf in kfs] == ["up", "up", "out", "down", "kf 3"]  # the inserted one, named by default
 
     # delete the inserted keyframe (now the last), then the duplicate
     page.click(f'{EDITOR} tr[data-kf="4"] button[data-kact="delete"]')
@@ -285,8 +285,22 @@ def test_joint_limit_and_servo_speed_warnings_and_preview(browser: Any, server: 
     goal.fill("80")
     goal.press("Tab")
     page.wait_for_selector(f'{EDITOR} .lab-status.bad:has-text("LElbow: 80 deg is outside its limits [-90.0, 44.7] '
-                           'deg: set to 44.7")', timeout=TIMEOUT_MS)
-    assert keyframes(page)[1]["goals"]["LElbow"] == pytest.approx(44.69, abs=0.01)
+                           'deg: set to 44.6")', timeout=TIMEOUT_MS)
+    # the tenth of a degree inside the limit (44.69 deg), not 44.6896..., and said beside the joint too
+    assert keyframes(page)[1]["goals"]["LElbow"] == 44.6
+    assert page.locator(f'{EDITOR} [data-role="detail"] tr[data-joint="LElbow"] [data-note]').text_content() == \
+        "outside [-90.0, 44.7]: set to 44.6"
+
+    # the controls stay in view while the tables scroll: toolbar, play buttons and status line
+    body = f'{EDITOR} .panel-body'
+    page.locator(body).evaluate("(el) => { el.style.maxHeight = '420px'; el.scrollTop = el.scrollHeight; }")
+    page.wait_for_function(f"document.querySelector('{body}').scrollTop > 100", timeout=TIMEOUT_MS)
+    seen = page.evaluate(f"""(() => {{ const box = document.querySelector('{body}').getBoundingClientRect();
+        return ['[data-act="insert"]', '[data-act="save"]', '[data-act="play"]', '[data-role="status"]'].map((sel) => {{
+          const r = document.querySelector('{EDITOR} ' + sel).getBoundingClientRect();
+          return r.top >= box.top - 1 && r.bottom <= box.bottom + 1; }}); }})()""")
+    assert seen == [True, True, True, True]
+    page.locator(body).evaluate("(el) => { el.style.maxHeight = ''; el.scrollTop = 0; }")
     assert page.locator(warnings).count() == 0
     goal = page.locator(f'{EDITOR} [data-role="detail"] tr[data-joint="LElbow"] input[data-goal]')
     goal.fill("-30")
@@ -348,7 +362,7 @@ def test_out_of_limit_keyframe_refused_unless_overridden(browser: Any, server: R
     assert not page.errors, page.errors
 
 
-def test_timeline_shows_time_and_drags_to_reorder(browser: Any, server: RunningServer) -> None:
+def test_timeline_shows_time_drags_to_reorder_and_to_time_and_joint_groups(browser: Any, server: RunningServer) -> None:
     page = editor_page(browser, server)
     blocks = f'{EDITOR} [data-role="timeline"] [data-tl]'
     assert page.locator(blocks).count() == 3
@@ -367,6 +381,45 @@ def test_timeline_shows_time_and_drags_to_reorder(browser: Any, server: RunningS
     page.wait_for_selector(f'{EDITOR} .lab-status:has-text("moved keyframe 2 to 0")', timeout=TIMEOUT_MS)
     assert page.locator(f'{EDITOR} [data-tl="0"]').get_attribute("class") == "kf-block selected"
     assert page.locator(f'{EDITOR} [data-role="dirty"]').text_content() == "● unsaved"
+
+    # a block's right edge dragged: that keyframe's duration follows (half a second further right: +0.5 s)
+    total_s = sum(kf["duration"] + kf["pause"] for kf in kfs)
+    width_px = page.locator(f'{EDITOR} [data-role="timeline"]').bounding_box()["width"]
+    before = kfs[1]["duration"]
+    edge = page.locator(f'{EDITOR} [data-resize="1"]').bounding_box()
+    x, y = edge["x"] + edge["width"] / 2, edge["y"] + edge["height"] / 2
+    page.mouse.move(x, y)
+    page.mouse.down()
+    page.mouse.move(x + 0.25 * width_px / total_s, y, steps=4)
+    page.mouse.move(x + 0.5 * width_px / total_s, y, steps=4)
+    page.mouse.up()
+    kfs = wait_keyframes(page, f"kfs[1].duration !== {before}", "a duration dragged")
+    assert kfs[1]["duration"] == pytest.approx(before + 0.5, abs=0.051)
+    assert [kf["name"] for kf in kfs] == ["down", "up", "out"]  # a duration, not an order
+    page.wait_for_selector(f'{EDITOR} .lab-status:has-text("keyframe 1: duration")', timeout=TIMEOUT_MS)
+    page.click(f'{EDITOR} button[data-act="undo"]')  # one undo step
+    wait_keyframes(page, f"kfs[1].duration === {before}", "the drag undone")
+
+    # joint groups: a group's "rec" un-ticks all its joints at once (RecordUI's head / arms / legs)
+    groups = f'{EDITOR} [data-role="groups"] tr[data-group]'
+    assert page.locator(groups).evaluate_all("rows => rows.map(r => r.dataset.group)") == [
+        "head", "L-arm", "R-arm", "L-leg", "R-leg"]
+    page.uncheck(f'{EDITOR} [data-role="groups"] tr[data-group="L-arm"] input[data-group-rec]')
+    recorded = set(page.evaluate("[...window.pitchside.animEditor.recordJoints]"))
+    assert {"LShoulderPitch", "LShoulderRoll", "LElbow"}.isdisjoint(recorded) and "RElbow" in recorded
+    assert len(recorded) == 17
+    assert not page.is_checked(f'{EDITOR} [data-role="joints"] tr[data-joint="LElbow"] input[data-rec]')
+
+    # upload: one button reading "upload…" whole (the browser's own "No file chosen" was cut to "N...n"); a file
+    # chosen there is uploaded and opened (the unsaved changes above given up when asked)
+    upload = page.locator(f'{EDITOR} label.file-button')
+    assert upload.inner_text() == "upload…"
+    assert upload.evaluate("(el) => el.scrollWidth <= el.clientWidth + 1")
+    page.once("dialog", lambda dialog: dialog.accept())
+    hop = {"name": "hop", "keyframes": [{"duration": 0.5, "goals": {"HeadPan": 5.0}}]}
+    page.set_input_files(f'{EDITOR} [data-role="upload"]', files=[{
+        "name": "hop.json", "mimeType": "application/json", "buffer": json.dumps(hop).encode()}])
+    page.wait_for_function("window.pitchside.animEditor.anim?.name === 'hop'", timeout=TIMEOUT_MS)
     assert not page.errors, page.errors
 
 

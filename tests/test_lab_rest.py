@@ -295,7 +295,13 @@ def test_preview_drives_a_ghost_robot_in_the_3d_view(router_endpoint: str, tmp_p
         assert reply.json()["duration"] == pytest.approx(0.6)
         wait_for(lambda: server.http.get(url, timeout=20).json()["updates"] >= 5, 30.0, 0.2, "the ghost robot moved")
         # the real robot: untouched
-        assert server.http.get(f"{server.url}/api/robot3d", timeout=20).json()["robots"] == {}
+        status = server.http.get(f"{server.url}/api/robot3d", timeout=20).json()
+        assert status["robots"] == {}
+        # the ghost is told apart (its kind's colour, "r4 preview" above it) and is there only while it previews
+        figures = status["figures"]
+        assert [(f["name"], f["kind"]) for f in figures] == [("r4_preview", "preview")] and figures[0]["color"]
+        wait_for(lambda: server.http.get(f"{server.url}/api/robot3d", timeout=20).json()["figures"] == [], 10.0, 0.1,
+                 "the preview ghost gone after the preview")
 
 
 @pytest.mark.slow

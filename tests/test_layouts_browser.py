@@ -17,8 +17,8 @@ from tests.waiting import wait_for
 
 pytestmark = [pytest.mark.slow, pytest.mark.browser]
 MATCH = ["field", "team", "game", "links", "recordings"]
-LAB = ["parameters", "animation", "robot3d", "teleop", "plots", "camera"]
-REPLAY = ["field", "hcm", "replay", "recordings", "plots", "robot3d"]
+LAB = ["parameters", "animation", "robot3d", "hcm", "teleop", "plots", "node_log", "diagnostics"]
+REPLAY = ["field", "hcm", "replay", "recordings", "team", "plots", "robot3d"]
 
 
 def _panels(page: Any) -> list[str]:
@@ -42,15 +42,15 @@ def test_presets_are_one_click_remembered_exported_and_linked(browser: Any, scen
         assert _panels(page) == panels and _query(page)["preset"] == preset
 
     # a change to a preset is that preset's own: kept across presets and reloads, until reset
-    page.click('[data-panel="camera"] button[data-act="hide"]')
+    page.click('[data-panel="diagnostics"] button[data-act="hide"]')
     page.click('[data-panel="parameters"] button[data-act="wider"]')
     page.click('#presets button[data-preset="match"]')
     assert _panels(page) == MATCH
     page.click('#presets button[data-preset="lab"]')
-    assert _panels(page) == [p for p in LAB if p != "camera"]
+    assert _panels(page) == [p for p in LAB if p != "diagnostics"]
     page.reload()
     page.wait_for_selector('[data-panel="parameters"]')
-    assert _panels(page) == [p for p in LAB if p != "camera"]
+    assert _panels(page) == [p for p in LAB if p != "diagnostics"]
     assert page.evaluate("window.pitchside.layout.state.panels.find(p => p.id === 'parameters').w") == 2
 
     # export, change, import: the file's arrangement comes back; a bad file changes nothing and says why
@@ -62,13 +62,13 @@ def test_presets_are_one_click_remembered_exported_and_linked(browser: Any, scen
     assert _panels(page) == LAB
     page.set_input_files("#layout-file", files=[{"name": "mine.json", "mimeType": "application/json",
                                                  "buffer": json.dumps(saved).encode()}])
-    wait_for(lambda: _panels(page) == [p for p in LAB if p != "camera"], 10.0, 0.1, "the imported layout")
+    wait_for(lambda: _panels(page) == [p for p in LAB if p != "diagnostics"], 10.0, 0.1, "the imported layout")
     assert "imported from mine.json" in page.text_content("#layout-status")
     page.set_input_files("#layout-file", files=[{"name": "bad.json", "mimeType": "application/json",
                                                  "buffer": b'{"panels": 3}'}])
     wait_for(lambda: "bad.json" in (page.text_content("#layout-status") or ""), 10.0, 0.1, "the refusal")
     assert "not a pitchside layout" in page.text_content("#layout-status")
-    assert _panels(page) == [p for p in LAB if p != "camera"]
+    assert _panels(page) == [p for p in LAB if p != "diagnostics"]
 
     # the address carries preset and focused robot: a link opens the same view in another browser
     page.select_option("#focus-select", "r2")

@@ -1,6 +1,7 @@
-"""The parameters task as a team member does it in the lab (issue 21), in chromium at 1920x1080 with the default
-layout, against real nodes started from a params.yaml with comments: find the walking node's step frequency (the
-last of the nodes) by search and change it, counting the actions; the own change is not "changed elsewhere"; save
+"""The parameters task as a team member does it in the lab (issues 21 and 51), in chromium at 1920x1080 with the
+default layout, against real nodes started from a params.yaml with comments: find the walking node's step frequency
+(the last of the nodes) by the dotted name the panel shows, change it, save it, revert it, counting the actions;
+search by words and units, an old error gone with the next search; the own change is not "changed elsewhere"; save
 keeps the file's comments and refreshes the diff; revert to file; undo restores exactly; reset-all asks first; every
 column of every node's table is inside the panel. Real server, real nodes on Zenoh, real chromium."""
 
@@ -118,11 +119,18 @@ def test_find_change_save_revert_undo_reset(browser: Any, server: RunningServer,
             .map((c) => c.closest('[data-node]').dataset.node + ': ' + c.textContent.trim().slice(0, 30)); }})()""")
     assert outside == [], f"cells beyond the panel's right edge: {outside[:5]}"
     assert page.locator(f'{PANEL} [data-node="telemetry"] th:has-text("back to")').is_visible()
+    # in a narrow panel the headers wrap inside their columns instead of running into the next one
+    overlapping = page.evaluate(f"""(() => {{ const panel = document.querySelector('{PANEL}');
+        panel.style.width = '360px';  // three quarters of the Lab preset's
+        const out = [...panel.querySelectorAll('[data-node="walking"] table.params th')]
+            .filter((th) => th.scrollWidth > th.clientWidth + 1).map((th) => th.textContent);
+        panel.style.width = ''; return out; }})()""")
+    assert overlapping == []
 
     # -- the task: find the walking node's step frequency and change it to 2.2 --------------------------------------
     act = Actions(page)
     act.click(f'{PANEL} [data-role="search"]')
-    act.enter("step freq")
+    act.enter("walking.step")  # as the panel names it (the status line: walking.step_frequency = ...)
     # only the walking node's step frequency is left; Enter put the cursor into its value, selected
     assert page.locator(f'{PANEL} [data-role="found"]').text_content() == "1 of " + str(
         page.locator(f"{PANEL} tr[data-param]").count())
@@ -136,7 +144,6 @@ def test_find_change_save_revert_undo_reset(browser: Any, server: RunningServer,
     # the write's reply says so (on a loaded machine it may come after the node's event has shown the value)
     page.wait_for_selector(f'{PANEL} [data-role="status"]:has-text("walking.step_frequency = 2.2")',
                            timeout=TIMEOUT_MS)
-    print(f"TASK parameters actions={act.count}")
     assert act.count < 4, f"found and changed in {act.count} actions"
     # the change's own event arrived while the cursor is still in the input: not "changed elsewhere"
     page.wait_for_function("window.pitchside.params.ownEvents + window.pitchside.params.events >= 1",
@@ -144,12 +151,33 @@ def test_find_change_save_revert_undo_reset(browser: Any, server: RunningServer,
     assert page.locator(f'{row("walking", "step_frequency")} [data-role="elsewhere"]').text_content() == ""
 
     # -- save: the file keeps its comments and order, the panel says so, the diff is refreshed ----------------------
-    page.click(f'{PANEL} [data-node="walking"] button[data-act="save"]')
+    act.click(f'{PANEL} [data-node="walking"] button[data-act="save"]')
     page.wait_for_selector(f'{PANEL} [data-role="status"]:has-text("saved walking to {params_file}")',
                            timeout=TIMEOUT_MS)
     assert params_file.read_text() == PARAMS_YAML.replace("step_frequency: 2.0  #", "step_frequency: 2.2  #")
     page.wait_for_selector(f'{PANEL} [data-node="walking"] [data-role="matches"]:has-text("{params_file}")',
                            timeout=TIMEOUT_MS)
+    # -- revert: the row's "default" takes it back to the node's default --------------------------------------------
+    act.click(f'{row("walking", "step_frequency")} button[data-act="reset"]')
+    wait_for(lambda: params.get("walking", "step_frequency") == 2.0, 20.0, 0.1, "back to the default 2.0")
+    wait_row(page, "walking", "step_frequency", "2", 2)
+    print(f"TASK parameters actions={act.count}")  # find, set, save, revert
+    assert act.count <= 6, f"found, set, saved and reverted in {act.count} actions"
+
+    # -- found as named: words of the description and units; an old error goes with the next search --------------
+    search = page.locator(f'{PANEL} [data-role="search"]')
+    search.fill("no such thing")
+    search.press("Enter")
+    page.wait_for_selector(f'{PANEL} .lab-status.bad:has-text("no parameter matches")', timeout=TIMEOUT_MS)
+    search.fill("walking speed")  # "speed": what is per second (step_frequency: "single steps per second")
+    assert not page.locator(f'{PANEL} .lab-status').evaluate("(el) => el.classList.contains('bad')")
+    assert page.locator(f'{PANEL} .lab-status').text_content() == ""
+    assert page.locator(row("walking", "step_frequency")).is_visible()
+    assert not page.locator(row("walking", "foot_lift")).is_visible()
+    assert not page.locator(f'{PANEL} [data-node="hcm"]').is_visible()
+    search.fill("walking m")  # a unit: the walking node's lengths (foot_lift: "..., m"), not every word with an m
+    assert page.locator(row("walking", "foot_lift")).is_visible()
+    assert not page.locator(row("walking", "step_frequency")).is_visible()
 
     # -- a refusal's note goes with the next accepted change; revert to file; undo exactly --------------------------
     page.fill(f'{PANEL} [data-role="search"]', "foot lift")
@@ -175,7 +203,7 @@ def test_find_change_save_revert_undo_reset(browser: Any, server: RunningServer,
     page.dispatch_event(f'{PANEL} [data-role="search"]', "input")
     assert page.locator(f'{PANEL} [data-node="hcm"]').is_visible()  # the search cleared: every node again
     params.set("walking", {"step_frequency": 2.4})
-    wait_row(page, "walking", "step_frequency", "2.4", 2)
+    wait_row(page, "walking", "step_frequency", "2.4", 3)
     assert page.locator(f'{row("walking", "step_frequency")} [data-role="elsewhere"]').text_content() == ""
     page.click(f'{PANEL} button[data-act="undo"]')
     page.wait_for_selector(f'{PANEL} .lab-status.bad:has-text("undo refused")', timeout=TIMEOUT_MS)
@@ -202,7 +230,7 @@ def test_find_change_save_revert_undo_reset(browser: Any, server: RunningServer,
     answer(True)
     page.click(f'{PANEL} [data-node="walking"] button[data-act="reset-node"]')
     wait_for(lambda: params.get("walking", "step_frequency") == 2.0, 20.0, 0.1, "reset to the default 2.0")
-    wait_row(page, "walking", "step_frequency", "2", 3)
+    wait_row(page, "walking", "step_frequency", "2", 4)
     page.click(f'{PANEL} button[data-act="undo"]')
     wait_for(lambda: params.get("walking", "step_frequency") == 2.4, 20.0, 0.1, "undo of the reset: 2.4 again")
     # revert all to file asks too, and brings the saved 2.2 back

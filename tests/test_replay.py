@@ -273,3 +273,28 @@ def test_new_recordings_do_not_open_with_stale_messages(tmp_path: Path) -> None:
             return [(m.robot_id, m.topic) for m in reader.messages(decode=False)]
 
     assert asyncio.run(main()) == [("r1", "joint_states")]
+
+
+def test_notes_on_a_replayed_log(server: RunningServer, tmp_path: Path) -> None:
+    """A bookmark at the replay's position goes into a sidecar beside the log, is listed with the log's own
+    bookmarks, comes back when the log is opened again, and leaves the MCAP file as it was."""
+    folder = tmp_path / "rec"
+    folder.mkdir(exist_ok=True)
+    _pitchside_log(folder / "game.mcap")
+    original = (folder / "game.mcap").read_bytes()
+    refused = server.http.post(f"{server.url}/api/replay/bookmark", json={"name": "x"})
+    assert refused.status_code == 409  # no log open
+    _post(server, "open", {"path": "game.mcap"})
+    _post(server, "seek", {"t_s": 12.5})
+    note = _post(server, "bookmark", {"name": "fell here"})
+    assert note["kind"] == "note" and abs(note["t_s"] - 12.5) < 1e-6
+    _post(server, "bookmark", {"name": "before", "t_s": 3.0})
+    bad = server.http.post(f"{server.url}/api/replay/bookmark", json={"name": "  "})
+    assert bad.status_code == 422 and "name" in bad.json()["detail"]
+    _post(server, "close")
+    info = _post(server, "open", {"path": "game.mcap"})  # another session
+    assert [(b["name"], b["kind"], round(b["t_s"], 3)) for b in info["bookmarks"]] == [
+        ("before", "note", 3.0), ("goal own 1:0", "log", 10.0), ("fell here", "note", 12.5)]
+    assert info["notes_file"] == str(folder / "game.mcap.notes.json")
+    assert (folder / "game.mcap").read_bytes() == original
+    _post(server, "close")

@@ -23,9 +23,9 @@ from tests.waiting import wait_for
 WOLFGANG_JOINTS = ["HeadPan", "HeadTilt", "LKnee", "RKnee", "LElbow", "RElbow"]
 
 
-def joint_states(names: list[str], positions: list[float]) -> HubMessage:
+def joint_states(names: list[str], positions: list[float], robot: str = "r1") -> HubMessage:
     msg = schemas.make("sensor_msgs/msg/JointState", name=names, position=positions)
-    return HubMessage("r1", "joint_states", msg.__msgtype__, time.time(), msg, "test")
+    return HubMessage(robot, "joint_states", msg.__msgtype__, time.time(), msg, "test")
 
 
 async def _until(condition, timeout: float = 30.0) -> None:  # type: ignore[no-untyped-def]
@@ -69,6 +69,50 @@ def test_robot3d_moves_the_urdf_joints(testdata: Path) -> None:
             got = dict(zip(model.joint_names, model.cfg, strict=True))
             assert got["HeadPan"] == pytest.approx(0.5) and got["RKnee"] == pytest.approx(1.1)
             assert not view.failed
+        finally:
+            await view.stop()
+
+    asyncio.run(main())
+
+
+@pytest.mark.slow
+def test_robot3d_tells_live_and_replayed_robots_apart_and_lets_a_closed_replay_go(testdata: Path) -> None:
+    """Each figure carries its name above it and its kind's colour (a replayed one purple, its label higher);
+    a figure hides and shows; a robot the hub forgets (a closed replay's) leaves the scene with its label."""
+    from server.robot3d import LABEL_HEIGHT_M, Robot3DView
+
+    wolfgang = testdata / "robots" / "wolfgang"
+    config = ServerConfig(robot3d=True, robot3d_port=free_port(), descriptions={
+        "*": RobotDescription(wolfgang / "urdf" / "robot.urdf", {"wolfgang_description": wolfgang})})
+
+    async def main() -> None:
+        hub = Hub()
+        hub.bind(asyncio.get_running_loop())
+        view = Robot3DView(hub, config)
+        await view.start()
+        try:
+            hub.publish(joint_states(["HeadPan"], [0.1], robot="r1"))
+            hub.publish(joint_states(["HeadPan"], [0.2], robot="replay.r1"))
+            await _until(lambda: {"r1", "replay.r1"} <= view.robots.keys(), 60.0)
+            figures = {f["name"]: f for f in view.figures()}
+            assert figures["r1"]["kind"] == "live" and figures["r1"]["color"] == ""  # the URDF's own colours
+            assert figures["replay.r1"]["kind"] == "replay" and figures["replay.r1"]["color"] == "#9b2fd1"
+            nodes = view.server.scene._handle_from_node_name
+            live_label, replay_label = nodes["/r1/label"], nodes["/replay.r1/label"]
+            assert live_label.text == "r1" and replay_label.text == "replay.r1"
+            assert replay_label.position[2] == pytest.approx(LABEL_HEIGHT_M["replay"])
+            assert replay_label.position[2] > live_label.position[2] + 0.1
+
+            assert view.set_visible("replay.r1", False)
+            assert not view.robots["replay.r1"].frame.visible and view.robots["r1"].frame.visible
+            assert [f["visible"] for f in view.figures()] == [True, False]
+            view.set_visible("replay.r1", True)
+            assert view.robots["replay.r1"].frame.visible
+
+            hub.forget("replay.r1")  # the replay closed
+            await _until(lambda: "replay.r1" not in view.robots)
+            assert "/replay.r1" not in nodes and "/replay.r1/label" not in nodes and "/r1/label" in nodes
+            assert [f["name"] for f in view.figures()] == ["r1"]
         finally:
             await view.stop()
 
@@ -134,6 +178,14 @@ def test_plots_feed_rerun_and_serve_the_viewer() -> None:
             assert feed.topics == {"r1": []} and not feed.chosen
             viewer = await asyncio.to_thread(httpx.get, f"http://127.0.0.1:{config.plots_web_port}/", timeout=10)
             assert viewer.status_code == 200
+
+            # a replayed robot gets its tab; when its replay closes (the hub forgets it), the tab goes with it
+            hub.publish(joint_states(["HeadPan"], [0.3], robot="replay.r1"))
+            await _until(lambda: "replay.r1" in feed.topics)
+            hub.publish(joint_states(["HeadPan"], [0.4], robot="replay.r1"))  # still queued when it closes
+            hub.forget("replay.r1")
+            await asyncio.sleep(0.8)  # a batch of the feed (BATCH_S) has passed: nothing of it came back
+            assert feed.topics == {"r1": []} and "replay.r1" not in feed.status()["robots"]
 
     asyncio.run(main())
 

@@ -1,6 +1,7 @@
 // The playback bar: while a log is open, a bar fixed to the bottom of the window says REPLAY and which file, and holds
 // the timeline (time labels, bookmarks by name: the GameController's events, a cursor), play/pause, step, speed and
-// close. Fixed, so it is in sight however the page is scrolled and whichever panels are shown; a replay is a source of
+// close, and "bookmark here": a named note at the replay's position, kept in a sidecar beside the log (never in the
+// log itself) and listed on the timeline whenever the log is opened again. Fixed, so it is in sight however the page is scrolled and whichever panels are shown; a replay is a source of
 // its own, so the page says so wherever it shows (this bar, the REPLAY robot cards, the field view).
 
 import { api } from "./lab_api.js";
@@ -13,7 +14,9 @@ const SEEK_STEP_S = 5; // the arrow keys on the timeline
 
 /** m:ss.s (or m:ss for labels). */
 export function clock(seconds, decimals = 1) {
-  const s = Math.max(0, seconds);
+  // rounded first, so 59.98 s reads 1:00.0 (not 0:60.0); labels without decimals are cut, as a clock shows seconds
+  const scale = 10 ** decimals;
+  const s = decimals ? Math.round(Math.max(0, seconds) * scale) / scale : Math.max(0, seconds);
   const m = Math.floor(s / 60);
   const rest = decimals ? (s % 60).toFixed(decimals).padStart(3 + decimals, "0") : String(Math.floor(s % 60)).padStart(2, "0");
   return `${m}:${rest}`;
@@ -48,6 +51,11 @@ export class PlaybackBar {
         <span class="playback-state badge"></span>
         <span class="playback-time"></span>
         <span class="spacer"></span>
+        <span class="playback-note-form"><input class="playback-note" size="16" maxlength="120"
+            aria-label="name of a bookmark at this position" placeholder="bookmark name (optional)">
+          <button class="playback-bookmark" type="button"
+            title="a named bookmark at this position; kept beside the log, listed here next time">★ bookmark here</button></span>
+        <span class="playback-noted" role="status"></span>
         <span class="playback-error bad" hidden></span>
         <button class="playback-close" type="button" title="close the log: its replay.* robots go">✕ close</button>
       </div>
@@ -62,6 +70,8 @@ export class PlaybackBar {
     $(".playback-step").addEventListener("click", () => this.call("step", { count: 1 }));
     $(".playback-speed").addEventListener("change", (e) => this.call("speed", { speed: +e.target.value }));
     $(".playback-close").addEventListener("click", () => this.call("close"));
+    $(".playback-bookmark").addEventListener("click", () => this.bookmark());
+    $(".playback-note").addEventListener("keydown", (e) => { if (e.key === "Enter") this.bookmark(); });
     $(".playback-marks").addEventListener("click", (e) => {
       const mark = e.target.closest("[data-t]");
       if (mark) this.seek(+mark.dataset.t);
@@ -79,6 +89,7 @@ export class PlaybackBar {
       if (by && this.status.position_s !== undefined) { e.preventDefault(); this.seek(this.status.position_s + by); }
     });
     store.on("replay-opened", () => this.refresh());
+    store.on("replay-bookmarked", () => this.reloadMarks()); // a note added elsewhere (the recordings panel)
     this.refresh();
     this.timer = setInterval(() => this.refresh(), 250);
   }
@@ -94,6 +105,27 @@ export class PlaybackBar {
 
   seek(t) {
     return this.call("seek", { t_s: Math.max(0, Math.min(t, this.duration)) });
+  }
+
+  /** A note at the replay's position, named as typed (or by its time); listed on the timeline at once. */
+  async bookmark() {
+    const input = this.$(".playback-note");
+    const at = this.status.position_s ?? 0;
+    const name = input.value.trim() || `note ${clock(at)}`;
+    this.$(".playback-error").hidden = true;
+    try {
+      const note = await api("POST", "api/replay/bookmark", { name, t_s: at });
+      input.value = "";
+      this.$(".playback-noted").textContent = `★ "${note.name}" at ${clock(note.t_s)}`;
+      await this.reloadMarks();
+    } catch (err) {
+      this.fail(err);
+    }
+  }
+
+  async reloadMarks() {
+    try { this.info = await api("GET", "api/replay/info"); } catch { return; }
+    this.renderTimeline();
   }
 
   async call(path, payload) {
@@ -119,7 +151,9 @@ export class PlaybackBar {
       try { this.info = await api("GET", "api/replay/info"); } catch { this.info = null; }
       this.renderTimeline();
     } else if (!open) {
+      if (this.info) this.store.emit("replay-closed");
       this.info = null;
+      this.$(".playback-noted").textContent = "";
     }
     this.render();
   }
@@ -131,9 +165,12 @@ export class PlaybackBar {
     this.$(".playback-ticks").innerHTML = this.info ? ticks(this.info.duration_s).map((t) =>
       `<span class="playback-tick" style="left: ${pct(t)}">${clock(t, 0)}</span>`).join("") : "";
     // names on two rows, so neighbouring events stay readable
+    // notes added to the log ("note") apart from its own bookmarks ("log": GameController events, while recording)
     this.$(".playback-marks").innerHTML = (this.info?.bookmarks ?? []).map((b, i) =>
-      `<button type="button" class="playback-mark row${i % 2}" style="left: ${pct(b.t_s)}" data-t="${b.t_s}"
-        data-name="${esc(b.name)}" title="${esc(b.name)} at ${clock(b.t_s)}: seek there">${esc(b.name)}</button>`).join("");
+      `<button type="button" class="playback-mark row${i % 2} ${b.kind === "note" ? "note" : ""}" style="left: ${pct(b.t_s)}"
+        data-t="${b.t_s}" data-name="${esc(b.name)}" data-kind="${esc(b.kind)}"
+        title="${b.kind === "note" ? "★ note" : "in the log"}: ${esc(b.name)} at ${clock(b.t_s)}: seek there"
+        >${b.kind === "note" ? "★ " : ""}${esc(b.name)}</button>`).join("");
   }
 
   showPosition(t) {
@@ -157,7 +194,7 @@ export class PlaybackBar {
     $(".playback-state").textContent = s.state;
     $(".playback-state").className = `playback-state badge ${s.state === "playing" ? "ok" : "warn"}`;
     $(".playback-play").textContent = s.state === "playing" ? "❚❚ pause" : "▶ play";
-    for (const sel of [".playback-play", ".playback-step", ".playback-speed"]) $(sel).disabled = !open;
+    for (const sel of [".playback-play", ".playback-step", ".playback-speed", ".playback-bookmark"]) $(sel).disabled = !open;
     if (s.speed) $(".playback-speed").value = String(s.speed);
     if (open && s.duration_s !== undefined && !this.dragging) this.showPosition(s.position_s);
     $(".playback-track").setAttribute("aria-valuenow", String(Math.round(s.position_s ?? 0)));

@@ -8,14 +8,16 @@ export const PRESETS = {
     title: "Match", key: "M", columns: 4, rows: 3,
     panels: [["field", 2, 2], ["team", 2, 2], ["game", 1, 1], ["links", 2, 1], ["recordings", 1, 1]],
   },
+  // the effect of a change in sight: the focused robot's HCM state, its nodes' log and their diagnostics
   lab: {
-    title: "Lab", key: "L", columns: 4, rows: 3,
-    panels: [["parameters", 1, 2], ["animation", 2, 2], ["robot3d", 1, 2], ["teleop", 1, 1], ["plots", 2, 1],
-      ["camera", 1, 1]],
+    title: "Lab", key: "L", columns: 4, rows: 4,
+    panels: [["parameters", 1, 3], ["animation", 2, 3], ["robot3d", 1, 2], ["hcm", 1, 1], ["teleop", 1, 1],
+      ["plots", 1, 1], ["node_log", 1, 1], ["diagnostics", 1, 1]],
   },
   replay: {
     title: "Replay", key: "R", columns: 6, rows: 3,
-    panels: [["field", 3, 2], ["hcm", 3, 2], ["replay", 2, 1], ["recordings", 1, 1], ["plots", 2, 1],
+    // the robot cards: the REPLAY badge says which robots are the log's (the HCM graph keeps its width: readable)
+    panels: [["field", 3, 2], ["hcm", 3, 2], ["replay", 2, 1], ["recordings", 1, 1], ["team", 1, 1], ["plots", 1, 1],
       ["robot3d", 1, 1]],
   },
   all: { title: "All panels", key: "A", columns: 3, rows: 0, panels: null }, // every panel at its own size

@@ -25,6 +25,21 @@ export class Store {
     this.held = [];            // frames that arrived while paused, in order
     this.heldAt = new Map();   // "robot|topic" of a periodic stream (or "robots") -> its index in held
     this.heldDropped = 0;
+    this.hidden = new Set();   // robots the user hid in the views (show/hide per robot)
+  }
+
+  /** Shows or hides a robot in the views that draw robots (the field view); "shown" tells them. */
+  setShown(robot, shown) {
+    if (shown === !this.hidden.has(robot)) return;
+    if (shown) this.hidden.delete(robot); else this.hidden.add(robot);
+    this.emit("shown", robot);
+  }
+
+  /** The robot whose game state the page shows: during a replay the log's (the focused robot if it is replayed),
+   * else the focused robot's, else any robot's; undefined when no robot has one. */
+  gameSource() {
+    const ids = [this.focus, ...this.robotIds()].filter((id) => this.get(id, "gamestate")?.data);
+    return ids.find((id) => this.isReplayed(id)) ?? ids[0];
   }
 
   /** Freezes what the panels show; the connection stays subscribed and every frame is kept for resume(). */
@@ -145,6 +160,7 @@ export class Store {
       if (listed.has(robot)) continue;
       this.replayed.delete(robot);
       this.latest.delete(robot);
+      this.hidden.delete(robot);
       if (this.focus === robot) this.setFocus(robots.find((r) => !r.replayed)?.robot ?? "");
     }
     for (const robot of listed) this.replayed.add(robot);

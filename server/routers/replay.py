@@ -65,6 +65,12 @@ class LogBookmark(BaseModel):
     t_s: float
     log_time_ns: int
     data: Any
+    kind: str  # "log": in the file (GameController events, bookmarks made while recording); "note": added since
+
+
+class NoteRequest(BaseModel):
+    name: str
+    t_s: float | None = None  # seconds after the log's start; None: the replay's position
 
 
 class LogInfo(BaseModel):
@@ -77,6 +83,7 @@ class LogInfo(BaseModel):
     topics: list[LogTopic]
     robots: list[str]
     bookmarks: list[LogBookmark]
+    notes_file: str  # where notes added to this log are kept (beside it; the log itself is never changed)
     warnings: list[str]
 
 
@@ -144,3 +151,11 @@ async def seek(request: SeekRequest, replay: ReplaySource = Depends(get_replay))
 async def speed(request: SpeedRequest, replay: ReplaySource = Depends(get_replay)) -> dict[str, Any]:
     replay.set_speed(request.speed)
     return replay.status()
+
+
+@router.post("/bookmark", dependencies=[Depends(require_token)], response_model=LogBookmark)
+async def add_note(request: NoteRequest, replay: ReplaySource = Depends(get_replay)) -> dict[str, Any]:
+    """A named bookmark (a note) on the open log at the replay's position, or at t_s: kept in a sidecar file beside
+    the log (``<log>.notes.json``), listed with the log's bookmarks whenever it is opened again. 409 with no log
+    open, 422 for a bad name or a sidecar that cannot be written."""
+    return await replay.add_note(request.name, request.t_s)

@@ -35,7 +35,7 @@ from fastapi import APIRouter, Depends, HTTPException, WebSocket
 from fastapi.responses import RedirectResponse, Response
 from pydantic import BaseModel
 
-from server.deps import get_state
+from server.deps import get_state, require_token
 from server.loopback_ports import LOOPBACK
 from server.state import ServerState
 
@@ -138,11 +138,26 @@ class RobotShown(BaseModel):
     joints: list[str]
 
 
+class Figure(BaseModel):
+    """A robot figure in the scene, told apart from the others by its kind's colour and its name above it."""
+
+    name: str  # the robot id, or "<robot>_preview" for the editor's preview ghost
+    kind: str  # "live", "replay" or "preview"
+    visible: bool
+    color: str  # "#rrggbb" of its meshes; "" for the URDF's own colours (a live robot)
+
+
 class Robot3dStatus(BaseModel):
     port: int | None  # viser's loopback port; None: the view is off
     viewers: int  # browsers showing the scene
     failed: dict[str, str]  # robots whose model did not load, with the reason
     robots: dict[str, RobotShown]
+    figures: list[Figure] = []
+
+
+class VisibleRequest(BaseModel):
+    name: str
+    visible: bool
 
 
 def _view(state: ServerState) -> Robot3DView:
@@ -158,6 +173,15 @@ def robot3d_status(state: ServerState = Depends(get_state)) -> dict[str, Any]:
     browsers show it; viser's loopback port."""
     view = state.robot3d
     return view.status() if view is not None else {"port": None, "viewers": 0, "failed": {}, "robots": {}}
+
+
+@router.post("/api/robot3d/visible", dependencies=[Depends(require_token)], response_model=Robot3dStatus)
+def show_figure(request: VisibleRequest, state: ServerState = Depends(get_state)) -> dict[str, Any]:
+    """Shows or hides one robot figure (with its label) in the 3D view, for every page showing it. A name not in
+    the scene now is remembered (a preview ghost hidden stays hidden when the next preview plays)."""
+    view = _view(state)
+    view.set_visible(request.name, request.visible)
+    return view.status()
 
 
 @router.get(PREFIX, include_in_schema=False)

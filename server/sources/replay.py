@@ -33,7 +33,16 @@ from typing import Any
 from rosbags.typesys import get_types_from_msg
 
 from schemas import codec
-from schemas.logs import ChannelInfo, LogError, LogMessage, LogReader, LogSeriesReader, data_start_ns
+from schemas.logs import (
+    Bookmark,
+    ChannelInfo,
+    LogError,
+    LogMessage,
+    LogNotes,
+    LogReader,
+    LogSeriesReader,
+    data_start_ns,
+)
 from schemas.messages import RobotOverview
 from schemas.std import String
 from schemas.topics import TOPICS
@@ -97,6 +106,8 @@ class ReplayFile:
         self.end_ns = max(reader.end_ns, self.start_ns)
         self.channels = reader.channels
         self.bookmarks = reader.bookmarks
+        # notes a person added while looking at this log: a sidecar beside its first file (schemas.logs.notes)
+        self.notes = LogNotes(Path(reader.paths[0]) if reader.paths else path)
         # Channels whose type the process typestore decodes the same way travel as CDR bytes (decoded only
         # where a panel needs them); the others are decoded here with the log's own definitions.
         foreign = {c.mcap_topic for r in reader.readers for c in r.channels if not _shared_schema(r, c)}
@@ -120,10 +131,20 @@ class ReplayFile:
                 "end_ns": self.end_ns, "duration_s": (self.end_ns - self.start_ns) / 1e9,
                 "messages": self.reader.message_count, "topics": topics,
                 "robots": sorted({t["robot"] for t in topics}),
-                "bookmarks": [{"name": b.name, "t_s": (b.log_time_ns - self.start_ns) / 1e9, "log_time_ns":
-                               b.log_time_ns, "data": b.data} for b in self.bookmarks
-                              if b.log_time_ns >= self.start_ns],
-                "warnings": self.reader.warnings[-20:]}
+                "bookmarks": self.marks(),
+                "notes_file": str(self.notes.path),
+                "warnings": [*self.reader.warnings[-20:], *([self.notes.problem] if self.notes.problem else [])]}
+
+    def marks(self) -> list[dict[str, Any]]:
+        """The log's own bookmarks (kind "log": GameController events, bookmarks made while recording) and the
+        notes added since (kind "note"), by time; those before the timeline's start are left out."""
+        marks = [(b, "log") for b in self.bookmarks] + [(b, "note") for b in self.notes.notes]
+        return [self.mark(b, kind) for b, kind in sorted(marks, key=lambda m: (m[0].log_time_ns, m[0].name))
+                if b.log_time_ns >= self.start_ns]
+
+    def mark(self, bookmark: Bookmark, kind: str) -> dict[str, Any]:
+        return {"name": bookmark.name, "t_s": (bookmark.log_time_ns - self.start_ns) / 1e9,
+                "log_time_ns": bookmark.log_time_ns, "data": bookmark.data, "kind": kind}
 
     def problem(self, channel: ChannelInfo) -> str:
         """Why the channel is not replayed ("" if it is): it does not decode, a name breaks the rules, or its type
@@ -491,6 +512,18 @@ class ReplaySource(Source):
 
     def info(self) -> dict[str, Any]:
         return self._need_file().info()
+
+    async def add_note(self, name: str, t_s: float | None = None) -> dict[str, Any]:
+        """A named bookmark at ``t_s`` (default: the replay's position) in the log's sidecar, never in the log."""
+        file = self._need_file()
+        if t_s is None:
+            at = self.position_ns
+        elif isinstance(t_s, int | float) and math.isfinite(t_s):
+            at = file.start_ns + int(max(0.0, min(t_s, (file.end_ns - file.start_ns) / 1e9)) * 1e9)
+        else:
+            raise BadTimelineRequest(f"a note needs a time in seconds, not {t_s!r}")
+        note = await asyncio.to_thread(file.notes.add, name, max(file.start_ns, min(at, file.end_ns)))
+        return file.mark(note, "note")
 
     async def shutdown(self) -> None:
         with contextlib.suppress(Exception):

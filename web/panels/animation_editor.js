@@ -13,13 +13,19 @@ const RESEND_MS = 300; // in RECORD the held pose is sent again and again: a los
 const GHOSTS_AFTER_MS = 150; // keyframe ghosts follow edits and the selection, at most this often
 const PLAY_POLL_MS = 250; // how often a play's progress is asked for
 const DRAFT_KEY = "pitchside.animDraft."; // + robot: the unsaved animation, kept until saved or discarded
+// A Dynamixel MX/XM servo resolves 4096 positions per turn, 0.088 deg: goals are kept and shown to a tenth of a
+// degree, the finest step a person reads that the servo still tells apart, so a field never reads 90.000210459 (the
+// URDF's limit of 1.5708 rad) and a typed -30 stays -30.
+export const SERVO_STEP_DEG = 0.1;
 
 // The panel's markup; rows and the keyframe detail are rendered into its tbody and div below.
-const LAYOUT = `<div class="lab-bar">
+const LAYOUT = `<div class="anim-controls" data-role="controls">
+      <div class="lab-bar">
         <label>robot <select data-role="robot"></select></label>
         <select data-role="files" title="animation files in the robot's animation folder"></select>
         <button data-act="open">open</button>
-        <label title="upload a Bit-Bots JSON file">upload <input type="file" data-role="upload" accept=".json,application/json"></label>
+        <label class="button file-button" title="upload a Bit-Bots JSON file">upload…<input type="file" data-role="upload"
+          class="visually-hidden" accept=".json,application/json"></label>
         <input data-role="new-name" placeholder="new name" size="10"><button data-act="new"
           title="a new animation whose first keyframe is the robot's current pose">new from robot pose</button>
       </div>
@@ -46,7 +52,8 @@ const LAYOUT = `<div class="lab-bar">
         <button data-act="stop" class="stop" title="cancel the animation and leave RECORD">■ STOP</button>
         <label title="lab only: save and play goals outside the URDF joint limits all the same (the robot's servo
           node still clamps them)"><input type="checkbox" data-role="override"> override limits</label>
-        <span class="lab-status" data-role="status"></span>
+        <span class="lab-status" data-role="status" role="status"></span>
+      </div>
       </div>
       <ul class="anim-warnings" data-role="warnings"></ul>
       <div class="kf-timeline" data-role="timeline" title="keyframes in time (duration, then pause hatched): click to
@@ -61,6 +68,8 @@ const LAYOUT = `<div class="lab-bar">
           <button data-act="record-update" title="the robot's current pose into the selected keyframe">update keyframe</button>
           <button data-act="rec-all">record all joints</button><button data-act="rec-none">none</button>
         </div>
+        <table class="grid-table joint-groups" title="a group of joints at once, as in RecordUI"><thead><tr>
+          <th>group</th><th>rec</th><th>limp</th><th></th></tr></thead><tbody data-role="groups"></tbody></table>
         <table class="grid-table"><thead><tr><th>joint</th><th>rec</th><th>limp</th><th>goal (deg)</th></tr></thead>
           <tbody data-role="joints"></tbody></table>
       </details>`;
@@ -82,6 +91,7 @@ export default {
     body.addEventListener("change", (e) => onChange(ed, e));
     body.addEventListener("input", (e) => onSliderInput(ed, e));
     body.addEventListener("dragstart", (e) => onTimelineDrag(ed, e));
+    body.addEventListener("pointerdown", (e) => startResize(ed, e));
     body.addEventListener("dragover", (e) => { if (e.target.closest("[data-tl]")) e.preventDefault(); });
     body.addEventListener("drop", (e) => onTimelineDrop(ed, e));
     ed.resend = setInterval(() => { if (ed.state.recordOn && ed.state.robot) sendGoals(ed); }, RESEND_MS);
@@ -100,6 +110,7 @@ function newEditor(body, ctx) {
   const state = {
     robot: "", file: "", anim: null, selected: -1, undo: [], redo: [], check: null, joints: [],
     held: {}, limp: new Set(), recordJoints: new Set(), recordOn: false, lastError: "", saved: 0,
+    notes: {}, // "goal|<keyframe>|joint" or "held|joint" -> a limit message shown beside that joint
     ghosts: "off", ghostsShown: 0, ghostsFor: "",
     savedText: null, // the animation as last opened or saved (JSON): anything else is unsaved
     play: null, // the play under way or last ended: {name, status, percent, message}
@@ -143,10 +154,25 @@ async function listFiles(ed) {
   const { state, $ } = ed;
   if (!state.robot) return;
   const list = await api("GET", `${base(ed)}/animations`);
+  state.files = list.animations.map((a) => a.file);
   $('[data-role="files"]').innerHTML = list.animations.map((a) => `<option value="${esc(a.file)}">${esc(a.file)}${
     a.error ? " (broken)" : ""}</option>`).join("");
-  if (list.animations.some((a) => a.file === state.file)) $('[data-role="files"]').value = state.file;
   state.folder = list.folder;
+  showEdited(ed);
+}
+
+/** The file menu says what is being edited: its file, or a new animation that is no file yet (never the file opened
+ * before it). The "open" button opens the file chosen in it. */
+function showEdited(ed) {
+  const { state, $ } = ed;
+  const select = $('[data-role="files"]');
+  select.querySelector("option[data-editing]")?.remove();
+  if (!state.anim) return;
+  if ((state.files ?? []).includes(state.file)) { select.value = state.file; return; }
+  const option = new Option(`${state.file || state.anim.name} (new, not saved yet)`, "");
+  option.dataset.editing = "";
+  select.prepend(option);
+  select.value = "";
 }
 
 /** The robot's joints and limits, for the record table; every joint is recorded until the user says otherwise. */
@@ -171,19 +197,40 @@ function holdMeasuredPose(ed, pose) {
 
 // -- joint limits and order ------------------------------------------------------------------------
 
-/** A goal (deg) rounded to 0.01 and inside the joint's URDF limits; clamped says it had to be moved. */
-function inLimits(ed, joint, deg) {
-  const j = ed.state.joints.find((x) => x.name === joint);
-  const rounded = Math.round(deg * 100) / 100;
-  if (!j) return { value: rounded, clamped: false };
-  const value = Math.min(Math.max(rounded, j.lower), j.upper);
-  return { value, clamped: Math.abs(value - rounded) > 1e-9 && (deg < j.lower || deg > j.upper), j };
+/** A goal (deg) at the nearest step the editor keeps (SERVO_STEP_DEG). */
+export function servoDeg(deg) {
+  return Number((Math.round(deg / SERVO_STEP_DEG) * SERVO_STEP_DEG).toFixed(1));
 }
 
-/** The status line's word on a clamped goal: what was typed, the limits, what was set instead. */
+/** A goal as the fields show it: one decimal at most, no trailing zero (44.6, -90, 12.3). */
+export function fmtDeg(deg) {
+  return String(Number(Number(deg).toFixed(1)));
+}
+
+/** A goal (deg) at a servo step inside the joint's URDF limits (the step nearest inside a limit that falls between
+ * two); clamped says it had to be moved. */
+function inLimits(ed, joint, deg) {
+  const j = ed.state.joints.find((x) => x.name === joint);
+  const rounded = servoDeg(deg);
+  if (!j) return { value: rounded, clamped: false };
+  let value = servoDeg(Math.min(Math.max(deg, j.lower), j.upper));
+  if (value > j.upper) value = servoDeg(value - SERVO_STEP_DEG);
+  if (value < j.lower) value = servoDeg(value + SERVO_STEP_DEG);
+  return { value, clamped: deg < j.lower - 1e-9 || deg > j.upper + 1e-9, j };
+}
+
+/** The word on a clamped goal: what was typed, the limits, what was set instead. */
 function clampedText(joint, typed, limit) {
   return `${joint}: ${typed} deg is outside its limits [${limit.j.lower.toFixed(1)}, ${limit.j.upper.toFixed(1)}] ` +
-    `deg: set to ${limit.value.toFixed(1)}`;
+    `deg: set to ${fmtDeg(limit.value)}`;
+}
+
+/** A note beside a joint of the record table: said where the user looks, kept until that joint is set again. */
+function noteJoint(ed, where, joint, text) {
+  const key = `${where}|${joint}`;
+  if (text) ed.state.notes[key] = text; else delete ed.state.notes[key];
+  const el = ed.$(`[data-role="joints"] tr[data-joint="${CSS.escape(joint)}"] [data-note]`);
+  if (el) el.textContent = text;
 }
 
 /** Goals and torques of every keyframe in the robot's joint order (the URDF's), whatever the file or an edit did;
@@ -217,7 +264,7 @@ function keepDraft(ed) {
   try {
     if (isDirty(state)) {
       localStorage.setItem(DRAFT_KEY + state.robot, JSON.stringify({ file: state.file, anim: state.anim,
-        savedText: state.savedText }));
+        savedText: state.savedText, selected: state.selected })); // where the user was
     } else localStorage.removeItem(DRAFT_KEY + state.robot);
   } catch { /* storage full or off: the beforeunload warning still guards the work */ }
 }
@@ -230,9 +277,14 @@ function restoreDraft(ed) {
   try { draft = JSON.parse(localStorage.getItem(DRAFT_KEY + state.robot) ?? "null"); } catch { draft = null; }
   if (!draft?.anim?.keyframes) return;
   state.file = draft.file ?? ""; state.savedText = draft.savedText ?? null;
-  state.undo = []; state.redo = []; state.selected = draft.anim.keyframes.length ? 0 : -1;
+  const n = draft.anim.keyframes.length;
+  state.undo = []; state.redo = [];
+  state.selected = Number.isInteger(draft.selected) && draft.selected < n ? Math.max(draft.selected, n ? 0 : -1)
+    : n ? 0 : -1; // the keyframe the user was on
   setAnimation(ed, draft.anim, null, { history: false });
-  ed.status(`restored unsaved changes to ${state.file || draft.anim.name}: save them, or open another file`);
+  ed.$(`[data-role="keyframes"] tr[data-kf="${state.selected}"]`)?.scrollIntoView({ block: "nearest" });
+  ed.status(`restored unsaved changes to ${state.file || draft.anim.name} at keyframe ${state.selected}: save them, ` +
+    "or open another file");
 }
 
 /** Before the animation shown is replaced: true if it is saved, or the user agrees to lose its changes. */
@@ -296,13 +348,21 @@ function poseAfter(anim, k) {
   return pose;
 }
 
+/** A name for a new keyframe ("kf 3"), one no keyframe of the animation has: named by default, renamed in its row. */
+export function newKeyframeName(anim) {
+  const taken = new Set((anim?.keyframes ?? []).map((kf) => kf.name));
+  let n = (anim?.keyframes ?? []).length;
+  while (taken.has(`kf ${n}`)) n++;
+  return `kf ${n}`;
+}
+
 /** "+ keyframe": a new keyframe after the selected one, posed where that one ends, so nothing jumps. */
 async function insertKeyframe(ed) {
   const { state } = ed;
   if (!state.anim) throw new Error("open, upload or start a new animation first");
   const index = state.selected + 1;
-  await edit(ed, "insert", { index, keyframe: { duration: 1.0, pause: 0.0, goals: poseAfter(state.anim, state.selected),
-    torque: {} } });
+  await edit(ed, "insert", { index, keyframe: { name: newKeyframeName(state.anim), duration: 1.0, pause: 0.0,
+    goals: poseAfter(state.anim, state.selected), torque: {} } });
   state.selected = index;
   render(ed);
   ed.status(`inserted keyframe ${index} (posed where keyframe ${index - 1} ends)`);
@@ -526,6 +586,7 @@ function renderFileBar(ed) {
   if (anim && document.activeElement !== $('[data-role="author"]')) $('[data-role="author"]').value = anim.author ?? "";
   $('[data-act="undo"]').disabled = !state.undo.length;
   $('[data-act="redo"]').disabled = !state.redo.length;
+  showEdited(ed);
   const dirty = isDirty(state);
   $('[data-role="dirty"]').textContent = dirty ? "● unsaved" : anim ? "saved" : "";
   $('[data-role="dirty"]').classList.toggle("unsaved", dirty);
@@ -542,7 +603,8 @@ function renderTimeline(ed) {
   el.innerHTML = kfs.map((kf, i) => `<div class="kf-block${i === state.selected ? " selected" : ""}" data-tl="${i}"
       draggable="true" title="keyframe ${i}${kf.name ? ` (${esc(kf.name)})` : ""}: ${kf.duration} s${
       kf.pause ? ` + ${kf.pause} s pause` : ""}"><span>${i}${kf.name ? ` ${esc(kf.name)}` : ""}</span>
-      <i class="kf-pause"></i></div>`).join("");
+      <i class="kf-pause"></i><b class="kf-resize" data-resize="${i}" title="drag to change keyframe ${i}'s duration
+      (${kf.duration} s)"></b></div>`).join("");
   // widths through the CSSOM: the page's Content-Security-Policy need not allow inline styles
   el.querySelectorAll("[data-tl]").forEach((block, i) => {
     const kf = kfs[i];
@@ -590,15 +652,22 @@ function renderDetail(ed) {
   if (!kf) { el.innerHTML = ""; return; }
   const missing = state.joints.filter((j) => !(j.name in kf.goals));
   el.innerHTML = `<b>keyframe ${state.selected}</b> goals (deg) and torque
-        <table class="grid-table"><tbody>${Object.entries(kf.goals).map(([j, v]) => goalRow(kf, j, v)).join("")}</tbody></table>
+        <table class="grid-table"><tbody>${Object.entries(kf.goals).map(([j, v]) => goalRow(kf, j, v, notesOf(state, `goal|${state.selected}|`))).join("")}</tbody></table>
         ${missing.length ? `<select data-role="add-joint">${missing.map((j) => `<option>${esc(j.name)}</option>`).join("")}</select>
         <button data-act="add-joint">add joint</button>` : ""}`;
 }
 
+/** The limit notes under a prefix, by joint. */
+function notesOf(state, prefix) {
+  return Object.fromEntries(Object.entries(state.notes).filter(([k]) => k.startsWith(prefix))
+    .map(([k, v]) => [k.slice(prefix.length), v]));
+}
+
 /** One joint of the selected keyframe: its goal, its torque (on, off, unchanged), a button to remove it. */
-function goalRow(kf, j, v) {
+function goalRow(kf, j, v, notes) {
   return `<tr data-joint="${esc(j)}">
-          <td>${esc(j)}</td><td><input type="number" step="0.5" data-goal value="${esc(v)}"></td>
+          <td>${esc(j)}</td><td><input type="number" step="${SERVO_STEP_DEG}" data-goal value="${esc(fmtDeg(v))}">
+            <span class="limit-note" data-note>${esc(notes[j] ?? "")}</span></td>
           <td><select data-torque><option value="">torque unchanged</option>
             <option value="1" ${torqueLabel(kf.torque?.[j]) === "on" ? "selected" : ""}>torque on</option>
             <option value="0" ${torqueLabel(kf.torque?.[j]) === "off" ? "selected" : ""}>torque off</option></select></td>
@@ -608,15 +677,17 @@ function goalRow(kf, j, v) {
 /** The record table: per joint whether it is recorded, whether it is limp, and the goal it is held at. */
 function renderJoints(ed) {
   const { state } = ed;
+  renderGroups(ed);
   ed.$('[data-role="joints"]').innerHTML = state.joints.map((j) => `<tr data-joint="${esc(j.name)}">
         <td>${esc(j.name)}</td>
         <td><input type="checkbox" data-rec aria-label="record ${esc(j.name)}"
           ${state.recordJoints.has(j.name) ? "checked" : ""}></td>
         <td><input type="checkbox" data-limp aria-label="${esc(j.name)} limp" ${state.limp.has(j.name) ? "checked" : ""}></td>
         <td><input type="range" data-slider aria-label="${esc(j.name)} goal (slider)" min="${esc(j.lower)}"
-          max="${esc(j.upper)}" step="0.5" value="${esc(state.held[j.name] ?? 0)}">
-          <input type="number" data-held aria-label="${esc(j.name)} goal (deg)" step="0.5"
-          value="${(state.held[j.name] ?? 0).toFixed(1)}"></td></tr>`).join("");
+          max="${esc(j.upper)}" step="${SERVO_STEP_DEG}" value="${esc(state.held[j.name] ?? 0)}">
+          <input type="number" data-held aria-label="${esc(j.name)} goal (deg)" step="${SERVO_STEP_DEG}"
+          value="${fmtDeg(state.held[j.name] ?? 0)}">
+          <span class="limit-note" data-note>${esc(state.notes[`held|${j.name}`] ?? "")}</span></td></tr>`).join("");
 }
 
 // -- recording --------------------------------------------------------------------------------------
@@ -677,7 +748,8 @@ async function recordKeyframe(ed) {
     state.savedText = null;
   }
   const index = state.selected + 1;
-  await edit(ed, "insert", { index, keyframe: { duration: 1.0, pause: 0.0, goals, torque: {} } });
+  await edit(ed, "insert", { index, keyframe: { name: newKeyframeName(state.anim), duration: 1.0, pause: 0.0, goals,
+    torque: {} } });
   state.selected = index;
   render(ed);
   ed.status(`recorded keyframe ${index} (${Object.keys(goals).length} joints)`);
@@ -714,6 +786,63 @@ async function goToKeyframe(ed) {
   sendGoals(ed, true);
   ed.status(`robot going to keyframe ${k} (RECORD)${clamped.length ? `; held inside the limits: ${clamped.join(", ")}`
     : ""}: move the sliders, then "update keyframe" or "record keyframe"`);
+}
+
+// -- joint groups: head, arms, legs, by the joints' names (RecordUI's groups) -------------------------------
+
+export const GROUPS = [["head", "head"], ["left arm", "L-arm"], ["right arm", "R-arm"], ["left leg", "L-leg"],
+  ["right leg", "R-leg"]];
+
+/** The group a joint belongs to, from its name (HeadPan; LShoulderPitch, LElbow; RHipYaw, RKnee, RAnkleRoll ...);
+ * "" for a joint of no group. */
+export function jointGroup(name) {
+  if (/^head/i.test(name)) return "head";
+  const side = /^(?:L|l|left|Left)(?=[A-Z_])/.test(name) ? "L" : /^(?:R|r|right|Right)(?=[A-Z_])/.test(name) ? "R" : "";
+  if (!side) return "";
+  if (/shoulder|elbow|arm|wrist|hand/i.test(name)) return `${side}-arm`;
+  if (/hip|knee|ankle|foot|leg/i.test(name)) return `${side}-leg`;
+  return "";
+}
+
+/** The joint groups' table: per group whether all its joints are recorded / limp, and "pose → keyframe". */
+function renderGroups(ed) {
+  const { state } = ed;
+  const rows = GROUPS.map(([label, id]) => {
+    const joints = state.joints.filter((j) => jointGroup(j.name) === id).map((j) => j.name);
+    if (!joints.length) return "";
+    const all = (set) => joints.every((j) => set.has(j));
+    return `<tr data-group="${esc(id)}" title="${esc(joints.join(", "))}"><td>${esc(label)}</td>
+      <td><input type="checkbox" data-group-rec aria-label="record the ${esc(label)}" ${all(state.recordJoints) ? "checked" : ""}></td>
+      <td><input type="checkbox" data-group-limp aria-label="${esc(label)} limp" ${all(state.limp) ? "checked" : ""}></td>
+      <td><button data-group-copy title="the robot's pose of the ${esc(label)} into the selected keyframe">pose → keyframe</button></td></tr>`;
+  }).join("");
+  ed.$('[data-role="groups"]').innerHTML = rows;
+}
+
+/** A group's rec or limp ticked: every joint of it at once (limp is sent to the robot at once). */
+function editGroup(ed, t, id) {
+  const { state } = ed;
+  const joints = state.joints.filter((j) => jointGroup(j.name) === id).map((j) => j.name);
+  const set = t.dataset.groupRec !== undefined ? state.recordJoints : state.limp;
+  for (const j of joints) { if (t.checked) set.add(j); else set.delete(j); }
+  renderJoints(ed);
+  if (t.dataset.groupLimp !== undefined) sendGoals(ed, true);
+  ed.status(`${id}: ${joints.length} joints ${t.dataset.groupRec !== undefined ? (t.checked ? "recorded" : "not recorded")
+    : (t.checked ? "limp" : "held")}`);
+}
+
+/** "pose → keyframe": the robot's pose of one group's joints into the selected keyframe (the other joints stay). */
+async function copyGroup(ed, id) {
+  const { state } = ed;
+  const kf = state.anim?.keyframes[state.selected];
+  if (!kf) throw new Error("select a keyframe to copy the pose into");
+  const pose = await measuredPose(ed);
+  const joints = state.joints.filter((j) => jointGroup(j.name) === id && j.name in pose).map((j) => j.name);
+  if (!joints.length) throw new Error(`no pose of the ${id} from the robot`);
+  snapshot(ed);
+  for (const j of joints) kf.goals[j] = inLimits(ed, j, pose[j]).value;
+  edited(ed);
+  ed.status(`keyframe ${state.selected}: the ${id}'s pose from the robot (${joints.length} joints)`);
 }
 
 /** "record all joints" / "none". */
@@ -763,6 +892,11 @@ function onClick(ed, e) {
   const block = e.target.closest("[data-tl]");
   if (block) { ed.state.selected = +block.dataset.tl; render(ed); }
   if (kact) { guarded(ed, () => keyframeAction(ed, kact, +row.dataset.kf)); return; }
+  if (e.target.dataset?.groupCopy !== undefined) {
+    const id = e.target.closest("tr[data-group]").dataset.group;
+    guarded(ed, () => copyGroup(ed, id));
+    return;
+  }
   if (e.target.dataset?.remove !== undefined && e.target.closest("[data-role=detail]")) {
     removeGoal(ed, e.target.closest("tr").dataset.joint);
     return;
@@ -770,10 +904,45 @@ function onClick(ed, e) {
   if (act && Object.hasOwn(ACTIONS, act)) guarded(ed, () => ACTIONS[act](ed));
 }
 
+const DURATION_STEP_S = 0.05;
+const MIN_DURATION_S = 0.05;
+
+/** A keyframe's right edge on the timeline dragged: its duration follows the pointer (at the timeline's scale when
+ * the drag began, in steps of 0.05 s), shown as it goes and written once, on release, as one undo step. */
+function startResize(ed, e) {
+  const handle = e.target.closest?.("[data-resize]");
+  if (!handle || !ed.state.anim) return;
+  e.preventDefault(); // not the block's drag to reorder
+  e.stopPropagation();
+  const i = +handle.dataset.resize;
+  const kfs = ed.state.anim.keyframes;
+  const total = kfs.reduce((t, kf) => t + kf.duration + kf.pause, 0);
+  const timeline = ed.$('[data-role="timeline"]');
+  const perPx = total / Math.max(timeline.getBoundingClientRect().width, 1); // s per px
+  const x0 = e.clientX, d0 = kfs[i].duration;
+  const durationAt = (x) => Math.max(MIN_DURATION_S,
+    Math.round((d0 + (x - x0) * perPx) / DURATION_STEP_S) * DURATION_STEP_S);
+  handle.setPointerCapture(e.pointerId);
+  const move = (ev) => ed.status(`keyframe ${i}: duration ${durationAt(ev.clientX).toFixed(2)} s (release to set)`);
+  const up = (ev) => {
+    handle.removeEventListener("pointermove", move);
+    handle.removeEventListener("pointerup", up);
+    const duration = Number(durationAt(ev.clientX).toFixed(2));
+    if (duration === d0) { ed.status(`keyframe ${i}: duration ${d0} s`); return; }
+    snapshot(ed);
+    kfs[i].duration = duration;
+    edited(ed);
+    ed.status(`keyframe ${i}: duration ${duration} s`);
+  };
+  handle.addEventListener("pointermove", move);
+  handle.addEventListener("pointerup", up);
+}
+
 /** A timeline block picked up: which keyframe is being dragged. */
 function onTimelineDrag(ed, e) {
   const block = e.target.closest?.("[data-tl]");
   if (!block) return;
+  if (e.target.closest?.("[data-resize]")) { e.preventDefault(); return; } // its edge: a duration, not an order
   ed.dragged = +block.dataset.tl;
   e.dataTransfer.effectAllowed = "move";
   e.dataTransfer.setData("text/plain", block.dataset.tl);
@@ -850,7 +1019,9 @@ function onChange(ed, e) {
   const detailRow = t.closest("[data-role=detail] tr[data-joint]");
   if (detailRow) { editGoal(ed, t, detailRow.dataset.joint); return; }
   const jointRow = t.closest("[data-role=joints] tr[data-joint]");
-  if (jointRow) editRecordJoint(ed, t, jointRow);
+  if (jointRow) { editRecordJoint(ed, t, jointRow); renderGroups(ed); }
+  const groupRow = t.closest("[data-role=groups] tr[data-group]");
+  if (groupRow) editGroup(ed, t, groupRow.dataset.group);
   if (t.dataset.role === "name" && ed.state.anim) {
     snapshot(ed); ed.state.anim.name = t.value; edited(ed); ed.status(`renamed to ${t.value}`);
   }
@@ -883,8 +1054,10 @@ function editGoal(ed, t, j) {
     }
     const limit = inLimits(ed, j, v);
     kf.goals[j] = limit.value;
+    state.notes[`goal|${state.selected}|${j}`] = limit.clamped ? `outside [${limit.j.lower.toFixed(1)}, ${limit.j.upper.toFixed(1)}]: ` +
+      `set to ${fmtDeg(limit.value)}` : "";
     edited(ed);
-    ed.status(limit.clamped ? clampedText(j, v, limit) : `keyframe ${state.selected}: ${j} ${limit.value} deg`,
+    ed.status(limit.clamped ? clampedText(j, v, limit) : `keyframe ${state.selected}: ${j} ${fmtDeg(limit.value)} deg`,
       limit.clamped);
     return;
   }
@@ -908,14 +1081,16 @@ function editRecordJoint(ed, t, row) {
   if (t.dataset.held !== undefined) {
     const typed = t.value.trim() === "" ? NaN : Number(t.value);
     if (!Number.isFinite(typed)) {
-      t.value = (state.held[j] ?? 0).toFixed(1); ed.status(`${j}: a goal is a number of degrees`, true);
+      t.value = fmtDeg(state.held[j] ?? 0); ed.status(`${j}: a goal is a number of degrees`, true);
       return;
     }
     const limit = inLimits(ed, j, typed);
     state.held[j] = limit.value;
-    t.value = limit.value.toFixed(1);
+    t.value = fmtDeg(limit.value);
     row.querySelector("[data-slider]").value = limit.value;
     sendGoals(ed, true);
+    noteJoint(ed, "held", j, limit.clamped ? `outside [${limit.j.lower.toFixed(1)}, ${limit.j.upper.toFixed(1)}]: ` +
+      `set to ${fmtDeg(limit.value)}` : "");
     if (limit.clamped) ed.status(clampedText(j, typed, limit), true);
   }
 }
@@ -925,7 +1100,8 @@ function onSliderInput(ed, e) {
   const t = e.target;
   if (t.dataset.slider === undefined) return;
   const row = t.closest("tr[data-joint]");
-  ed.state.held[row.dataset.joint] = Number(t.value);
-  row.querySelector("[data-held]").value = Number(t.value).toFixed(1);
+  ed.state.held[row.dataset.joint] = servoDeg(Number(t.value));
+  row.querySelector("[data-held]").value = fmtDeg(ed.state.held[row.dataset.joint]);
+  noteJoint(ed, "held", row.dataset.joint, ""); // a slider stays inside the limits
   sendGoals(ed);
 }

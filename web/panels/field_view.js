@@ -110,9 +110,18 @@ export default {
 /** The view: its canvas, the figures tests and benchmarks read (stats), the animation loop and the tracks. */
 function newFieldView(body, ctx) {
   const canvas = document.createElement("canvas");
-  body.append(canvas);
+  // show/hide per robot: one checkbox per robot on the field, its colour beside its name (live, or REPLAY)
+  const legend = document.createElement("div");
+  legend.className = "field-legend";
+  legend.setAttribute("aria-label", "robots shown on the field");
+  legend.addEventListener("change", (e) => {
+    const robot = e.target.closest("[data-robot]")?.dataset.robot;
+    if (robot !== undefined) ctx.store.setShown(robot, e.target.checked);
+  });
+  body.style.position = "relative";
+  body.append(canvas, legend);
   const fv = {
-    ctx, store: ctx.store, canvas,
+    ctx, store: ctx.store, canvas, legend, legendKey: "",
     // frames: drawn so far (tests and bench/server.py read it); fps: over the last second; drawMs: per draw (average)
     stats: { drawn: [], frames: 0, fps: 0, balls: 0, drawMs: 0, running: false },
     view: null, raf: 0, fpsStart: performance.now(), fpsFrames: 0, onScreen: true, destroyed: false,
@@ -256,11 +265,16 @@ function draw(fv, now) {
     .map((r) => r.robot));
   const drawn = [];
   let balls = 0;
-  for (const [id, entry] of all) {
+  // replayed robots first, live ones over them, the focused one on top: a replay never covers a live robot
+  const order = [...all].filter(([id]) => !store.hidden.has(id)).sort(([a], [b]) =>
+    (store.isReplayed(b) - store.isReplayed(a)) || ((a === store.focus) - (b === store.focus)));
+  for (const [id, entry] of order) {
     drawn.push(drawRobot(fv, g, view, id, entry, silent.has(id)));
     if (drawSeenBall(fv, g, view, id, entry, now)) balls++;
     drawObstacles(fv, g, view, id, entry);
   }
+  stats.labels = placeLabels(g, view, drawn, store);
+  showLegend(fv, [...all.keys()]);
   balls += drawTrueBalls(fv, g, view, now);
   stats.teamBalls = drawTeamBalls(fv, g, view);
   for (const [key, t] of fv.tracks) if (!t.used) fv.tracks.delete(key); // gone from the store
@@ -325,9 +339,54 @@ function drawRobot(fv, g, { X, Y, scale }, id, entry, silent) {
   }
   const name = `${id}${role ? ` ${role}` : ""}${silent ? " (silent)" : ""}`;
   g.globalAlpha = 1;
-  g.fillStyle = "#ffffff"; g.strokeStyle = "#000"; g.lineWidth = 3; g.font = "bold 14px sans-serif";
-  g.strokeText(name, X(pose.x) + 12, Y(pose.y) + 18); g.fillText(name, X(pose.x) + 12, Y(pose.y) + 18);
-  return { id, x: pose.x, y: pose.y, silent, replayed: store.isReplayed(id), team: team?.name ?? "", role };
+  return { id, x: pose.x, y: pose.y, silent, replayed: store.isReplayed(id), team: team?.name ?? "", role, name };
+}
+
+// where a label may go, relative to its robot (px): right below first, then above, left, further out
+const LABEL_SPOTS = [[12, 18], [12, -12], [-12, 18], [-12, -12], [12, 36], [-12, 36], [12, -30], [-12, -30]];
+
+/** Robots' names, live robots' first: each takes the first spot beside its robot that no label placed before
+ * covers, so a replayed robot's name never covers a live one's. Returns the boxes (tests read them). */
+function placeLabels(g, { X, Y }, drawn, store) {
+  g.font = "bold 14px sans-serif";
+  const boxes = [];
+  const byPriority = [...drawn].sort((a, b) => (a.replayed - b.replayed) || ((b.id === store.focus) - (a.id === store.focus)));
+  for (const r of byPriority) {
+    const w = g.measureText(r.name).width, h = 16;
+    const at = (dx, dy) => ({ x: dx < 0 ? X(r.x) + dx - w : X(r.x) + dx, y: Y(r.y) + dy - 13, w, h });
+    const free = (b) => boxes.every((o) => b.x + b.w <= o.x || o.x + o.w <= b.x || b.y + b.h <= o.y || o.y + o.h <= b.y);
+    const box = LABEL_SPOTS.map(([dx, dy]) => at(dx, dy)).find(free) ?? at(...LABEL_SPOTS[0]);
+    boxes.push({ id: r.id, replayed: r.replayed, ...box });
+    g.fillStyle = r.replayed ? "#f0dcff" : "#ffffff"; g.strokeStyle = r.replayed ? REPLAY_COLOUR : "#000";
+    g.lineWidth = 3;
+    g.strokeText(r.name, box.x, box.y + 13); g.fillText(r.name, box.x, box.y + 13);
+  }
+  return boxes;
+}
+
+/** The legend: a checkbox per robot on the field, redrawn only when the robots or the choices change. */
+function showLegend(fv, ids) {
+  const { store } = fv;
+  const sorted = ids.sort((a, b) => (store.isReplayed(a) - store.isReplayed(b)) || a.localeCompare(b));
+  const colour = (id) => store.isReplayed(id) ? REPLAY_COLOUR
+    : (teamOf(store, id) === undefined ? NO_TEAM_COLOUR : teamColour(teamOf(store, id)).css);
+  const key = sorted.map((id) => `${id}:${store.hidden.has(id)}:${colour(id)}`).join("|");
+  if (key === fv.legendKey) return;
+  fv.legendKey = key;
+  fv.legend.replaceChildren(...sorted.map((id) => {
+    const label = document.createElement("label");
+    label.dataset.robot = id;
+    label.className = store.isReplayed(id) ? "replayed" : "live";
+    label.title = store.isReplayed(id) ? `${id}: replayed from the open log` : `${id}: live`;
+    const box = document.createElement("input");
+    box.type = "checkbox";
+    box.checked = !store.hidden.has(id);
+    const swatch = document.createElement("span");
+    swatch.className = "swatch";
+    swatch.style.background = colour(id);
+    label.append(box, swatch, document.createTextNode(id));
+    return label;
+  }));
 }
 
 /** The ball a robot sees, placed by its estimated pose, faded by confidence; true if one was drawn. */
@@ -373,8 +432,7 @@ function drawGameState(fv, g, w) {
   const { store } = fv;
   g.fillStyle = "#000000";
   g.fillRect(0, 0, w, HEADER);
-  const ids = [store.focus, ...store.latest.keys()];
-  const from = ids.find((id) => store.get(id, "gamestate")?.data);
+  const from = store.gameSource(); // during a replay: the log's game
   const game = from === undefined ? undefined : store.get(from, "gamestate").data;
   g.fillStyle = "#ffffff";
   g.font = "bold 18px sans-serif";

@@ -18,9 +18,9 @@ export default {
     const $ = (sel) => body.querySelector(sel);
 
     function render() {
-      // the focused robot's view of the game first; a replayed game is never mixed with the live one
-      const ids = [store.focus, ...store.robotIds()];
-      const from = ids.find((id) => store.get(id, "gamestate")?.data);
+      // during a replay the log's game, else the focused robot's view of it; a replayed game is never mixed with
+      // the live one
+      const from = store.gameSource();
       const game = from === undefined ? undefined : store.get(from, "gamestate").data;
       body.dataset.state = game ? gameName(game.game_state) : "";
       if (!game) {

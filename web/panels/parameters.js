@@ -8,6 +8,7 @@
 
 import { api, labToolOff, numericFields, robotPath, robotPicker } from "../lab_api.js";
 import { esc, statusLine } from "../dom.js";
+import { matches } from "../param_search.js";
 
 const PLOT_SECONDS = 20;
 const PLOT_HZ = 30;
@@ -58,7 +59,7 @@ function readControl(p, row) {
 // The panel's markup; the nodes' tables are rendered into data-role="nodes".
 const LAYOUT = `<div class="lab-bar">
         <input type="search" data-role="search" placeholder="find a parameter…" size="18"
-          title="words of a parameter's node, name or description; Enter goes to the first one found, Esc clears">
+          title="node.name as shown (walking.step), words of the description, or a unit (m, rad, hz; speed, angle); Enter goes to the first one found, Esc clears">
         <span class="muted" data-role="found"></span>
         <label>robot <select data-role="robot"></select></label>
         <button data-act="reload" title="read every node's parameters again">reload</button>
@@ -93,7 +94,7 @@ export default {
     el.nodes.addEventListener("change", (e) => onValueChange(pp, e));
     el.nodes.addEventListener("input", onSliderInput);
     el.nodes.addEventListener("click", (e) => onNodeAction(pp, e));
-    el.search.addEventListener("input", () => applyFilter(pp));
+    el.search.addEventListener("input", () => { clearErrors(pp); applyFilter(pp); });
     el.search.addEventListener("keydown", (e) => onSearchKey(pp, e));
     el.undo.addEventListener("click", () => undoLast(pp));
     pp.$('[data-act="reload"]').addEventListener("click", () => load(pp));
@@ -237,32 +238,39 @@ function applyReply(pp, node, reply) {
 
 // -- search ---------------------------------------------------------------------------------------
 
-/** Only the parameters whose node, name or description hold every word of the search; nodes without one fold
- * away, the others open. */
+/** Only the parameters the search names (web/param_search.js: the dotted node.name, words of the description,
+ * units); nodes without one fold away, the others open. */
 function applyFilter(pp) {
-  const { el } = pp;
-  const words = el.search.value.toLowerCase().split(/\s+/).filter(Boolean);
+  const { el, state } = pp;
+  const query = el.search.value.trim();
   let shown = 0, total = 0;
   for (const section of el.nodes.querySelectorAll("[data-node]")) {
     let inNode = 0;
     for (const row of section.querySelectorAll("tr[data-param]")) {
-      const text = `${row.dataset.param.replace("/", " ")} ${row.title}`.toLowerCase();
-      const hit = words.every((w) => text.includes(w));
+      const [node, name] = row.dataset.param.split("/");
+      const hit = matches(query, node, find(state, node, name) ?? { name });
       row.hidden = !hit;
       inNode += hit; total++;
     }
     section.hidden = !inNode;
-    if (words.length && inNode) section.open = true;
+    if (query && inNode) section.open = true;
     shown += inNode;
   }
-  el.found.textContent = words.length ? `${shown} of ${total}` : "";
+  el.found.textContent = query ? `${shown} of ${total}` : "";
+}
+
+/** The next action of the user: the notes of what went wrong before (the status line's, the rows') go. */
+function clearErrors(pp) {
+  if (pp.$('[data-role="status"]').classList.contains("bad")) pp.status("");
+  clearRefusals(pp);
 }
 
 /** Enter in the search goes to the first parameter found (its text selected, ready to be typed over); Esc clears. */
 function onSearchKey(pp, e) {
-  if (e.key === "Escape") { pp.el.search.value = ""; applyFilter(pp); return; }
+  if (e.key === "Escape") { pp.el.search.value = ""; clearErrors(pp); applyFilter(pp); return; }
   if (e.key !== "Enter") return;
   e.preventDefault();
+  clearErrors(pp);
   const first = pp.el.nodes.querySelector("tr[data-param]:not([hidden])");
   const input = first?.querySelector('[data-role="value"]');
   if (!input) { pp.status(`no parameter matches "${pp.el.search.value}"`, true); return; }
@@ -388,6 +396,7 @@ async function writeNow(pp, node, values, { recordUndo = true, revisions = null,
   const before = Object.fromEntries(names.map((n) => [n, find(state, node, n)?.value]));
   const based = revisions ?? Object.fromEntries(names.map((n) => [n, find(state, node, n)?.revision]));
   const rows = names.map((n) => rowOf(pp, `${node}/${n}`)).filter(Boolean);
+  clearErrors(pp); // a new change: what went wrong before no longer describes the panel
   for (const n of names) state.inflight.set(`${node}/${n}`, values[n]);
   try {
     const reply = await api("POST", paramsPath(pp, node), { values, revisions: based });

@@ -1,4 +1,8 @@
 // Recordings: the recordings folder (size, duration), start/stop a manual recording, bookmark, open in replay.
+// The list is refreshed every 2 s while a match records, so it changes only what changed: a row whose file did not
+// change stays the same element, and a click on its "replay" lands where the pointer is. "bookmark" marks the open
+// replay at its position when a log is replayed (a note beside the log, as the playback bar's "bookmark here"),
+// else the running recordings.
 // Recording lives in the server (it goes on with the browser closed) and sends nothing to robots: fine in match mode.
 
 import { api } from "../lab_api.js";
@@ -22,22 +26,42 @@ function running(status, label) {
     ${status.dropped ? `<span class="badge warn">${esc(status.dropped)} dropped</span>` : ""}</div>`;
 }
 
+/** One file's row: name with size and duration under it, its buttons beside (they wrap in a narrow panel). */
+function fileRow(f) {
+  const facts = f.recording ? `${size(f.size_bytes)} · recording…`
+    : f.error ? `${size(f.size_bytes)} · <span class="bad">${esc(f.error)}</span>` : `${size(f.size_bytes)} · ${clock(f.duration_s)}`;
+  const buttons = f.recording ? "" : `<button type="button" data-open="${esc(f.name)}">replay</button>
+    <a class="button" data-download="${esc(f.name)}" href="api/recordings/files/${esc(encodeURIComponent(f.name))}"
+      download="${esc(f.name)}">download</a>${f.series ? `<a class="button" data-download-series="${esc(f.name)}"
+      href="api/recordings/series/${esc(encodeURIComponent(f.name))}" title="${esc(f.series.join(", "))}"
+      >all ${f.series.length} files (zip)</a>` : ""}`;
+  return `<td class="rec-file"><span class="rec-file-name">${esc(f.name)}</span><span class="rec-facts">${facts}</span></td>
+    <td class="rec-actions-cell"><div class="rec-actions">${buttons}</div></td>`;
+}
+
+/** Sets an element's markup only when it differs (no redraw of what the user may be pointing at). */
+function setHtml(el, html) {
+  if (el.dataset.html !== html) { el.innerHTML = html; el.dataset.html = html; }
+}
+
 export default {
   id: "recordings",
   title: "Recordings",
   size: [1, 2],
   create(body, ctx) {
     body.innerHTML = `<div class="rec-controls">
-        <input class="rec-name" placeholder="name (optional)" size="14" aria-label="recording name">
+        <input class="rec-name" placeholder="name (optional)" size="12" aria-label="recording name">
         <button class="rec-start" type="button">● record</button>
         <button class="rec-stop" type="button" disabled>■ stop</button>
-        <button class="rec-mark" type="button" disabled title="mark this moment in the running recordings">bookmark</button>
+        <button class="rec-mark" type="button" disabled>bookmark</button>
       </div>
       <div class="rec-status"></div><div class="rec-error bad" hidden></div>
-      <table class="grid-table rec-files"><thead><tr><th>file</th><th>size</th><th>duration</th><th></th></tr></thead>
+      <table class="grid-table rec-files"><thead><tr><th>file</th><th></th></tr></thead>
       <tbody></tbody></table>`;
     const $ = (sel) => body.querySelector(sel);
     const errorEl = $(".rec-error");
+    let replaying = null; // the open replay's status, or null
+    const rows = new Map(); // file name -> its <tr>, kept while the file's row reads the same
     function fail(err) { errorEl.hidden = false; errorEl.textContent = err.message; }
     async function act(method, path, payload) {
       errorEl.hidden = true;
@@ -46,7 +70,17 @@ export default {
     }
     $(".rec-start").addEventListener("click", () => act("POST", "api/recordings/start", { name: $(".rec-name").value }));
     $(".rec-stop").addEventListener("click", () => act("POST", "api/recordings/stop"));
-    $(".rec-mark").addEventListener("click", () => {
+    $(".rec-mark").addEventListener("click", async () => {
+      errorEl.hidden = true;
+      if (replaying) { // a note on the open log, at its position
+        const name = prompt("bookmark name (at the replay's position)", `note ${clock(replaying.position_s)}`);
+        if (!name) return;
+        try {
+          await api("POST", "api/replay/bookmark", { name });
+          ctx.store.emit("replay-bookmarked", name);
+        } catch (err) { fail(err); }
+        return;
+      }
       const name = prompt("bookmark name", "note");
       if (name) act("POST", "api/recordings/bookmark", { name });
     });
@@ -64,26 +98,52 @@ export default {
       } catch (err) { fail(err); }
     }
 
+    function showFiles(files) {
+      const tbody = $(".rec-files tbody");
+      const wanted = files.map((f) => {
+        const html = fileRow(f);
+        let tr = rows.get(f.name);
+        if (!tr) {
+          tr = document.createElement("tr");
+          tr.dataset.file = f.name;
+          rows.set(f.name, tr);
+        }
+        setHtml(tr, html);
+        return tr;
+      });
+      for (const name of [...rows.keys()]) if (!files.some((f) => f.name === name)) rows.delete(name);
+      if (!wanted.length) {
+        setHtml(tbody, `<tr><td colspan="2" class="empty">no recordings yet</td></tr>`);
+        return;
+      }
+      const have = [...tbody.children];
+      if (have.length !== wanted.length || have.some((tr, i) => tr !== wanted[i])) {
+        tbody.replaceChildren(...wanted);
+        delete tbody.dataset.html;
+      }
+    }
+
     async function refresh() {
       let listing;
-      try { listing = await api("GET", "api/recordings"); } catch (err) { fail(err); return; }
-      $(".rec-status").innerHTML = running(listing.manual, "manual") + running(listing.match, "match") ||
-        `<div class="empty">not recording${listing.auto_match ? " (matches are recorded automatically)" : ""}</div>`;
+      try {
+        const [files, replay] = await Promise.all([api("GET", "api/recordings"), api("GET", "api/replay").catch(() => null)]);
+        listing = files;
+        replaying = replay && !["closed", "loading"].includes(replay.state) ? replay : null;
+      } catch (err) { fail(err); return; }
+      setHtml($(".rec-status"), running(listing.manual, "manual") + running(listing.match, "match") ||
+        `<div class="empty">not recording${listing.auto_match ? " (matches are recorded automatically)" : ""}</div>`);
       $(".rec-start").disabled = !!listing.manual;
       $(".rec-stop").disabled = !listing.manual;
-      $(".rec-mark").disabled = !listing.manual && !listing.match;
-      $(".rec-files tbody").innerHTML = listing.files.map((f) => `<tr data-file="${esc(f.name)}">
-        <td>${esc(f.name)}</td><td>${size(f.size_bytes)}</td>
-        <td>${f.recording ? "recording…" : f.error ? `<span class="bad">${esc(f.error)}</span>` : clock(f.duration_s)}</td>
-        <td>${f.recording ? "" : `<button type="button" data-open="${esc(f.name)}">replay</button>
-          <a class="button" data-download="${esc(f.name)}" href="api/recordings/files/${esc(encodeURIComponent(f.name))}"
-            download="${esc(f.name)}">download</a>${f.series ? ` <a class="button" data-download-series="${esc(f.name)}"
-            href="api/recordings/series/${esc(encodeURIComponent(f.name))}" title="${esc(f.series.join(", "))}"
-            >all ${f.series.length} files (zip)</a>` : ""}`}</td></tr>`)
-        .join("") || `<tr><td colspan="4" class="empty">no recordings yet</td></tr>`;
+      const mark = $(".rec-mark");
+      mark.disabled = !replaying && !listing.manual && !listing.match;
+      mark.textContent = replaying ? "bookmark replay" : "bookmark";
+      mark.title = replaying ? "a named bookmark on the replayed log at its position (kept beside the log)"
+        : "mark this moment in the running recordings";
+      showFiles(listing.files);
     }
     refresh();
     const timer = setInterval(refresh, 2000);
-    return { destroy() { clearInterval(timer); } };
+    const offs = [ctx.store.on("replay-opened", refresh), ctx.store.on("replay-closed", refresh)];
+    return { destroy() { clearInterval(timer); offs.forEach((off) => off()); } };
   },
 };

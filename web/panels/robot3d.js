@@ -1,5 +1,13 @@
 // 3D robot: viser's own client in an iframe, framed for a small panel. The server passes viser's page and
 // WebSocket through its own origin (robot3d/view/): viser itself listens on loopback only.
+// Above the scene, a legend names every robot figure with its kind's colour (live: the URDF's own colours, a
+// replayed robot purple, the editor's preview a green ghost, there only while it previews) and shows or hides each.
+
+import { api } from "../lab_api.js";
+import { esc } from "../dom.js";
+
+const LEGEND_EVERY_MS = 1000;
+const KIND_TEXT = { live: "live", replay: "REPLAY", preview: "preview" };
 
 // Below this width viser switches to its phone layout, whose control sheet covers the scene: render at least
 // this wide and scale down to fit the panel.
@@ -40,8 +48,36 @@ export default {
     open.textContent = "open full view";
     open.title = "viser on its own page, with its control panel";
     open.style.cssText = "position: absolute; left: 4px; bottom: 2px; font-size: 11px; opacity: 0.7;";
-    clip.append(frame, open);
+    const legend = document.createElement("div");
+    legend.className = "robot3d-legend";
+    legend.setAttribute("aria-label", "robots in the 3D view");
+    clip.append(frame, open, legend);
     body.append(clip);
+
+    let shownKey = "";
+    async function refreshLegend() {
+      let status;
+      try { status = await api("GET", "api/robot3d"); } catch { return; }
+      const figures = status.figures ?? [];
+      const key = JSON.stringify(figures);
+      if (key === shownKey) return; // unchanged: the checkbox under the pointer stays
+      shownKey = key;
+      legend.innerHTML = figures.map((f) => `<label class="figure ${esc(f.kind)}" data-figure="${esc(f.name)}"
+        title="${esc(f.name)}: ${esc(KIND_TEXT[f.kind] ?? f.kind)}; untick to hide it in the 3D view">
+        <input type="checkbox" ${f.visible ? "checked" : ""} ${ctx.config.control ? "" : "disabled"}>
+        <span class="swatch" style="background: ${f.color ? esc(f.color) : "var(--muted)"}"></span>${esc(f.name)}
+        ${f.kind === "live" ? "" : `<span class="badge ${f.kind === "replay" ? "replay" : "ok"}">${esc(KIND_TEXT[f.kind])}</span>`}
+        </label>`).join("");
+    }
+    legend.addEventListener("change", async (e) => {
+      const name = e.target.closest("[data-figure]")?.dataset.figure;
+      if (name === undefined) return;
+      try { await api("POST", "api/robot3d/visible", { name, visible: e.target.checked }); } catch { /* refreshed below */ }
+      shownKey = "";
+      refreshLegend();
+    });
+    refreshLegend();
+    const legendTimer = setInterval(refreshLegend, LEGEND_EVERY_MS);
 
     function fit() {
       const g = frameGeometry(clip.clientWidth, clip.clientHeight);
@@ -53,6 +89,6 @@ export default {
     const observer = new ResizeObserver(fit);
     observer.observe(clip);
     fit();
-    return { destroy() { observer.disconnect(); } };
+    return { destroy() { observer.disconnect(); clearInterval(legendTimer); } };
   },
 };

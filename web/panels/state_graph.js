@@ -49,6 +49,10 @@ export function stateGraphPanel({ id, title, topic: only, topics = [[only, only]
       root.className = "state-graph hcm";
       const view = document.createElement("div");
       view.className = "graph-view";
+      // in a small panel the graph scrolls: reachable by keyboard too (arrow keys scroll it once focused)
+      view.tabIndex = 0;
+      view.setAttribute("role", "region");
+      view.setAttribute("aria-label", `${title} graph`);
       const history = document.createElement("div");
       history.className = "history";
       const heading = document.createElement("b");
