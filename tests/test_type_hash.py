@@ -29,6 +29,8 @@ PUBLISHED_STANDARD = {
     "service_msgs/msg/ServiceEventInfo": "RIHS01_41bcbbe07a75c9b52bc96bfd5c24d7f0fc0a08c0cb7921b3373c5732345a6f45",
     "unique_identifier_msgs/msg/UUID": "RIHS01_1b8e8aca958cbea28fe6ef60bf6c19b683c97a9ef60bb34752067d0f2f7ab437",
     "builtin_interfaces/msg/Time": "RIHS01_b106235e25a4c5ed35098aa0a61a3ee9c9b18d197f398b0e4206cea9acf9c197",
+    # seen in the /parameter_events tokens of a running rmw_zenoh talker
+    "rcl_interfaces/msg/ParameterEvent": "RIHS01_043e627780fcad87a22d225bc2a037361dba713fca6a6b9f4b869a5aa0393204",
 }
 
 # rosidl's generated test_msgs (*__description.c of a Kilted build) for ros2/test_interface_files' definitions
