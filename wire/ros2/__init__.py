@@ -1,7 +1,8 @@
 """rmw_zenoh's wire (rmw_zenoh_cpp 0.2.x of Jazzy; Kilted and Rolling speak the same): data keys, liveliness
 tokens with their QoS, and the attachment, so pitchside and ROS 2 nodes share one Zenoh bus with no bridge.
 
-Pure formatting and parsing; the sessions that use them live above (robot_nodes.runtime, server).
+keys, liveliness, qos and attachment are pure formatting and parsing; graph (discovery from liveliness tokens) and
+endpoints (a node's tokens, publishers and subscriptions) put them on a Zenoh session.
 """
 
 from wire.ros2.attachment import Attachment, decode_attachment

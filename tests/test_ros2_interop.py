@@ -1,0 +1,159 @@
+"""pitchside and a ROS 2 node on one Zenoh bus, no bridge: real sessions through a real router on loopback.
+
+The ROS 2 side is a peer written here from rmw_zenoh's protocol description (docs/design.md of 0.2.x: key
+layout, token layout, attachment layout) with raw Zenoh calls, struct and rosbags' CDR, never pitchside's
+wire.ros2, so the two sides can only meet if pitchside's module speaks the documented wire.
+"""
+
+from __future__ import annotations
+
+import struct
+import time
+from collections.abc import Iterator
+
+import numpy as np
+import pytest
+import zenoh
+from rosbags.typesys import Stores, get_typestore
+
+from schemas import codec
+from tests.waiting import wait_for
+from wire.bus import BusConfig, open_session
+from wire.ros2.endpoints import Ros2Node
+from wire.ros2.graph import Ros2Graph
+from wire.ros2.liveliness import EntityKind, NodeInfo
+
+ROS2 = get_typestore(Stores.ROS2_JAZZY)
+JOINT_STATE_HASH = "RIHS01_a13ee3a330e346c9d87b5aa18d24e11690752bd33a0350f11c5882bc9179260e"  # as ROS 2 publishes it
+JOINT_STATE_DDS = "sensor_msgs::msg::dds_::JointState_"
+
+
+def ros2_joint_state(names: list[str], positions: list[float]) -> bytes:
+    """A JointState as a ROS 2 node serialises it (rosbags' CDR, encapsulation header included)."""
+    msg_type = ROS2.types["sensor_msgs/msg/JointState"]
+    header = ROS2.types["std_msgs/msg/Header"](stamp=ROS2.types["builtin_interfaces/msg/Time"](sec=12, nanosec=5),
+                                               frame_id="")
+    msg = msg_type(header=header, name=names, position=np.array(positions, dtype=np.float64),
+                   velocity=np.zeros(0), effort=np.zeros(0))
+    return bytes(ROS2.serialize_cdr(msg, "sensor_msgs/msg/JointState"))
+
+
+def rmw_attachment(sequence_number: int, gid: bytes) -> bytes:
+    """design.md: int64 sequence number, int64 source timestamp (ns), 1 byte GID length, 16 bytes GID."""
+    return struct.pack("<qqB", sequence_number, time.time_ns(), len(gid)) + gid
+
+
+@pytest.fixture
+def sessions(bus: BusConfig) -> Iterator[tuple[zenoh.Session, zenoh.Session]]:
+    """(pitchside's session, the ROS 2 peer's session), both on the test's router."""
+    ours, theirs = open_session(bus), open_session(bus)
+    yield ours, theirs
+    theirs.close()
+    ours.close()
+
+
+def test_pitchside_discovers_a_ros2_robot_and_decodes_its_joint_states(
+        sessions: tuple[zenoh.Session, zenoh.Session]) -> None:
+    """A Bit-Bots-style robot: its own ROS_DOMAIN_ID (11), root namespace, /joint_states."""
+    ours, peer = sessions
+    zid = str(peer.zid())
+    gid = bytes(range(100, 116))
+    lv = peer.liveliness()
+    tokens = [lv.declare_token(f"@ros2_lv/11/{zid}/0/0/NN/%/%/ros_control"),
+              lv.declare_token(f"@ros2_lv/11/{zid}/0/1/MP/%/%/ros_control/%joint_states/{JOINT_STATE_DDS}/"
+                               f"{JOINT_STATE_HASH}/::,10:,:,:,,"),
+              lv.declare_token("@ros2_lv/11/not/a/token")]  # a stranger's: counted, never a crash
+    graph = Ros2Graph(ours, domain_id=11)
+    other_domain = Ros2Graph(ours, domain_id=0)
+    try:
+        robot = NodeInfo(11, "/", "ros_control")
+        wait_for(lambda: robot in graph.nodes(), what="the ROS 2 node in the graph")
+        (publisher,) = wait_for(lambda: graph.endpoints_of(robot, EntityKind.PUBLISHER), what="its publisher")
+        assert publisher.topic is not None
+        assert (publisher.topic.name, publisher.topic.ros_type) == ("/joint_states", "sensor_msgs/msg/JointState")
+        assert publisher.topic.type_hash == codec.type_hash("sensor_msgs/JointState") == JOINT_STATE_HASH
+        assert publisher.zid == zid and publisher.qos is not None and publisher.qos.depth == 10
+        assert graph.topics() == {"/joint_states": {"sensor_msgs/msg/JointState"}}
+        assert wait_for(lambda: graph.bad_tokens == 1, what="the stranger's token counted")
+        assert other_domain.nodes() == []  # domains stay apart
+
+        received: list[tuple[object, int, bytes]] = []
+        dashboard = Ros2Node(ours, NodeInfo(11, "/", "pitchside_dashboard"), node_id=0)
+        subscription = dashboard.create_subscription(
+            publisher.topic.name, publisher.topic.ros_type, publisher.topic.type_hash,
+            lambda payload, att: received.append((codec.decode(payload, "sensor_msgs/JointState"),
+                                                  att.sequence_number, att.gid)))
+        key = f"11/joint_states/{JOINT_STATE_DDS}/{JOINT_STATE_HASH}"
+        payload = ros2_joint_state(["HeadPan", "HeadTilt"], [0.25, -0.5])
+        peer.put(key, payload)  # no attachment: rmw_zenoh drops it, so does pitchside
+        wait_for(lambda: subscription.dropped == 1, what="the sample without attachment dropped")
+        sequence = iter(range(1, 1000))
+        wait_for(lambda: received or peer.put(key, payload, attachment=rmw_attachment(next(sequence), gid)),
+                 what="a JointState from the ROS 2 node")
+        message, sequence_number, sender = received[0]
+        assert list(message.name) == ["HeadPan", "HeadTilt"]  # type: ignore[attr-defined]
+        assert list(message.position) == [0.25, -0.5]  # type: ignore[attr-defined]
+        assert message.header.stamp.sec == 12  # type: ignore[attr-defined]
+        assert sequence_number >= 1 and sender == gid
+        subscription.close()
+        dashboard.close()
+    finally:
+        graph.close()
+        other_domain.close()
+        for token in tokens:
+            token.undeclare()
+
+
+def test_a_ros2_node_sees_pitchsides_node_and_takes_its_samples(
+        sessions: tuple[zenoh.Session, zenoh.Session]) -> None:
+    """pitchside's robot1 (a namespace in domain 0) as a ROS 2 subscriber checks it: token, key, attachment."""
+    ours, peer = sessions
+    seen_tokens: set[str] = set()
+
+    def on_token(sample: zenoh.Sample) -> None:  # a graph cache's bookkeeping: PUT adds, DELETE removes
+        if sample.kind == zenoh.SampleKind.PUT:
+            seen_tokens.add(str(sample.key_expr))
+        else:
+            seen_tokens.discard(str(sample.key_expr))
+
+    lv_subscriber = peer.liveliness().declare_subscriber("@ros2_lv/0/**", on_token, history=True)
+    samples: list[zenoh.Sample] = []
+    key = f"0/robot1/joint_states/{JOINT_STATE_DDS}/{JOINT_STATE_HASH}"
+    data_subscriber = peer.declare_subscriber(key, samples.append)
+    node = Ros2Node(ours, NodeInfo(0, "/robot1", "cm730"), node_id=0)
+    try:
+        publisher = node.create_publisher("/robot1/joint_states", "sensor_msgs/msg/JointState",
+                                          codec.type_hash("sensor_msgs/JointState"))
+        zid = str(ours.zid())
+        expected_node = f"@ros2_lv/0/{zid}/0/0/NN/%/%robot1/cm730"
+        expected_publisher = (f"@ros2_lv/0/{zid}/0/1/MP/%/%robot1/cm730/%robot1%joint_states/{JOINT_STATE_DDS}/"
+                              f"{JOINT_STATE_HASH}/::,10:,:,:,,")
+        wait_for(lambda: {expected_node, expected_publisher} <= seen_tokens, what=lambda: f"tokens, saw {seen_tokens}")
+
+        sent = codec.make("sensor_msgs/JointState", name=["LKnee", "RKnee"], position=[1.0, -1.0])
+        before_ns = time.time_ns()
+        attachments = []
+        wait_for(lambda: samples or attachments.append(publisher.publish(codec.encode(sent))),
+                 what="pitchside's JointState")
+        assert attachments[0].sequence_number == 1  # from 1, as rmw_zenoh counts
+        sample = samples[0]
+        assert str(sample.key_expr) == key
+        assert sample.attachment is not None
+        raw = sample.attachment.to_bytes()
+        assert len(raw) == 33
+        sequence_number, stamp_ns, gid_length = struct.unpack_from("<qqB", raw)
+        assert sequence_number >= 1 and gid_length == 16 and raw[17:] == publisher.gid
+        assert before_ns <= stamp_ns <= time.time_ns()
+        message = ROS2.deserialize_cdr(sample.payload.to_bytes(), "sensor_msgs/msg/JointState")
+        assert list(message.name) == ["LKnee", "RKnee"] and list(message.position) == [1.0, -1.0]
+        # one more per sample, with no gap (early ones may go out before the peer's subscriber is routed)
+        numbers = [struct.unpack_from("<q", s.attachment.to_bytes())[0] for s in samples if s.attachment]
+        assert numbers == list(range(numbers[0], numbers[0] + len(numbers)))
+
+        publisher.close()  # its token goes: ROS 2's graph forgets the publisher, keeps the node
+        wait_for(lambda: expected_publisher not in seen_tokens, what="the publisher's token withdrawn")
+        assert expected_node in seen_tokens
+    finally:
+        node.close()
+        data_subscriber.undeclare()
+        lv_subscriber.undeclare()

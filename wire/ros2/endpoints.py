@@ -1,0 +1,114 @@
+"""A ROS 2 node on rmw_zenoh's wire: its liveliness tokens, publishers that attach what rmw_zenoh checks, and
+subscriptions that take samples only with a valid attachment (as rmw_zenoh drops them without).
+
+Payloads are CDR with the 4-byte encapsulation header (schemas.codec.encode); these classes move bytes and leave
+decoding to the caller, so a type pitchside has no class for still passes through.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from collections.abc import Callable
+from typing import Any
+
+import zenoh
+
+from wire.ros2.attachment import Attachment, decode_attachment
+from wire.ros2.errors import Ros2WireError
+from wire.ros2.keys import TopicKey
+from wire.ros2.liveliness import Entity, EntityKind, NodeInfo
+from wire.ros2.qos import QoS, Reliability
+
+log = logging.getLogger(__name__)
+
+SampleCallback = Callable[[bytes, Attachment], None]
+
+
+class Ros2Node:
+    """A node's NN token and the ids of its entities (the node id is its first entity id, as in rmw_zenoh)."""
+
+    def __init__(self, session: zenoh.Session, info: NodeInfo, node_id: int = 0) -> None:
+        self.session = session
+        self.info = info
+        self.node_id = node_id
+        self.zid = str(session.zid())
+        self._next_id = node_id + 1
+        self._lock = threading.Lock()
+        self.entity = Entity(self.zid, node_id, node_id, EntityKind.NODE, info)
+        self._token = session.liveliness().declare_token(self.entity.token)
+
+    def _entity(self, kind: EntityKind, topic: TopicKey, qos: QoS) -> Entity:
+        with self._lock:
+            entity_id, self._next_id = self._next_id, self._next_id + 1
+        return Entity(self.zid, self.node_id, entity_id, kind, self.info, topic, qos)
+
+    def create_publisher(self, name: str, ros_type: str, type_hash: str, qos: QoS | None = None) -> Ros2Publisher:
+        topic = TopicKey(self.info.domain_id, name, ros_type, type_hash)
+        return Ros2Publisher(self.session, self._entity(EntityKind.PUBLISHER, topic, qos or QoS(depth=10)))
+
+    def create_subscription(self, name: str, ros_type: str, type_hash: str, callback: SampleCallback,
+                            qos: QoS | None = None) -> Ros2Subscription:
+        topic = TopicKey(self.info.domain_id, name, ros_type, type_hash)
+        return Ros2Subscription(self.session, self._entity(EntityKind.SUBSCRIPTION, topic, qos or QoS(depth=10)),
+                                callback)
+
+    def close(self) -> None:
+        self._token.undeclare()
+
+
+class Ros2Publisher:
+    """Puts CDR bytes on the topic's key with the attachment (sequence number from 1, time, GID)."""
+
+    def __init__(self, session: zenoh.Session, entity: Entity) -> None:
+        assert entity.topic is not None and entity.qos is not None
+        self.entity = entity
+        self.gid = entity.gid
+        self._sequence_number = 0
+        self._lock = threading.Lock()
+        reliable = entity.qos.reliability is not Reliability.BEST_EFFORT
+        self._publisher = session.declare_publisher(
+            entity.topic.keyexpr, reliability=zenoh.Reliability.RELIABLE if reliable else zenoh.Reliability.BEST_EFFORT,
+            congestion_control=zenoh.CongestionControl.DROP)
+        self._token = session.liveliness().declare_token(entity.token)
+
+    def publish(self, payload: bytes) -> Attachment:
+        with self._lock:
+            self._sequence_number += 1
+            attachment = Attachment(self._sequence_number, time.time_ns(), self.gid)
+        self._publisher.put(payload, attachment=attachment.encode())
+        return attachment
+
+    def close(self) -> None:
+        self._token.undeclare()
+        self._publisher.undeclare()
+
+
+class Ros2Subscription:
+    """Hands each sample with a valid attachment to the callback; the others are counted (the first logged)."""
+
+    def __init__(self, session: zenoh.Session, entity: Entity, callback: SampleCallback) -> None:
+        assert entity.topic is not None
+        self.entity = entity
+        self.dropped = 0
+        self._callback = callback
+        self._subscriber: Any = session.declare_subscriber(entity.topic.keyexpr, self._on_sample)
+        self._token = session.liveliness().declare_token(entity.token)
+
+    def _on_sample(self, sample: zenoh.Sample) -> None:
+        try:
+            if sample.attachment is None:
+                raise Ros2WireError("sample without an attachment")
+            attachment = decode_attachment(sample.attachment.to_bytes())
+        except Ros2WireError as exc:
+            self.dropped += 1
+            if self.dropped == 1:
+                log.warning("dropping samples on %s that rmw_zenoh would drop too (further ones only counted): %s",
+                            sample.key_expr, exc)
+            return
+        self._callback(sample.payload.to_bytes(), attachment)
+
+    def close(self) -> None:
+        self._token.undeclare()
+        self._subscriber.undeclare()
