@@ -195,3 +195,35 @@ def test_any_token_text_parses_or_raises_the_typed_error(text: str) -> None:
     except Ros2WireError:
         return
     assert parse_token(entity.token) == entity
+
+
+def test_every_topic_and_service_of_the_table_has_a_ros2_key() -> None:
+    """The whole topic table can move onto rmw_zenoh's wire: valid names, hashable types, and back."""
+    from schemas import SERVICES, TOPICS
+    from wire.ros2 import robots
+
+    for topic in TOPICS:
+        key = robots.topic_key("robot1", topic, domain_id=3)
+        assert key.keyexpr.startswith(f"3/robot1/{topic}/")
+        assert parse_topic_key(key.keyexpr) == key
+        assert robots.robot_and_topic(key) == ("robot1", topic)
+    for service in SERVICES:
+        assert "::srv::dds_::" in robots.service_key("robot1", service).keyexpr
+    assert robots.topic_key("amy", "imu/data").keyexpr == (
+        "0/amy/imu/data/sensor_msgs::msg::dds_::Imu_/" + type_hash("sensor_msgs/msg/Imu"))
+
+
+def test_robot_ids_ros2_cannot_carry_and_keys_of_other_types_are_refused() -> None:
+    from wire.ros2 import robots
+
+    for robot in ("robot-1", "1robot"):  # valid pitchside ids, no ROS 2 namespace
+        with pytest.raises(Ros2WireError, match="no ROS 2 namespace"):
+            robots.topic_key(robot, "joint_states")
+    stranger = TopicKey(0, "/robot1/joint_states", "std_msgs/msg/String", STRING)
+    with pytest.raises(Ros2WireError, match="the table's joint_states"):
+        robots.robot_and_topic(stranger)
+    with pytest.raises(Ros2WireError, match="not in a robot's namespace"):
+        robots.robot_and_topic(TopicKey(11, "/joint_states", "sensor_msgs/msg/JointState",
+                                        type_hash("sensor_msgs/JointState")))
+    with pytest.raises(Ros2WireError, match="not a topic of the table"):
+        robots.robot_and_topic(TopicKey(0, "/robot1/chatter", "std_msgs/msg/String", STRING))
