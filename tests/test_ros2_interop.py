@@ -17,6 +17,7 @@ import zenoh
 from rosbags.typesys import Stores, get_typestore
 
 from schemas import codec
+from tests.support import REPO
 from tests.waiting import wait_for
 from wire.bus import BusConfig, open_session
 from wire.ros2.endpoints import Ros2Node
@@ -157,3 +158,27 @@ def test_a_ros2_node_sees_pitchsides_node_and_takes_its_samples(
         node.close()
         data_subscriber.undeclare()
         lv_subscriber.undeclare()
+
+
+def test_the_guides_python_example_lists_a_ros2_robot(sessions: tuple[zenoh.Session, zenoh.Session],
+                                                      capsys: pytest.CaptureFixture[str]) -> None:
+    """docs/guides/ros2.md's snippet, run as written against a ROS 2 node in domain 11."""
+    ours, peer = sessions
+    zid = str(peer.zid())
+    tokens = [peer.liveliness().declare_token(f"@ros2_lv/11/{zid}/0/0/NN/%/%/ros_control"),
+              peer.liveliness().declare_token(
+                  f"@ros2_lv/11/{zid}/0/1/MP/%/%/ros_control/%joint_states/{JOINT_STATE_DDS}/{JOINT_STATE_HASH}/"
+                  "::,10:,:,:,,")]
+    text = (REPO / "docs" / "guides" / "ros2.md").read_text()
+    snippet = text.split("```python\n", 1)[1].split("```", 1)[0]
+    probe = Ros2Graph(ours, domain_id=11)
+    try:
+        wait_for(lambda: probe.endpoints_of(NodeInfo(11, "/", "ros_control"), EntityKind.PUBLISHER),
+                 what="the robot's publisher")
+        exec(compile(snippet, "docs/guides/ros2.md", "exec"), {"session": ours})
+        assert capsys.readouterr().out.split() == ["/ros_control", "/joint_states", "sensor_msgs/msg/JointState",
+                                                   JOINT_STATE_HASH]
+    finally:
+        probe.close()
+        for token in tokens:
+            token.undeclare()

@@ -16,6 +16,7 @@ from wire.ros2.errors import Ros2WireError
 from wire.ros2.liveliness import Entity, EntityKind, NodeInfo, parse_token, subscription_keyexpr
 
 log = logging.getLogger(__name__)
+INITIAL_QUERY_TIMEOUT_S = 2.0
 
 
 class Ros2Graph:
@@ -23,11 +24,16 @@ class Ros2Graph:
 
     def __init__(self, session: zenoh.Session, domain_id: int = 0) -> None:
         self.domain_id = domain_id
-        self.bad_tokens = 0  # tokens that did not parse: counted, the first logged
+        self._bad: set[str] = set()  # tokens that did not parse: counted once each, the first logged
         self._lock = threading.Lock()
         self._entities: dict[str, Entity] = {}
         self._subscriber: Any = session.liveliness().declare_subscriber(
             subscription_keyexpr(domain_id), self._on_token, history=True)
+        # as rmw_zenoh does at start: ask for the tokens already there and wait for the answer, so the graph is
+        # complete when the constructor returns (the subscriber's history arrives in the background)
+        for reply in session.liveliness().get(subscription_keyexpr(domain_id), timeout=INITIAL_QUERY_TIMEOUT_S):
+            if reply.ok is not None:
+                self._on_token(reply.ok)
 
     def _on_token(self, sample: zenoh.Sample) -> None:
         key = str(sample.key_expr)
@@ -39,14 +45,20 @@ class Ros2Graph:
             entity = parse_token(key)
         except Ros2WireError as exc:
             with self._lock:
-                self.bad_tokens += 1
-                first = self.bad_tokens == 1
+                first = not self._bad
+                self._bad.add(key)
             if first:
                 log.warning("ignoring a liveliness token that is not rmw_zenoh's (further ones only counted): %s",
                             exc)
             return
         with self._lock:
             self._entities[key] = entity
+
+    @property
+    def bad_tokens(self) -> int:
+        """How many different tokens of the domain did not parse (a stranger's process, another rmw version)."""
+        with self._lock:
+            return len(self._bad)
 
     def entities(self, kind: EntityKind | None = None) -> list[Entity]:
         with self._lock:
