@@ -20,7 +20,7 @@ from schemas import codec
 from tests.support import REPO
 from tests.waiting import wait_for
 from wire.bus import BusConfig, open_session
-from wire.ros2.endpoints import Ros2Node
+from wire.ros2.endpoints import Ros2Client, Ros2Node, Ros2ServiceError
 from wire.ros2.graph import Ros2Graph
 from wire.ros2.liveliness import EntityKind, NodeInfo
 
@@ -182,3 +182,82 @@ def test_the_guides_python_example_lists_a_ros2_robot(sessions: tuple[zenoh.Sess
         probe.close()
         for token in tokens:
             token.undeclare()
+
+
+ADD_TWO_INTS = "RIHS01_e118de6bf5eeb66a2491b5bda11202e7b68f198d6f67922cf30364858239c81a"  # rmw_zenoh's design.md
+ADD_TWO_INTS_DDS = "example_interfaces::srv::dds_::AddTwoInts_"
+CDR_LE = b"\x00\x01\x00\x00"  # the encapsulation header of little-endian CDR
+
+
+def test_services_both_ways_as_rmw_zenoh_calls_and_answers(sessions: tuple[zenoh.Session, zenoh.Session]) -> None:
+    """AddTwoInts (int64 a, int64 b -> int64 sum): pitchside serves a ROS 2 client written from design.md, and
+    calls a ROS 2 server written from it; requests and replies carry the attachment design.md describes."""
+    ours, peer = sessions
+    node = Ros2Node(ours, NodeInfo(2, "/robot1", "calculator"), node_id=0)
+
+    def add_two_ints(request: bytes, _attachment: object) -> bytes:
+        return CDR_LE + struct.pack("<q", sum(struct.unpack_from("<qq", request, 4)))
+
+    add = node.create_service("/robot1/add_two_ints", "example_interfaces/srv/AddTwoInts", ADD_TWO_INTS, add_two_ints)
+    key = f"2/robot1/add_two_ints/{ADD_TWO_INTS_DDS}/{ADD_TWO_INTS}"
+    seen: set[str] = set()
+    lv = peer.liveliness().declare_subscriber("@ros2_lv/2/**", lambda s: seen.add(str(s.key_expr)), history=True)
+    peer_server = None
+    try:
+        wait_for(lambda: any(f"/SS/%/%robot1/calculator/%robot1%add_two_ints/{ADD_TWO_INTS_DDS}/{ADD_TWO_INTS}/"
+                             in token for token in seen), what="the service's SS token")
+        client_gid = bytes(range(200, 216))
+
+        def ask(attachment: bytes | None, timeout_s: float = 5.0) -> list[zenoh.Sample]:
+            replies = peer.get(key, target=zenoh.QueryTarget.ALL_COMPLETE, payload=CDR_LE + struct.pack("<qq", 2, 40),
+                               attachment=attachment, timeout=timeout_s)
+            return [r.ok for r in replies if r.ok is not None]
+
+        (reply,) = wait_for(lambda: ask(rmw_attachment(7, client_gid)), what="a reply from pitchside's service")
+        assert reply.attachment is not None
+        assert struct.unpack_from("<q", reply.payload.to_bytes(), 4) == (42,)
+        sequence_number, _, gid_length = struct.unpack_from("<qqB", reply.attachment.to_bytes())
+        assert (sequence_number, gid_length, reply.attachment.to_bytes()[17:]) == (7, 16, client_gid)
+        assert ask(None, timeout_s=0.3) == [] and add.dropped == 1  # no attachment: unanswered, as in rmw_zenoh
+
+        # the other way: a ROS 2 server (a complete queryable replying with the request's attachment)
+        def serve(query: zenoh.Query) -> None:
+            assert query.attachment is not None and query.payload is not None
+            request = query.attachment.to_bytes()
+            a, b = struct.unpack_from("<qq", query.payload.to_bytes(), 4)
+            query.reply(query.key_expr, CDR_LE + struct.pack("<q", a * b),
+                        attachment=struct.pack("<qqB", struct.unpack_from("<q", request)[0], time.time_ns(), 16)
+                        + request[17:])
+
+        peer_key = f"2/multiply/{ADD_TWO_INTS_DDS}/{ADD_TWO_INTS}"
+        peer_server = peer.declare_queryable(peer_key, serve, complete=True)
+        client = node.create_client("/multiply", "example_interfaces/srv/AddTwoInts", ADD_TWO_INTS)
+        response, attachment = wait_for(lambda: _call_or_none(client, CDR_LE + struct.pack("<qq", 6, 7)),
+                                        what="the ROS 2 server's reply")
+        assert struct.unpack_from("<q", response, 4) == (42,)
+        assert attachment.gid == client.gid and attachment.sequence_number >= 1
+        client.close()
+
+        def broken(_request: bytes, _attachment: object) -> bytes:
+            raise ValueError("a request this server cannot take")
+
+        failing = node.create_service("/robot1/broken", "example_interfaces/srv/AddTwoInts", ADD_TWO_INTS, broken)
+        caller = node.create_client("/robot1/broken", "example_interfaces/srv/AddTwoInts", ADD_TWO_INTS)
+        with pytest.raises(Ros2ServiceError, match="cannot take"):
+            caller.call(CDR_LE + bytes(16))
+        assert failing.failed == 1  # answered with an error, the server still up
+        caller.close()
+        failing.close()
+    finally:
+        if peer_server is not None:
+            peer_server.undeclare()
+        lv.undeclare()
+        add.close()
+        node.close()
+
+
+def _call_or_none(client: Ros2Client, request: bytes) -> tuple[bytes, object] | None:
+    try:
+        return client.call(request, timeout_s=1.0)
+    except Ros2ServiceError:
+        return None  # the queryable not routed to us yet

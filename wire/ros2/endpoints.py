@@ -24,6 +24,12 @@ from wire.ros2.qos import QoS, Reliability
 log = logging.getLogger(__name__)
 
 SampleCallback = Callable[[bytes, Attachment], None]
+# a service's work: CDR request and its attachment in, CDR response out
+ServiceHandler = Callable[[bytes, Attachment], bytes]
+
+
+class Ros2ServiceError(Exception):
+    """A service call that got no reply, or an error reply, in time."""
 
 
 class Ros2Node:
@@ -53,6 +59,14 @@ class Ros2Node:
         topic = TopicKey(self.info.domain_id, name, ros_type, type_hash)
         return Ros2Subscription(self.session, self._entity(EntityKind.SUBSCRIPTION, topic, qos or QoS(depth=10)),
                                 callback)
+
+    def create_service(self, name: str, srv_type: str, type_hash: str, handler: ServiceHandler) -> Ros2Service:
+        topic = TopicKey(self.info.domain_id, name, srv_type, type_hash)
+        return Ros2Service(self.session, self._entity(EntityKind.SERVICE, topic, QoS(depth=10)), handler)
+
+    def create_client(self, name: str, srv_type: str, type_hash: str) -> Ros2Client:
+        topic = TopicKey(self.info.domain_id, name, srv_type, type_hash)
+        return Ros2Client(self.session, self._entity(EntityKind.CLIENT, topic, QoS(depth=10)))
 
     def close(self) -> None:
         self._token.undeclare()
@@ -112,3 +126,82 @@ class Ros2Subscription:
     def close(self) -> None:
         self._token.undeclare()
         self._subscriber.undeclare()
+
+
+class Ros2Service:
+    """A service server as rmw_zenoh's: a complete queryable on the service's key; a request without a valid
+    attachment is dropped (counted), a reply carries the request's sequence number and client GID."""
+
+    def __init__(self, session: zenoh.Session, entity: Entity, handler: ServiceHandler) -> None:
+        assert entity.topic is not None
+        self.entity = entity
+        self.dropped = 0
+        self.failed = 0  # requests the handler raised on: answered with an error reply
+        self._handler = handler
+        self._queryable: Any = session.declare_queryable(entity.topic.keyexpr, self._on_query, complete=True)
+        self._token = session.liveliness().declare_token(entity.token)
+
+    def _on_query(self, query: zenoh.Query) -> None:
+        assert self.entity.topic is not None
+        try:
+            if query.attachment is None:
+                raise Ros2WireError("request without an attachment")
+            request = decode_attachment(query.attachment.to_bytes())
+        except Ros2WireError as exc:
+            self.dropped += 1
+            if self.dropped == 1:
+                log.warning("dropping requests on %s that rmw_zenoh would drop too (further ones only counted): %s",
+                            self.entity.topic.name, exc)
+            return
+        payload = query.payload.to_bytes() if query.payload is not None else b""
+        try:
+            response = self._handler(payload, request)
+        except Exception as exc:  # a bad request or a bug in the handler: the caller hears why, the server stays
+            self.failed += 1
+            log.warning("service %s failed on a request: %s", self.entity.topic.name, exc)
+            query.reply_err(f"{self.entity.topic.name}: {exc}")
+            return
+        reply = Attachment(request.sequence_number, time.time_ns(), request.gid)
+        query.reply(self.entity.topic.keyexpr, response, attachment=reply.encode())
+
+    def close(self) -> None:
+        self._token.undeclare()
+        self._queryable.undeclare()
+
+
+class Ros2Client:
+    """A service client as rmw_zenoh's: a get to every complete queryable, with the attachment."""
+
+    def __init__(self, session: zenoh.Session, entity: Entity) -> None:
+        assert entity.topic is not None
+        self.entity = entity
+        self.gid = entity.gid
+        self._session = session
+        self._sequence_number = 0
+        self._lock = threading.Lock()
+        self._token = session.liveliness().declare_token(entity.token)
+
+    def call(self, request: bytes, timeout_s: float = 5.0) -> tuple[bytes, Attachment]:
+        """The CDR response and its attachment; Ros2ServiceError if no server answers in time or it fails."""
+        assert self.entity.topic is not None
+        with self._lock:
+            self._sequence_number += 1
+            sent = Attachment(self._sequence_number, time.time_ns(), self.gid)
+        replies = self._session.get(self.entity.topic.keyexpr, target=zenoh.QueryTarget.ALL_COMPLETE,
+                                    payload=request, attachment=sent.encode(), timeout=timeout_s)
+        for reply in replies:
+            if reply.ok is None:
+                why = reply.err.payload.to_string() if reply.err is not None else "an empty reply"
+                raise Ros2ServiceError(f"{self.entity.topic.name}: {why}")
+            sample = reply.ok
+            if sample.attachment is None:
+                raise Ros2ServiceError(f"{self.entity.topic.name}: a reply without an attachment")
+            attachment = decode_attachment(sample.attachment.to_bytes())
+            if attachment.sequence_number != sent.sequence_number or attachment.gid != self.gid:
+                raise Ros2ServiceError(f"{self.entity.topic.name}: a reply to request {attachment.sequence_number},"
+                                       f" not to {sent.sequence_number}")
+            return sample.payload.to_bytes(), attachment
+        raise Ros2ServiceError(f"{self.entity.topic.name}: no server answered within {timeout_s} s")
+
+    def close(self) -> None:
+        self._token.undeclare()
