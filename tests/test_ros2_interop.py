@@ -14,6 +14,7 @@ from collections.abc import Iterator
 import numpy as np
 import pytest
 import zenoh
+import zenoh.ext
 from rosbags.typesys import Stores, get_typestore
 
 from schemas import codec
@@ -23,6 +24,7 @@ from wire.bus import BusConfig, open_session
 from wire.ros2.endpoints import Ros2Client, Ros2Node, Ros2ServiceError
 from wire.ros2.graph import Ros2Graph
 from wire.ros2.liveliness import EntityKind, NodeInfo
+from wire.ros2.qos import Durability, QoS
 
 ROS2 = get_typestore(Stores.ROS2_JAZZY)
 JOINT_STATE_HASH = "RIHS01_a13ee3a330e346c9d87b5aa18d24e11690752bd33a0350f11c5882bc9179260e"  # as ROS 2 publishes it
@@ -261,3 +263,46 @@ def _call_or_none(client: Ros2Client, request: bytes) -> tuple[bytes, object] | 
         return client.call(request, timeout_s=1.0)
     except Ros2ServiceError:
         return None  # the queryable not routed to us yet
+
+
+STRING_HASH = "RIHS01_df668c740482bbd48fb39d76a70dfd4bd59db1288021743503259e948f6b1a18"
+
+
+def ros2_string(text: str) -> bytes:
+    return bytes(ROS2.serialize_cdr(ROS2.types["std_msgs/msg/String"](data=text), "std_msgs/msg/String"))
+
+
+def test_latched_topics_reach_late_joiners_both_ways(sessions: tuple[zenoh.Session, zenoh.Session]) -> None:
+    """Transient local as design.md describes it: the publisher an AdvancedPublisher with a cache, the subscriber
+    an AdvancedSubscriber that queries it; the subscriber joins after the message was published."""
+    ours, peer = sessions
+    node = Ros2Node(ours, NodeInfo(0, "/robot1", "robot_state_publisher"), node_id=0)
+    latched = QoS(durability=Durability.TRANSIENT_LOCAL, depth=1)
+    publisher = node.create_publisher("/robot1/robot_description", "std_msgs/msg/String", STRING_HASH, latched)
+    publisher.publish(ros2_string("<robot name='robot1'/>"))
+    got: list[zenoh.Sample] = []
+    late = zenoh.ext.declare_advanced_subscriber(
+        peer, f"0/robot1/robot_description/std_msgs::msg::dds_::String_/{STRING_HASH}", got.append,
+        history=zenoh.ext.HistoryConfig(detect_late_publishers=True, max_samples=1), subscriber_detection=True)
+    theirs = None
+    try:
+        wait_for(lambda: got, what="the latched robot_description at a late ROS 2 subscriber")
+        assert ROS2.deserialize_cdr(got[0].payload.to_bytes(), "std_msgs/msg/String").data == "<robot name='robot1'/>"
+        assert got[0].attachment is not None and got[0].attachment.to_bytes()[17:] == publisher.gid
+
+        theirs = zenoh.ext.declare_advanced_publisher(
+            peer, f"0/tf_static_names/std_msgs::msg::dds_::String_/{STRING_HASH}",
+            cache=zenoh.ext.CacheConfig(max_samples=1), publisher_detection=True)
+        theirs.put(ros2_string("base_link"), attachment=rmw_attachment(1, bytes(16)))
+        received: list[str] = []
+        subscription = node.create_subscription(
+            "/tf_static_names", "std_msgs/msg/String", STRING_HASH,
+            lambda payload, _att: received.append(ROS2.deserialize_cdr(payload, "std_msgs/msg/String").data), latched)
+        wait_for(lambda: received == ["base_link"], what="a latched ROS 2 message at a late pitchside subscriber")
+        subscription.close()
+    finally:
+        if theirs is not None:
+            theirs.undeclare()
+        late.undeclare()
+        publisher.close()
+        node.close()

@@ -14,14 +14,17 @@ from collections.abc import Callable
 from typing import Any
 
 import zenoh
+import zenoh.ext
 
 from wire.ros2.attachment import Attachment, decode_attachment
 from wire.ros2.errors import Ros2WireError
 from wire.ros2.keys import TopicKey
 from wire.ros2.liveliness import Entity, EntityKind, NodeInfo
-from wire.ros2.qos import QoS, Reliability
+from wire.ros2.qos import Durability, QoS, Reliability
 
 log = logging.getLogger(__name__)
+# rmw_zenoh's SAMPLE_MISS_DETECTION_HEARTBEAT_PERIOD (500 ms): how often a reliable latched publisher says how far it is
+HEARTBEAT_PERIOD_S = 0.5
 
 SampleCallback = Callable[[bytes, Attachment], None]
 # a service's work: CDR request and its attachment in, CDR response out
@@ -73,7 +76,9 @@ class Ros2Node:
 
 
 class Ros2Publisher:
-    """Puts CDR bytes on the topic's key with the attachment (sequence number from 1, time, GID)."""
+    """Puts CDR bytes on the topic's key with the attachment (sequence number from 1, time, GID). A transient local
+    (latched) publisher keeps its last ``depth`` samples for late subscribers, as rmw_zenoh's does: a zenoh-ext
+    advanced publisher with a cache, detectable through liveliness, with sporadic heartbeats when reliable."""
 
     def __init__(self, session: zenoh.Session, entity: Entity) -> None:
         assert entity.topic is not None and entity.qos is not None
@@ -82,9 +87,17 @@ class Ros2Publisher:
         self._sequence_number = 0
         self._lock = threading.Lock()
         reliable = entity.qos.reliability is not Reliability.BEST_EFFORT
-        self._publisher = session.declare_publisher(
-            entity.topic.keyexpr, reliability=zenoh.Reliability.RELIABLE if reliable else zenoh.Reliability.BEST_EFFORT,
-            congestion_control=zenoh.CongestionControl.DROP)
+        reliability = zenoh.Reliability.RELIABLE if reliable else zenoh.Reliability.BEST_EFFORT
+        self._publisher: Any
+        if entity.qos.durability is Durability.TRANSIENT_LOCAL:
+            heartbeat = zenoh.ext.MissDetectionConfig(heartbeat=None, sporadic_heartbeat=HEARTBEAT_PERIOD_S)
+            self._publisher = zenoh.ext.declare_advanced_publisher(
+                session, entity.topic.keyexpr, reliability=reliability, congestion_control=zenoh.CongestionControl.DROP,
+                cache=zenoh.ext.CacheConfig(max_samples=entity.qos.depth), publisher_detection=True,
+                sample_miss_detection=heartbeat if reliable else None)
+        else:
+            self._publisher = session.declare_publisher(
+                entity.topic.keyexpr, reliability=reliability, congestion_control=zenoh.CongestionControl.DROP)
         self._token = session.liveliness().declare_token(entity.token)
 
     def publish(self, payload: bytes) -> Attachment:
@@ -100,14 +113,25 @@ class Ros2Publisher:
 
 
 class Ros2Subscription:
-    """Hands each sample with a valid attachment to the callback; the others are counted (the first logged)."""
+    """Hands each sample with a valid attachment to the callback; the others are counted (the first logged). A
+    transient local subscription also asks latched publishers for what they kept (late joiners included), as
+    rmw_zenoh's advanced subscriber does."""
 
     def __init__(self, session: zenoh.Session, entity: Entity, callback: SampleCallback) -> None:
         assert entity.topic is not None
         self.entity = entity
         self.dropped = 0
         self._callback = callback
-        self._subscriber: Any = session.declare_subscriber(entity.topic.keyexpr, self._on_sample)
+        self._subscriber: Any
+        qos = entity.qos or QoS()
+        if qos.durability is Durability.TRANSIENT_LOCAL:
+            self._subscriber = zenoh.ext.declare_advanced_subscriber(
+                session, entity.topic.keyexpr, self._on_sample, subscriber_detection=True,
+                history=zenoh.ext.HistoryConfig(detect_late_publishers=True, max_samples=qos.depth),
+                recovery=zenoh.ext.RecoveryConfig(periodic_queries=None, heartbeat=True)
+                if qos.reliability is not Reliability.BEST_EFFORT else None)
+        else:
+            self._subscriber = session.declare_subscriber(entity.topic.keyexpr, self._on_sample)
         self._token = session.liveliness().declare_token(entity.token)
 
     def _on_sample(self, sample: zenoh.Sample) -> None:
