@@ -306,3 +306,41 @@ def test_latched_topics_reach_late_joiners_both_ways(sessions: tuple[zenoh.Sessi
         late.undeclare()
         publisher.close()
         node.close()
+
+
+def test_pitchsides_runtime_nodes_speak_the_data_path_of_ros2(bus: BusConfig,
+                                                               sessions: tuple[zenoh.Session, zenoh.Session]) -> None:
+    """A runtime node (robot_nodes.runtime.Node) of robot1: its joint_states reach a ROS 2 subscriber on
+    rmw_zenoh's key with the attachment, and a ROS 2 publisher's cmd_vel reaches its subscription."""
+    from robot_nodes.runtime import Node
+
+    _, peer = sessions
+    got: list[zenoh.Sample] = []
+    peer_subscriber = peer.declare_subscriber(f"0/robot1/joint_states/{JOINT_STATE_DDS}/{JOINT_STATE_HASH}",
+                                              got.append)
+    node = Node("robot1", bus=bus).start()
+    commands: list[object] = []
+    twist_hash = codec.type_hash("geometry_msgs/msg/Twist")
+    try:
+        joint_states = node.publisher("joint_states")
+        node.subscribe("cmd_vel", commands.append)
+        wait_for(lambda: got or joint_states.publish(codec.make("sensor_msgs/JointState", name=["LKnee"],
+                                                                position=[0.5])),
+                 what="the node's joint_states at the ROS 2 subscriber")
+        assert got[0].attachment is not None
+        sequence_number, _, gid_length = struct.unpack_from("<qqB", got[0].attachment.to_bytes())
+        assert sequence_number >= 1 and gid_length == 16
+        assert got[0].attachment.to_bytes()[17:] == joint_states.entity.gid
+        assert list(ROS2.deserialize_cdr(got[0].payload.to_bytes(), "sensor_msgs/msg/JointState").name) == ["LKnee"]
+
+        Twist, Vector3 = ROS2.types["geometry_msgs/msg/Twist"], ROS2.types["geometry_msgs/msg/Vector3"]
+        message = Twist(linear=Vector3(x=0.2, y=0.0, z=0.0), angular=Vector3(x=0.0, y=0.0, z=0.1))
+        drive = bytes(ROS2.serialize_cdr(message, "geometry_msgs/msg/Twist"))
+        key = f"0/robot1/cmd_vel/geometry_msgs::msg::dds_::Twist_/{twist_hash}"
+        sequence = iter(range(1, 1000))
+        wait_for(lambda: commands or peer.put(key, drive, attachment=rmw_attachment(next(sequence), bytes(16))),
+                 what="a ROS 2 node's cmd_vel at the pitchside node")
+        assert commands[0].linear.x == 0.2 and commands[0].angular.z == 0.1  # type: ignore[attr-defined]
+    finally:
+        node.shutdown()
+        peer_subscriber.undeclare()

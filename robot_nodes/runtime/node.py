@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import inspect
+import itertools
 import json
 import logging
 import math
@@ -37,6 +38,8 @@ from wire.command_line import CommandParser
 from wire.heap import freeze_startup_heap
 from wire.json_limits import JsonLimitError, loads_limited
 from wire.parameters import ParameterError
+from wire.ros2.attachment import AttachmentStamper
+from wire.ros2.robots import next_node_id, publisher_entity
 
 log = logging.getLogger(__name__)
 FIRST_REPORT_AGAIN_S = 0.5  # the second report of a starting node (see spin)
@@ -82,6 +85,10 @@ class Publisher:
         self.topic = schemas.topic(topic)
         self.robot = robot
         self.key = keys.topic_key(robot, topic)
+        # the rmw_zenoh entity this publisher is: every sample carries its attachment (ROS 2 drops those without)
+        self.entity = publisher_entity(str(node.session.zid()), robot, node.name, topic, node.ros2_node_id,
+                                       node.next_entity_id(), keys.domain_id())
+        self._stamp = AttachmentStamper(self.entity.gid)
         encoding = zenoh.Encoding("application/cdr").with_schema(self.topic.type)
         self._pub = node.session.declare_publisher(self.key, encoding=encoding,
                                                    allowed_destination=zenoh.Locality.REMOTE)
@@ -106,7 +113,7 @@ class Publisher:
         if self._remote.matching:
             payload = cdr if cdr is not None else schemas.encode(msg)
             self.encoded += 1  # before the put: a subscriber may have it before this thread runs again
-            self._pub.put(payload)
+            self._pub.put(payload, attachment=self._stamp.next())
         self.count += 1
 
     def publish_bytes(self, payload: bytes) -> None:
@@ -118,7 +125,7 @@ class Publisher:
             for subscription in local:
                 subscription.hand_over_local(self.robot, msg, payload if self._local.check_frozen else None)
         if self._remote.matching:
-            self._pub.put(payload)
+            self._pub.put(payload, attachment=self._stamp.next())
         self.count += 1
 
     @property
@@ -319,6 +326,8 @@ class Node:
         loop: EventLoop | None = None,
     ) -> None:
         self.robot_id = robot_id
+        self.ros2_node_id = next_node_id()  # the node's id among the ROS 2 nodes of this process (rmw_zenoh's)
+        self._entity_ids = itertools.count(self.ros2_node_id + 1)
         # one logger per node instance (two robots' HCMs in one process log apart); its records also go on rosout
         self.log = logging.getLogger(f"pitchside.{robot_id}.{self.name}")
         self._own_session = not isinstance(bus, zenoh.Session)
@@ -376,6 +385,10 @@ class Node:
 
     def on_shutdown(self) -> None:
         """Last words before the session closes (e.g. switch motors off)."""
+
+    def next_entity_id(self) -> int:
+        """An id for one of the node's publishers, subscriptions, services or clients (rmw_zenoh's entity id)."""
+        return next(self._entity_ids)
 
     def publisher(self, topic: str) -> Publisher:
         pub = Publisher(self, topic, self.robot_id)

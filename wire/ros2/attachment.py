@@ -7,7 +7,9 @@ little-endian (``AttachmentData`` in attachment_helpers.cpp; docs/design.md "Pub
 
 from __future__ import annotations
 
+import itertools
 import struct
+import time
 from dataclasses import dataclass
 
 from wire.ros2.errors import Ros2WireError
@@ -40,3 +42,16 @@ def decode_attachment(data: bytes | bytearray | memoryview) -> Attachment:
     if gid_length != GID_SIZE:
         raise Ros2WireError(f"attachment GID length {gid_length}, not {GID_SIZE}")
     return Attachment(sequence_number, timestamp_ns, raw[_HEAD.size:])
+
+
+class AttachmentStamper:
+    """The attachments of one publisher's samples: sequence numbers from 1, the time of each, its GID."""
+
+    def __init__(self, gid: bytes) -> None:
+        if len(gid) != GID_SIZE:
+            raise Ros2WireError(f"a GID has {GID_SIZE} bytes, not {len(gid)}")
+        self.gid = gid
+        self._numbers = itertools.count(1)  # next() on a count is atomic: publishers on several threads are safe
+
+    def next(self) -> bytes:
+        return _HEAD.pack(next(self._numbers), time.time_ns(), GID_SIZE) + self.gid

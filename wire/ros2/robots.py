@@ -6,12 +6,15 @@ The one place that turns (robot, topic) into a ROS 2 data key and back, for the 
 
 from __future__ import annotations
 
+import itertools
 import re
 
 import schemas
 from schemas.codec import type_hash
 from wire.ros2.errors import Ros2WireError
 from wire.ros2.keys import DEFAULT_DOMAIN_ID, TopicKey
+from wire.ros2.liveliness import Entity, EntityKind, NodeInfo
+from wire.ros2.qos import QoS
 
 # a namespace token of ROS 2: letters, digits and '_', not starting with a digit (pitchside's robot ids also allow
 # '-' and a leading digit, which ROS 2 names cannot carry)
@@ -54,3 +57,19 @@ def robot_and_topic(key: TopicKey) -> tuple[str, str]:
         raise Ros2WireError(f"{key.name!r} carries {key.ros_type} {key.type_hash}; the table's {topic} is "
                             f"{entry.type} {type_hash(entry.type)}")
     return robot, topic
+
+
+_NODE_IDS = itertools.count()
+
+
+def next_node_id() -> int:
+    """A node id unique in this process (rmw_zenoh numbers the nodes of a context)."""
+    return next(_NODE_IDS)
+
+
+def publisher_entity(zid: str, robot: str, node: str, topic: str, node_id: int, entity_id: int,
+                     domain_id: int = DEFAULT_DOMAIN_ID, qos: QoS | None = None) -> Entity:
+    """The rmw_zenoh entity of a node's publisher of a topic of the table: its token, and the GID its samples
+    carry."""
+    return Entity(zid, node_id, entity_id, EntityKind.PUBLISHER, NodeInfo(domain_id, robot_namespace(robot), node),
+                  topic_key(robot, topic, domain_id), qos or QoS(depth=10))
