@@ -7,7 +7,9 @@ that comes in from another machine:
 
 * a robot (its router relays only its own nodes) writes its own robot's keys, ``<domain>/<robot>/**`` (its
   topics, in rmw_zenoh's layout) and ``pitchside/<robot>/**`` (parameter, service and action replies, its own
-  queries), and nothing under another robot;
+  queries), and nothing under another robot's; it may declare tokens of the domain's ROS 2 graph
+  (``@ros2_lv/<domain>/**``, which name their robot inside but are not checked per robot: a stranger's tokens
+  could mislead ``ros2 node list``, never move data);
 * the lab laptop may also send the dashboard's commands: ``cmd_vel`` and ``record_motor_goals`` to any robot,
   and parameter, service and action requests;
 * every team member may subscribe (a viewer does only that);
@@ -85,7 +87,8 @@ def robot_router_access_control(robot: str, members: Mapping[str, Role]) -> dict
 
 
 def _common_rules() -> list[dict[str, Any]]:
-    everything = [keys.topic_key("*", "**"), f"{keys.PREFIX}/*/**"]  # the data, and parameters/services/actions
+    # the data, the ROS 2 graph, and pitchside's own keys (parameters, services, actions, node graph)
+    everything = [keys.topic_key("*", "**"), keys.graph_tokens_key(), f"{keys.PREFIX}/*/**"]
     return [_rule("team-subscribes", READ_MESSAGES, "ingress", everything),
             _rule("team-receives", ALL_MESSAGES, "egress", everything),
             _rule("router-relays", ALL_MESSAGES, "ingress", everything)]
@@ -103,7 +106,7 @@ def _lab_requests() -> dict[str, Any]:
 
 def _own_robot(robot: str) -> dict[str, Any]:
     return _rule(f"robot-{robot}", OWN_ROBOT_MESSAGES, "ingress",
-                 [keys.topic_key(robot, "**"), f"{keys.PREFIX}/{robot}/**"])
+                 [keys.topic_key(robot, "**"), keys.graph_tokens_key(), f"{keys.PREFIX}/{robot}/**"])
 
 
 def _routers(members: Mapping[str, Role]) -> list[str]:

@@ -344,3 +344,42 @@ def test_pitchsides_runtime_nodes_speak_the_data_path_of_ros2(bus: BusConfig,
     finally:
         node.shutdown()
         peer_subscriber.undeclare()
+
+
+def test_ros2s_graph_lists_pitchsides_runtime_nodes(bus: BusConfig,
+                                                   sessions: tuple[zenoh.Session, zenoh.Session]) -> None:
+    """What ``ros2 node list`` and ``ros2 topic list -t`` read: the NN, MP and MS tokens of a runtime node, read by
+    a ROS 2 graph cache written in the test (token strings split as design.md lays them out)."""
+    from robot_nodes.runtime import Node
+
+    _, peer = sessions
+    tokens: set[str] = set()
+
+    def on_token(sample: zenoh.Sample) -> None:
+        (tokens.add if sample.kind == zenoh.SampleKind.PUT else tokens.discard)(str(sample.key_expr))
+
+    graph = peer.liveliness().declare_subscriber("@ros2_lv/0/**", on_token, history=True)
+    node = Node("robot1", bus=bus).start()
+    try:
+        node.publisher("joint_states")
+        node.subscribe("cmd_vel", lambda _msg: None)
+
+        def listed() -> dict[str, set[tuple[str, str, str]]]:
+            seen: dict[str, set[tuple[str, str, str]]] = {}
+            for token in list(tokens):
+                parts = token.split("/")  # @ros2_lv domain zid nid eid kind enclave ns node [name type hash qos]
+                fq_node = parts[7].replace("%", "/") + "/" + parts[8]
+                entry = seen.setdefault(fq_node, set())
+                if parts[5] != "NN":
+                    entry.add((parts[5], parts[9].replace("%", "/"), parts[10]))
+            return seen
+
+        wanted = {("MP", "/robot1/joint_states", JOINT_STATE_DDS),
+                  ("MS", "/robot1/cmd_vel", "geometry_msgs::msg::dds_::Twist_")}
+        wait_for(lambda: wanted <= listed().get("/robot1/node", set()), what=lambda: f"the node's tokens: {tokens}")
+        assert ("MP", "/robot1/rosout", "rcl_interfaces::msg::dds_::Log_") in listed()["/robot1/node"]
+        node.shutdown()
+        wait_for(lambda: "/robot1/node" not in listed(), what="the node gone from the graph with its tokens")
+    finally:
+        node.shutdown()
+        graph.undeclare()

@@ -107,6 +107,11 @@ def topic_key(robot: str, topic: str) -> str:
     return ros2_robots.topic_key(robot, topic, domain_id()).keyexpr
 
 
+def graph_tokens_key() -> str:
+    """Every liveliness token of the domain's ROS 2 graph (rmw_zenoh's ``@ros2_lv/<domain>/**``)."""
+    return f"@ros2_lv/{domain_id()}/**"
+
+
 def all_topics_key() -> str:
     """Every topic of every robot of the domain (the live source's subscription)."""
     return topic_key(ANY_ROBOT, "**")

@@ -39,7 +39,7 @@ from wire.heap import freeze_startup_heap
 from wire.json_limits import JsonLimitError, loads_limited
 from wire.parameters import ParameterError
 from wire.ros2.attachment import AttachmentStamper
-from wire.ros2.robots import next_node_id, publisher_entity
+from wire.ros2.robots import next_node_id, node_entity, publisher_entity, subscription_entity
 
 log = logging.getLogger(__name__)
 FIRST_REPORT_AGAIN_S = 0.5  # the second report of a starting node (see spin)
@@ -86,9 +86,10 @@ class Publisher:
         self.robot = robot
         self.key = keys.topic_key(robot, topic)
         # the rmw_zenoh entity this publisher is: every sample carries its attachment (ROS 2 drops those without)
-        self.entity = publisher_entity(str(node.session.zid()), robot, node.name, topic, node.ros2_node_id,
+        self.entity = publisher_entity(node.zid, robot, node.name, topic, node.ros2_node_id,
                                        node.next_entity_id(), keys.domain_id())
         self._stamp = AttachmentStamper(self.entity.gid)
+        self._token = node.session.liveliness().declare_token(self.entity.token)  # ros2 topic list/info see it
         encoding = zenoh.Encoding("application/cdr").with_schema(self.topic.type)
         self._pub = node.session.declare_publisher(self.key, encoding=encoding,
                                                    allowed_destination=zenoh.Locality.REMOTE)
@@ -134,6 +135,7 @@ class Publisher:
         return self._remote.matching or bool(self._local.local_subscribers(self.robot, self.topic.name))
 
     def close(self) -> None:
+        self._token.undeclare()
         self._remote.close()
         self._pub.undeclare()
 
@@ -163,6 +165,10 @@ class Subscription:
         self._clock = node.clock
         self._call_soon = node.loop.call_soon
         self._check_frozen = node.local_bus.check_frozen
+        # its token on the ROS 2 graph; one to every robot's topic has no single ROS 2 name, so none
+        self._token = None if self.any_robot else node.session.liveliness().declare_token(subscription_entity(
+            node.zid, node.robot_id, node.name, topic, node.ros2_node_id, node.next_entity_id(), keys.domain_id(),
+            topic_robot=robot).token)
         node.local_bus.add(self)
 
     @property
@@ -261,6 +267,8 @@ class Subscription:
                          f"{getattr(self.handler, '__qualname__', self.handler)} of {self._node.name})")
 
     def close(self) -> None:
+        if self._token is not None:
+            self._token.undeclare()
         self._node.local_bus.remove(self)
 
 
@@ -333,6 +341,10 @@ class Node:
         self._own_session = not isinstance(bus, zenoh.Session)
         self.session: zenoh.Session = bus if isinstance(bus, zenoh.Session) else open_session(bus)
         self.local_bus = LocalBus.join(self.session)  # nodes of this process hand messages over as objects
+        self.zid = str(self.session.zid())
+        # the node on the ROS 2 graph (ros2 node list: /<robot>/<name>), gone with the node or its session
+        self._ros2_token = self.session.liveliness().declare_token(
+            node_entity(self.zid, robot_id, self.name, self.ros2_node_id, keys.domain_id()).token)
         self._robot_clock: RobotSimClock | None = None
         if clock is None and sim_time_wanted():
             clock = self._robot_clock = RobotSimClock.join(self.local_bus, robot_id)
@@ -545,6 +557,8 @@ class Node:
                 with contextlib.suppress(Exception):
                     declared.close() if hasattr(declared, "close") else declared.undeclare()
             self._node_graph.close()
+            with contextlib.suppress(Exception):
+                self._ros2_token.undeclare()
             if self._robot_clock is not None:
                 self._robot_clock.leave()
             self.local_bus.leave()

@@ -67,9 +67,28 @@ def next_node_id() -> int:
     return next(_NODE_IDS)
 
 
+def node_entity(zid: str, robot: str, node: str, node_id: int, domain_id: int = DEFAULT_DOMAIN_ID) -> Entity:
+    """The rmw_zenoh entity of a robot's node: ``ros2 node list`` shows it as /<robot>/<node>."""
+    return Entity(zid, node_id, node_id, EntityKind.NODE, NodeInfo(domain_id, robot_namespace(robot), node))
+
+
 def publisher_entity(zid: str, robot: str, node: str, topic: str, node_id: int, entity_id: int,
                      domain_id: int = DEFAULT_DOMAIN_ID, qos: QoS | None = None) -> Entity:
     """The rmw_zenoh entity of a node's publisher of a topic of the table: its token, and the GID its samples
     carry."""
-    return Entity(zid, node_id, entity_id, EntityKind.PUBLISHER, NodeInfo(domain_id, robot_namespace(robot), node),
-                  topic_key(robot, topic, domain_id), qos or QoS(depth=10))
+    return _topic_entity(EntityKind.PUBLISHER, zid, robot, node, topic, node_id, entity_id, domain_id, qos)
+
+
+def subscription_entity(zid: str, robot: str, node: str, topic: str, node_id: int, entity_id: int,
+                        domain_id: int = DEFAULT_DOMAIN_ID, qos: QoS | None = None,
+                        topic_robot: str | None = None) -> Entity:
+    """The rmw_zenoh entity of a node's subscription to a topic of the table, of its own robot or of
+    ``topic_robot`` (a teammate's)."""
+    return _topic_entity(EntityKind.SUBSCRIPTION, zid, robot, node, topic, node_id, entity_id, domain_id, qos,
+                         topic_robot)
+
+
+def _topic_entity(kind: EntityKind, zid: str, robot: str, node: str, topic: str, node_id: int, entity_id: int,
+                  domain_id: int, qos: QoS | None, topic_robot: str | None = None) -> Entity:
+    return Entity(zid, node_id, entity_id, kind, NodeInfo(domain_id, robot_namespace(robot), node),
+                  topic_key(topic_robot or robot, topic, domain_id), qos or QoS(depth=10))
