@@ -5,8 +5,11 @@ team laptop's router over mutual TLS, and members are told apart by the common n
 link without a certificate of the team's CA is refused before any message). The team router checks everything
 that comes in from another machine:
 
-* a robot (its router relays only its own nodes) writes its own robot's keys, ``pitchside/<robot>/**`` (topics,
-  parameter, service and action replies, its own queries), and nothing under another robot;
+* a robot (its router relays only its own nodes) writes its own robot's keys, ``<domain>/<robot>/**`` (its
+  topics, in rmw_zenoh's layout) and ``pitchside/<robot>/**`` (parameter, service and action replies, its own
+  queries), and nothing under another robot's; it may declare tokens of the domain's ROS 2 graph
+  (``@ros2_lv/<domain>/**``, which name their robot inside but are not checked per robot: a stranger's tokens
+  could mislead ``ros2 node list``, never move data);
 * the lab laptop may also send the dashboard's commands: ``cmd_vel`` and ``record_motor_goals`` to any robot,
   and parameter, service and action requests;
 * every team member may subscribe (a viewer does only that);
@@ -84,7 +87,8 @@ def robot_router_access_control(robot: str, members: Mapping[str, Role]) -> dict
 
 
 def _common_rules() -> list[dict[str, Any]]:
-    everything = [keys.topic_key("*", "**")]
+    # the data, the ROS 2 graph, and pitchside's own keys (parameters, services, actions, node graph)
+    everything = [keys.topic_key("*", "**"), keys.graph_tokens_key(), f"{keys.PREFIX}/*/**"]
     return [_rule("team-subscribes", READ_MESSAGES, "ingress", everything),
             _rule("team-receives", ALL_MESSAGES, "egress", everything),
             _rule("router-relays", ALL_MESSAGES, "ingress", everything)]
@@ -101,7 +105,8 @@ def _lab_requests() -> dict[str, Any]:
 
 
 def _own_robot(robot: str) -> dict[str, Any]:
-    return _rule(f"robot-{robot}", OWN_ROBOT_MESSAGES, "ingress", [keys.topic_key(robot, "**")])
+    return _rule(f"robot-{robot}", OWN_ROBOT_MESSAGES, "ingress",
+                 [keys.topic_key(robot, "**"), keys.graph_tokens_key(), f"{keys.PREFIX}/{robot}/**"])
 
 
 def _routers(members: Mapping[str, Role]) -> list[str]:

@@ -15,6 +15,8 @@ from schemas import messages, sensor_cdr
 from schemas.definitions import OWN_PACKAGES as OWN_PACKAGES
 from schemas.definitions import SCHEMA_DIR as SCHEMA_DIR
 from schemas.definitions import sources_digest
+from schemas.type_hash import TypeHashError
+from schemas.type_hash import type_hash as type_hash_of
 
 
 class Message(Protocol):
@@ -214,3 +216,15 @@ def constants(typename: str) -> dict[str, Any]:
 def constant_names(typename: str, prefix: str = "") -> dict[Any, str]:
     """Value -> name of the constants starting with ``prefix`` (prefix removed): what to show for a state number."""
     return {value: name.removeprefix(prefix) for name, value in constants(typename).items() if name.startswith(prefix)}
+
+
+@functools.cache
+def type_hash(typename: str) -> str:
+    """RIHS01 hash (REP-2011) of a message ("pkg/msg/X" or "pkg/X"), service ("pkg/srv/X") or action
+    ("pkg/action/X") of the typestore, as rosidl computes it: what rmw_zenoh puts in keys and liveliness tokens."""
+    parts = typename.split("/")
+    name = full_name(typename) if len(parts) == 2 or parts[1:2] == ["msg"] else typename
+    try:
+        return type_hash_of(name, typestore().fielddefs)
+    except TypeHashError as exc:
+        raise SchemaError(str(exc)) from exc

@@ -37,21 +37,24 @@ def sources_digest() -> str:
     return digest.hexdigest()
 
 
+def file_texts(path: Path) -> dict[str, str]:
+    """The message texts of one <package>/<msg|srv|action>/<Name>.<kind> file, keyed by full type name; a service
+    splits into X_Request and X_Response, an action into X_Goal, X_Result and X_Feedback (as ROS 2 names them)."""
+    package, kind = path.parent.parent.name, path.parent.name
+    if kind == "msg":
+        return {f"{package}/msg/{path.stem}": path.read_text()}
+    suffixes = ("Goal", "Result", "Feedback") if kind == "action" else ("Request", "Response")
+    sections = _split_sections(path.read_text())
+    if len(sections) != len(suffixes):
+        raise ValueError(f"{path}: a .{kind} has {len(suffixes)} sections split by ---, this one {len(sections)}")
+    return {f"{package}/{kind}/{path.stem}_{suffix}": text for suffix, text in zip(suffixes, sections, strict=True)}
+
+
 def own_texts() -> dict[str, str]:
     """Message texts of our own packages, keyed by full type name; actions and services split."""
     defs: dict[str, str] = {}
     for path in source_files():
-        package, kind = path.parent.parent.name, path.parent.name
-        if kind == "msg":
-            defs[f"{package}/msg/{path.stem}"] = path.read_text()
-        elif kind == "action":
-            goal, result, feedback = _split_sections(path.read_text())
-            for suffix, text in (("Goal", goal), ("Result", result), ("Feedback", feedback)):
-                defs[f"{package}/action/{path.stem}_{suffix}"] = text
-        else:
-            request, response = _split_sections(path.read_text())
-            defs[f"{package}/srv/{path.stem}_Request"] = request
-            defs[f"{package}/srv/{path.stem}_Response"] = response
+        defs.update(file_texts(path))
     return defs
 
 
@@ -69,11 +72,16 @@ def _qualify(text: str, package: str) -> str:
     return "\n".join(lines) + "\n"
 
 
-def own_types() -> Typesdict:
-    """rosbags field definitions of our own types, by full type name."""
+def parse_texts(texts: dict[str, str]) -> Typesdict:
+    """rosbags field definitions of message texts keyed by full type name (as own_texts and file_texts give)."""
     types: Typesdict = {}
-    for name, text in own_texts().items():
+    for name, text in texts.items():
         parsed = get_types_from_msg(_qualify(text, name.split("/")[0]), name)
         (definition,) = parsed.values()
         types[name] = definition  # keep "pkg/srv/X" as named; rosbags would file it under "pkg/srv/msg/X"
     return types
+
+
+def own_types() -> Typesdict:
+    """rosbags field definitions of our own types, by full type name."""
+    return parse_texts(own_texts())

@@ -1,7 +1,7 @@
 """The topic table: every topic pitchside nodes speak, and its message type.
 
 Nodes are exchangeable because only these names and types are fixed (thesis ch. 4).
-Zenoh key of a topic: ``pitchside/<robot_id>/<topic>``.
+Zenoh key of a topic: rmw_zenoh's key of the ROS 2 topic ``/<robot_id>/<topic>`` (wire.keys.topic_key).
 """
 
 from __future__ import annotations

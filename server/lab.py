@@ -26,6 +26,8 @@ from server.state import ServerState
 from wire import keys
 from wire.actions import ActionClient, ClientGoal
 from wire.animation import Animation, AnimationPlayer, mirror_signs_from_axes
+from wire.ros2.attachment import AttachmentStamper
+from wire.ros2.robots import next_node_id, publisher_entity
 
 if TYPE_CHECKING:
     from server.robot3d import Robot3DView
@@ -35,6 +37,7 @@ TELEOP_HOLD_S = 0.5  # a command not refreshed for this long stops the robot
 PREVIEW_HZ = 20.0
 PREVIEW_HOLD_S = 1.0  # the preview ghost shows the animation's last pose this long, then leaves the scene
 GOAL_TIMEOUT_S = 3.0
+DASHBOARD_NODE = "pitchside_dashboard"  # the node name the dashboard's commands come from on the ROS 2 graph
 
 
 @dataclass(slots=True)
@@ -100,7 +103,7 @@ class LabTools:
 
     def __init__(self, state: ServerState) -> None:
         self.state = state
-        self._publishers: dict[tuple[str, str], Any] = {}
+        self._publishers: dict[tuple[str, str], tuple[Any, AttachmentStamper]] = {}
         self.teleop: dict[str, TeleopCommand] = {}
         self._clients: dict[str, ActionClient] = {}
         self.goals: dict[str, ClientGoal] = {}
@@ -114,10 +117,17 @@ class LabTools:
     def publish(self, robot: str, topic: str, msg: schemas.Message) -> None:
         """Blocking on first use (opens the session): call from a worker thread."""
         key = (robot, topic)
-        pub = self._publishers.get(key)
-        if pub is None:
-            pub = self._publishers[key] = self.state.link.session().declare_publisher(keys.topic_key(robot, topic))
-        pub.put(schemas.encode(msg))
+        found = self._publishers.get(key)
+        if found is None:
+            session = self.state.link.session()
+            # the dashboard's publisher as a ROS 2 node's: its samples carry rmw_zenoh's attachment
+            node_id = next_node_id()
+            entity = publisher_entity(str(session.zid()), robot, DASHBOARD_NODE, topic, node_id, node_id + 1,
+                                      keys.domain_id())
+            found = self._publishers[key] = (session.declare_publisher(keys.topic_key(robot, topic)),
+                                             AttachmentStamper(entity.gid))
+        pub, stamp = found
+        pub.put(schemas.encode(msg), attachment=stamp.next())
 
     # -- teleop -------------------------------------------------------------------------------------
     async def drive(self, robot: str, x: float, y: float, yaw: float, hold_s: float = TELEOP_HOLD_S) -> TeleopCommand:
@@ -276,7 +286,7 @@ class LabTools:
         for client in self._clients.values():
             with contextlib.suppress(Exception):
                 client.close()
-        for pub in self._publishers.values():
+        for pub, _ in self._publishers.values():
             with contextlib.suppress(Exception):
                 pub.undeclare()
 

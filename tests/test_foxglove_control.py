@@ -217,6 +217,7 @@ def test_match_mode_offers_no_control_to_anyone_and_nothing_reaches_a_robot(
         router_endpoint: str, client: zenoh.Session, tmp_path: Path) -> None:
     heard: list[str] = []
     listener = client.declare_subscriber("pitchside/**", lambda s: heard.append(str(s.key_expr)))
+    data_listener = client.declare_subscriber(topic_key("*", "**"), lambda s: heard.append(str(s.key_expr)))
     telemetry_port = free_port(socket.SOCK_DGRAM)
     router_port = int(router_endpoint.rsplit(":", 1)[1])
     args = ["--match", "--allow-dev-key", "--connect", router_endpoint, "--telemetry-host", "127.0.0.1",
@@ -261,4 +262,5 @@ def test_match_mode_offers_no_control_to_anyone_and_nothing_reaches_a_robot(
             sender.join(5)
         robot.close()
         listener.undeclare()
+        data_listener.undeclare()
 

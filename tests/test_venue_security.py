@@ -412,9 +412,9 @@ def test_names_from_the_bus_that_break_the_rules_never_reach_the_hub(router_endp
             return next(s for s in server.http.get(f"{server.url}/api/sources").json() if s["name"] == "live")
 
         def heard() -> bool:
-            for robot in ("<script>x</script>", "robot_with_a_long_id", "r1\"x"):
-                client.put(topic_key(robot, "robot_state"), state)
-            client.put("pitchside/r1/robot_state", state)
+            for robot in ("<script>x</script>", "robot_with_a_long_id", "r1\"x"):  # on the bus, not via topic_key
+                client.put(topic_key("*", "robot_state").replace("/*/", f"/{robot}/", 1), state)
+            client.put(topic_key("r1", "robot_state"), state)
             return live()["bad_names"] >= 3 and any(r["robot"] == "r1" for r in
                                                     server.http.get(f"{server.url}/api/robots").json())
 

@@ -1,6 +1,8 @@
 """Zenoh key expressions of pitchside: the one place that says how names map to keys.
 
-    pitchside/<robot>/<topic>                      topic data, CDR payload
+    <domain>/<robot>/<topic>/<pkg>::msg::dds_::<Type>_/RIHS01_<hash>
+                                                   topic data, CDR payload with rmw_zenoh's attachment: the topic
+                                                   /<robot>/<topic> of ROS 2 (wire/ros2), domain ROS_DOMAIN_ID
     pitchside/<robot>/params/<node>                parameter queryable, JSON request/reply
     pitchside/<robot>/params/<node>/changed        JSON event after every accepted change
     pitchside/<robot>/_srv/<service>               service queryable, CDR request/reply
@@ -20,7 +22,11 @@ keys, file names and the dashboard's page: the rules below are checked where the
 
 from __future__ import annotations
 
+import functools
 import re
+
+from wire.ros2 import keys as ros2_keys
+from wire.ros2 import robots as ros2_robots
 
 PREFIX = "pitchside"
 ANY_ROBOT = "*"
@@ -85,22 +91,47 @@ def check_topic(topic: str) -> str:
     return topic
 
 
+def domain_id() -> int:
+    """The ROS 2 domain pitchside's topics are in (ROS_DOMAIN_ID, 0 when unset)."""
+    return ros2_keys.domain_id_from_env()
+
+
 def topic_key(robot: str, topic: str) -> str:
-    return f"{PREFIX}/{robot}/{topic}"
+    """The data key of a topic of the table on a robot: rmw_zenoh's key of the ROS 2 topic /<robot>/<topic>.
+    ``robot`` may be ANY_ROBOT ("*"), ``topic`` "**" (every topic of the robot, for subscriptions and ACLs)."""
+    if topic == "**":
+        return f"{domain_id()}/{robot}/**"
+    if robot == ANY_ROBOT:
+        key = ros2_robots.topic_key("any", topic, domain_id())
+        return key.keyexpr.replace(f"{key.domain_id}/any/", f"{key.domain_id}/{ANY_ROBOT}/", 1)
+    return ros2_robots.topic_key(robot, topic, domain_id()).keyexpr
 
 
+def graph_tokens_key() -> str:
+    """Every liveliness token of the domain's ROS 2 graph (rmw_zenoh's ``@ros2_lv/<domain>/**``)."""
+    return f"@ros2_lv/{domain_id()}/**"
+
+
+def all_topics_key() -> str:
+    """Every topic of every robot of the domain (the live source's subscription)."""
+    return topic_key(ANY_ROBOT, "**")
+
+
+@functools.lru_cache(maxsize=4096)
 def split_topic_key(key: str) -> tuple[str, str]:
-    """(robot, topic) of a topic key; ValueError for other keys and for a robot id or topic that breaks the rules."""
-    parts = key.split("/", 2)
-    if len(parts) != 3 or parts[0] != PREFIX:
-        raise ValueError(f"not a pitchside topic key: {key!r}")
-    return check_robot_id(parts[1]), check_topic(parts[2])
+    """(robot, topic) of a topic key; ValueError for other keys and for a robot id or topic that breaks the rules
+    (cached: a bus has few keys and the dashboard asks for every sample)."""
+    try:
+        robot, topic = ros2_robots.robot_and_topic(ros2_keys.parse_topic_key(key))
+    except (ros2_keys.Ros2WireError, KeyError) as exc:
+        raise ValueError(f"not a pitchside topic key: {key!r} ({exc})") from None
+    return check_robot_id(robot), check_topic(topic)
 
 
 def is_topic_key(key: str) -> bool:
-    """False for the parameter, service and action keys that share the robot's prefix."""
-    parts = key.split("/", 3)
-    return len(parts) >= 3 and parts[0] == PREFIX and parts[2] not in ("params", "_srv", "_action", "_graph")
+    """True for a key of rmw_zenoh's data layout (the parameter, service, action and graph keys are pitchside's)."""
+    parts = key.rsplit("/", 2)
+    return len(parts) == 3 and parts[2].startswith("RIHS01_") and "::msg::dds_::" in parts[1]
 
 
 def params_key(robot: str, node: str) -> str:

@@ -37,6 +37,8 @@ from robot_nodes.runtime.local_bus import LocalBus
 from schemas import stamps
 from schemas.codec import Message, SchemaError
 from wire import keys
+from wire.ros2.attachment import AttachmentStamper
+from wire.ros2.robots import next_node_id, publisher_entity
 
 SIM_TIME_ENV = "PITCHSIDE_SIM_TIME"
 LOCKSTEP = "lockstep"  # SIM_TIME_ENV's value for nodes the world waits for
@@ -242,6 +244,7 @@ class RobotSimClock(SimClock):
         if lockstep:
             bus.in_order = True  # the sensors of a time reach the loops before its clock message does
             self._done = bus.session.declare_publisher(keys.topic_key(robot, CLOCK_DONE_TOPIC))
+            self._done_stamp = _stamper(bus.session, robot, "sim_clock", CLOCK_DONE_TOPIC)
             self._name = f"{robot}/{os.getpid()}/{id(self):x}"
         self._subscription = _ClockSubscription(self, robot, self.bad_messages)
         bus.add(self._subscription)  # type: ignore[arg-type]  # the subscription shape the bus asks of
@@ -271,7 +274,7 @@ class RobotSimClock(SimClock):
                 return
             self._owed = None
             with contextlib.suppress(zenoh.ZError):  # the session closing
-                self._done.put(schemas.encode(schemas.header(self._name, owed)))
+                self._done.put(schemas.encode(schemas.header(self._name, owed)), attachment=self._done_stamp.next())
 
     @classmethod
     def join(cls, bus: LocalBus, robot: str) -> RobotSimClock:
@@ -307,12 +310,13 @@ class ClockPublisher:
         self._key = keys.topic_key(robot, CLOCK_TOPIC)
         self._pub = session.declare_publisher(self._key, encoding=encoding,
                                               allowed_destination=zenoh.Locality.REMOTE)
+        self._stamp = _stamper(session, robot, "sim_world", CLOCK_TOPIC)
         self._local = LocalBus.join(session)
 
     def publish(self, cdr: bytes) -> None:
         for subscription in self._local.local_subscribers(self.robot, CLOCK_TOPIC):
             subscription.hand_over_cdr(self._key, cdr)
-        self._pub.put(cdr)
+        self._pub.put(cdr, attachment=self._stamp.next())
 
     def close(self) -> None:
         self._pub.undeclare()
@@ -463,3 +467,10 @@ class WorldClock:
         if self.done is not None:
             self.done.close()
         self._bus.leave()
+
+
+def _stamper(session: zenoh.Session, robot: str, node: str, topic: str) -> AttachmentStamper:
+    """The attachments of a clock publisher, as rmw_zenoh's publisher of that name would write them."""
+    node_id = next_node_id()
+    entity = publisher_entity(str(session.zid()), robot, node, topic, node_id, node_id + 1, keys.domain_id())
+    return AttachmentStamper(entity.gid)

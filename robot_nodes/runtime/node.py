@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import inspect
+import itertools
 import json
 import logging
 import math
@@ -37,6 +38,8 @@ from wire.command_line import CommandParser
 from wire.heap import freeze_startup_heap
 from wire.json_limits import JsonLimitError, loads_limited
 from wire.parameters import ParameterError
+from wire.ros2.attachment import AttachmentStamper
+from wire.ros2.robots import next_node_id, node_entity, publisher_entity, subscription_entity
 
 log = logging.getLogger(__name__)
 FIRST_REPORT_AGAIN_S = 0.5  # the second report of a starting node (see spin)
@@ -82,6 +85,11 @@ class Publisher:
         self.topic = schemas.topic(topic)
         self.robot = robot
         self.key = keys.topic_key(robot, topic)
+        # the rmw_zenoh entity this publisher is: every sample carries its attachment (ROS 2 drops those without)
+        self.entity = publisher_entity(node.zid, robot, node.name, topic, node.ros2_node_id,
+                                       node.next_entity_id(), keys.domain_id())
+        self._stamp = AttachmentStamper(self.entity.gid)
+        self._token = node.session.liveliness().declare_token(self.entity.token)  # ros2 topic list/info see it
         encoding = zenoh.Encoding("application/cdr").with_schema(self.topic.type)
         self._pub = node.session.declare_publisher(self.key, encoding=encoding,
                                                    allowed_destination=zenoh.Locality.REMOTE)
@@ -106,7 +114,7 @@ class Publisher:
         if self._remote.matching:
             payload = cdr if cdr is not None else schemas.encode(msg)
             self.encoded += 1  # before the put: a subscriber may have it before this thread runs again
-            self._pub.put(payload)
+            self._pub.put(payload, attachment=self._stamp.next())
         self.count += 1
 
     def publish_bytes(self, payload: bytes) -> None:
@@ -118,7 +126,7 @@ class Publisher:
             for subscription in local:
                 subscription.hand_over_local(self.robot, msg, payload if self._local.check_frozen else None)
         if self._remote.matching:
-            self._pub.put(payload)
+            self._pub.put(payload, attachment=self._stamp.next())
         self.count += 1
 
     @property
@@ -127,6 +135,7 @@ class Publisher:
         return self._remote.matching or bool(self._local.local_subscribers(self.robot, self.topic.name))
 
     def close(self) -> None:
+        self._token.undeclare()
         self._remote.close()
         self._pub.undeclare()
 
@@ -156,6 +165,10 @@ class Subscription:
         self._clock = node.clock
         self._call_soon = node.loop.call_soon
         self._check_frozen = node.local_bus.check_frozen
+        # its token on the ROS 2 graph; one to every robot's topic has no single ROS 2 name, so none
+        self._token = None if self.any_robot else node.session.liveliness().declare_token(subscription_entity(
+            node.zid, node.robot_id, node.name, topic, node.ros2_node_id, node.next_entity_id(), keys.domain_id(),
+            topic_robot=robot).token)
         node.local_bus.add(self)
 
     @property
@@ -254,6 +267,8 @@ class Subscription:
                          f"{getattr(self.handler, '__qualname__', self.handler)} of {self._node.name})")
 
     def close(self) -> None:
+        if self._token is not None:
+            self._token.undeclare()
         self._node.local_bus.remove(self)
 
 
@@ -319,11 +334,17 @@ class Node:
         loop: EventLoop | None = None,
     ) -> None:
         self.robot_id = robot_id
+        self.ros2_node_id = next_node_id()  # the node's id among the ROS 2 nodes of this process (rmw_zenoh's)
+        self._entity_ids = itertools.count(self.ros2_node_id + 1)
         # one logger per node instance (two robots' HCMs in one process log apart); its records also go on rosout
         self.log = logging.getLogger(f"pitchside.{robot_id}.{self.name}")
         self._own_session = not isinstance(bus, zenoh.Session)
         self.session: zenoh.Session = bus if isinstance(bus, zenoh.Session) else open_session(bus)
         self.local_bus = LocalBus.join(self.session)  # nodes of this process hand messages over as objects
+        self.zid = str(self.session.zid())
+        # the node on the ROS 2 graph (ros2 node list: /<robot>/<name>), gone with the node or its session
+        self._ros2_token = self.session.liveliness().declare_token(
+            node_entity(self.zid, robot_id, self.name, self.ros2_node_id, keys.domain_id()).token)
         self._robot_clock: RobotSimClock | None = None
         if clock is None and sim_time_wanted():
             clock = self._robot_clock = RobotSimClock.join(self.local_bus, robot_id)
@@ -376,6 +397,10 @@ class Node:
 
     def on_shutdown(self) -> None:
         """Last words before the session closes (e.g. switch motors off)."""
+
+    def next_entity_id(self) -> int:
+        """An id for one of the node's publishers, subscriptions, services or clients (rmw_zenoh's entity id)."""
+        return next(self._entity_ids)
 
     def publisher(self, topic: str) -> Publisher:
         pub = Publisher(self, topic, self.robot_id)
@@ -532,6 +557,8 @@ class Node:
                 with contextlib.suppress(Exception):
                     declared.close() if hasattr(declared, "close") else declared.undeclare()
             self._node_graph.close()
+            with contextlib.suppress(Exception):
+                self._ros2_token.undeclare()
             if self._robot_clock is not None:
                 self._robot_clock.leave()
             self.local_bus.leave()

@@ -1,7 +1,7 @@
 """The live Zenoh source: joins the team's Zenoh network and feeds every topic message to the hub.
 
-Only subscribes (``pitchside/*/**``, topic keys only); never started in match mode, since even a Zenoh
-subscriber sends declarations to the robots it is connected to.
+Only subscribes (``<domain>/*/**``: the topics of every robot namespace, rmw_zenoh's data keys); never started
+in match mode, since even a Zenoh subscriber sends declarations to the robots it is connected to.
 """
 
 from __future__ import annotations
@@ -24,7 +24,9 @@ from wire import keys
 
 log = logging.getLogger(__name__)
 
-SUBSCRIBE_KEY = f"{keys.PREFIX}/*/**"
+def subscribe_key() -> str:
+    """Every topic of every robot of the domain (ROS_DOMAIN_ID when the source starts)."""
+    return keys.all_topics_key()
 # Samples waiting for the event loop, bounded by count and by payload bytes; beyond either, the oldest go (the loop
 # is overloaded). By bytes too: 50 000 camera images of 20 KB would be a gigabyte; 32 MB is 10 s of 11 robots'
 # cameras at 10 Hz and 30 KB, or 0.8 s of a 40 MB/s flood.
@@ -99,7 +101,7 @@ class LiveZenohSource(Source):
         self._loop = asyncio.get_running_loop()
         try:
             session = await asyncio.to_thread(self.link.session)
-            self._sub = session.declare_subscriber(SUBSCRIBE_KEY, self._on_sample)
+            self._sub = session.declare_subscriber(subscribe_key(), self._on_sample)
         except zenoh.ZError as exc:
             self.error = f"cannot join the Zenoh network: {exc}"
             raise SourceError(self.error) from exc
