@@ -172,7 +172,7 @@ def test_the_guides_python_example_lists_a_ros2_robot(sessions: tuple[zenoh.Sess
                   f"@ros2_lv/11/{zid}/0/1/MP/%/%/ros_control/%joint_states/{JOINT_STATE_DDS}/{JOINT_STATE_HASH}/"
                   "::,10:,:,:,,")]
     text = (REPO / "docs" / "guides" / "ros2.md").read_text()
-    snippet = text.split("```python\n", 1)[1].split("```", 1)[0]
+    snippet = text.split("```python", 1)[1].split("\n", 1)[1].split("```", 1)[0]  # the fence has a title
     probe = Ros2Graph(ours, domain_id=11)
     try:
         wait_for(lambda: probe.endpoints_of(NodeInfo(11, "/", "ros_control"), EntityKind.PUBLISHER),

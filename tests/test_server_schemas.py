@@ -24,7 +24,7 @@ CONSTANT = re.compile(r"^\s*(\w+)\s+([A-Z][A-Z0-9_]*)\s*=\s*(\S+)", re.MULTILINE
 LITERAL = re.compile(r"""["'`]([A-Z][A-Z0-9_]+)["'`]""")
 # words of HTTP, the DOM and the page's own labels, not message constants
 NOT_MESSAGE_WORDS = {"GET", "POST", "PUT", "DELETE", "INPUT", "LOST", "PENALIZED", "HCM",
-                     "STOPPED"}  # GameState.stopped (a bool) shown as a word
+                     "STOPPED", "REPLAY"}  # words shown: GameState.stopped, a replayed robot
 
 
 def msg_file_constants() -> dict[str, dict[str, int]]:
