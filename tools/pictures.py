@@ -26,11 +26,6 @@ from tests.support import REPO, launch_chromium
 from tests.waiting import wait_for
 
 OUT = REPO / "docs" / "pictures"
-PRESETS = {
-    "match": ["field", "team", "game", "links", "recordings"],
-    "lab": ["parameters", "animation", "robot3d", "teleop", "plots", "camera"],
-    "replay": ["field", "hcm", "replay", "recordings", "plots", "robot3d"],
-}
 MATCH_ROBOTS = 8  # 4 v 4, the kid-size game
 PLAY_S = 15.0  # of play before the match picture
 RECORDING_S = 6.0  # the demo recording the Replay picture replays
@@ -58,8 +53,8 @@ def _page(url: str) -> Iterator[Any]:
 
 
 def _shoot(page: Any, preset: str, out: Path) -> Path:
-    """The preset's picture once it fits and every panel draws."""
-    panels = PRESETS[preset]
+    """The preset's picture once it fits and every panel it shows (web/presets.js says which) draws."""
+    panels: list[str] = page.eval_on_selector_all("#grid > .panel", "els => els.map(e => e.dataset.panel)")
     page.mouse.move(1919, 1079)  # no hover marks in the picture
     wait_for(lambda: not silent_panels(page, panels), DRAW_TIMEOUT_S, 2.0,
              lambda: f"every panel of {preset} drawing ({silent_panels(page, panels)} drew nothing)")
