@@ -60,8 +60,10 @@ def _publish_hostile(client: zenoh.Session, stop: threading.Event) -> None:
         "humanoid_league_msgs/msg/AdditionalServoData",
         temperature=[schemas.make("sensor_msgs/msg/Temperature", temperature=71.0,
                                   header=schemas.make("std_msgs/msg/Header", frame_id=MARKUP))], voltage=[12.0]))
+    # an attacker on the bus is not held to ROS 2's namespace rule (topic_key refuses this id): the key by hand
+    hostile_key = topic_key("r9", "robot_state").replace("/r9/", f"/{MARKUP}/", 1)
     while not stop.wait(0.1):
-        client.put(topic_key(MARKUP, "robot_state"), state)
+        client.put(hostile_key, state)
         client.put(topic_key("r9", "robot_state"), state)
         client.put(topic_key("r9", "diagnostics"), diagnostics)
         client.put(topic_key("r9", "servo_data"), servo)
