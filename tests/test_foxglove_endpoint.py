@@ -404,7 +404,16 @@ def test_foxglove_decodes_the_demo_robot_live_and_over_one_way_telemetry(tmp_pat
         if mode == "lab":  # the layout pitchside ships: every topic it names is one the demo's robot has
             layout = httpx.get(f"{demo.url}/api/foxglove/layout", headers=demo.auth).json()
             named = layout_topics(layout)
-            wait_for(lambda: named <= set(channels_of(url)), timeout=60, interval=0.5,
+
+            def advertised() -> bool:
+                if named <= set(channels_of(url)):
+                    return True
+                # /rosout has a channel once a node of the robot logged after the dashboard began to listen (the
+                # start-up lines may come before): an animation makes the HCM log its state changes
+                httpx.post(f"{demo.url}/api/robots/robot1/animation-play", json={"file": "init"}, headers=demo.auth,
+                           timeout=30)
+                return False
+            wait_for(advertised, timeout=60, interval=3.0,
                      what=lambda: f"the layout's topics {sorted(named - set(channels_of(url)))}")
             efforts = layout["configById"]["Plot!efforts"]["paths"]  # joint_states.effort[i], labelled by joint
             names = decoded["joint_states"]["name"]
