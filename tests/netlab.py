@@ -79,6 +79,21 @@ def in_namespace(netns: str, work: Callable[[], T]) -> T:
     return result[0]
 
 
+def dashboard_json(netns: str, path: str, token: str, port: int = 8080) -> Any:
+    """GET a dashboard's JSON answer from inside a machine (its /api on that machine's loopback), or None while it
+    is not up or refuses."""
+    import httpx
+
+    def get() -> Any:
+        try:
+            reply = httpx.get(f"http://127.0.0.1:{port}{path}", headers={"Authorization": f"Bearer {token}"},
+                              timeout=2.0)
+        except httpx.HTTPError:
+            return None
+        return reply.json() if reply.status_code == 200 else None
+    return in_namespace(netns, get)
+
+
 @dataclass
 class Machine:
     """One computer of the test network: a namespace with eth0 at ``address``."""

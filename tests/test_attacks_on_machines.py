@@ -19,7 +19,6 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-import httpx
 import pytest
 
 from tests import netlab
@@ -54,14 +53,7 @@ def _send(machine: netlab.Machine, datagrams: list[bytes], to: tuple[str, int]) 
 
 
 def _api(laptop: netlab.Machine, path: str) -> Any:
-    def get() -> Any:
-        try:
-            reply = httpx.get(f"http://127.0.0.1:8080{path}", headers={"Authorization": f"Bearer {TOKEN}"},
-                              timeout=2.0)
-        except httpx.HTTPError:
-            return None
-        return reply.json() if reply.status_code == 200 else None
-    return netlab.in_namespace(laptop.netns, get)
+    return netlab.dashboard_json(laptop.netns, path, TOKEN)
 
 
 def _telemetry(laptop: netlab.Machine) -> dict[str, Any]:

@@ -19,7 +19,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import httpx
 import pytest
 
 from tests import netlab
@@ -71,14 +70,7 @@ class Machine:
         self.processes.clear()
 
     def api(self, path: str) -> Any:
-        def get() -> Any:
-            try:
-                reply = httpx.get(f"http://127.0.0.1:8080{path}", headers={"Authorization": f"Bearer {TOKEN}"},
-                                  timeout=2.0)
-            except httpx.HTTPError:
-                return None
-            return reply.json() if reply.status_code == 200 else None
-        return netlab.in_namespace(self.netns, get)
+        return netlab.dashboard_json(self.netns, path, TOKEN)
 
 
 @pytest.fixture

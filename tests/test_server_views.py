@@ -36,13 +36,18 @@ async def _until(condition, timeout: float = 30.0) -> None:  # type: ignore[no-u
         await asyncio.sleep(0.05)
 
 
+def _wolfgang_3d_config(testdata: Path) -> ServerConfig:
+    """The 3D view on a free port, every robot drawn as the Wolfgang-OP (meshes through its package:// path)."""
+    wolfgang = testdata / "robots" / "wolfgang"
+    return ServerConfig(robot3d=True, robot3d_port=free_port(), descriptions={
+        "*": RobotDescription(wolfgang / "urdf" / "robot.urdf", {"wolfgang_description": wolfgang})})
+
+
 @pytest.mark.slow
 def test_robot3d_moves_the_urdf_joints(testdata: Path) -> None:
     from server.robot3d import Robot3DView
 
-    wolfgang = testdata / "robots" / "wolfgang"
-    config = ServerConfig(robot3d=True, robot3d_port=free_port(), descriptions={
-        "*": RobotDescription(wolfgang / "urdf" / "robot.urdf", {"wolfgang_description": wolfgang})})
+    config = _wolfgang_3d_config(testdata)
 
     async def main() -> None:
         hub = Hub()
@@ -81,9 +86,7 @@ def test_robot3d_tells_live_and_replayed_robots_apart_and_lets_a_closed_replay_g
     a figure hides and shows; a robot the hub forgets (a closed replay's) leaves the scene with its label."""
     from server.robot3d import LABEL_HEIGHT_M, Robot3DView
 
-    wolfgang = testdata / "robots" / "wolfgang"
-    config = ServerConfig(robot3d=True, robot3d_port=free_port(), descriptions={
-        "*": RobotDescription(wolfgang / "urdf" / "robot.urdf", {"wolfgang_description": wolfgang})})
+    config = _wolfgang_3d_config(testdata)
 
     async def main() -> None:
         hub = Hub()
