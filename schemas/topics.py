@@ -1,7 +1,8 @@
 """The topic table: every topic pitchside nodes speak, and its message type.
 
 Nodes are exchangeable because only these names and types are fixed (thesis ch. 4).
-Zenoh key of a topic: rmw_zenoh's key of the ROS 2 topic ``/<robot_id>/<topic>`` (wire.keys.topic_key).
+Zenoh key of a topic: rmw_zenoh's key of the ROS 2 topic ``/<robot_id>/<topic>`` (wire.keys.topic_key), or of
+``/<topic>`` for a topic of the root namespace (``/rosout``).
 """
 
 from __future__ import annotations
@@ -28,6 +29,12 @@ class Topic:
     # published only when something happens (an animation plays, the robot walks or talks): silence on it is
     # normal, so the dashboard shows its age but never calls it stale or lost
     event: bool = False
+    # a ROS 2 name of its own outside the robot's namespace (/rosout, /clock, as ROS 2 has them): one topic for
+    # every robot of the domain, the robot told by the message (a Log's logger name ``robot1.hcm``)
+    root: bool = False
+    # latched (ROS 2's transient local durability): the publisher keeps its last ``latched`` messages for
+    # subscribers that join later (robot_description, tf_static); 0: volatile, a late subscriber gets the next one
+    latched: int = 0
 
 
 _HL = "humanoid_league_msgs/msg/"
@@ -92,8 +99,12 @@ _TABLE: tuple[Topic, ...] = (
               "process); the robot's nodes -> the simulation, when it waits for them (a lockstep match)"),
         Topic("diagnostics", "diagnostic_msgs/msg/DiagnosticArray", "node health, every node -> dashboard"),
         Topic("rosout", "rcl_interfaces/msg/Log",
-              "every node's log records (INFO and above, rate-limited per node); every node -> dashboard, recordings",
-              Priority.PERCEPTION, event=True),
+              "every node's log records (INFO and above, rate-limited per node), ROS 2's /rosout: one topic for every "
+              "robot, the logger name <robot>.<node> tells whose; every node -> dashboard, recordings",
+              Priority.PERCEPTION, event=True, root=True, latched=1000),
+        Topic("robot_description", "std_msgs/msg/String",
+              "the robot's URDF, latched (a late subscriber gets it); cm730 -> dashboard, 3D views", Priority.BULK,
+              event=True, latched=1),
         Topic("overview", "pitchside_msgs/msg/RobotOverview",
               "one robot at a glance: telemetry's compact overview datagram, every tick; telemetry -> dashboard",
               Priority.CRITICAL),

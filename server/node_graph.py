@@ -1,34 +1,37 @@
-"""The node graph of the robots on the bus: which node publishes, subscribes and serves what (the thesis' rqt_graph).
+"""The node graph of the bus: which node publishes, subscribes and serves what (the thesis' rqt_graph).
 
-Nodes announce each entry as a Zenoh liveliness token (robot_nodes/runtime/graph.py, keys in wire.keys); Zenoh
-withdraws a token when its node, process or link goes, so the graph here is right after a crash too. One liveliness
-subscriber (with the tokens already present) keeps the set; the dashboard reads it at ``GET /api/graph`` and the
-Foxglove endpoint serves it as the ConnectionGraph capability. Lab only: in match mode the server opens no Zenoh
-session, so there is no graph.
+Read from rmw_zenoh's liveliness tokens (``@ros2_lv/<domain>/...``, wire.ros2.graph.Ros2Graph), the same tokens
+``ros2 node list`` and ``ros2 topic info -v`` read, so pitchside's nodes and any ROS 2 node of the domain show
+alike. Zenoh withdraws a token when its node, process or link goes, so the graph here is right after a crash too.
+The dashboard reads it at ``GET /api/graph`` and the Foxglove endpoint serves it as the ConnectionGraph capability.
+Lab only: in match mode the server opens no Zenoh session, so there is no graph.
 """
 
 from __future__ import annotations
 
 import contextlib
 import logging
-import threading
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
-import zenoh
-
 from server.zenoh_link import ZenohLink
 from wire import keys
+from wire.ros2.graph import Ros2Graph
+from wire.ros2.liveliness import Entity, EntityKind
 
 log = logging.getLogger(__name__)
+
+# rmw_zenoh serves an action as three services and two topics under <action>/_action/ (ROS 2's action protocol);
+# the graph lists the action once, by its send_goal service
+ACTION_INFIX = "/_action/"
+ACTION_SEND_GOAL = ACTION_INFIX + "send_goal"
 
 
 @dataclass(frozen=True, slots=True, order=True)
 class GraphEntry:
-    """One token: ``node`` of ``robot`` publishes (pub), subscribes (sub: its robot's; suball: every robot's) or
-    serves (srv, action) ``name``."""
+    """One entity: the node ``node`` (fully qualified: ``/robot1/hcm``) publishes (pub), subscribes (sub), serves
+    (srv, action) or calls (client) ``name`` (fully qualified: ``/robot1/joint_states``, ``/rosout``)."""
 
-    robot: str
     node: str
     role: str
     name: str
@@ -36,119 +39,119 @@ class GraphEntry:
 
 @dataclass(slots=True)
 class NodeEntries:
-    """One node and its topics, services and actions, as the graph has them now."""
+    """One node and its topics, services and actions, as the graph has them now (fully qualified names)."""
 
-    robot: str
-    node: str
-    publishes: list[str] = field(default_factory=list)  # topics of its robot
-    subscribes: list[str] = field(default_factory=list)  # topics of its robot
-    subscribes_every_robot: list[str] = field(default_factory=list)  # the topic of every robot
+    id: str  # /robot1/hcm
+    namespace: str  # /robot1 (the robot of a pitchside node), / for a node in the root namespace
+    node: str  # hcm
+    publishes: list[str] = field(default_factory=list)
+    subscribes: list[str] = field(default_factory=list)
     services: list[str] = field(default_factory=list)
     actions: list[str] = field(default_factory=list)
+    clients: list[str] = field(default_factory=list)
 
 
-_FIELDS = {"pub": "publishes", "sub": "subscribes", "suball": "subscribes_every_robot", "srv": "services",
-           "action": "actions"}
+_FIELDS = {"pub": "publishes", "sub": "subscribes", "srv": "services", "action": "actions", "client": "clients"}
+_ROLES = {EntityKind.PUBLISHER: "pub", EntityKind.SUBSCRIPTION: "sub", EntityKind.SERVICE: "srv",
+          EntityKind.CLIENT: "client"}
+
+
+def entry_of(entity: Entity) -> GraphEntry | None:
+    """The graph entry of a token's entity; None for a node (its entries carry it) and for an action's parts
+    other than its send_goal service (one entry per action)."""
+    if entity.kind is EntityKind.NODE or entity.topic is None:
+        return None
+    node, name, role = entity.node.fully_qualified_name, entity.topic.name, _ROLES[entity.kind]
+    if ACTION_INFIX in name:
+        if entity.kind is not EntityKind.SERVICE or not name.endswith(ACTION_SEND_GOAL):
+            return None
+        return GraphEntry(node, "action", name[:-len(ACTION_SEND_GOAL)])
+    return GraphEntry(node, role, name)
 
 
 class NodeGraph:
-    """The set of graph entries on the bus, kept from Zenoh's liveliness samples (Zenoh threads)."""
+    """The graph of the server's domain (ROS_DOMAIN_ID), kept from Zenoh's liveliness samples (Zenoh threads)."""
 
     def __init__(self, link: ZenohLink) -> None:
         self.link = link
-        self.entries: set[GraphEntry] = set()
-        self.version = 0  # counts changes; listeners compare it instead of the sets
-        self.bad_keys = 0
-        self._lock = threading.Lock()
-        self._subscriber: zenoh.Subscriber[None] | None = None
+        self._graph: Ros2Graph | None = None
         self._listeners: list[Callable[[], None]] = []
 
     def start(self) -> None:
-        """Blocking (opens the server's Zenoh session): call from a worker thread. MatchModeError in match mode."""
-        session = self.link.session()
-        self._subscriber = session.liveliness().declare_subscriber(keys.GRAPH_ALL, self._on_sample, history=True)
+        """Blocking (opens the server's Zenoh session, asks for the tokens already there): call from a worker
+        thread. MatchModeError in match mode."""
+        self._graph = Ros2Graph(self.link.session(), keys.domain_id(), on_change=self._changed)
 
     def stop(self) -> None:
-        subscriber, self._subscriber = self._subscriber, None
-        if subscriber is not None:
+        graph, self._graph = self._graph, None
+        if graph is not None:
             with contextlib.suppress(Exception):  # the session closed first
-                subscriber.undeclare()
+                graph.close()
+
+    @property
+    def version(self) -> int:
+        """Counts changes; listeners compare it instead of the sets."""
+        return self._graph.version if self._graph is not None else 0
+
+    @property
+    def bad_keys(self) -> int:
+        """Tokens of the domain that are not rmw_zenoh's (counted; the first one logged)."""
+        return self._graph.bad_tokens if self._graph is not None else 0
 
     def on_change(self, listener: Callable[[], None]) -> None:
         """Called (on a Zenoh thread) after each change; keep it short."""
         self._listeners.append(listener)
 
-    def _on_sample(self, sample: zenoh.Sample) -> None:
-        try:
-            entry = GraphEntry(*keys.split_graph_key(str(sample.key_expr)))
-        except ValueError:  # not a pitchside node's token, or a name that breaks the rules
-            self.bad_keys += 1
-            return
-        with self._lock:
-            if sample.kind == zenoh.SampleKind.DELETE:
-                changed = entry in self.entries
-                self.entries.discard(entry)
-            else:
-                changed = entry not in self.entries
-                self.entries.add(entry)
-            if changed:
-                self.version += 1
-        if changed:
-            for listener in self._listeners:
-                try:
-                    listener()
-                except Exception:  # a listener's failure must not stop the graph
-                    log.exception("node graph listener failed")
+    def _changed(self) -> None:
+        for listener in self._listeners:
+            try:
+                listener()
+            except Exception:  # a listener's failure must not stop the graph
+                log.exception("node graph listener failed")
 
     def snapshot(self) -> list[GraphEntry]:
-        with self._lock:
-            return sorted(self.entries)
+        graph = self._graph
+        if graph is None:
+            return []
+        return sorted({entry for entity in graph.entities() if (entry := entry_of(entity)) is not None})
 
     def nodes(self) -> list[NodeEntries]:
-        """Every node with its entries, by robot and node name."""
-        out: dict[tuple[str, str], NodeEntries] = {}
+        """Every node (those without entries too), by fully qualified name, as ``ros2 node info`` shows them."""
+        graph = self._graph
+        if graph is None:
+            return []
+        out = {info.fully_qualified_name: NodeEntries(info.fully_qualified_name, info.namespace, info.name)
+               for info in graph.nodes()}
         for entry in self.snapshot():
-            node = out.setdefault((entry.robot, entry.node), NodeEntries(entry.robot, entry.node))
-            getattr(node, _FIELDS[entry.role]).append(entry.name)
-        return list(out.values())
-
-    def robots(self) -> list[str]:
-        return sorted({e.robot for e in self.snapshot()})
+            node = out.get(entry.node)
+            if node is not None:  # an entity whose node token has not come yet shows with its node
+                getattr(node, _FIELDS[entry.role]).append(entry.name)
+        return [out[name] for name in sorted(out)]
 
 
 @dataclass(slots=True)
 class TopicLinks:
-    """Who publishes and who subscribes one robot's topic (node ids ``/<robot>/<node>``)."""
+    """Who publishes and who subscribes one topic (node ids: fully qualified node names)."""
 
     publishers: set[str] = field(default_factory=set)
     subscribers: set[str] = field(default_factory=set)
 
 
-def node_id(robot: str, node: str) -> str:
-    return f"/{robot}/{node}"
-
-
 def topic_links(entries: list[GraphEntry]) -> dict[str, TopicLinks]:
-    """``/<robot>/<topic>`` -> its publishers and subscribers. A subscription to every robot's topic counts for each
-    robot of the graph (a robot joins the graph with its nodes)."""
-    robots = sorted({e.robot for e in entries})
+    """Topic name (``/robot1/joint_states``, ``/rosout``) -> its publishers and subscribers."""
     links: dict[str, TopicLinks] = {}
     for entry in entries:
-        who = node_id(entry.robot, entry.node)
         if entry.role == "pub":
-            links.setdefault(f"/{entry.robot}/{entry.name}", TopicLinks()).publishers.add(who)
+            links.setdefault(entry.name, TopicLinks()).publishers.add(entry.node)
         elif entry.role == "sub":
-            links.setdefault(f"/{entry.robot}/{entry.name}", TopicLinks()).subscribers.add(who)
-        elif entry.role == "suball":
-            for robot in robots:
-                links.setdefault(f"/{robot}/{entry.name}", TopicLinks()).subscribers.add(who)
+            links.setdefault(entry.name, TopicLinks()).subscribers.add(entry.node)
     return links
 
 
 def service_providers(entries: list[GraphEntry]) -> dict[str, set[str]]:
-    """``/<robot>/<service or action>`` -> the nodes serving it."""
+    """Service or action name (``/robot1/manual_penalize``, ``/robot1/animation``) -> the nodes serving it."""
     out: dict[str, set[str]] = {}
     for entry in entries:
         if entry.role in ("srv", "action"):
-            out.setdefault(f"/{entry.robot}/{entry.name}", set()).add(node_id(entry.robot, entry.node))
+            out.setdefault(entry.name, set()).add(entry.node)
     return out

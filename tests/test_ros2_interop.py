@@ -348,8 +348,9 @@ def test_pitchsides_runtime_nodes_speak_the_data_path_of_ros2(bus: BusConfig,
 
 def test_ros2s_graph_lists_pitchsides_runtime_nodes(bus: BusConfig,
                                                    sessions: tuple[zenoh.Session, zenoh.Session]) -> None:
-    """What ``ros2 node list`` and ``ros2 topic list -t`` read: the NN, MP and MS tokens of a runtime node, read by
-    a ROS 2 graph cache written in the test (token strings split as design.md lays them out)."""
+    """What ``ros2 node list``, ``ros2 topic list -t`` and ``ros2 node info`` read: the NN, MP, MS and SS tokens of
+    a runtime node, read by a ROS 2 graph cache written in the test (token strings split as design.md lays them
+    out), exactly: nothing missing, nothing of pitchside's own."""
     from robot_nodes.runtime import Node
 
     _, peer = sessions
@@ -363,21 +364,29 @@ def test_ros2s_graph_lists_pitchsides_runtime_nodes(bus: BusConfig,
     try:
         node.publisher("joint_states")
         node.subscribe("cmd_vel", lambda _msg: None)
+        node.service("manual_penalize", lambda _request: None)  # type: ignore[arg-type,return-value]
 
-        def listed() -> dict[str, set[tuple[str, str, str]]]:
-            seen: dict[str, set[tuple[str, str, str]]] = {}
+        def listed() -> dict[str, set[tuple[str, str, str, str]]]:
+            seen: dict[str, set[tuple[str, str, str, str]]] = {}
             for token in list(tokens):
                 parts = token.split("/")  # @ros2_lv domain zid nid eid kind enclave ns node [name type hash qos]
                 fq_node = parts[7].replace("%", "/") + "/" + parts[8]
                 entry = seen.setdefault(fq_node, set())
                 if parts[5] != "NN":
-                    entry.add((parts[5], parts[9].replace("%", "/"), parts[10]))
+                    entry.add((parts[5], parts[9].replace("%", "/"), parts[10], parts[12]))
             return seen
 
-        wanted = {("MP", "/robot1/joint_states", JOINT_STATE_DDS),
-                  ("MS", "/robot1/cmd_vel", "geometry_msgs::msg::dds_::Twist_")}
-        wait_for(lambda: wanted <= listed().get("/robot1/node", set()), what=lambda: f"the node's tokens: {tokens}")
-        assert ("MP", "/robot1/rosout", "rcl_interfaces::msg::dds_::Log_") in listed()["/robot1/node"]
+        wanted = {("MP", "/robot1/joint_states", JOINT_STATE_DDS, "::,10:,:,:,,"),
+                  ("MP", "/robot1/diagnostics", "diagnostic_msgs::msg::dds_::DiagnosticArray_", "::,10:,:,:,,"),
+                  # ROS 2's /rosout with rcl's QoS (transient local, depth 1000, lifespan 10 s), as design.md has it
+                  ("MP", "/rosout", "rcl_interfaces::msg::dds_::Log_", ":1:,1000:,:10,0:,,"),
+                  ("MS", "/robot1/cmd_vel", "geometry_msgs::msg::dds_::Twist_", "::,10:,:,:,,"),
+                  ("SS", "/robot1/manual_penalize", "humanoid_league_msgs::srv::dds_::ManualPenalize_",
+                   "::,10:,:,:,,")}
+        wait_for(lambda: listed().get("/robot1/node") == wanted,
+                 what=lambda: f"the node's tokens: {listed().get('/robot1/node')}")
+        assert set(listed()) == {"/robot1/node"}  # ros2 node list
+        assert not any(token.startswith("pitchside/") for token in tokens)
         node.shutdown()
         wait_for(lambda: "/robot1/node" not in listed(), what="the node gone from the graph with its tokens")
     finally:

@@ -204,13 +204,24 @@ def test_every_topic_and_service_of_the_table_has_a_ros2_key() -> None:
 
     for topic in TOPICS:
         key = robots.topic_key("robot1", topic, domain_id=3)
-        assert key.keyexpr.startswith(f"3/robot1/{topic}/")
         assert parse_topic_key(key.keyexpr) == key
-        assert robots.robot_and_topic(key) == ("robot1", topic)
+        if TOPICS[topic].root:  # ROS 2's /rosout: one topic of every robot, in no robot's namespace
+            assert key.keyexpr.startswith(f"3/{topic}/") and robots.root_topic(key) == topic
+            continue
+        assert key.keyexpr.startswith(f"3/robot1/{topic}/")
+        assert robots.robot_and_topic(key) == ("robot1", topic) and robots.root_topic(key) is None
     for service in SERVICES:
         assert "::srv::dds_::" in robots.service_key("robot1", service).keyexpr
     assert robots.topic_key("amy", "imu/data").keyexpr == (
         "0/amy/imu/data/sensor_msgs::msg::dds_::Imu_/" + type_hash("sensor_msgs/msg/Imu"))
+    # /rosout as every ROS 2 node has it: the key and hash from rmw_zenoh's design notes and issue 44
+    assert robots.topic_key("amy", "rosout").keyexpr == (
+        "0/rosout/rcl_interfaces::msg::dds_::Log_/"
+        "RIHS01_e28ce254ca8abc06abf92773b74602cdbf116ed34fbaf294fb9f81da9f318eac")
+    assert qos_to_keyexpr(robots.topic_qos("rosout")) == ":1:,1000:,:10,0:,,"
+    assert qos_to_keyexpr(robots.topic_qos("robot_description")) == ":1:,1:,:,:,,"
+    assert robots.logger_name("robot1", "hcm") == "robot1.hcm"
+    assert robots.robot_of_logger("robot1.hcm") == "robot1" and robots.robot_of_logger("talker") is None
 
 
 def test_robot_ids_ros2_cannot_carry_and_keys_of_other_types_are_refused() -> None:

@@ -1,5 +1,6 @@
-"""Node logs as messages: what a node logs goes out as rcl_interfaces/msg/Log on its robot's rosout, a flood is
-cut by the rate limit and counted, and two robots' nodes in one process never log under each other's name."""
+"""Node logs as messages: what a node logs goes out as rcl_interfaces/msg/Log on ROS 2's /rosout (one topic for
+every robot, the logger name <robot>.<node> says whose), a flood is cut by the rate limit and counted, and two
+robots' nodes in one process never log under each other's name."""
 
 from __future__ import annotations
 
@@ -19,6 +20,10 @@ from tests.waiting import wait_for
 from wire import keys
 from wire.bus import BusConfig
 
+# ROS 2's /rosout in domain 0 (rmw_zenoh's key of it, as a ROS 2 node subscribes)
+ROSOUT_KEY = ("0/rosout/rcl_interfaces::msg::dds_::Log_/"
+              "RIHS01_e28ce254ca8abc06abf92773b74602cdbf116ed34fbaf294fb9f81da9f318eac")
+
 
 @pytest.fixture(autouse=True)
 def info_level(caplog: pytest.LogCaptureFixture) -> Iterator[None]:
@@ -33,16 +38,19 @@ class Chatty(Node):
 
 
 class Received:
-    """Every Log a robot's rosout carries, decoded."""
+    """Every Log of a robot's nodes on /rosout, decoded (told apart by the logger name, as ROS 2 names it)."""
 
     def __init__(self, client: zenoh.Session, robot: str) -> None:
         self.logs: list[Log] = []
+        self.robot = robot
         self._lock = threading.Lock()
-        self._sub = client.declare_subscriber(keys.topic_key(robot, "rosout"), self._on)
+        self._sub = client.declare_subscriber(ROSOUT_KEY, self._on)
 
     def _on(self, sample: Any) -> None:
-        with self._lock:
-            self.logs.append(schemas.decode(sample.payload.to_bytes(), Log))
+        log = schemas.decode(sample.payload.to_bytes(), Log)
+        if log.name.startswith(self.robot + "."):
+            with self._lock:
+                self.logs.append(log)
 
     def texts(self) -> list[str]:
         with self._lock:
@@ -63,7 +71,7 @@ def test_a_nodes_records_go_out_on_rosout(bus: BusConfig, client: zenoh.Session)
             node.log.exception("step failed")
         wait_for(lambda: any(t.startswith("step failed") for t in received.texts()), timeout=10, what="the error")
         by_text = {log.msg.split("\n")[0]: log for log in received.logs}
-        assert by_text["servo 7 hot"].level == Log.WARN and by_text["servo 7 hot"].name == "chatty"
+        assert by_text["servo 7 hot"].level == Log.WARN and by_text["servo 7 hot"].name == "r1.chatty"
         assert by_text["servo 7 hot"].file.endswith("test_rosout.py") and by_text["servo 7 hot"].line > 0
         assert by_text["hello pitch"].level == Log.INFO
         failed = by_text["step failed"]

@@ -3,6 +3,9 @@
     <domain>/<robot>/<topic>/<pkg>::msg::dds_::<Type>_/RIHS01_<hash>
                                                    topic data, CDR payload with rmw_zenoh's attachment: the topic
                                                    /<robot>/<topic> of ROS 2 (wire/ros2), domain ROS_DOMAIN_ID
+    <domain>/rosout/rcl_interfaces::msg::dds_::Log_/RIHS01_<hash>
+                                                   a topic of the root namespace (ROS 2's /rosout): every robot's,
+                                                   the robot told by the message (logger name robot1.hcm)
     pitchside/<robot>/params/<node>                parameter queryable, JSON request/reply
     pitchside/<robot>/params/<node>/changed        JSON event after every accepted change
     pitchside/<robot>/_srv/<service>               service queryable, CDR request/reply
@@ -11,10 +14,7 @@
     pitchside/<robot>/_action/<action>/events      16-byte goal id + b"F" + CDR feedback, or
                                                    16-byte goal id + b"R" + 1 status byte + CDR result
                                                    (one key, so a result never overtakes its last feedback)
-    pitchside/<robot>/_graph/<node>/<role>/<name>  Zenoh liveliness token while the node has it (the node graph):
-                                                   role pub/sub (the robot's own topic), suball (the topic of
-                                                   every robot), srv (a service it serves), action (an action it
-                                                   serves); name a topic, service or action name
+    @ros2_lv/<domain>/...                          rmw_zenoh's liveliness tokens: the ROS 2 graph (wire/ros2)
 
 Robot ids and topic names come from the network (a Zenoh key, a telemetry header, a log file) and end up in
 keys, file names and the dashboard's page: the rules below are checked where they enter, the same everywhere.
@@ -24,7 +24,9 @@ from __future__ import annotations
 
 import functools
 import re
+from typing import Any
 
+import schemas
 from wire.ros2 import keys as ros2_keys
 from wire.ros2 import robots as ros2_robots
 
@@ -128,8 +130,48 @@ def split_topic_key(key: str) -> tuple[str, str]:
     return check_robot_id(robot), check_topic(topic)
 
 
+@functools.lru_cache(maxsize=64)
+def root_topic_of_key(key: str) -> str | None:
+    """The table's topic of the root namespace whose data key this is (``rosout`` for ``/rosout``), None for any
+    other key; ValueError for /rosout's name with another type or hash."""
+    try:
+        return ros2_robots.root_topic(ros2_keys.parse_topic_key(key))
+    except ros2_keys.Ros2WireError as exc:
+        if "the table's" in str(exc):
+            raise ValueError(f"not a pitchside topic key: {key!r} ({exc})") from None
+        return None
+
+
+def robot_of_message(topic: str, msg: Any) -> str:
+    """The robot a message of a root-namespace topic comes from (/rosout: its logger name ``robot1.hcm``);
+    ValueError when it names none or one that breaks the rules."""
+    if topic == "rosout":
+        robot = ros2_robots.robot_of_logger(str(getattr(msg, "name", "")))
+        if robot is not None:
+            return check_robot_id(robot)
+    raise ValueError(f"a message on /{topic} that names no robot")
+
+
+def split_sample(key: str, cdr: bytes) -> tuple[str, str]:
+    """(robot, topic) of a sample from the bus: from its key, or for a root-namespace topic (/rosout) from the
+    message; ValueError for anything else (a name that breaks the rules, a message that does not decode)."""
+    topic = root_topic_of_key(key)
+    if topic is None:
+        return split_topic_key(key)
+    try:
+        msg = schemas.decode(cdr, schemas.topic(topic).type)
+    except schemas.SchemaError as exc:
+        raise ValueError(f"/{topic}: {exc}") from None
+    return robot_of_message(topic, msg), topic
+
+
+def logger_name(robot: str, node: str) -> str:
+    """The logger name of a robot's node in its Log records (``robot1.hcm``), as rclcpp names a node's logger."""
+    return ros2_robots.logger_name(robot, node)
+
+
 def is_topic_key(key: str) -> bool:
-    """True for a key of rmw_zenoh's data layout (the parameter, service, action and graph keys are pitchside's)."""
+    """True for a key of rmw_zenoh's data layout (the parameter, service and action keys are pitchside's)."""
     parts = key.rsplit("/", 2)
     return len(parts) == 3 and parts[2].startswith("RIHS01_") and "::msg::dds_::" in parts[1]
 
@@ -150,29 +192,3 @@ def action_key(robot: str, action: str, part: str) -> str:
     if part not in ("goal", "cancel", "events"):
         raise ValueError(f"unknown action key part {part!r}")
     return f"{PREFIX}/{robot}/_action/{action}/{part}"
-
-
-# The node graph (robot_nodes/runtime/graph.py announces, the server's node graph reads): a liveliness token per thing
-# a node publishes, subscribes or serves, gone with the node (or its process, or its link).
-GRAPH_ROLES = ("pub", "sub", "suball", "srv", "action")
-GRAPH_ALL = f"{PREFIX}/*/_graph/**"
-
-
-def graph_key(robot: str, node: str, role: str, name: str) -> str:
-    """The liveliness key of one entry of a node's graph; ValueError for a name that breaks the rules."""
-    if role not in GRAPH_ROLES:
-        raise ValueError(f"graph role {role!r} is not one of {GRAPH_ROLES}")
-    if not is_valid_name(robot) or not is_valid_node_name(node) or not is_valid_topic(name) or name.startswith("/"):
-        raise ValueError(f"graph entry {robot!r}/{node!r}/{name!r} breaks the naming rules")
-    return f"{PREFIX}/{robot}/_graph/{node}/{role}/{name}"
-
-
-def split_graph_key(key: str) -> tuple[str, str, str, str]:
-    """(robot, node, role, name) of a graph key; ValueError for anything else (names are checked by the rules)."""
-    parts = key.split("/", 5)
-    if len(parts) != 6 or parts[0] != PREFIX or parts[2] != "_graph" or parts[4] not in GRAPH_ROLES:
-        raise ValueError(f"not a node graph key: {key!r}")
-    robot, node, role, name = parts[1], parts[3], parts[4], parts[5]
-    if not is_valid_name(robot) or not is_valid_node_name(node) or not is_valid_topic(name) or name.startswith("/"):
-        raise ValueError(f"node graph key {key!r} breaks the naming rules")
-    return robot, node, role, name

@@ -1,62 +1,65 @@
-"""A node's place in the node graph: what it publishes, subscribes and serves, as Zenoh liveliness tokens.
+"""A node's services and actions on the ROS 2 graph: the service-server (SS) tokens rmw_zenoh declares for them,
+so ``ros2 service list``, ``ros2 action list`` and the dashboard's graph (server/node_graph.py) see who serves what.
 
-A token lives as long as the node holds it, and Zenoh drops it when the node's session or process ends however it
-ends (a crash, SIGKILL, a cut link), so the graph the dashboard reads (server/node_graph.py, Foxglove's topic graph)
-never shows a dead node. Keys: ``wire.keys.graph_key``. Nodes composed in one process share one Zenoh session; each
-still declares its own tokens under its own name, so closing one of them takes away its entries only.
+The node's own token (NN) and those of its publishers and subscriptions (MP, MS) are declared by the node and by
+each Publisher and Subscription (node.py). A token lives as long as the node holds it, and Zenoh drops it when the
+node's session or process ends however it ends (a crash, SIGKILL, a cut link), so the graph never shows a dead
+node. A service server or action server that declares its own tokens (rmw_zenoh's service and action protocol)
+makes this module's entries redundant: it only fills in for servers that do not.
 """
 
 from __future__ import annotations
 
 import contextlib
 import logging
+from collections.abc import Callable
 from typing import Any
 
 import zenoh
 
-from wire import keys
+import schemas
+from schemas.codec import type_hash
+from wire.ros2.keys import TopicKey
+from wire.ros2.liveliness import Entity, EntityKind, NodeInfo
+from wire.ros2.qos import QoS
 
 log = logging.getLogger(__name__)
+# rmw_zenoh's name and type of an action's goal service (ROS 2's action protocol): the part the graph lists
+SEND_GOAL = "_action/send_goal"
 
 
-class GraphAnnouncer:
-    """The liveliness tokens of one node; each entry is declared once, however often the node asks."""
+class ServedTokens:
+    """The SS tokens of one node's services and actions; each declared once, however often the node asks."""
 
-    def __init__(self, session: zenoh.Session, robot: str, node: str) -> None:
+    def __init__(self, session: zenoh.Session, zid: str, node: NodeInfo, node_id: int,
+                 next_entity_id: Callable[[], int]) -> None:
         self.session = session
-        self.robot = robot
+        self.zid = zid
         self.node = node
-        self.tokens: dict[str, Any] = {}  # key -> zenoh.LivelinessToken
-
-    def publishes(self, topic: str) -> None:
-        self._announce("pub", topic)
-
-    def subscribes(self, topic: str, robot: str) -> None:
-        """robot: the robot whose topic it is (``*``: every robot's)."""
-        if robot == keys.ANY_ROBOT:
-            self._announce("suball", topic)
-        elif robot == self.robot:
-            self._announce("sub", topic)
-        # another single robot's topic: no node does that; the graph has no role for it yet
+        self.node_id = node_id
+        self._next_entity_id = next_entity_id
+        self.tokens: dict[str, Any] = {}  # token key -> zenoh.LivelinessToken
 
     def serves(self, service: str) -> None:
-        self._announce("srv", service)
+        """A service of the table (``manual_penalize``) in the node's namespace."""
+        srv_type = schemas.SERVICES[service].type
+        self._declare(f"{self.node.namespace.rstrip('/')}/{service}", srv_type)
 
     def serves_action(self, action: str) -> None:
-        self._announce("action", action)
+        """An action of the table (``animation``): its goal service ``<action>/_action/send_goal``."""
+        action_type = schemas.ACTIONS[action].type
+        self._declare(f"{self.node.namespace.rstrip('/')}/{action}/{SEND_GOAL}", action_type + "_SendGoal")
 
-    def _announce(self, role: str, name: str) -> None:
-        try:
-            key = keys.graph_key(self.robot, self.node, role, name)
-        except ValueError as exc:  # a name the graph cannot carry: the node works without that entry
-            log.debug("%s not in the node graph: %s", name, exc)
-            return
-        if key in self.tokens:
+    def _declare(self, name: str, ros_type: str) -> None:
+        if name in self.tokens:
             return
         try:
-            self.tokens[key] = self.session.liveliness().declare_token(key)
-        except Exception as exc:  # a bus whose access control refuses tokens: the node works, unlisted
-            log.debug("%s not in the node graph: %s", key, exc)
+            topic = TopicKey(self.node.domain_id, name, ros_type, type_hash(ros_type))
+            entity = Entity(self.zid, self.node_id, self._next_entity_id(), EntityKind.SERVICE, self.node, topic,
+                            QoS(depth=10))
+            self.tokens[name] = self.session.liveliness().declare_token(entity.token)
+        except Exception as exc:  # a bus whose access control refuses tokens, a name ROS 2 cannot carry: unlisted
+            log.debug("%s not on the ROS 2 graph: %s", name, exc)
 
     def close(self) -> None:
         for token in self.tokens.values():

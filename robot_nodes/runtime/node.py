@@ -23,7 +23,7 @@ import zenoh
 import schemas
 from robot_nodes.runtime.action_server import ActionServer, ServerGoal
 from robot_nodes.runtime.clock import WALL_CLOCK, Clock, RobotSimClock, sim_time_wanted
-from robot_nodes.runtime.graph import GraphAnnouncer
+from robot_nodes.runtime.graph import ServedTokens
 from robot_nodes.runtime.local_bus import LocalBus, RemoteInterest, freeze, thawed
 from robot_nodes.runtime.loop import EventLoop, Timer
 from robot_nodes.runtime.parameters import ParameterStore
@@ -39,7 +39,8 @@ from wire.heap import freeze_startup_heap
 from wire.json_limits import JsonLimitError, loads_limited
 from wire.parameters import ParameterError
 from wire.ros2.attachment import AttachmentStamper
-from wire.ros2.robots import next_node_id, node_entity, publisher_entity, subscription_entity
+from wire.ros2.endpoints import declare_latched_publisher
+from wire.ros2.robots import next_node_id, node_entity, publisher_entity, subscription_entity, topic_qos
 
 log = logging.getLogger(__name__)
 FIRST_REPORT_AGAIN_S = 0.5  # the second report of a starting node (see spin)
@@ -91,9 +92,17 @@ class Publisher:
         self._stamp = AttachmentStamper(self.entity.gid)
         self._token = node.session.liveliness().declare_token(self.entity.token)  # ros2 topic list/info see it
         encoding = zenoh.Encoding("application/cdr").with_schema(self.topic.type)
-        self._pub = node.session.declare_publisher(self.key, encoding=encoding,
-                                                   allowed_destination=zenoh.Locality.REMOTE)
-        self._remote = RemoteInterest(self._pub)
+        self._pub: Any
+        self._remote: RemoteInterest | AlwaysPut
+        if self.topic.latched:
+            # kept for subscribers that join later (ROS 2's transient local), so put whether or not one listens now
+            self._pub = declare_latched_publisher(node.session, self.key, topic_qos(topic), encoding,
+                                                  zenoh.Locality.REMOTE)
+            self._remote = AlwaysPut()
+        else:
+            self._pub = node.session.declare_publisher(self.key, encoding=encoding,
+                                                       allowed_destination=zenoh.Locality.REMOTE)
+            self._remote = RemoteInterest(self._pub)
         self._local = node.local_bus
         self._typename = schemas.codec.full_name(self.topic.type)
         self.count = 0
@@ -140,6 +149,16 @@ class Publisher:
         self._pub.undeclare()
 
 
+class AlwaysPut:
+    """The remote interest of a latched publisher: its cache is for subscribers that are not there yet, so every
+    message goes out (zenoh-ext's advanced publisher has no matching status to ask)."""
+
+    matching = True
+
+    def close(self) -> None:
+        """Nothing to undeclare."""
+
+
 QUEUE_DEPTH = 1000  # messages of one subscription waiting for the node's loop: 10 s of a 100 Hz topic
 
 
@@ -165,11 +184,23 @@ class Subscription:
         self._clock = node.clock
         self._call_soon = node.loop.call_soon
         self._check_frozen = node.local_bus.check_frozen
-        # its token on the ROS 2 graph; one to every robot's topic has no single ROS 2 name, so none
-        self._token = None if self.any_robot else node.session.liveliness().declare_token(subscription_entity(
-            node.zid, node.robot_id, node.name, topic, node.ros2_node_id, node.next_entity_id(), keys.domain_id(),
-            topic_robot=robot).token)
+        # its tokens on the ROS 2 graph (ros2 topic info -v): one for its robot's topic; a subscription to every
+        # robot's topic has no single ROS 2 name, so it declares one per robot it hears from (as if it had
+        # subscribed to each robot's topic by name), when the first message of that robot arrives
+        self._tokens: dict[str, Any] = {}
+        if not self.any_robot:
+            self._declare_token(robot)
         node.local_bus.add(self)
+
+    def _declare_token(self, robot: str) -> None:
+        node = self._node
+        try:
+            self._tokens[robot] = node.session.liveliness().declare_token(subscription_entity(
+                node.zid, node.robot_id, node.name, self.topic.name, node.ros2_node_id, node.next_entity_id(),
+                keys.domain_id(), topic_robot=robot).token)
+        except Exception as exc:  # a robot id ROS 2 cannot name, a closed session: the data still flows
+            self._tokens[robot] = None
+            node.log.debug("%s of %s not on the ROS 2 graph: %s", self.topic.name, robot, exc)
 
     @property
     def max_hz(self) -> float | None:
@@ -231,7 +262,7 @@ class Subscription:
         except SchemaError as exc:
             self._deliver_remote(key, exc)
             return
-        if self.any_robot or self._check_frozen:
+        if self.any_robot or self._check_frozen or self.topic.root:
             if self._check_frozen:
                 freeze(msg)
             self._deliver_remote(key, msg)
@@ -245,7 +276,15 @@ class Subscription:
             self._node.record_error(f"{self.topic.name}: {msg}")
             return
         robot = self.robot
-        if self.any_robot:
+        if self.topic.root:
+            # /rosout is every robot's: the message says whose, and a subscription to one robot's takes its own
+            try:
+                robot = keys.robot_of_message(self.topic.name, msg)
+            except ValueError:  # a ROS 2 node of the root namespace (no robot's), or a name that breaks the rules
+                return
+            if not self.any_robot and robot != self.robot:
+                return
+        elif self.any_robot:
             try:
                 robot = keys.split_topic_key(key)[0]
             except ValueError as exc:  # a robot id that breaks the rules: someone else's process on the bus
@@ -256,6 +295,8 @@ class Subscription:
 
     def _deliver(self, robot: str, msg: Message, cdr: bytes | None) -> None:
         self.count += 1
+        if self.any_robot and robot not in self._tokens:
+            self._declare_token(robot)
         # the frozen check (tests): blame this handler only if the message was intact when it got it
         intact = cdr is not None and schemas.encode(msg) == cdr
         if self.any_robot:
@@ -267,8 +308,11 @@ class Subscription:
                          f"{getattr(self.handler, '__qualname__', self.handler)} of {self._node.name})")
 
     def close(self) -> None:
-        if self._token is not None:
-            self._token.undeclare()
+        for token in self._tokens.values():
+            if token is not None:
+                with contextlib.suppress(Exception):  # gone with the session already
+                    token.undeclare()
+        self._tokens.clear()
         self._node.local_bus.remove(self)
 
 
@@ -343,8 +387,10 @@ class Node:
         self.local_bus = LocalBus.join(self.session)  # nodes of this process hand messages over as objects
         self.zid = str(self.session.zid())
         # the node on the ROS 2 graph (ros2 node list: /<robot>/<name>), gone with the node or its session
-        self._ros2_token = self.session.liveliness().declare_token(
-            node_entity(self.zid, robot_id, self.name, self.ros2_node_id, keys.domain_id()).token)
+        ros2_node = node_entity(self.zid, robot_id, self.name, self.ros2_node_id, keys.domain_id())
+        self._ros2_token = self.session.liveliness().declare_token(ros2_node.token)
+        # its services and actions on the ROS 2 graph (publishers and subscriptions declare their own tokens)
+        self._node_graph = ServedTokens(self.session, self.zid, ros2_node.node, self.ros2_node_id, self.next_entity_id)
         self._robot_clock: RobotSimClock | None = None
         if clock is None and sim_time_wanted():
             clock = self._robot_clock = RobotSimClock.join(self.local_bus, robot_id)
@@ -368,9 +414,8 @@ class Node:
         self._started = self.clock.now()
         self._closed = False
         self._closed_done = threading.Event()
-        self._node_graph = GraphAnnouncer(self.session, robot_id, self.name)  # its entries in the node graph
         self._diag_pub = self.publisher("diagnostics")
-        self._rosout = RosoutHandler(self.publisher("rosout").publish, self.name)
+        self._rosout = RosoutHandler(self.publisher("rosout").publish, keys.logger_name(robot_id, self.name))
         self.log.addHandler(self._rosout)
         self._declared.append(self.session.declare_queryable(keys.params_key(robot_id, self.name),
                                                              self._on_params_query))
@@ -405,7 +450,6 @@ class Node:
     def publisher(self, topic: str) -> Publisher:
         pub = Publisher(self, topic, self.robot_id)
         self._publishers.append(pub)
-        self._node_graph.publishes(topic)
         return pub
 
     def subscribe(self, topic: str, handler: Callable[..., None], robot: str | None = None,
@@ -414,14 +458,12 @@ class Node:
         most this many messages a second, the others dropped before they wake the node."""
         sub = Subscription(self, topic, handler, robot or self.robot_id, max_hz)
         self._subscriptions.append(sub)
-        self._node_graph.subscribes(topic, sub.robot)
         return sub
 
     def keep_latest(self, topic: str) -> LatestMessage:
         """The newest message of this robot's topic, kept without waking the node (read it when you tick)."""
         sub = LatestMessage(self, topic, self.robot_id)
         self._subscriptions.append(sub)
-        self._node_graph.subscribes(topic, sub.robot)
         return sub
 
     def timer(self, hz: float, callback: Callable[[], None], name: str | None = None) -> Timer:

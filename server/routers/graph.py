@@ -1,6 +1,7 @@
-"""/api/graph: the node graph of the robots on the bus (server.node_graph): each node with what it publishes,
-subscribes and serves, and each topic with its publishers and subscribers. Reading only; in match mode (no Zenoh
-session) and with the live source off there is no graph, and the answer says why."""
+"""/api/graph: the ROS 2 graph of the bus (server.node_graph, from rmw_zenoh's liveliness tokens): each node with
+what it publishes, subscribes, serves and calls, and each topic with its publishers and subscribers, as ``ros2 node
+info`` and ``ros2 topic info -v`` tell them. Reading only; in match mode (no Zenoh session) and with the live
+source off there is no graph, and the answer says why."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ from fastapi import APIRouter, Depends
 from pydantic import BaseModel
 
 from server.deps import get_state
-from server.node_graph import node_id, service_providers, topic_links
+from server.node_graph import service_providers, topic_links
 from server.state import ServerState
 from server.zenoh_link import MATCH_MODE_REASON
 
@@ -17,24 +18,24 @@ NO_LIVE_SOURCE = "the live Zenoh source is off (--no-live): the server does not 
 
 
 class GraphNode(BaseModel):
-    id: str  # /<robot>/<node>, as Foxglove's topic graph names it
-    robot: str
-    node: str
-    publishes: list[str]  # topics of its robot
-    subscribes: list[str]  # topics of its robot
-    subscribes_every_robot: list[str]  # this topic of every robot
-    services: list[str]
-    actions: list[str]
+    id: str  # the fully qualified node name (/robot1/hcm), as ros2 node list and Foxglove's topic graph name it
+    namespace: str  # /robot1 (a pitchside node's robot), / for the root namespace
+    node: str  # hcm
+    publishes: list[str]  # fully qualified topic names (/robot1/joint_states, /rosout)
+    subscribes: list[str]
+    services: list[str]  # services it serves (actions apart)
+    actions: list[str]  # actions it serves (/robot1/animation)
+    clients: list[str]  # services it calls
 
 
 class GraphTopic(BaseModel):
-    topic: str  # /<robot>/<topic>
+    topic: str  # /robot1/joint_states, /rosout
     publishers: list[str]  # node ids
     subscribers: list[str]
 
 
 class GraphService(BaseModel):
-    service: str  # /<robot>/<service or action>
+    service: str  # a service or action: /robot1/manual_penalize, /robot1/animation
     providers: list[str]
 
 
@@ -53,9 +54,8 @@ def node_graph(state: ServerState = Depends(get_state)) -> NodeGraphView:
         reason = MATCH_MODE_REASON if state.config.match_mode else NO_LIVE_SOURCE
         return NodeGraphView(available=False, reason=reason, nodes=[], topics=[], services=[])
     entries = graph.snapshot()
-    nodes = [GraphNode(id=node_id(n.robot, n.node), robot=n.robot, node=n.node, publishes=n.publishes,
-                       subscribes=n.subscribes, subscribes_every_robot=n.subscribes_every_robot, services=n.services,
-                       actions=n.actions) for n in graph.nodes()]
+    nodes = [GraphNode(id=n.id, namespace=n.namespace, node=n.node, publishes=n.publishes, subscribes=n.subscribes,
+                       services=n.services, actions=n.actions, clients=n.clients) for n in graph.nodes()]
     topics = [GraphTopic(topic=topic, publishers=sorted(links.publishers), subscribers=sorted(links.subscribers))
               for topic, links in sorted(topic_links(entries).items())]
     services = [GraphService(service=name, providers=sorted(providers))

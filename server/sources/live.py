@@ -1,6 +1,7 @@
 """The live Zenoh source: joins the team's Zenoh network and feeds every topic message to the hub.
 
-Only subscribes (``<domain>/*/**``: the topics of every robot namespace, rmw_zenoh's data keys); never started
+Only subscribes (``<domain>/*/**``: the topics of every robot namespace and of the root namespace, such as
+/rosout, whose robot the message names; rmw_zenoh's data keys); never started
 in match mode, since even a Zenoh subscriber sends declarations to the robots it is connected to.
 """
 
@@ -139,7 +140,7 @@ class LiveZenohSource(Source):
             return
         for key, payload, encoding, sent in batch:
             try:
-                robot, topic = keys.split_topic_key(key)
+                robot, topic = keys.split_sample(key, payload)  # /rosout: the robot from the logger name
             except ValueError as exc:  # a name that breaks the rules never reaches the hub (or a page)
                 self.bad_names += 1
                 if self.bad_names in (1, 10, 100, 1000) or self.bad_names % 10000 == 0:

@@ -35,7 +35,9 @@ function add(log, frame) {
   const t = d.stamp.sec + d.stamp.nanosec / 1e9;
   if (t < (log.lastStamp.get(frame.robot) ?? -Infinity) - 1) log.records = log.records.filter((r) => r.robot !== frame.robot);
   log.lastStamp.set(frame.robot, t);
-  log.records.push({ t, robot: frame.robot, node: d.name, level: d.level, text: d.msg, where: `${d.file}:${d.line}` });
+  // ROS 2's logger name is <namespace>.<node> (robot1.hcm); the robot has its own column
+  const node = d.name.startsWith(`${frame.robot}.`) ? d.name.slice(frame.robot.length + 1) : d.name;
+  log.records.push({ t, robot: frame.robot, node, level: d.level, text: d.msg, where: `${d.file}:${d.line}` });
   if (log.records.length > KEEP) log.records.splice(0, log.records.length - KEEP);
   if (!log.robots.has(frame.robot)) {
     log.robots.add(frame.robot);

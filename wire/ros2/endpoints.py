@@ -75,6 +75,22 @@ class Ros2Node:
         self._token.undeclare()
 
 
+def declare_latched_publisher(session: zenoh.Session, keyexpr: str, qos: QoS,
+                              encoding: zenoh.Encoding | None = None,
+                              allowed_destination: zenoh.Locality | None = None) -> Any:
+    """A transient local (latched) publisher as rmw_zenoh declares one: a zenoh-ext advanced publisher that keeps
+    its last ``qos.depth`` samples for late subscribers, detectable through liveliness, with sporadic heartbeats
+    when reliable (so a subscriber notices a sample it missed)."""
+    reliable = qos.reliability is not Reliability.BEST_EFFORT
+    heartbeat = zenoh.ext.MissDetectionConfig(heartbeat=None, sporadic_heartbeat=HEARTBEAT_PERIOD_S)
+    return zenoh.ext.declare_advanced_publisher(
+        session, keyexpr, encoding=encoding,
+        reliability=zenoh.Reliability.RELIABLE if reliable else zenoh.Reliability.BEST_EFFORT,
+        congestion_control=zenoh.CongestionControl.DROP, allowed_destination=allowed_destination,
+        cache=zenoh.ext.CacheConfig(max_samples=qos.depth), publisher_detection=True,
+        sample_miss_detection=heartbeat if reliable else None)
+
+
 class Ros2Publisher:
     """Puts CDR bytes on the topic's key with the attachment (sequence number from 1, time, GID). A transient local
     (latched) publisher keeps its last ``depth`` samples for late subscribers, as rmw_zenoh's does: a zenoh-ext
@@ -90,11 +106,7 @@ class Ros2Publisher:
         reliability = zenoh.Reliability.RELIABLE if reliable else zenoh.Reliability.BEST_EFFORT
         self._publisher: Any
         if entity.qos.durability is Durability.TRANSIENT_LOCAL:
-            heartbeat = zenoh.ext.MissDetectionConfig(heartbeat=None, sporadic_heartbeat=HEARTBEAT_PERIOD_S)
-            self._publisher = zenoh.ext.declare_advanced_publisher(
-                session, entity.topic.keyexpr, reliability=reliability, congestion_control=zenoh.CongestionControl.DROP,
-                cache=zenoh.ext.CacheConfig(max_samples=entity.qos.depth), publisher_detection=True,
-                sample_miss_detection=heartbeat if reliable else None)
+            self._publisher = declare_latched_publisher(session, entity.topic.keyexpr, entity.qos)
         else:
             self._publisher = session.declare_publisher(
                 entity.topic.keyexpr, reliability=reliability, congestion_control=zenoh.CongestionControl.DROP)

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import logging
 import threading
+from collections.abc import Callable
 from typing import Any
 
 import zenoh
@@ -20,10 +21,16 @@ INITIAL_QUERY_TIMEOUT_S = 2.0
 
 
 class Ros2Graph:
-    """Follows every token of one domain from the moment it opens (the ones already there included)."""
+    """Follows every token of one domain from the moment it opens (the ones already there included).
 
-    def __init__(self, session: zenoh.Session, domain_id: int = 0) -> None:
+    ``on_change`` is called (on a Zenoh thread, keep it short) after an entity came or went; ``version`` counts
+    those changes, so a reader can tell whether the graph moved since it last looked."""
+
+    def __init__(self, session: zenoh.Session, domain_id: int = 0,
+                 on_change: Callable[[], None] | None = None) -> None:
         self.domain_id = domain_id
+        self.version = 0
+        self._on_change = on_change
         self._bad: set[str] = set()  # tokens that did not parse: counted once each, the first logged
         self._lock = threading.Lock()
         self._entities: dict[str, Entity] = {}
@@ -39,7 +46,8 @@ class Ros2Graph:
         key = str(sample.key_expr)
         if sample.kind == zenoh.SampleKind.DELETE:
             with self._lock:
-                self._entities.pop(key, None)
+                changed = self._entities.pop(key, None) is not None
+            self._changed(changed)
             return
         try:
             entity = parse_token(key)
@@ -52,7 +60,20 @@ class Ros2Graph:
                             exc)
             return
         with self._lock:
+            changed = key not in self._entities
             self._entities[key] = entity
+        self._changed(changed)
+
+    def _changed(self, changed: bool) -> None:
+        if not changed:
+            return
+        with self._lock:
+            self.version += 1
+        if self._on_change is not None:
+            try:
+                self._on_change()
+            except Exception:  # a listener's failure must not stop the graph
+                log.exception("graph listener failed")
 
     @property
     def bad_tokens(self) -> int:

@@ -14,7 +14,7 @@ from schemas.codec import type_hash
 from wire.ros2.errors import Ros2WireError
 from wire.ros2.keys import DEFAULT_DOMAIN_ID, TopicKey
 from wire.ros2.liveliness import Entity, EntityKind, NodeInfo
-from wire.ros2.qos import QoS
+from wire.ros2.qos import ROSOUT, Durability, QoS
 
 # a namespace token of ROS 2: letters, digits and '_', not starting with a digit (pitchside's robot ids also allow
 # '-' and a leading digit, which ROS 2 names cannot carry)
@@ -29,10 +29,55 @@ def robot_namespace(robot: str) -> str:
     return "/" + robot
 
 
+def topic_name(robot: str, topic: str) -> str:
+    """The ROS 2 name of a topic of the table on a robot: ``/robot1/joint_states``, or ``/rosout`` for a topic of
+    the root namespace (every robot's, the robot told by the message)."""
+    entry = schemas.topic(topic)
+    return f"/{topic}" if entry.root else f"{robot_namespace(robot)}/{topic}"
+
+
 def topic_key(robot: str, topic: str, domain_id: int = DEFAULT_DOMAIN_ID) -> TopicKey:
     """The data key of a topic of the table on a robot."""
     entry = schemas.topic(topic)
-    return TopicKey(domain_id, f"{robot_namespace(robot)}/{topic}", entry.type, type_hash(entry.type))
+    return TopicKey(domain_id, topic_name(robot, topic), entry.type, type_hash(entry.type))
+
+
+def topic_qos(topic: str) -> QoS:
+    """The QoS a pitchside node publishes and subscribes a topic of the table with, as rclcpp's defaults and rcl's
+    /rosout have it: reliable, KEEP_LAST 10, volatile; latched topics transient local with their depth, /rosout
+    as rcl's (depth 1000, a lifespan of 10 s)."""
+    entry = schemas.topic(topic)
+    if entry.name == "rosout":
+        return ROSOUT
+    if entry.latched:
+        return QoS(durability=Durability.TRANSIENT_LOCAL, depth=entry.latched)
+    return QoS(depth=10)
+
+
+def root_topic(key: TopicKey) -> str | None:
+    """The table's topic of the root namespace a data key is of (``rosout``), None for any other key; Ros2WireError
+    when its type or hash is not the table's."""
+    name = key.name.strip("/")
+    entry = schemas.TOPICS.get(name)
+    if entry is None or not entry.root:
+        return None
+    if key.ros_type != entry.type or key.type_hash != type_hash(entry.type):
+        raise Ros2WireError(f"{key.name!r} carries {key.ros_type} {key.type_hash}; the table's {name} is "
+                            f"{entry.type} {type_hash(entry.type)}")
+    return name
+
+
+def logger_name(robot: str, node: str) -> str:
+    """The logger name a node's Log records carry on /rosout, as rclcpp and rclpy name a node's logger: its
+    namespace and name joined by '.' (``robot1.hcm``)."""
+    return f"{robot_namespace(robot)[1:]}.{node}"
+
+
+def robot_of_logger(name: str) -> str | None:
+    """The robot of a Log's logger name (``robot1.hcm`` -> ``robot1``; a child logger ``robot1.hcm.walk`` too);
+    None for a name in the root namespace (``talker``), which names no robot."""
+    robot, dot, _ = name.partition(".")
+    return robot if dot and _ROS2_TOKEN.match(robot) else None
 
 
 def service_key(robot: str, service: str, domain_id: int = DEFAULT_DOMAIN_ID) -> TopicKey:
@@ -84,11 +129,13 @@ def subscription_entity(zid: str, robot: str, node: str, topic: str, node_id: in
                         topic_robot: str | None = None) -> Entity:
     """The rmw_zenoh entity of a node's subscription to a topic of the table, of its own robot or of
     ``topic_robot`` (a teammate's)."""
-    return _topic_entity(EntityKind.SUBSCRIPTION, zid, robot, node, topic, node_id, entity_id, domain_id, qos,
+    # volatile, whatever the topic: the runtime's subscriptions take what comes, they ask no publisher's cache
+    return _topic_entity(EntityKind.SUBSCRIPTION, zid, robot, node, topic, node_id, entity_id, domain_id,
+                         qos or QoS(depth=10),
                          topic_robot)
 
 
 def _topic_entity(kind: EntityKind, zid: str, robot: str, node: str, topic: str, node_id: int, entity_id: int,
                   domain_id: int, qos: QoS | None, topic_robot: str | None = None) -> Entity:
     return Entity(zid, node_id, entity_id, kind, NodeInfo(domain_id, robot_namespace(robot), node),
-                  topic_key(topic_robot or robot, topic, domain_id), qos or QoS(depth=10))
+                  topic_key(topic_robot or robot, topic, domain_id), qos or topic_qos(topic))
