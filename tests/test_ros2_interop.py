@@ -392,3 +392,64 @@ def test_ros2s_graph_lists_pitchsides_runtime_nodes(bus: BusConfig,
     finally:
         node.shutdown()
         graph.undeclare()
+
+
+LOG_HASH = "RIHS01_e28ce254ca8abc06abf92773b74602cdbf116ed34fbaf294fb9f81da9f318eac"  # rcl_interfaces/msg/Log
+
+
+def test_a_runtime_nodes_log_reaches_a_ros2_subscriber_of_rosout(bus: BusConfig,
+                                                               sessions: tuple[zenoh.Session, zenoh.Session]) -> None:
+    """ROS 2's /rosout, one topic for every node of the domain: a pitchside node's records reach a ROS 2 subscriber
+    of /rosout (as ``ros2 topic echo /rosout`` subscribes), named ``<robot>.<node>`` as rclcpp names a namespaced
+    node's logger; a subscriber that joins later gets the earlier records (rcl's transient local /rosout)."""
+    import logging
+
+    from robot_nodes.runtime import Node
+
+    _, peer = sessions
+    key = f"0/rosout/rcl_interfaces::msg::dds_::Log_/{LOG_HASH}"
+    live: list[zenoh.Sample] = []
+    subscriber = peer.declare_subscriber(key, live.append)
+    node = Node("robot1", bus=bus).start()
+    node.log.setLevel(logging.INFO)
+    late = None
+    try:
+        wait_for(lambda: node.log.warning("servo 7 hot") or live, what="a record on /rosout at a ROS 2 subscriber")
+        record = ROS2.deserialize_cdr(live[0].payload.to_bytes(), "rcl_interfaces/msg/Log")
+        assert record.name == "robot1.node" and record.msg == "servo 7 hot" and record.level == 30  # WARN
+        assert live[0].attachment is not None and live[0].attachment.to_bytes()[17:] == \
+            node._rosout_publisher.entity.gid
+        earlier: list[zenoh.Sample] = []
+        late = zenoh.ext.declare_advanced_subscriber(
+            peer, key, earlier.append, subscriber_detection=True,
+            history=zenoh.ext.HistoryConfig(detect_late_publishers=True, max_samples=1000))
+        wait_for(lambda: earlier, what="the earlier records at a late transient-local subscriber")
+        assert any(ROS2.deserialize_cdr(s.payload.to_bytes(), "rcl_interfaces/msg/Log").msg == "servo 7 hot"
+                   for s in earlier)
+    finally:
+        if late is not None:
+            late.undeclare()
+        subscriber.undeclare()
+        node.shutdown()
+
+
+def test_the_robot_of_a_rosout_record_is_its_logger_names_namespace() -> None:
+    """The dashboard's live source tells robots apart on /rosout by the logger name; a ROS 2 node of the root
+    namespace names no robot, and a message that does not decode is a clear error."""
+    from schemas import encode, make
+    from wire import keys
+
+    key = f"0/rosout/rcl_interfaces::msg::dds_::Log_/{LOG_HASH}"
+
+    def record(name: str) -> bytes:
+        return encode(make("rcl_interfaces/msg/Log", name=name, msg="hi", level=20))
+
+    assert keys.split_sample(key, record("robot2.walking")) == ("robot2", "rosout")
+    assert keys.split_sample(key, record("robot2.walking.engine")) == ("robot2", "rosout")  # a child logger
+    assert keys.split_sample(keys.topic_key("robot3", "joint_states"), b"") == ("robot3", "joint_states")
+    with pytest.raises(ValueError, match="names no robot"):
+        keys.split_sample(key, record("talker"))
+    with pytest.raises(ValueError, match="/rosout"):
+        keys.split_sample(key, b"\x00\x01\x00\x00\x01")
+    with pytest.raises(ValueError, match="the table's rosout"):
+        keys.split_sample(f"0/rosout/std_msgs::msg::dds_::String_/{STRING_HASH}", b"")

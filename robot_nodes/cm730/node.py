@@ -24,6 +24,7 @@ import numpy as np
 import robots
 import schemas
 from robot_nodes.cm730.backend import AngleLimitRegisters, BusReading, ServoBackend
+from robot_nodes.cm730.description import DescriptionError, fixed_transforms
 from robot_nodes.cm730.joint_limits import ClampedGoals, ClampTally, GoalLimits, JointLimitsError
 from robot_nodes.runtime import Node, param
 from schemas.messages import AdditionalServoData, ServoHealth
@@ -121,6 +122,7 @@ class Cm730Node(Node):
         self._imu_pub = self.publisher("imu/data")
         self._servo_pub = self.publisher("servo_data")
         self._health_pub = self.publisher("servo_health")
+        self._publish_description()
         self._state_timer = self.timer(p.publish_rate, self._publish_state, name="joint_states")
         self._servo_timer = self.timer(p.servo_data_rate, self._publish_servo_data, name="servo_data")
         self.timer(1.0 / SERVO_HEALTH_PERIOD_S, self._publish_servo_health, name="servo_health")
@@ -128,6 +130,25 @@ class Cm730Node(Node):
         self._camera = None
         if self._sim is not None:
             self._setup_sim()
+
+    def _publish_description(self) -> None:
+        """The URDF on robot_description and its fixed joints on tf_static, once: latched topics (as
+        robot_state_publisher's in ROS 2), so a dashboard, a 3D view or ``ros2 topic echo --qos-durability
+        transient_local`` that joins later still gets them."""
+        try:
+            urdf = self.urdf_path().read_text(encoding="utf-8")
+        except (OSError, JointLimitsError, UnicodeDecodeError) as exc:  # no URDF: the node runs, nothing to describe
+            self.log.warning("no robot_description: %s", exc)
+            return
+        self._description_pub = self.publisher("robot_description")
+        self._description_pub.publish(schemas.make("std_msgs/msg/String", data=urdf))
+        try:
+            fixed = fixed_transforms(urdf)
+        except DescriptionError as exc:
+            self.log.warning("no tf_static: %s", exc)
+            return
+        self._static_pub = self.publisher("tf_static")
+        self._static_pub.publish(fixed)
 
     # -- joint limits ------------------------------------------------------------------------------------
     def urdf_path(self) -> Path:

@@ -415,7 +415,8 @@ class Node:
         self._closed = False
         self._closed_done = threading.Event()
         self._diag_pub = self.publisher("diagnostics")
-        self._rosout = RosoutHandler(self.publisher("rosout").publish, keys.logger_name(robot_id, self.name))
+        self._rosout_publisher = self.publisher("rosout")  # ROS 2's /rosout, every robot's (its logger name says whose)
+        self._rosout = RosoutHandler(self._rosout_publisher.publish, keys.logger_name(robot_id, self.name))
         self.log.addHandler(self._rosout)
         self._declared.append(self.session.declare_queryable(keys.params_key(robot_id, self.name),
                                                              self._on_params_query))

@@ -21,6 +21,7 @@ from server.hub import HubMessage
 
 log = logging.getLogger(__name__)
 TF, TF_STATIC, DESCRIPTION = "tf", "tf_static", "robot_description"
+SCENE_TOPICS = frozenset({TF, TF_STATIC, DESCRIPTION})  # what the scene writes for a robot (its own copy is left out)
 # a recorded match replays in 3D at this rate: enough to follow play, and a match's recording (every robot's
 # forward kinematics on the server) costs a quarter of the live rate
 RECORDED_TF_HZ = 5.0

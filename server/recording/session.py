@@ -14,7 +14,7 @@ from typing import Any
 from schemas import codec
 from schemas.logs import LogError, LogWriter
 from server.hub import Hub, HubMessage, Subscriber
-from server.recording.scene import RecordedScene
+from server.recording.scene import SCENE_TOPICS, RecordedScene
 
 log = logging.getLogger(__name__)
 
@@ -136,7 +136,8 @@ class HubRecording:
     def _write(self, batch: list[HubMessage]) -> None:
         """On a worker thread."""
         for msg in batch:
-            stored = storable(msg)
+            # the robot's own latched URDF and fixed joints: the scene writes them with the robot's frame names
+            stored = None if self.scene is not None and msg.topic in SCENE_TOPICS else storable(msg)
             if stored is None:
                 self.status.skipped += 1
                 continue
