@@ -61,7 +61,7 @@ def test_rpy_is_about_fixed_axes_and_bad_urdfs_say_why() -> None:
                                                                         round(math.sqrt(0.5), 12))
     with pytest.raises(DescriptionError, match="does not parse"):
         fixed_transforms("<robot")
-    with pytest.raises(DescriptionError, match="'j'.*three numbers"):
+    with pytest.raises(DescriptionError, match=r"'j'.*three numbers"):
         fixed_transforms('<robot><joint name="j" type="fixed"><parent link="a"/><child link="b"/>'
                          '<origin xyz="1 2"/></joint></robot>')
     with pytest.raises(DescriptionError, match="lacks a parent"):
