@@ -169,7 +169,8 @@ def sample(name: str) -> Any:
     if name == IMAGE:
         return image(jpeg(640, 480, 1))
     if name == "rosout":  # in a match only warnings and errors go to the team PC
-        return schemas.make(typename, level=40, name="hcm", msg="servo 7 not answering")
+        # /rosout is every robot's: the logger name (<robot>.<node>) says whose
+        return schemas.make(typename, level=40, name="robot3.hcm", msg="servo 7 not answering")
     return schemas.make(typename)
 
 
@@ -358,12 +359,16 @@ def test_in_a_match_only_warnings_and_errors_of_the_logs_go_to_the_team_pc(bus: 
     try:
         def sent(level: int, text: str) -> bool:
             for chatter in (10, 20):  # each time just before the warning, on the same route
-                pub.publish("rosout", schemas.make(topic("rosout").type, level=chatter, name="walking", msg="chatter"))
-            pub.publish("rosout", schemas.make(topic("rosout").type, level=level, name="walking", msg=text))
+                pub.publish("rosout", schemas.make(topic("rosout").type, level=chatter, name="robot3.walking",
+                                                   msg="chatter"))
+            # another robot's warning on the same /rosout: not robot3's to send
+            pub.publish("rosout", schemas.make(topic("rosout").type, level=level, name="robot4.walking",
+                                               msg="not mine"))
+            pub.publish("rosout", schemas.make(topic("rosout").type, level=level, name="robot3.walking", msg=text))
             return any(m.topic == "rosout" and m.msg.msg == text for m in collector.snapshot())
 
         wait_for(lambda: sent(30, "step too long"), timeout=20, interval=0.3, what="the warning")
-        assert not any(m.topic == "rosout" and m.msg.msg == "chatter" for m in collector.snapshot())
+        assert not any(m.topic == "rosout" and m.msg.msg in ("chatter", "not mine") for m in collector.snapshot())
     finally:
         pub.shutdown()
         node.shutdown()
