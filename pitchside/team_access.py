@@ -37,6 +37,10 @@ READ_MESSAGES = ("declare_subscriber", "declare_liveliness_subscriber", "livelin
 OWN_ROBOT_MESSAGES = ("put", "delete", "query", "reply", "declare_queryable", "liveliness_token")
 # what the dashboard publishes in the lab (teleop, the animation recorder); goals to the servos stay the HCM's
 LAB_COMMAND_TOPICS = ("cmd_vel", "record_motor_goals")
+# what every member may do: subscribe (and ask latched topics' caches), receive, pass subscriptions on
+TEAM_RULES = ["team-subscribes", "team-reads-latched", "team-receives", "team-forwards-subscriptions"]
+# topics of the root namespace that every ROS 2 node writes, whatever its robot
+ROOT_TOPICS = ("rosout", "parameter_events")
 # a robot's nodes reach its router in plain TCP on the loopback interface (robots run Linux: "lo")
 LOOPBACK_INTERFACE = "lo"
 
@@ -54,7 +58,7 @@ def access_control(members: Mapping[str, Role]) -> dict[str, Any]:
     rules = [*_common_rules(), _lab_commands(), _lab_requests()]
     # no certificate names: any member of the team (the CA already kept everyone else off the link)
     subjects: list[dict[str, Any]] = [{"id": "team"}]
-    policies = [{"id": "team", "rules": ["team-subscribes", "team-receives"], "subjects": ["team"]}]
+    policies = [{"id": "team", "rules": TEAM_RULES, "subjects": ["team"]}]
 
     def grant(policy: str, names: list[str], rule_ids: list[str]) -> None:
         if names:  # Zenoh refuses an empty list of names
@@ -79,18 +83,35 @@ def robot_router_access_control(robot: str, members: Mapping[str, Role]) -> dict
     rules = [*_common_rules(), _own_robot(robot)]
     subjects = [{"id": "team-router", "cert_common_names": sorted(_routers(members))},
                 {"id": "robot-nodes", "interfaces": [LOOPBACK_INTERFACE], "link_protocols": ["tcp"]}]
-    policies = [{"id": "team-router", "rules": ["team-subscribes", "team-receives", "router-relays"],
-                 "subjects": ["team-router"]},
-                {"id": "robot-nodes", "rules": ["team-subscribes", "team-receives", f"robot-{robot}"],
-                 "subjects": ["robot-nodes"]}]
+    policies = [{"id": "team-router", "rules": [*TEAM_RULES, "router-relays"], "subjects": ["team-router"]},
+                {"id": "robot-nodes", "rules": [*TEAM_RULES, f"robot-{robot}"], "subjects": ["robot-nodes"]}]
     return _section(rules, subjects, policies)
 
 
+def _data(domain: int) -> str:
+    """Every data key of the domain in rmw_zenoh's layout: the robots' namespaces and the root's (/rosout)."""
+    return f"{domain}/**"
+
+
+def _caches(prefix: str) -> str:
+    """The keys of zenoh-ext's advanced publishers and subscribers under ``prefix`` (latched topics: the cache a
+    late subscriber queries, the liveliness that finds it). ``@adv`` is a verbatim chunk, so ``**`` never matches
+    it: the rules name it."""
+    return f"{prefix}/**/@adv/**"
+
+
 def _common_rules() -> list[dict[str, Any]]:
-    # the data, the ROS 2 graph, and pitchside's own keys (parameters, services, actions, node graph)
-    everything = [keys.topic_key("*", "**"), keys.graph_tokens_key(), f"{keys.PREFIX}/*/**"]
-    return [_rule("team-subscribes", READ_MESSAGES, "ingress", everything),
+    domain = keys.domain_id()
+    # the domain's data with the latched topics' caches, the ROS 2 graph, and pitchside's own keys (parameters,
+    # services, actions)
+    everything = [_data(domain), _caches(str(domain)), keys.graph_tokens_key(), f"{keys.PREFIX}/*/**"]
+    # a member may subscribe to anything, "**" included (every key but the verbatim ones): it receives only what
+    # the team's members were allowed to put, so a subscription reaches nothing else; and it may ask a latched
+    # topic's publisher for what it kept (transient local), which answers with data it could subscribe to anyway
+    return [_rule("team-subscribes", READ_MESSAGES, "ingress", ["**", *everything]),
+            _rule("team-reads-latched", ("query",), "ingress", [_caches(str(domain))]),
             _rule("team-receives", ALL_MESSAGES, "egress", everything),
+            _rule("team-forwards-subscriptions", READ_MESSAGES, "egress", ["**"]),
             _rule("router-relays", ALL_MESSAGES, "ingress", everything)]
 
 
@@ -99,14 +120,22 @@ def _lab_commands() -> dict[str, Any]:
 
 
 def _lab_requests() -> dict[str, Any]:
+    # every ROS 2 service of the domain (parameters, actions' goals and cancels, manual_penalize: queryables on
+    # rmw_zenoh's keys) and pitchside's own request keys
     return _rule("lab-requests", ("query",), "ingress",
-                 [keys.params_key("*", "**"), keys.service_key("*", "**"), keys.action_key("*", "*", "goal"),
-                  keys.action_key("*", "*", "cancel")])
+                 [_data(keys.domain_id()), keys.params_key("*", "**"), keys.service_key("*", "**"),
+                  keys.action_key("*", "*", "goal"), keys.action_key("*", "*", "cancel")])
 
 
 def _own_robot(robot: str) -> dict[str, Any]:
+    domain = keys.domain_id()
+    # its namespace (topics, services, its latched topics' caches), the topics of the root namespace every ROS 2
+    # node writes (/rosout, /parameter_events; the logger name in a record is not checked), its graph tokens
+    own = [keys.topic_key(robot, "**"), _caches(f"{domain}/{robot}")]
+    for shared in ROOT_TOPICS:
+        own += [f"{domain}/{shared}/**", _caches(f"{domain}/{shared}")]
     return _rule(f"robot-{robot}", OWN_ROBOT_MESSAGES, "ingress",
-                 [keys.topic_key(robot, "**"), keys.graph_tokens_key(), f"{keys.PREFIX}/{robot}/**"])
+                 [*own, keys.graph_tokens_key(), f"{keys.PREFIX}/{robot}/**"])
 
 
 def _routers(members: Mapping[str, Role]) -> list[str]:

@@ -22,6 +22,7 @@ from typing import Any
 
 import pytest
 import zenoh
+import zenoh.ext
 
 import schemas
 from pitchside.team_access import Role
@@ -37,7 +38,7 @@ from pitchside.team_keys import (
     member_of,
     read_credentials,
 )
-from robot_nodes.runtime import BusConfig, ParameterClient, ParameterError, open_router, open_session
+from robot_nodes.runtime import BusConfig, Node, ParameterClient, ParameterError, open_router, open_session
 from tests.support import REPO, free_port
 from tests.waiting import wait_for
 from wire import keys
@@ -537,8 +538,9 @@ def test_no_member_but_the_robot_writes_any_topic_of_it(team: Path, router: zeno
                                                                                    access_control=False),
                    "laptop": member_session(team, "laptop")}
         sessions += senders.values()
+        # the topics in robot1's namespace (a root topic such as /rosout is every robot's: robot2 may write it)
         publishers = {(who, t): session.declare_publisher(keys.topic_key("robot1", t))
-                      for who, session in senders.items() for t in schemas.TOPICS}
+                      for who, session in senders.items() for t, entry in schemas.TOPICS.items() if not entry.root}
         for (who, t), publisher in publishers.items():
             wait_matched(publisher, f"robot1's subscription seen by {who} ({t})")
         for (who, _), publisher in publishers.items():
@@ -559,4 +561,60 @@ def test_no_member_but_the_robot_writes_any_topic_of_it(team: Path, router: zeno
             session.close()
         robot2_router.close()
         node.close()
+        robot1.close()
+
+
+class Describing(Node):
+    """A robot node with a latched topic, a topic and /rosout, as every pitchside node on rmw_zenoh's wire."""
+
+    __test__ = False
+    name = "describer"
+
+    def setup(self) -> None:
+        self.publisher("robot_description").publish(schemas.make("std_msgs/msg/String", data="<robot name='r1'/>"))
+        self.joint_states = self.publisher("joint_states")
+        self.timer(20.0, lambda: self.joint_states.publish(schemas.make("sensor_msgs/msg/JointState", name=["a"])))
+
+
+def test_a_member_lists_the_graph_and_receives_what_it_subscribes_to_even_everything(team: Path,
+                                                                                    router: zenoh.Session) -> None:
+    """What ``ros2 topic list`` and ``ros2 topic echo`` do on a member's machine, with the member's own file: the
+    graph's liveliness tokens by query and by subscriber, a topic, a latched topic that was published before the
+    member came (transient local: a query of the publisher's cache) and, the trap of a layout the rules did not
+    follow, everything at once (``**``)."""
+    robot1 = robot_router(team, "robot1")
+    node = Describing("robot1", robot_process(robot1)).start()
+    viewer = member_session(team, "viewer")
+    late = None
+    try:
+        wait_for(lambda: linked_to_team_router(robot1, router), timeout=20, what="robot1's router linked")
+        graph = keys.graph_tokens_key()
+
+        def listed() -> set[str]:
+            return {str(reply.ok.key_expr) for reply in viewer.liveliness().get(graph, timeout=2.0)
+                    if reply.ok is not None}
+
+        wait_for(lambda: any("/MP/%/%robot1/describer/%robot1%joint_states/" in t for t in listed()), timeout=20,
+                 what="robot1's publisher token in the viewer's liveliness query")
+        tokens: list[str] = []
+        watcher = viewer.liveliness().declare_subscriber(graph, lambda s: tokens.append(str(s.key_expr)), history=True)
+        wait_for(lambda: any("/NN/%/%robot1/describer" in t for t in tokens), timeout=20,
+                 what="the node's token at the viewer's liveliness subscriber")
+        everything: list[str] = []
+        star = viewer.declare_subscriber("**", lambda s: everything.append(str(s.key_expr)))
+        wait_for(lambda: keys.topic_key("robot1", "joint_states") in everything, timeout=20,
+                 what="robot1's joint_states at a member's subscriber of **")
+        described: list[zenoh.Sample] = []
+        late = zenoh.ext.declare_advanced_subscriber(
+            viewer, keys.topic_key("robot1", "robot_description"), described.append,
+            history=zenoh.ext.HistoryConfig(detect_late_publishers=True, max_samples=1))
+        wait_for(lambda: described, timeout=20, what="the latched robot_description at a member that came late")
+        assert schemas.decode(described[0].payload.to_bytes(), "std_msgs/msg/String").data == "<robot name='r1'/>"
+        watcher.undeclare()
+        star.undeclare()
+    finally:
+        if late is not None:
+            late.undeclare()
+        viewer.close()
+        node.shutdown()
         robot1.close()
