@@ -33,7 +33,7 @@ from pitchside.checks import Check, Status, report
 from wire.bus import DEFAULT_ROUTER, BusConfig, env_endpoints
 from wire.command_line import CommandParser
 from wire.gamecontroller.packets import DATA_PORT, GameControllerPacketError, parse_state_packet
-from wire.keys import PREFIX
+from wire.keys import doctor_probe_key
 from wire.telemetry.datagram import DEV_KEY, key_fingerprint, load_key
 
 MAX_CLOCK_OFFSET_MS = 100.0  # logs of robot and laptop then line up within a frame of the dashboard's plots
@@ -106,7 +106,7 @@ def clock_offset(session: Any, endpoints: list[str], config_file: str | None, ro
     """The laptop router's clock against ours: a message of ours relayed by it carries its time (Zenoh stamps what
     arrives unstamped); the probe with the shortest round trip counts (its error is at most half of it)."""
     name = "clock offset"
-    key = f"{PREFIX}/{robot_id}/doctor/clock"  # a probe of its own, under the robot's keys (its ACL allows them)
+    key = doctor_probe_key(robot_id)  # a probe of its own, under the robot's keys (its ACL allows them)
     arrived: queue.Queue[tuple[int, Any]] = queue.Queue()
     sender = _client(endpoints, config_file)
     sub = session.declare_subscriber(key, lambda sample: arrived.put((time.time_ns(), sample.timestamp)))

@@ -5,14 +5,16 @@ team laptop's router over mutual TLS, and members are told apart by the common n
 link without a certificate of the team's CA is refused before any message). The team router checks everything
 that comes in from another machine:
 
-* a robot (its router relays only its own nodes) writes its own robot's keys, ``<domain>/<robot>/**`` (its
-  topics, in rmw_zenoh's layout) and ``pitchside/<robot>/**`` (parameter, service and action replies, its own
-  queries), and nothing under another robot's; it may declare tokens of the domain's ROS 2 graph
-  (``@ros2_lv/<domain>/**``, which name their robot inside but are not checked per robot: a stranger's tokens
-  could mislead ``ros2 node list``, never move data);
+* a robot (its router relays only its own nodes) writes its own namespace in rmw_zenoh's layout,
+  ``<domain>/<robot>/**`` (its topics and services, and under ``@adv`` the caches of its latched topics), the
+  root-namespace topics every ROS 2 node writes (``/rosout``, ``/parameter_events``), ``pitchside/<robot>/**``
+  (parameter, service and action replies still on pitchside's own keys) and nothing under another robot's; it may
+  declare tokens of the domain's ROS 2 graph (``@ros2_lv/<domain>/**``, which name their robot inside but are not
+  checked per robot: a stranger's tokens could mislead ``ros2 node list``, never move data);
 * the lab laptop may also send the dashboard's commands: ``cmd_vel`` and ``record_motor_goals`` to any robot,
   and parameter, service and action requests;
-* every team member may subscribe (a viewer does only that);
+* every team member may subscribe, to anything (``**`` too: it receives only what members were allowed to put), and
+  ask latched topics' caches (a transient local subscriber's query); a viewer does only that;
 * the team router forwards only what it has checked at its own ingress, so members accept what it relays.
 
 Anything else (``motor_goals`` from the laptop, ``motor_goals`` of robot1 from robot2, any message from a

@@ -75,7 +75,9 @@ def topics_page() -> str:
     body += ["", "## Services", "", "| service | type |", "|---|---|"]
     body += [f"| `{s.name}` | `{s.type}` |" for s in SERVICES.values()]
     return _page("Topic table", "Every topic, action and service the nodes speak (`schemas/topics.py`). On Zenoh a "
-                 "topic is the key `pitchside/<robot>/<topic>`.", body)
+                 "topic is rmw_zenoh's key of the ROS 2 topic `/<robot>/<topic>` "
+                 "(`<domain>/<robot>/<topic>/<type>/<hash>`), or of `/<topic>` for one of the root namespace "
+                 "(`/rosout`).", body)
 
 
 def _default(value: Any) -> str:

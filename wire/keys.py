@@ -15,6 +15,7 @@
                                                    16-byte goal id + b"R" + 1 status byte + CDR result
                                                    (one key, so a result never overtakes its last feedback)
     @ros2_lv/<domain>/...                          rmw_zenoh's liveliness tokens: the ROS 2 graph (wire/ros2)
+    <domain>/<robot>/_doctor/clock                 pitchside doctor's clock probe through the laptop's router
 
 Robot ids and topic names come from the network (a Zenoh key, a telemetry header, a log file) and end up in
 keys, file names and the dashboard's page: the rules below are checked where they enter, the same everywhere.
@@ -174,6 +175,13 @@ def is_topic_key(key: str) -> bool:
     """True for a key of rmw_zenoh's data layout (the parameter, service and action keys are pitchside's)."""
     parts = key.rsplit("/", 2)
     return len(parts) == 3 and parts[2].startswith("RIHS01_") and "::msg::dds_::" in parts[1]
+
+
+def doctor_probe_key(robot: str) -> str:
+    """``pitchside doctor``'s clock probe: a key in the robot's namespace of the domain (its access rules allow it),
+    no topic of the table and no rmw_zenoh data key (no type, no hash), so no ROS 2 subscriber and no dashboard
+    takes it for data."""
+    return f"{domain_id()}/{check_robot_id(robot)}/_doctor/clock"
 
 
 def params_key(robot: str, node: str) -> str:

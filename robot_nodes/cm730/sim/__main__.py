@@ -1,7 +1,7 @@
 """A multi-robot simulation in one process: ``python -m robot_nodes.cm730.sim --robots 3``.
 
 One SimWorld with robots robot1..robotN, one SimRunner stepping it, and one cm730 node per robot, all on
-one Zenoh session; each node serves its robot's topics (pitchside/robotK/...) exactly as a standalone
+one Zenoh session; each node serves its robot's topics (/robotK/... in rmw_zenoh's keys) exactly as a standalone
 ``python -m robot_nodes.cm730 --robot-id robotK`` would.
 """
 
