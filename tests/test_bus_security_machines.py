@@ -30,6 +30,7 @@ import pytest
 
 from tests import netlab
 from tests.waiting import wait_for
+from wire import keys
 
 pytestmark = pytest.mark.slow
 
@@ -82,13 +83,21 @@ def test_a_robot_and_the_laptop_on_separate_machines_share_only_what_the_team_al
     robot1.python(["tests.test_bus_security_machines", "probe", "--subscribe", "robot1/motor_goals",
                    "--subscribe", "robot1/cmd_vel"], logs["robot_probe"])
     # the laptop's member session, with the file the dashboard takes: it watches robot1 and tries to steer it
+    # (and, as `ros2 topic list` and a subscriber of everything would, reads the graph's tokens and "**")
     laptop.python(["tests.test_bus_security_machines", "probe", "--zenoh-config", str(team / "laptop.json5"),
                    "--subscribe", "robot1/joint_states", "--put", "robot1/motor_goals=laptop",
-                   "--put", "robot1/cmd_vel=laptop"], logs["laptop_probe"])
+                   "--put", "robot1/cmd_vel=laptop", "--graph"], logs["laptop_probe"])
 
     # robot1's data reaches the laptop, the laptop's cmd_vel reaches robot1's nodes
     wait_for(lambda: len(received(logs["laptop_probe"], "robot1/joint_states")) >= 3, timeout=60,
              what="robot1's joint_states at the laptop")
+    # the ROS 2 graph of robot1's nodes (liveliness query) and its data through a subscription to "**"
+    wait_for(lambda: any("/NN/%/%robot1/" in token
+                         for e in events(logs["laptop_probe"]) for token in e.get("graph", [])),
+             timeout=30, what="robot1's nodes in the laptop's graph query")
+    wait_for(lambda: any(e.get("everything") == keys.topic_key("robot1", "joint_states")
+                         for e in events(logs["laptop_probe"])), timeout=30,
+             what="robot1's joint_states at the laptop's subscription to **")
     wait_for(lambda: received(logs["robot_probe"], "robot1/cmd_vel", "laptop"), timeout=30,
              what="the laptop's cmd_vel at robot1")
 
@@ -113,6 +122,8 @@ def test_a_robot_and_the_laptop_on_separate_machines_share_only_what_the_team_al
         attempts = [e for e in events(logs[name]) if "endpoint" in e]
         assert attempts and all(e["session"] is False for e in attempts), attempts  # no client got a session
         assert all(e["linked"] == 0 for e in events(logs[name]) if "put" in e), name  # its peer never got a link
+        # its subscriptions to everything and to the graph's tokens heard nothing
+        assert all(e["heard"] == 0 and e["tokens"] == 0 for e in events(logs[name]) if "put" in e), name
     # the laptop's router is there to be reached (and refuses); on robot1 nothing listens to the network at all
     reachable = {e["endpoint"]: e["tcp_open"] for e in events(logs["outsider"]) if "endpoint" in e}
     assert reachable == {f"tcp/{LAPTOP}:{PORT}": True, f"tls/{LAPTOP}:{PORT}": True,
@@ -147,9 +158,22 @@ def probe(argv: list[str]) -> None:
     parser.add_argument("--zenoh-config", default=None)
     parser.add_argument("--subscribe", action="append", default=[])
     parser.add_argument("--put", action="append", default=[])
+    parser.add_argument("--graph", action="store_true",
+                        help="also report the graph's tokens (a liveliness query) and the first sample of each key "
+                        "of a subscription to **, as a member's ros2 tools would read them")
     args = parser.parse_args(argv)
     session = open_session(BusConfig(config_file=args.zenoh_config))
     lock = threading.Lock()
+    heard: set[str] = set()
+
+    def on_everything(sample: Any) -> None:
+        key = str(sample.key_expr)
+        with lock:
+            if key not in heard:
+                heard.add(key)
+                _say({"everything": key})
+
+    everything = session.declare_subscriber("**", on_everything) if args.graph else None
 
     def on_sample(name: str) -> Any:
         topic = name.split("/", 1)[1]
@@ -172,10 +196,15 @@ def probe(argv: list[str]) -> None:
         puts.append((session.declare_publisher(keys.topic_key(*name.split("/", 1))),
                      drive(sender) if topic == "cmd_vel" else goals(sender)))
     with lock:
-        _say({"ready": True, "subscribers": len(subscribers)})
+        _say({"ready": True, "subscribers": len(subscribers), "everything": everything is not None})
     while True:
         for publisher, payload in puts:
             publisher.put(payload)
+        if args.graph:
+            tokens = [str(r.ok.key_expr) for r in session.liveliness().get(keys.graph_tokens_key(), timeout=1.0)
+                      if r.ok is not None]
+            with lock:
+                _say({"graph": tokens})
         time.sleep(0.2)
 
 
@@ -215,10 +244,17 @@ def outsider(argv: list[str]) -> None:
             session.close()
     session = zenoh.open(config("peer", args.endpoints))
     goals_key, cmd_key = keys.topic_key("robot1", "motor_goals"), keys.topic_key("robot1", "cmd_vel")
+    heard: list[str] = []
+    tokens: list[str] = []
+    # what a stranger's `ros2 topic list` and a subscriber of everything would read: nothing, without a link
+    session.declare_subscriber("**", lambda sample: heard.append(str(sample.key_expr)),
+                               allowed_origin=zenoh.Locality.REMOTE)  # not its own puts
+    session.liveliness().declare_subscriber("@ros2_lv/**", lambda s: tokens.append(str(s.key_expr)), history=True)
     while True:
         session.put(goals_key, goals("outsider"))
         session.put(cmd_key, drive("outsider"))
-        _say({"put": True, "linked": len(list(session.info.routers_zid())) + len(list(session.info.peers_zid()))})
+        _say({"put": True, "linked": len(list(session.info.routers_zid())) + len(list(session.info.peers_zid())),
+              "heard": len(heard), "tokens": len(tokens)})
         time.sleep(0.2)
 
 
