@@ -92,8 +92,8 @@ _TABLE: tuple[Topic, ...] = (
         Topic("position", _HL + "Position2D", "own position on the field"),
         Topic("ground_truth", "pitchside_msgs/msg/GroundTruth", "simulation ground truth poses"),
         Topic("clock", "rosgraph_msgs/msg/Clock",
-              "the simulation's time, every 10 ms of it; simulation -> the robot's nodes when they follow simulated "
-              "time (ROS 2's use_sim_time)"),
+              "the simulation's time, every 10 ms of it, ROS 2's /clock: one for every robot of the simulation; "
+              "simulation -> the robots' nodes when they follow simulated time (ROS 2's use_sim_time)", root=True),
         Topic("clock_done", "std_msgs/msg/Header",
               "a process of the robot's nodes is done with the simulation's time in stamp (frame_id: which "
               "process); the robot's nodes -> the simulation, when it waits for them (a lockstep match)"),

@@ -143,14 +143,19 @@ def root_topic_of_key(key: str) -> str | None:
         return None
 
 
+class NoRobotsMessage(ValueError):
+    """A message of a root-namespace topic that is no robot's: /clock (every robot's), a /rosout record of a ROS 2
+    node in the root namespace (``talker``)."""
+
+
 def robot_of_message(topic: str, msg: Any) -> str:
     """The robot a message of a root-namespace topic comes from (/rosout: its logger name ``robot1.hcm``);
-    ValueError when it names none or one that breaks the rules."""
+    NoRobotsMessage when it names none, ValueError when the robot it names breaks the rules."""
     if topic == "rosout":
         robot = ros2_robots.robot_of_logger(str(getattr(msg, "name", "")))
         if robot is not None:
             return check_robot_id(robot)
-    raise ValueError(f"a message on /{topic} that names no robot")
+    raise NoRobotsMessage(f"a message on /{topic} that names no robot")
 
 
 def split_sample(key: str, cdr: bytes) -> tuple[str, str]:
@@ -159,6 +164,8 @@ def split_sample(key: str, cdr: bytes) -> tuple[str, str]:
     topic = root_topic_of_key(key)
     if topic is None:
         return split_topic_key(key)
+    if topic == "clock":  # the simulation's time, every robot's: nothing in it says whose
+        raise NoRobotsMessage("/clock is every robot's")
     try:
         msg = schemas.decode(cdr, schemas.topic(topic).type)
     except schemas.SchemaError as exc:

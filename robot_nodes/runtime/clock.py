@@ -1,10 +1,11 @@
 """The time a node lives in: the wall clock, or the simulation's (ROS 2's ``use_sim_time``).
 
-A simulated robot's nodes follow the simulation's clock: the world publishes its time on the robot's ``clock``
-topic (rosgraph_msgs/Clock, every CLOCK_PERIOD_S of simulated time) and every node's timers, ``Node.now()`` and the
-age of what it received count in it. A world that falls behind real time (a busy machine) then plays a slower
-match with the same physics: a 100 Hz walk still takes a step of 10 ms of simulated time, a get-up still gets its
-2 s. Before the first clock message a node's simulated time stands still at 0 and its timers wait, as in ROS 2.
+A simulated robot's nodes follow the simulation's clock: the world publishes its time on ``clock``, ROS 2's
+``/clock`` of every robot (rosgraph_msgs/Clock, every CLOCK_PERIOD_S of simulated time), and every node's timers,
+``Node.now()`` and the age of what it received count in it. A world that falls behind real time (a busy machine)
+then plays a slower match with the same physics: a 100 Hz walk still takes a step of 10 ms of simulated time, a
+get-up still gets its 2 s. Before the first clock message a node's simulated time stands still at 0 and its timers
+wait, as in ROS 2.
 
 The rule for which clock: ``PITCHSIDE_SIM_TIME=1`` in a process's environment puts every node of it on its
 robot's simulated clock; a node can also be given a clock. Header stamps stay on the wall clock (``schemas.stamp``),
@@ -313,10 +314,12 @@ class ClockPublisher:
         self._stamp = _stamper(session, robot, "sim_world", CLOCK_TOPIC)
         self._local = LocalBus.join(session)
 
-    def publish(self, cdr: bytes) -> None:
+    def publish(self, cdr: bytes, remote: bool = True) -> None:
+        """remote: also put it on the bus (a world of several robots puts ROS 2's one /clock once a tick)."""
         for subscription in self._local.local_subscribers(self.robot, CLOCK_TOPIC):
             subscription.hand_over_cdr(self._key, cdr)
-        self._pub.put(cdr, attachment=self._stamp.next())
+        if remote:
+            self._pub.put(cdr, attachment=self._stamp.next())
 
     def close(self) -> None:
         self._pub.undeclare()
@@ -453,8 +456,8 @@ class WorldClock:
         robots_done = time.monotonic()
         self.clock.advance(seconds)  # lockstep: returns when this process's nodes have sent the sensors of this time
         cdr = clock_cdr(seconds)
-        for publisher in self._publishers:
-            publisher.publish(cdr)
+        for index, publisher in enumerate(self._publishers):
+            publisher.publish(cdr, remote=index == 0)  # /clock is every robot's: on the bus once
         self._sent = seconds
         if self.done is not None:
             now = time.monotonic()

@@ -90,6 +90,7 @@ class LiveZenohSource(Source):
         self.unknown = 0
         self._pending = PendingSamples()  # guarded by _lock
         self.bad_names = 0  # messages whose robot id or topic breaks the naming rules
+        self.unattributed = 0  # messages of the root namespace that are no robot's (/clock)
         self._lock = threading.Lock()
         self._scheduled = False
         self._sub: zenoh.Subscriber | None = None
@@ -141,6 +142,9 @@ class LiveZenohSource(Source):
         for key, payload, encoding, sent in batch:
             try:
                 robot, topic = keys.split_sample(key, payload)  # /rosout: the robot from the logger name
+            except keys.NoRobotsMessage:  # /clock, a record of a ROS 2 node outside every robot's namespace
+                self.unattributed += 1
+                continue
             except ValueError as exc:  # a name that breaks the rules never reaches the hub (or a page)
                 self.bad_names += 1
                 if self.bad_names in (1, 10, 100, 1000) or self.bad_names % 10000 == 0:
@@ -157,6 +161,7 @@ class LiveZenohSource(Source):
     def status(self) -> dict[str, Any]:
         status = super().status()
         status.update(received=self.received, unknown_topics=self.unknown, bad_names=self.bad_names,
+                      unattributed=self.unattributed,
                       overflow=self._pending.dropped,
                       zenoh_open=self.link.is_open)
         return status
