@@ -1,6 +1,6 @@
 """A match in simulation: how the robots play, and whether the laptop keeps real time while they do.
 
-    python bench/match.py [--robots 4v4] [--half-minutes 5] [--seeds 1,2,3] [--quick] [--logs DIR]
+    python bench/match.py [--players 4 | --robots 4v4] [--half-minutes 5] [--seeds 1,2,3] [--quick] [--logs DIR]
 
 Each seed plays one whole match as ``pitchside match --robots 4v4 --half-minutes 5 --seed S`` starts it: the MuJoCo
 world with both teams and the referee, the simulated GameController running the Humanoid League flow, every
@@ -22,9 +22,11 @@ whether the match kept real time. A world behind real time catches up (up to 0.2
 slow second followed by a fast one lost nothing; ``rtf_min_1s`` is the slowest single second (the world's
 ``real_time_factor``), how far it fell behind for a moment. The simulated GameController runs on the world's clock:
 a world that falls behind makes the match last longer. CPU is the time of every process of the match (% of one
-core) over the match. Both count from the first READY: the start-up (every process importing at once) is over by
-then, as the first INITIAL waits until the GameController hears every robot. ``--logs DIR`` keeps each match's
-output.
+core) over the match, and per part (world, each robot process, server) also as CPU seconds per simulated second
+(``cpu_s_per_sim_s``: each of the world's ``real_time_factor`` reports is one simulated second), a figure that holds
+on a loaded machine, where a slower world only spreads the same work over more wall time. Both count from the first
+READY: the start-up (every process importing at once) is over by then, as the first INITIAL waits until the
+GameController hears every robot. ``--logs DIR`` keeps each match's output.
 Before each match bench/machine.py times a fixed Python workload (``probe_ms``): the machine's speed at the time.
 
 The baseline in the same run: the first half's first minute of the first seed against its whole (``rtf_min_first_min``,
@@ -107,8 +109,15 @@ def play(robots: str, half_minutes: float, seed: int, out: Path, logs: Path | No
     return figures
 
 
+def cpu_s_per_sim_s(figures: MatchFigures, cpu_pct: float) -> float:
+    """CPU seconds per simulated second of a part that took ``cpu_pct`` % of a core over the match (each of the
+    world's real_time_factor reports is one simulated second)."""
+    return cpu_pct / 100 * figures.seconds / max(1, len(figures.rtf))
+
+
 def cpu_shares(figures: MatchFigures) -> str:
-    """Where the CPU went, by what ran (a robot's processes summed over the robots, with the count)."""
+    """Where the CPU went, by what ran (a robot's processes summed over the robots, with the count), as % of a core
+    over the match and as CPU seconds per simulated second."""
     shares: dict[str, list[float]] = {}
     for name, cpu in figures.cpu_by_process:
         kind = name.split(" ")[0] if " " in name and name.startswith("robot_nodes.") else name
@@ -118,7 +127,8 @@ def cpu_shares(figures: MatchFigures) -> str:
     for kind, cpus in ranked:
         each = f" (x{len(cpus)}, {sum(cpus) / len(cpus):.1f} % each)" if len(cpus) > 1 else ""
         if sum(cpus) >= 0.5:
-            lines.append(f"    {sum(cpus):6.1f} %  {kind}{each}")
+            per_sim_s = cpu_s_per_sim_s(figures, sum(cpus))
+            lines.append(f"    {sum(cpus):6.1f} %  {per_sim_s:5.3f} cpu-s/sim-s  {kind}{each}")
     return "\n".join(lines)
 
 
@@ -129,7 +139,10 @@ def first_robot(robots: str) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--robots", default="4v4")
+    parser.add_argument("--robots", default=None, help="robots per team, e.g. 4v4 (default 4v4)")
+    parser.add_argument("--players", type=int, default=None,
+                        help="robots per team, the same for both: 4 (Small Foundation, 4 v 4) or 7 (Small Advanced, "
+                             "7 v 7); the same as --robots NvN")
     parser.add_argument("--half-minutes", type=float, default=5.0)
     parser.add_argument("--seeds", default="1,2,3")
     parser.add_argument("--quick", action="store_true", help="one match of 2 x 2 minutes")
@@ -139,6 +152,9 @@ def main() -> None:
                              "simulated time; sim: the robots follow the simulation's time but the world keeps its "
                              "own pace; wall: the robots on the wall clock")
     args = parser.parse_args()
+    if args.players is not None and args.robots is not None:
+        parser.error("give --players or --robots, not both")
+    args.robots = f"{args.players}v{args.players}" if args.players is not None else args.robots or "4v4"
     seeds = [int(s) for s in args.seeds.split(",")]
     half = args.half_minutes
     if args.quick:
@@ -171,7 +187,9 @@ def main() -> None:
           f"rtf_min={min(m.rtf_min for m in matches):.3f} "
           f"rtf_min_1s={min(m.rtf_min_1s for m in matches):.3f} "
           f"rtf_min_first_min={matches[0].rtf_min_first_minute():.3f} "
-          f"cpu_pct={statistics.mean(m.cpu_pct for m in matches):.0f} probe_ms={statistics.mean(probes):.0f}")
+          f"cpu_pct={statistics.mean(m.cpu_pct for m in matches):.0f} "
+          f"cpu_s_per_sim_s={statistics.mean(cpu_s_per_sim_s(m, m.cpu_pct) for m in matches):.3f} "
+          f"probe_ms={statistics.mean(probes):.0f}")
 
 
 if __name__ == "__main__":

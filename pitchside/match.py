@@ -106,8 +106,24 @@ def robot_settings(team: Team, player: int, gc: GameControllerPlan, mitecom_port
                             "--set", f"listen_address={gc.listen_address}", "--set", f"listen_port={gc.port}",
                             "--set", f"return_port={gc.return_port}", *field_side],
         "mitecom": team_talk,
-        "telemetry": telemetry_settings(telemetry_port, telemetry_key),
+        "telemetry": [*telemetry_settings(telemetry_port, telemetry_key),
+                      "--set", f"topics={match_telemetry_topics()}"],
     }
+
+
+# What a match's dashboard gets slower than the telemetry's defaults: 14 robots' telemetry (sender and dashboard) was
+# the largest part of a 7 v 7's CPU. The team overview has each robot's HCM state, pose and ball at 10 Hz from the
+# overview datagram; the field view keeps position and ball_relative at 10 Hz; joints, IMU, the HCM's state message
+# and diagnostics (the 3D view, plots, node health) come at half their lab rates.
+MATCH_TELEMETRY_RATES_HZ = {"joint_states": 5.0, "imu/data": 5.0, "robot_state": 5.0, "diagnostics": 0.5}
+
+
+def match_telemetry_topics() -> str:
+    """The telemetry node's ``topics`` in a match: its defaults with MATCH_TELEMETRY_RATES_HZ."""
+    from robot_nodes.telemetry.sender import DEFAULT_TOPICS, parse_topics
+
+    rates = parse_topics(DEFAULT_TOPICS) | MATCH_TELEMETRY_RATES_HZ
+    return ",".join(f"{name}:{hz:g}" for name, hz in rates.items())
 
 
 @dataclass(frozen=True)

@@ -8,10 +8,17 @@ import time
 
 import pytest
 
-from robot_nodes.game_controller.simulator import SimulatedGame, SimulatedGameController
+from robot_nodes.game_controller.simulator import CommandError, SimulatedGame, SimulatedGameController
 from tests.support import free_port
 from tests.waiting import wait_for
-from wire.gamecontroller.packets import HslPenalty, SetPlay, parse_state_packet
+from wire.gamecontroller.packets import (
+    HslPenalty,
+    HslPenaltyV19,
+    Penalty,
+    SecondaryState,
+    SetPlay,
+    parse_state_packet,
+)
 
 
 def _gc(**game: object) -> SimulatedGameController:
@@ -82,27 +89,107 @@ def test_team_messages_are_counted_against_the_budget() -> None:
         gc.stop()
 
 
-def test_a_set_play_in_v20_stopped_while_the_ball_is_placed_then_on_the_clock() -> None:
-    """The referee's corner kick as robots see it: stopped while the ball is placed, then the kicking team's set play
-    on the secondary clock, then none (the simulated flow: 2 s placing, 15 s positioning, 1 s freeze)."""
+def _clocked(**game: object) -> tuple[SimulatedGameController, list[float]]:
     now = [0.0]
-    game = SimulatedGame(teams=(3, 4), initial_s=0, auto_progress=True, set_play_place_s=2.0,
-                         set_play_position_s=15.0, set_play_freeze_s=1.0)
-    gc = SimulatedGameController(game, destinations=[], return_address=("127.0.0.1", 0), clock=lambda: now[0])
+    gc = SimulatedGameController(SimulatedGame(teams=(3, 4), initial_s=0, auto_progress=True, **game),  # type: ignore[arg-type]
+                                 destinations=[], return_address=("127.0.0.1", 0), clock=lambda: now[0])
+    return gc, now
+
+
+@pytest.mark.parametrize("kind", [SetPlay.THROW_IN, SetPlay.GOAL_KICK, SetPlay.CORNER_KICK])
+def test_a_set_play_in_v20_is_stopped_while_the_ball_is_placed_then_45_s_on_the_secondary_clock(kind: SetPlay) -> None:
+    """The HSL GameController's simple set play: play stopped while the referee places the ball (neither clock
+    runs; the secondary clock shows the kicking team's 45 s), then play resumes and the 45 s count down, then the
+    set play is over (no kicking team). The simulated referee places in 5 s."""
+    gc, now = _clocked()
+    try:
+        gc.set_state("playing")
+        start = parse_state_packet(gc.tick()).secs_remaining
+        gc.set_play(kind.name.lower(), 4)
+        seen = []
+        for _ in range(2 * 52):  # 52 s at 2 Hz
+            p = parse_state_packet(gc.tick())
+            seen.append((now[0], p.set_play, p.kicking_team, p.stopped, p.secondary_time, p.secs_remaining))
+            now[0] += 0.5
+        stopped = [s for s in seen if s[3]]
+        assert [s[0] for s in stopped] == [i / 2 for i in range(10)]  # 5 s placing the ball
+        assert {s[1:3] for s in stopped} == {(kind, 4)} and {s[4] for s in stopped} == {45}
+        assert {s[5] for s in stopped} == {start}  # the game clock stands while play is stopped
+        running = [s for s in seen if not s[3] and s[1] == kind]
+        assert running[0][0] == 5.0 and running[0][2] == 4
+        assert [s[4] for s in running][::10] == [45, 40, 35, 30, 25, 20, 15, 10, 5]  # counting down
+        assert running[-1][0] == 49.5 and running[-1][4] in (0, 1)  # over at 5 + 45 s
+        after = seen[-1]
+        assert (after[1], after[2], after[3], after[4]) == (SetPlay.NONE, 255, False, 0)
+        assert abs(after[5] - (start - 46.5)) <= 0.5  # the last packet at 51.5 s, of which 5 s stopped
+    finally:
+        gc.stop()
+
+
+def test_ball_free_ends_the_set_play_only_while_play_runs() -> None:
+    """The referee's "ball free" (the HSL GameController's FinishSetPlay): refused while the ball is being
+    placed, then it ends the set play at once; the button pressed again resumes play, as the GameController's."""
+    gc, now = _clocked()
+    try:
+        gc.set_state("playing")
+        gc.set_play("goal_kick", 3)
+        with pytest.raises(CommandError, match="stopped"):
+            gc.ball_free()
+        gc.set_play("goal_kick", 3)  # pressed again: play resumes before the 5 s
+        running = parse_state_packet(gc.tick())
+        assert (running.set_play, running.kicking_team, running.stopped) == (SetPlay.GOAL_KICK, 3, False)
+        now[0] += 3.0
+        assert parse_state_packet(gc.tick()).secondary_time == 42
+        gc.ball_free()
+        free = parse_state_packet(gc.tick())
+        assert (free.set_play, free.kicking_team, free.stopped, free.secondary_time) == (SetPlay.NONE, 255, False, 0)
+        with pytest.raises(CommandError, match="needs a running set play"):
+            gc.ball_free()
+        assert gc.execute("ballfree").startswith("error:")
+    finally:
+        gc.stop()
+
+
+def test_the_hl_v12_flow_keeps_its_three_sub_phases() -> None:
+    """A v12 GameController's set piece: 2 s placing, 15 s positioning, 1 s freeze (secondaryStateInfo[1])."""
+    gc, now = _clocked(version=12)
     try:
         gc.set_state("playing")
         gc.set_play("corner_kick", 4)
-        seen = []
-        for _ in range(44):
+        phases = []
+        for _ in range(2 * 19):
             p = parse_state_packet(gc.tick())
-            seen.append((p.set_play, p.kicking_team if p.set_play else None, p.stopped, p.secondary_time))
+            phases.append(p.secondary_state_info[1] if p.secondary_state == SecondaryState.CORNER_KICK else None)
             now[0] += 0.5
-        placing, positioning, frozen, after = seen[1], seen[6], seen[34], seen[-1]
-        assert placing[:3] == (SetPlay.CORNER_KICK, 4, True)
-        assert positioning[:3] == (SetPlay.CORNER_KICK, 4, False) and 10 <= positioning[3] <= 15
-        assert frozen[:3] == (SetPlay.CORNER_KICK, 4, True)
-        assert after[:3] == (SetPlay.NONE, None, False)
-        assert [s[2] for s in seen].count(True) >= 4 + 2  # 2 s and 1 s of stopped at 2 Hz
+        assert phases.count(0) == 4 and phases.count(1) == 30 and phases.count(2) == 2 and phases[-1] is None
+    finally:
+        gc.stop()
+
+
+@pytest.mark.parametrize(("version", "leaving", "incapable"), [
+    (20, HslPenalty.LEAVING_THE_FIELD, HslPenalty.INCAPABLE_ROBOT),
+    (19, HslPenaltyV19.LEAVING_THE_FIELD, HslPenaltyV19.INCAPABLE_ROBOT),
+    (12, Penalty.PICKUP_OR_INCAPABLE, Penalty.PICKUP_OR_INCAPABLE),
+])
+def test_the_referees_calls_keep_their_hsl_codes(version: int, leaving: int, incapable: int) -> None:
+    """Leaving the field and an incapable robot are two calls in HSL; HL v12 has one code for both (and pick-up)."""
+    gc = _gc(version=version)
+    try:
+        gc.set_state("playing")
+        gc.penalize(3, 2, 30, Penalty.PICKUP_OR_INCAPABLE, HslPenalty.LEAVING_THE_FIELD)
+        gc.penalize(4, 1, 30, Penalty.PICKUP_OR_INCAPABLE, HslPenalty.INCAPABLE_ROBOT)
+        gc.penalize(4, 3, 30)  # no HSL call given: the HL code's (pick-up)
+        p = parse_state_packet(gc.tick())
+        home, away = p.team(3), p.team(4)
+        assert home is not None and away is not None
+        assert (home.player(2).penalty, away.player(1).penalty) == (leaving, incapable)  # type: ignore[union-attr]
+        assert away.player(3).penalty == {20: HslPenalty.PICK_UP, 19: HslPenaltyV19.PICK_UP,  # type: ignore[union-attr]
+                                          12: Penalty.PICKUP_OR_INCAPABLE}[version]
+        gc.unpenalize(3, 2)
+        home = parse_state_packet(gc.tick()).team(3)
+        assert home is not None and home.player(2).penalty == 0  # type: ignore[union-attr]
+        with pytest.raises(CommandError, match="unknown HSL penalty"):
+            gc.penalize(3, 1, 30, Penalty.PICKUP_OR_INCAPABLE, 99)
     finally:
         gc.stop()
 

@@ -19,6 +19,7 @@ import pytest
 
 from pitchside.local_run import BEHIND_THE_WORLD_NICE, ROBOTS_IN_MATCH_NICE
 from pitchside.match import (
+    MATCH_TELEMETRY_RATES_HZ,
     GameControllerPlan,
     MatchPlan,
     default_nodes,
@@ -30,6 +31,7 @@ from pitchside.match import main as match_main
 from robot_nodes.cm730.sim.lineup import Lineup, LineupError, parse_robots
 from robot_nodes.game_controller.simulator import SimulatedGame, SimulatedGameController
 from robot_nodes.runtime.clock import SIM_TIME_ENV
+from robot_nodes.telemetry.sender import DEFAULT_TOPICS, parse_topics
 from schemas.logs import LogSeriesReader
 from server.hub import Hub
 from server.sources.replay import ReplaySource
@@ -143,6 +145,10 @@ def test_lineup_and_robot_settings() -> None:
     away1 = robot_settings(lineup.away, 1, hsl, ports, 5800, None, half_s=120)["mitecom"]
     assert {"hsl=true", "team_port=6009", "broadcast_address=127.255.255.255", "half_s=120"} <= set(away1)
     assert not any(a.startswith("peers=") for a in away1)
+    # a match's dashboard gets joints, IMU, HCM state and diagnostics at half the lab's rates (pose and ball not)
+    rates = parse_topics(next(a for a in home2["telemetry"] if a.startswith("topics=")).split("=", 1)[1])
+    assert rates | MATCH_TELEMETRY_RATES_HZ == rates and rates.keys() == parse_topics(DEFAULT_TOPICS).keys()
+    assert rates["joint_states"] == 5 and rates["position"] == rates["ball_relative"] == 10
     # one field frame for both teams' stand-in localizations: the away team defends its +x half
     assert home2["behavior"] == home2["head"] == ["--set", "own_half=-x"]
     assert robot_settings(lineup.away, 1, sim, ports, 5800, None)["behavior"] == ["--set", "own_half=+x"]

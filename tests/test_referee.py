@@ -25,6 +25,7 @@ from tests.waiting import wait_for
 from wire.gamecontroller.packets import (
     GameControlData,
     GameStateValue,
+    HslPenalty,
     Penalty,
     SecondaryState,
     SetPlay,
@@ -78,8 +79,7 @@ def make_match(players: tuple[int, int] = (1, 1), rules: RefereeRules | None = N
     lineup = Lineup.of((HOME, AWAY), players)
     world = SimWorld(lineup=lineup, placements=lineup_start(lineup))
     game = SimulatedGame(teams=(HOME, AWAY), team_colors=(5, 7), players_per_team=max(players), initial_s=0.5,
-                         ready_s=2.0, set_s=1.0, half_s=300, set_play_place_s=1.0, set_play_position_s=3.0,
-                         set_play_freeze_s=0.5)
+                         ready_s=2.0, set_s=1.0, half_s=300, set_play_stopped_s=1.0, set_play_s=4.0)
     gc = SimulatedGameController(game, [], ("127.0.0.1", 0), clock=lambda: world.time)
     referee = Referee(world, lineup, gc.snapshot, gc, rules or RefereeRules(penalty_s=5.0))
     return Match(world, gc, referee)
@@ -159,13 +159,22 @@ def test_a_robot_touching_the_ball_last_gives_the_throw_in_to_the_other_team() -
         ball = match.world.ball_position()
         assert math.isclose(ball[1], FIELD_HALF_WIDTH, abs_tol=0.02) and -1.6 < ball[0] < -1.0  # where it left
         game = match.play(1.2)
-        assert game.secondary_state_info[1] == 1  # robots may position now
-        assert not parse_state_packet(match.gc.tick()).stopped
-        match.world.set_ball(-1.3, 2.6, velocity=(0.0, 2.0))  # out again during the set play: back to its spot
-        match.play(1.0)
+        assert game.secondary_state_info[1] == 1  # play resumed: the kicking team's time on the secondary clock
+        resumed = parse_state_packet(match.gc.tick())
+        assert (resumed.stopped, resumed.kicking_team, resumed.secondary_time) == (False, AWAY, 4)
+        spot = match.world.ball_position()
+        match.world.set_ball(spot[0], spot[1] + 0.09, velocity=(0.0, 0.5))  # rolls out by itself: back to its spot
+        match.play(0.5)
         assert math.isclose(match.world.ball_position()[1], FIELD_HALF_WIDTH, abs_tol=0.02)
-        assert len(match.calls("throw_in")) == 1
-        match.until(lambda game: game.secondary_state == 0, 8, "the throw-in over")
+        assert len(match.calls("throw_in")) == 1 and not match.calls("ball_free")
+        match.world.set_ball(spot[0] + 0.3, 2.7, velocity=(1.0, 0.0))  # thrown in: the ball is in play
+        game = match.until(lambda game: game.secondary_state == 0, 1, "ball free")
+        free = match.calls("ball_free")
+        assert len(free) == 1 and free[0].team == AWAY
+        assert parse_state_packet(match.gc.tick()).kicking_team == 255  # nobody kicks once the ball is free
+        match.world.set_ball(-1.3, 2.6, velocity=(0.0, 2.0))  # out again, now in play: a new throw-in
+        match.until(lambda game: game.secondary_state != 0, 3, "the second throw-in")
+        assert len(match.calls("throw_in")) == 2
     finally:
         match.gc.stop()
 
@@ -179,7 +188,9 @@ def test_a_robot_lying_twenty_seconds_is_penalised_taken_off_and_brought_back(ma
     game = match.play(1.5)
     assert match.penalty(AWAY, 1) == Penalty.PICKUP_OR_INCAPABLE
     call = match.calls("penalty")[0]
-    assert call.team == AWAY and call.player == 1 and "lay" in call.detail
+    assert call.team == AWAY and call.player == 1 and call.detail.startswith("incapable robot: lay")
+    away = parse_state_packet(match.gc.tick()).team(AWAY)  # HSL tells the call: an incapable robot
+    assert away is not None and away.player(1).penalty == HslPenalty.INCAPABLE_ROBOT  # type: ignore[union-attr]
     assert game.team(AWAY).player(1).secs_till_unpenalized in (4, 5)  # type: ignore[union-attr]
     x, y, _ = away1.pose2d()
     assert abs(y) > FIELD_HALF_WIDTH + 0.3 and x > 0  # off the field, beside the own half
@@ -283,9 +294,11 @@ def test_a_robot_pushed_out_of_the_field_is_penalised(match: Match) -> None:
     home1.set_pose(-2.0, 3.05, math.pi / 2)  # on the touch line, facing out
     home1.apply_push((0.0, 60.0, 0.0), 0.3)
     match.play(2.0)
-    assert match.penalty(HOME, 1) == Penalty.PICKUP_OR_INCAPABLE
+    assert match.penalty(HOME, 1) == Penalty.PICKUP_OR_INCAPABLE  # HL v12's one code (pick-up or incapable)
+    home = parse_state_packet(match.gc.tick()).team(HOME)  # HSL tells the call: leaving the field
+    assert home is not None and home.player(1).penalty == HslPenalty.LEAVING_THE_FIELD  # type: ignore[union-attr]
     call = match.calls("penalty")[0]
-    assert call.team == HOME and "left the field" in call.detail
+    assert call.team == HOME and call.detail.startswith("leaving the field: left the field")
     removed = match.calls("removed")
     assert removed and removed[0].player == 1
 

@@ -4,8 +4,11 @@ runs by itself, commands by stdin or HTTP.
 It runs the Humanoid League flow as the league's GameController does: INITIAL, READY (with its time limit), SET,
 PLAYING; a goal sends both teams to READY with the kick-off for the other team; the end of the first half is
 FINISHED, then after the half-time break INITIAL of the second half (penalties cleared, the other team kicks off);
-the end of the second half is FINISHED. Set plays (throw-in, goal kick, corner kick, free kicks) run through their
-three sub-phases in the secondary state. A robot's return packet asks for a manual penalty or its end
+the end of the second half is FINISHED. Set plays (throw-in, goal kick, corner kick, free kicks) run as the
+GameController of the packets' league runs them: HSL (v19/v20) as its GameController does, play ``stopped`` while
+the referee places the ball (neither clock runs), then the kicking team's 45 s on the secondary clock until the ball
+is free (the referee's call) or the clock runs out; HL v12 through the three sub-phases of its secondary state. A
+robot's return packet asks for a manual penalty or its end
 (MAN_PENALISE / MAN_UNPENALISE), acted on as the HL GameController does: only when the robot's message changes,
 a penalty only for a robot not penalised, its end only for a penalised one. A v4 status packet (what robots send
 an HSL GameController) tells that the robot is there. With ``team_message_address`` it also listens on UDP 10000 +
@@ -32,7 +35,7 @@ from typing import Any
 
 from robot_nodes.runtime.udp import UdpPort
 from wire.command_line import CommandParser
-from wire.gamecontroller.game_data import HSL_MAX_PAYLOAD, HSL_TEAM_PORT_BASE
+from wire.gamecontroller.game_data import HSL_MAX_PAYLOAD, HSL_TEAM_PORT_BASE, NO_TEAM
 from wire.gamecontroller.packets import (
     DATA_PORT,
     HL_VERSION,
@@ -43,12 +46,16 @@ from wire.gamecontroller.packets import (
     SET_PIECES,
     GameControlData,
     GameControllerPacketError,
+    GamePhase,
     GameStateValue,
+    HslPenalty,
+    HslPenaltyV19,
     Penalty,
     ReturnMessage,
     ReturnPacket,
     RobotInfo,
     SecondaryState,
+    SetPlay,
     StatusPacket,
     TeamInfo,
     build_state_packet,
@@ -82,6 +89,12 @@ class SimulatedGame:
     set_s: float = 2.0
     half_s: int = 600
     half_time_s: float = 5.0  # the break between FINISHED of the first half and INITIAL of the second
+    # HSL (v19/v20): play stopped while the referee places the ball, then the kicking team's time on the secondary
+    # clock (the HSL GameController's setPlays durations of every 2026 competition: 45 s, a penalty kick 60 s)
+    set_play_stopped_s: float = 5.0
+    set_play_s: float = 45.0
+    penalty_kick_s: float = 60.0
+    # HL v12: the three sub-phases of a set piece
     set_play_place_s: float = 2.0  # sub-phase 0: the referee places the ball
     set_play_position_s: float = 15.0  # sub-phase 1: robots may position
     set_play_freeze_s: float = 1.0  # sub-phase 2: illegally placed robots are removed
@@ -98,7 +111,8 @@ class SimulatedGame:
 
 @dataclass
 class _Slot:
-    penalty: int = Penalty.NONE
+    penalty: int = Penalty.NONE  # HL v12 code
+    hsl_penalty: int | None = None  # the HSL v20 code where the HL one does not tell the call (leaving the field)
     secs: float = 0.0
     yellow_cards: int = 0
     red_cards: int = 0
@@ -317,8 +331,30 @@ class SimulatedGameController:
             self.packet_number = (self.packet_number + 1) % 256
             self.packets_sent += 1
         if self.game.version != HL_VERSION:
-            data = hl_to_hsl(data, self.game.version)
+            data = self._as_hsl(data)
         return build_state_packet(data)
+
+    def _as_hsl(self, data: GameControlData) -> GameControlData:
+        """The game as the HSL GameController tells it: no kicking team once the ball is free (after a kick-off's
+        10 s or a set play), and the calls the HL codes cannot tell apart (leaving the field, incapable, pick-up)."""
+        data = hl_to_hsl(data, self.game.version)
+        if (data.state == GameStateValue.PLAYING and data.set_play == SetPlay.NONE and data.secondary_time == 0
+                and data.game_phase == GamePhase.NORMAL):
+            data = dataclasses.replace(data, kicking_team=NO_TEAM)
+        with self._lock:
+            calls = {(t.number, i): slot.hsl_penalty for t in self._teams for i, slot in enumerate(t.slots)
+                     if slot.hsl_penalty is not None and slot.penalty != Penalty.NONE}
+        if not calls:
+            return data
+        codes = {} if self.game.version == HSL_VERSION else {
+            int(c): int(HslPenaltyV19[c.name]) for c in HslPenalty if c.name in HslPenaltyV19.__members__}
+
+        def team(t: TeamInfo) -> TeamInfo:
+            players = tuple(dataclasses.replace(p, penalty=codes.get(calls[t.team_number, i], calls[t.team_number, i]))
+                            if (t.team_number, i) in calls else p for i, p in enumerate(t.players))
+            return dataclasses.replace(t, players=players)
+
+        return dataclasses.replace(data, teams=(team(data.teams[0]), team(data.teams[1])))
 
     def snapshot(self) -> GameControlData:
         """The game as the next packet will tell it, clocks advanced to now (for a referee in the same process)."""
@@ -341,9 +377,10 @@ class SimulatedGameController:
                     if slot.penalty not in (Penalty.NONE, Penalty.SUBSTITUTE, Penalty.MANUAL) and slot.secs > 0:
                         slot.secs = max(0.0, slot.secs - dt)
                         if slot.secs == 0:
-                            slot.penalty = Penalty.NONE
+                            slot.penalty, slot.hsl_penalty = Penalty.NONE, None
         if self.state == GameStateValue.PLAYING:
-            self.secs_remaining = max(0.0, self.secs_remaining - dt)
+            if not self._play_stopped():  # the HSL GameController's clock stands while play is stopped
+                self.secs_remaining = max(0.0, self.secs_remaining - dt)
             if self.secs_remaining == 0:
                 self._finish_half()
                 return
@@ -382,19 +419,42 @@ class SimulatedGameController:
             return False
         return True
 
-    def _advance_set_play(self, now: float) -> None:
+    @property
+    def hsl(self) -> bool:
+        """The game runs as the HSL GameController runs it (v19/v20 packets), not as the HL one (v12)."""
+        return self.game.version != HL_VERSION
+
+    def _play_stopped(self) -> bool:
+        """HSL: play is stopped while the referee places the ball for a set play (``stopped`` in the packet)."""
+        return self.hsl and self.secondary_state in SET_PIECES and self.set_play_phase == PLACE_BALL
+
+    def _set_play_phase_s(self) -> float:
+        """How long the running set play's current phase lasts."""
         g = self.game
-        lasts = {PLACE_BALL: g.set_play_place_s, POSITIONING: g.set_play_position_s,
-                 REMOVE_ILLEGAL: g.set_play_freeze_s}[self.set_play_phase]
-        if now - self._set_play_started >= lasts:
+        if self.hsl:
+            return g.set_play_stopped_s if self.set_play_phase == PLACE_BALL else self._kicking_time_s()
+        return {PLACE_BALL: g.set_play_place_s, POSITIONING: g.set_play_position_s,
+                REMOVE_ILLEGAL: g.set_play_freeze_s}[self.set_play_phase]
+
+    def _kicking_time_s(self) -> float:
+        """HSL: the kicking team's time for the running set play (the secondary clock)."""
+        penalty_kick = self.secondary_state == SecondaryState.PENALTYKICK
+        return self.game.penalty_kick_s if penalty_kick else self.game.set_play_s
+
+    def _advance_set_play(self, now: float) -> None:
+        if now - self._set_play_started >= self._set_play_phase_s():
             self._next_set_play_phase()
 
     def _next_set_play_phase(self) -> None:
-        if self.set_play_phase == REMOVE_ILLEGAL:
-            self.secondary_state, self.set_play_team, self.set_play_phase = SecondaryState.NORMAL, 0, PLACE_BALL
+        """HSL: stopped -> the kicking team's time -> over; HL: place ball -> positioning -> freeze -> over."""
+        if self.set_play_phase == (POSITIONING if self.hsl else REMOVE_ILLEGAL):
+            self._end_set_play()
         else:
             self.set_play_phase += 1
         self._set_play_started = self._clock()
+
+    def _end_set_play(self) -> None:
+        self.secondary_state, self.set_play_team, self.set_play_phase = SecondaryState.NORMAL, 0, PLACE_BALL
 
     def _finish_half(self) -> None:
         """The half's clock ran out: FINISHED (after the first half, the half-time break follows)."""
@@ -404,7 +464,7 @@ class SimulatedGameController:
         if state == GameStateValue.INITIAL and self.state == GameStateValue.FINISHED and self.first_half:
             self._switch_half()
         if state != GameStateValue.PLAYING or self.secondary_state not in SET_PIECES:
-            self.secondary_state, self.set_play_team, self.set_play_phase = SecondaryState.NORMAL, 0, PLACE_BALL
+            self._end_set_play()
         self._kicked_off_at = self._clock() if (state == GameStateValue.PLAYING
                                                 and self.state == GameStateValue.SET) else None
         self.state = state
@@ -425,9 +485,9 @@ class SimulatedGameController:
         g = self.game
         if self.state == GameStateValue.PLAYING:
             if self.secondary_state in SET_PIECES:
-                phase_lasts = {PLACE_BALL: g.set_play_place_s, POSITIONING: g.set_play_position_s,
-                        REMOVE_ILLEGAL: g.set_play_freeze_s}[self.set_play_phase]
-                return max(0, round(phase_lasts - (now - self._set_play_started)))
+                if self._play_stopped():  # HSL: the kicking team's clock waits for play to resume
+                    return round(self._kicking_time_s())
+                return max(0, round(self._set_play_phase_s() - (now - self._set_play_started)))
             if self._kicked_off_at is not None:
                 return max(0, round(BALL_FREE_S - (now - self._kicked_off_at)))
             return 0
@@ -473,24 +533,28 @@ class SimulatedGameController:
             raise CommandError(f"player number must be 1..{MAX_NUM_PLAYERS}, got {player}")
         return self._team(team).slots[player - 1]
 
-    def _penalize(self, team: int, player: int, penalty: int, seconds: float) -> None:
+    def _penalize(self, team: int, player: int, penalty: int, seconds: float, hsl_penalty: int | None = None) -> None:
         slot = self._slot(team, player)
-        slot.penalty, slot.secs = int(penalty), float(seconds)
+        slot.penalty, slot.secs, slot.hsl_penalty = int(penalty), float(seconds), hsl_penalty
 
     def _unpenalize(self, team: int, player: int) -> None:
         slot = self._slot(team, player)
-        slot.penalty, slot.secs = Penalty.NONE, 0.0
+        slot.penalty, slot.secs, slot.hsl_penalty = Penalty.NONE, 0.0, None
 
     # -- commands (any thread) -------------------------------------------------------------------------------
     def penalize(self, team: int, player: int, seconds: float = 30.0,
-                 penalty: int = Penalty.PICKUP_OR_INCAPABLE) -> None:
-        """Seconds > 0: the robot comes back by itself after that time; 0: until unpenalize()."""
+                 penalty: int = Penalty.PICKUP_OR_INCAPABLE, hsl_penalty: int | None = None) -> None:
+        """Seconds > 0: the robot comes back by itself after that time; 0: until unpenalize(). ``penalty`` is the
+        HL v12 code; ``hsl_penalty`` the HSL v20 call an HSL packet tells instead (the HL codes have one for
+        pick-up and incapable robots together, none for leaving the field)."""
         if not 0 <= seconds <= 255:
             raise CommandError(f"penalty seconds must be 0..255, got {seconds}")
         if not 0 < int(penalty) <= 255:
             raise CommandError(f"penalty code must be 1..255, got {penalty}")
+        if hsl_penalty is not None and hsl_penalty not in HslPenalty._value2member_map_:
+            raise CommandError(f"unknown HSL penalty code {hsl_penalty}")
         with self._lock:
-            self._penalize(team, player, penalty, seconds)
+            self._penalize(team, player, penalty, seconds, hsl_penalty)
         self._wake.set()
 
     def unpenalize(self, team: int, player: int) -> None:
@@ -522,8 +586,8 @@ class SimulatedGameController:
 
     def set_play(self, kind: int | str, team: int) -> None:
         """Starts a set play for ``team`` (throw-in, goal kick, corner kick, direct/indirect free kick, penalty
-        kick), or, for the set play already running, moves it to its next sub-phase (the GC's button pressed
-        again). Only in PLAYING, as the HL GC."""
+        kick), or, for the set play already running, moves it to its next phase (the GC's button pressed again;
+        HSL: play resumes, then the ball is free). Only in PLAYING, as the GameController."""
         try:
             value = SecondaryState[kind.upper()] if isinstance(kind, str) else SecondaryState(kind)
         except (KeyError, ValueError):
@@ -547,6 +611,20 @@ class SimulatedGameController:
             else:
                 raise CommandError(f"{SecondaryState(self.secondary_state).name} for team {self.set_play_team} "
                                    "is running")
+        self._wake.set()
+
+    def ball_free(self) -> None:
+        """HSL: the referee's "ball free": the running set play ends once its ball is in play (the HSL
+        GameController's FinishSetPlay), only while play runs (not while the ball is placed)."""
+        with self._lock:
+            self._advance_to_now()
+            if not self.hsl:
+                raise CommandError("the HL GameController (v12) ends a set piece by its sub-phases, not ball free")
+            if self.state != GameStateValue.PLAYING or self.secondary_state not in SET_PIECES:
+                raise CommandError("ball free needs a running set play")
+            if self._play_stopped():
+                raise CommandError("play is stopped: the ball is being placed")
+            self._end_set_play()
         self._wake.set()
 
     def returns_from(self, team: int, player: int) -> list[ReceivedReturn]:
@@ -590,7 +668,7 @@ class SimulatedGameController:
 
     def execute(self, line: str) -> str:
         """One text command (stdin): penalize T P [S] | unpenalize T P | goal T | state NAME | setplay KIND T |
-        status."""
+        ballfree | status."""
         words = line.split()
         if not words:
             return ""
@@ -606,11 +684,13 @@ class SimulatedGameController:
                 self.set_state(args[0])
             elif cmd == "setplay" and len(args) == 2:
                 self.set_play(args[0], int(args[1]))
+            elif cmd == "ballfree" and not args:
+                self.ball_free()
             elif cmd == "status":
                 return json.dumps(self.status(), indent=1)
             else:
                 return ("commands: penalize TEAM PLAYER [SECONDS] | unpenalize TEAM PLAYER | goal TEAM | "
-                        "state NAME | setplay KIND TEAM (throw_in, goal_kick, corner_kick, ...) | status")
+                        "state NAME | setplay KIND TEAM (throw_in, goal_kick, corner_kick, ...) | ballfree | status")
         except (CommandError, ValueError) as exc:
             return f"error: {exc}"
         return "ok"
@@ -638,7 +718,7 @@ def _return_status(r: ReceivedReturn) -> dict[str, Any]:
 def _make_handler(gc: SimulatedGameController) -> type[BaseHTTPRequestHandler]:
     class Handler(BaseHTTPRequestHandler):
         """POST /penalize {team, player, seconds}, /unpenalize, /goal {team}, /state {state}, /set-play {kind,
-        team}; GET /status."""
+        team}, /ball-free; GET /status."""
 
         def log_message(self, fmt: str, *args: Any) -> None:
             log.debug(fmt, *args)
@@ -675,6 +755,8 @@ def _make_handler(gc: SimulatedGameController) -> type[BaseHTTPRequestHandler]:
                     gc.set_state(body["state"])
                 elif path == "/set-play":
                     gc.set_play(body["kind"], int(body["team"]))
+                elif path == "/ball-free":
+                    gc.ball_free()
                 else:
                     self._reply(404, {"error": f"no such endpoint POST {self.path}"})
                     return

@@ -1,9 +1,10 @@
 """The referee of a simulated match: watches the world a few times a second and calls what the rules call.
 
 It scores goals, puts a ball that left the field back for a throw-in, goal kick or corner kick (the GameController's
-set plays), penalises a robot that has lain for 20 s or left the field, takes penalised robots off the field to the
-touch line and brings them back when the GameController says their penalty is over, and places the ball (and
-robots standing illegally when SET begins) for each kick-off. Collisions are left to the physics.
+set plays) and calls the ball free once the kicking team has played it (the HSL GameController's "ball free"),
+penalises a robot that has lain for 20 s (incapable) or left the field (leaving the field), takes penalised robots
+off the field to the touch line and brings them back when the GameController says their penalty is over, and places
+the ball (and robots standing illegally when SET begins) for each kick-off. Collisions are left to the physics.
 
 It is told the game by the GameController (a packet as the robots get it) and tells the GameController its calls
 through a ``Whistle``: the simulated GameController of the match, or, refereed by a real GameController, a whistle
@@ -27,7 +28,14 @@ from robot_nodes.cm730.sim.lineup import Lineup, Team
 from robot_nodes.cm730.sim.runner import SimRunner
 from robot_nodes.cm730.sim.scene import Placement
 from robot_nodes.cm730.sim.world import RobotHandle, SimWorld
-from wire.gamecontroller.packets import SET_PIECES, GameControlData, GameStateValue, Penalty, SecondaryState
+from wire.gamecontroller.packets import (
+    SET_PIECES,
+    GameControlData,
+    GameStateValue,
+    HslPenalty,
+    Penalty,
+    SecondaryState,
+)
 
 log = logging.getLogger("pitchside.referee")
 
@@ -53,7 +61,10 @@ class Whistle(Protocol):
 
     def set_play(self, kind: int | str, team: int) -> None: ...
 
-    def penalize(self, team: int, player: int, seconds: float = 30.0, penalty: int = ...) -> None: ...
+    def penalize(self, team: int, player: int, seconds: float = 30.0, penalty: int = ...,
+                 hsl_penalty: int | None = None) -> None: ...
+
+    def ball_free(self) -> None: ...
 
 
 class LoggingWhistle:
@@ -67,8 +78,12 @@ class LoggingWhistle:
         log.warning("referee: %s for team %d (press it in the GameController)", name, team)
 
     def penalize(self, team: int, player: int, seconds: float = 30.0,
-                 penalty: int = Penalty.PICKUP_OR_INCAPABLE) -> None:
-        log.warning("referee: penalise team %d player %d (press it in the GameController)", team, player)
+                 penalty: int = Penalty.PICKUP_OR_INCAPABLE, hsl_penalty: int | None = None) -> None:
+        call = HslPenalty(hsl_penalty).name.lower().replace("_", " ") if hsl_penalty is not None else "penalise"
+        log.warning("referee: %s, team %d player %d (press it in the GameController)", call, team, player)
+
+    def ball_free(self) -> None:
+        log.warning("referee: ball free (press it in the GameController)")
 
 
 @dataclass
@@ -89,12 +104,15 @@ class RefereeRules:
     touch_m: float = 0.3  # without a contact seen, the robot whose torso is this close to the ball touched it last
     touch_height_m: float = 0.5  # ... if the ball is this low (not flying over it)
     place_illegal_at_set: bool = True  # robots not in a legal kick-off position when SET begins are put there
+    # a set play's ball is in play (the referee calls "ball free") once it has moved this far from its spot while
+    # play runs: kicked and clearly moving, as the laws of the game say
+    ball_free_m: float = 0.1
 
 
 @dataclass(frozen=True, slots=True)
 class Call:
-    """One decision: when (simulated s), what ("goal", "throw_in", "goal_kick", "corner_kick", "penalty",
-    "removed", "returned", "placed"), for which team and player, and why."""
+    """One decision: when (simulated s), what ("goal", "throw_in", "goal_kick", "corner_kick", "ball_free",
+    "penalty", "removed", "returned", "placed"), for which team and player, and why."""
 
     time: float
     what: str
@@ -124,6 +142,7 @@ class _BallWatch:
     last_touch: _RobotWatch | None = None
     dead: bool = False  # called (out or goal) and not yet put back: not judged again
     set_play_spot: tuple[float, float] | None = None
+    freed: bool = False  # "ball free" called for the set play at set_play_spot
 
 
 @dataclass
@@ -173,6 +192,7 @@ class Referee:
         self._follow_state(game)
         if game.state == GameStateValue.PLAYING:
             self._judge_ball()
+            self._judge_set_play(game)
         if game.state in (GameStateValue.READY, GameStateValue.SET, GameStateValue.PLAYING):
             self._judge_robots(game)
         else:
@@ -266,6 +286,18 @@ class Referee:
         elif abs(ball[1]) > over_touch_line:
             self._over_touch_line(ball)
 
+    def _judge_set_play(self, game: GameControlData) -> None:
+        """Ball free: the set play's ball has moved off its spot while play runs (not while it is placed)."""
+        ball = self._ball
+        if ball.set_play_spot is None or ball.freed or game.stopped or game.secondary_state not in SET_PIECES:
+            return
+        x, y, _ = self.world.ball_position()
+        moved = math.hypot(x - ball.set_play_spot[0], y - ball.set_play_spot[1])
+        if moved >= self.rules.ball_free_m:
+            ball.freed = True
+            team = next((t for t in self.lineup.teams if t.number == game.secondary_state_info[0]), self.lineup.home)
+            self._whistle("ball_free", team, self.whistle.ball_free, f"the ball moved {moved:.2f} m off its spot")
+
     def _follow_touch(self, ball: np.ndarray) -> None:
         d = self.world.data
         touching = -1
@@ -324,7 +356,7 @@ class Referee:
     def _restart(self, kind: str, team: Team, spot: tuple[float, float], toucher: _RobotWatch | None) -> None:
         why = f"last touched by {toucher.handle.robot_id}" if toucher is not None else "nobody seen touching it"
         self._put_ball(*spot)
-        self._ball.set_play_spot = spot
+        self._ball.set_play_spot, self._ball.freed = spot, False
         self._whistle(kind, team, lambda: self.whistle.set_play(kind, team.number), why)
 
     def _centre_ball(self) -> None:
@@ -348,13 +380,13 @@ class Referee:
                 x, y, _ = watch.handle.pose2d()
                 touching = watch.handle.touching()
                 self._penalise(watch, f"lay for {self.rules.lying_s:.0f} s at ({x:.2f}, {y:.2f})"
-                               + (f", touching {', '.join(touching)}" if touching else ""))
+                               + (f", touching {', '.join(touching)}" if touching else ""), HslPenalty.INCAPABLE_ROBOT)
                 continue
             if game.state == GameStateValue.PLAYING:
                 x, y, _ = watch.handle.pose2d()
                 margin = self.rules.out_margin_m
                 if abs(x) > f.length / 2 + margin or abs(y) > f.width / 2 + margin:
-                    self._penalise(watch, f"left the field at ({x:.2f}, {y:.2f})")
+                    self._penalise(watch, f"left the field at ({x:.2f}, {y:.2f})", HslPenalty.LEAVING_THE_FIELD)
 
     def _count_lying(self, watch: _RobotWatch, now: float) -> bool:
         """Moves the robot's lying count on; True once it reaches lying_s. It runs from the fall until the robot has
@@ -372,12 +404,14 @@ class Referee:
             watch.count_stopped()
         return watch.down_since is not None and now - watch.down_since >= self.rules.lying_s
 
-    def _penalise(self, watch: _RobotWatch, why: str) -> None:
+    def _penalise(self, watch: _RobotWatch, why: str, call: HslPenalty) -> None:
+        """The HL GameController has one code for both calls (pick-up or incapable); the HSL one tells them apart."""
         if self.world.time < watch.quiet_until:
             return
         watch.quiet_until = self.world.time + self.rules.penalty_s
         self._whistle("penalty", watch.team, lambda: self.whistle.penalize(
-            watch.team.number, watch.player, self.rules.penalty_s, Penalty.PICKUP_OR_INCAPABLE), why, watch.player)
+            watch.team.number, watch.player, self.rules.penalty_s, Penalty.PICKUP_OR_INCAPABLE, int(call)),
+            f"{call.name.lower().replace('_', ' ')}: {why}", watch.player)
 
     # -- helpers ---------------------------------------------------------------------------------------------
     def _place(self, watch: _RobotWatch, spot: Placement) -> None:
