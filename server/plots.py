@@ -68,8 +68,10 @@ class PlotRows:
 
     def __init__(self) -> None:
         self.entities: dict[str, tuple[list[float], list[tuple[float, ...]]]] = {}
+        self.newest_s = 0.0  # the newest stamp gathered
 
     def add(self, entity: str, stamp: float, values: tuple[float, ...]) -> None:
+        self.newest_s = max(self.newest_s, stamp)
         stamps, rows = self.entities.setdefault(entity, ([], []))
         stamps.append(stamp)
         rows.append(values)
@@ -95,6 +97,7 @@ class PlotFeed:
         self.config = config
         self.logged = 0
         self.state_changes = 0
+        self.newest_sent_s = 0.0  # the newest stamp sent to rerun (s since the epoch): how far the server is behind
         self.topics: dict[str, list[str]] = {}  # robot -> topics whose every number is plotted, in order
         self.chosen: set[tuple[str, str]] = set()  # (robot or "*", topic) asked for besides the curated series
         self.rec: Any = None
@@ -119,7 +122,7 @@ class PlotFeed:
     def status(self) -> dict[str, Any]:
         """What the viewer is fed: messages plotted so far, state changes logged, and the robots with a tab."""
         return {**self.urls(), "server_running": self.server.running, "logged": self.logged,
-                "state_changes": self.state_changes, "robots": self.robots,
+                "state_changes": self.state_changes, "newest_sent_s": self.newest_sent_s, "robots": self.robots,
                 "series": len(self._names), "topics": {robot: list(t) for robot, t in self.topics.items()},
                 "chosen": [{"robot": robot, "topic": topic} for robot, topic in sorted(self.chosen)],
                 "all_topics": self.config.plots_all_topics}
@@ -241,6 +244,7 @@ class PlotFeed:
     def _send(self, rows: PlotRows) -> None:
         for entity in list(rows.entities):
             rows.send_pending(entity, self.rec)
+        self.newest_sent_s = max(self.newest_sent_s, rows.newest_s)
 
     async def stop(self) -> None:
         if self._task is not None:

@@ -12,7 +12,7 @@ import schemas
 from robot_nodes.runtime import BusConfig, Node
 from tests.dashboard_server import RunningServer, dashboard_server
 from tests.support import REPO
-from tests.teststand import SceneStand
+from tests.teststand import SceneStand, TestStand
 from tests.waiting import wait_for
 
 OUTPUT = REPO / "test-output"
@@ -145,6 +145,33 @@ def test_the_page_names_what_the_msg_files_name(browser: Any, scene: RunningServ
         assert shown["level"][i] == level.get(i, str(i))
     assert shown["unknown"] == "unknown"  # RobotOverview.UNKNOWN: the robot has not said yet
     assert shown["events"] == sorted(t.name for t in schemas.TOPICS.values() if t.event)
+
+
+def test_a_hidden_camera_panel_receives_no_images(browser: Any, scene: RunningServer, bus: BusConfig) -> None:
+    """Hiding the camera panel withdraws its subscription: the server sends the page no image after that (counted
+    by the page's connection); shown again, the images come back."""
+    streamer = TestStand("r3", bus, overrides={"image_hz": 10.0, "rate_hz": 5.0}).start()
+    try:
+        page = browser.new_page(bypass_csp=True, viewport={"width": 1600, "height": 2100})
+        page.goto(scene.page_url("all"))
+        page.evaluate("localStorage.clear(); localStorage.setItem('pitchside.focus', 'r3')")
+        page.reload()
+        counts = "window.pitchside.conn?.counts ?? {images: 0, robots: 0}"
+        wait_for(lambda: page.evaluate(counts)["images"] > 5, 30.0, 0.2, "camera images arriving at 10 Hz")
+        page.click('[data-panel="camera"] button[data-act="hide"]')
+        assert page.evaluate("window.pitchside.conn.book.rate('*|camera/image/compressed')") is None
+        # the server sends a robots frame every 0.5 s after what it had queued: two of them, and every image
+        # queued before the unsubscribe has arrived; from then on, none may come
+        robots = page.evaluate(counts)["robots"]
+        wait_for(lambda: page.evaluate(counts)["robots"] >= robots + 2, 10.0, 0.1, "the queue drained")
+        images = page.evaluate(counts)["images"]
+        wait_for(lambda: page.evaluate(counts)["robots"] >= robots + 8, 15.0, 0.1, "3 s more of robots frames")
+        assert page.evaluate(counts)["images"] == images, "a hidden camera panel still received images"
+        page.evaluate("window.pitchside.layout.show('camera')")
+        wait_for(lambda: page.evaluate(counts)["images"] > images + 3, 30.0, 0.2, "images again once shown")
+        page.close()
+    finally:
+        streamer.shutdown()
 
 
 def test_layout_is_changed_and_remembered(browser: Any, scene: RunningServer) -> None:

@@ -21,6 +21,7 @@ import pytest
 
 import schemas
 from tests.pictures import layout_problems, silent_panels
+from tests.rerun_viewer import viewer_newest_s
 from tests.running_demo import DashboardObserver, RunningDemo, running_demo
 from tests.state_graph_view import measure_state_graph
 from tests.support import REPO, launch_chromium
@@ -256,4 +257,9 @@ def test_each_preset_fits_1920x1080_draws_every_panel_and_is_pictured(demo: Runn
                  lambda preset=preset, silent=silent: f"every panel of {preset} drawing ({silent} drew nothing)")
         page.screenshot(path=str(OUTPUT / f"preset-{preset}.png"))
         assert layout_problems(page, panels) == [], preset
+        if preset == "lab":  # the plots follow live: the newest stamp rerun's viewer holds keeps advancing (how far
+            # behind: bench/plots_lag.py; never timed here)
+            first = wait_for(lambda: viewer_newest_s(page), 120.0, 1.0, "rerun's viewer in the Lab holding data")
+            wait_for(lambda first=first: (viewer_newest_s(page) or 0.0) > first + 2.0, 60.0, 1.0,
+                     "the Lab's plots taking in newer data")
     assert not page.errors, page.errors

@@ -1,5 +1,7 @@
 // The dashboard page: one connection, one store, panels in a layout the user arranges.
 
+import { expose } from "./test_hooks.js";
+import { KEYS, getText, setText } from "./settings.js";
 import { Connection } from "./connection.js";
 import { setOptions } from "./dom.js";
 import { SessionBar } from "./session.js";
@@ -31,7 +33,7 @@ import linkHealth from "./panels/link_health.js";
 
 const PANELS = [teamOverview, fieldView, relativeView, hcmGraph, camera, diagnostics, robot3d, plots, parameters,
   animationEditor, teleop, replay, recordings, nodeLog, gameState, linkHealth];
-const PRESET_KEY = "pitchside.preset";
+const PRESET_KEY = KEYS.preset;
 
 async function main() {
   // the message constants and the topic table come from the server (the .msg files), before any panel starts
@@ -51,22 +53,25 @@ async function main() {
   // the view: the address first (a shared link), then what this browser used last, then the server's mode
   const asked = viewFromAddress();
   if (asked.robot) store.setFocus(asked.robot);
-  const preset = [asked.preset, localStorage.getItem(PRESET_KEY)].find((p) => PRESETS[p]) ?? startPreset(config);
+  const preset = [asked.preset, getText(PRESET_KEY)].find((p) => PRESETS[p]) ?? startPreset(config);
 
+  /** @type {(state: object, chosen: string) => void} */
   let followLayout = () => {};
   const ctx = {
     store, conn, config,
-    /** Subscribe a panel to a topic of every robot, at most maxHz; fn(frame) on every arrival. */
+    /** Subscribe a panel to a topic of every robot, at most maxHz; fn(frame) on every arrival. The returned
+     * function ends both: a panel calls it when it closes or hides, and the server stops sending. */
     subscribe(topic, maxHz, fn) {
-      conn.subscribe("*", topic, maxHz);
-      return store.on(`topic:${topic}`, fn);
+      const release = conn.subscribe("*", topic, maxHz);
+      const off = store.on(`topic:${topic}`, fn);
+      return () => { off(); release(); };
     },
     onLayout: (state, chosen) => followLayout(state, chosen),
   };
   const layout = new Layout(document.getElementById("grid"), PANELS, ctx, preset);
-  window.pitchside = { ...window.pitchside, store, conn, layout, config, schemas };
+  for (const [name, value] of Object.entries({ store, conn, layout, config, schemas })) expose(name, value);
   followLayout = installLayoutControls({ layout, modules: PANELS, bar: document.getElementById("topbar"),
-    onPreset: (chosen) => { localStorage.setItem(PRESET_KEY, chosen); showInAddress(chosen, store.focus); } });
+    onPreset: (chosen) => { setText(PRESET_KEY, chosen); showInAddress(chosen, store.focus); } });
   new PlaybackBar(document.body, store);
   store.on("replay-opened", () => { // a log opened (from the recordings list): bring the replay view into sight
     layout.show("replay");
@@ -74,7 +79,7 @@ async function main() {
   });
   installTheme(document.getElementById("theme-toggle"), () => store.emit("theme"));
 
-  const focusSelect = document.getElementById("focus-select");
+  const focusSelect = /** @type {HTMLSelectElement} */ (document.getElementById("focus-select"));
   function refreshFocus() {
     setOptions(focusSelect, store.robotIds().map((id) => [id, id]));
     focusSelect.value = store.focus;
@@ -93,7 +98,7 @@ async function main() {
   store.on("paused", showPause);
   setInterval(() => { if (store.paused) showPause(); }, 500);
   showPause();
-  const help = document.getElementById("shortcuts");
+  const help = /** @type {HTMLDialogElement} */ (document.getElementById("shortcuts"));
   installShortcuts({ store, layout, help });
   document.getElementById("shortcuts-button").addEventListener("click", () => help.showModal());
 

@@ -1,14 +1,18 @@
-// The browser side of server/protocol.py: one WebSocket, subscriptions re-sent after a reconnect.
+// The browser side of server/protocol.py: one WebSocket, subscriptions re-sent after a reconnect. Panels hold
+// streams (web/models/subscriptions.js) and release them when they close or hide: the server then stops sending.
+
+import { SubscriptionBook } from "./models/subscriptions.js";
 
 export class Connection {
   constructor(url, onFrame, onStatus) {
     this.url = url;
     this.onFrame = onFrame;        // (frame) for JSON frames; images arrive as {type:"image", ..., blob}
     this.onStatus = onStatus;      // (connected: boolean)
-    this.subscriptions = new Map(); // "robot|topic" -> max_hz (0: all)
+    this.book = new SubscriptionBook();
     this.ws = null;
     this.connected = false;
     this.received = 0;
+    this.counts = { images: 0, robots: 0, messages: 0 }; // frames received by kind (for tests: a hidden camera)
     this._open();
   }
 
@@ -19,15 +23,16 @@ export class Connection {
     ws.onopen = () => {
       this.connected = true;
       this.onStatus(true);
-      for (const [key, hz] of this.subscriptions) this._send(key, hz);
+      for (const request of this.book.requests()) this._send(request);
     };
     ws.onmessage = (event) => {
       this.received++;
       if (typeof event.data === "string") {
         const frame = JSON.parse(event.data);
-        if (frame.type === "batch") for (const f of frame.frames) this.onFrame(f);
-        else this.onFrame(frame);
+        if (frame.type === "batch") for (const f of frame.frames) this._take(f);
+        else this._take(frame);
       } else {
+        this.counts.images++;
         this.onFrame(splitBinary(event.data));
       }
     };
@@ -38,19 +43,22 @@ export class Connection {
     };
   }
 
-  _send(key, hz) {
-    const [robot, topic] = key.split("|");
-    if (this.connected) this.ws.send(JSON.stringify({ op: "subscribe", robot, topic, max_hz: hz }));
+  _take(frame) {
+    if (frame.type === "robots") this.counts.robots++;
+    else this.counts.messages++;
+    this.onFrame(frame);
   }
 
-  /** Subscribes once per (robot, topic); a later, faster request raises the rate (0 = unthinned). */
+  _send(request) {
+    if (request && this.connected) this.ws.send(JSON.stringify(request));
+  }
+
+  /** Holds a stream at most maxHz (0 = unthinned); the server sends the fastest rate held. Returns the release:
+   * once every hold on a stream is released, the server stops sending it. */
   subscribe(robot, topic, maxHz = 0) {
-    const key = `${robot}|${topic}`;
-    const old = this.subscriptions.get(key);
-    const hz = old === undefined ? maxHz : (old === 0 || maxHz === 0 ? 0 : Math.max(old, maxHz));
-    if (old === hz) return;
-    this.subscriptions.set(key, hz);
-    this._send(key, hz);
+    const { id, request } = this.book.hold(robot, topic, maxHz);
+    this._send(request);
+    return () => this._send(this.book.release(id));
   }
 }
 

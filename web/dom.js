@@ -19,6 +19,7 @@ export function setOptions(select, pairs) {
 }
 
 /** A lab tool's status line: set(text, bad) shows the text as text and marks a failure "bad"; onBad hears failures. */
+/** @param {HTMLElement} el @param {(text: string) => void} [onBad] */
 export function statusLine(el, onBad = () => {}) {
   return (text, bad = false) => {
     el.textContent = text;

@@ -2,10 +2,11 @@
 // title bar), width and height, hidden panels; each preset's arrangement remembered on its own, exported and
 // imported as JSON. A preset with rows fills the window (no page scrolling); "All panels" scrolls.
 
+import { KEYS, getText, remove, setJSON } from "./settings.js";
 import { PRESETS, presetState } from "./presets.js";
 
-const PREFIX = "pitchside.layout."; // + preset id: that preset as the user arranged it
-const LEGACY = "pitchside.layout"; // the one layout of earlier versions: every panel, now the "all" preset
+const PREFIX = KEYS.layout; // + preset id: that preset as the user arranged it
+const LEGACY = KEYS.legacyLayout; // the one layout of earlier versions: every panel, now the "all" preset
 const FORMAT = "pitchside-layout";
 const MAX_COLUMNS = 12, MAX_ROWS = 8, MAX_SPAN = 6;
 
@@ -28,7 +29,7 @@ export class Layout {
   _load(preset) {
     const fallback = this.defaults(preset);
     try {
-      const raw = localStorage.getItem(PREFIX + preset) ?? (preset === "all" ? localStorage.getItem(LEGACY) : null);
+      const raw = getText(PREFIX + preset, "") || (preset === "all" ? getText(LEGACY, "") : "");
       return raw ? this._checked(JSON.parse(raw), preset) : fallback;
     } catch {
       return fallback;
@@ -57,7 +58,7 @@ export class Layout {
   }
 
   save() {
-    localStorage.setItem(PREFIX + this.preset, JSON.stringify(this.state));
+    setJSON(PREFIX + this.preset, this.state);
   }
 
   /** One click: the preset as the user last left it (its own arrangement until reset). */
@@ -71,8 +72,8 @@ export class Layout {
 
   /** The current preset back to its own arrangement. */
   reset() {
-    localStorage.removeItem(PREFIX + this.preset);
-    if (this.preset === "all") localStorage.removeItem(LEGACY);
+    remove(PREFIX + this.preset);
+    if (this.preset === "all") remove(LEGACY);
     this.state = this.defaults();
     this.render();
   }
@@ -163,7 +164,7 @@ export class Layout {
     header.querySelector("h2").textContent = module.title;
     for (const button of header.querySelectorAll("button")) button.setAttribute("aria-label", `${button.title}: ${module.title}`);
     header.addEventListener("click", (e) => {
-      const act = e.target.dataset?.act;
+      const act = /** @type {HTMLElement} */ (e.target).dataset?.act;
       if (act) this._act(id, act);
     });
     header.addEventListener("dragstart", (e) => {

@@ -1,5 +1,7 @@
 // What the page knows: latest message per (robot, topic), the robots list with link health, the focused robot.
 
+import { KEYS, getText, setText } from "./settings.js";
+
 /** A stream that arrived at least this often (Hz) is periodic: once it stops, that is news. */
 export const PERIODIC_HZ = 0.9;
 /** Frames kept during a pause (events and the newest of each periodic stream); beyond, they are skipped. */
@@ -14,7 +16,7 @@ export class Store {
     this.arrivals = new Map(); // "robot|topic" and "robot" -> performance.now() of the last frame
     this.robots = [];          // RobotInfo list of the last "robots" frame
     this.robotsAt = 0;         // performance.now() when it arrived
-    this.focus = localStorage.getItem("pitchside.focus") || "";
+    this.focus = getText(KEYS.focus);
     this.listeners = new Map(); // event -> Set(fn)
     this.matchMode = false;
     this.periodic = new Set(); // "robot|topic" of streams seen arriving at PERIODIC_HZ or more
@@ -176,7 +178,7 @@ export class Store {
   setFocus(robot) {
     if (robot === this.focus) return;
     this.focus = robot;
-    localStorage.setItem("pitchside.focus", robot);
+    setText(KEYS.focus, robot);
     this.emit("focus", robot);
   }
 }

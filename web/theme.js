@@ -1,7 +1,9 @@
 // Two looks: a light high-contrast theme for daylight at the pitch, a dark one for a dark hall; the choice is kept.
 // Both meet WCAG AA contrast (tests/test_accessibility_browser.py runs axe-core on every preset in both).
 
-const KEY = "pitchside.theme";
+import { KEYS, getText, setText } from "./settings.js";
+
+const KEY = KEYS.theme;
 
 export function currentTheme() {
   return document.documentElement.classList.contains("dark") ? "dark" : "light";
@@ -15,11 +17,11 @@ export function installTheme(button, onChange) {
     button.textContent = theme === "dark" ? "light theme" : "dark theme";
     button.setAttribute("aria-pressed", String(theme === "dark"));
   };
-  apply(localStorage.getItem(KEY) === "dark" ? "dark" : "light");
+  apply(getText(KEY) === "dark" ? "dark" : "light");
   button.addEventListener("click", () => {
     const theme = currentTheme() === "dark" ? "light" : "dark";
     apply(theme);
-    localStorage.setItem(KEY, theme);
+    setText(KEY, theme);
     onChange();
   });
 }

@@ -96,6 +96,7 @@ class PlotsStatus(BaseModel):
     grpc_port: int | None = None
     server_running: bool | None = None
     state_changes: int | None = None
+    newest_sent_s: float | None = None  # the newest stamp sent to rerun (s since the epoch)
     series: int | None = None
     topics: dict[str, list[str]] | None = None  # per robot, the topics plotted
     chosen: list[PlottedTopic] | None = None  # chosen on the page (robot "*": every robot)

@@ -5,6 +5,9 @@
 // localStorage until it is saved. Goals stay inside the URDF's joint limits unless the lab overrides them.
 // One editor object holds the panel's state; each function below renders one part or handles one user action.
 
+import { expose } from "../test_hooks.js";
+import { KEYS, getJSON, remove, setJSON } from "../settings.js";
+import { History, replaceCommand } from "../models/history.js";
 import { api, labToolOff, robotPath, robotPicker } from "../lab_api.js";
 import { esc, statusLine } from "../dom.js";
 
@@ -12,7 +15,7 @@ const SEND_EVERY_MS = 100; // record goals while a slider is dragged
 const RESEND_MS = 300; // in RECORD the held pose is sent again and again: a lost message costs nothing
 const GHOSTS_AFTER_MS = 150; // keyframe ghosts follow edits and the selection, at most this often
 const PLAY_POLL_MS = 250; // how often a play's progress is asked for
-const DRAFT_KEY = "pitchside.animDraft."; // + robot: the unsaved animation, kept until saved or discarded
+const DRAFT_KEY = KEYS.animDraft; // + robot: the unsaved animation, kept until saved or discarded
 // A Dynamixel MX/XM servo resolves 4096 positions per turn, 0.088 deg: goals are kept and shown to a tenth of a
 // degree, the finest step a person reads that the servo still tells apart, so a field never reads 90.000210459 (the
 // URDF's limit of 1.5708 rad) and a typed -30 stays -30.
@@ -84,7 +87,7 @@ export default {
     if (labToolOff(body, ctx.config)) return {};
     body.innerHTML = LAYOUT;
     const ed = newEditor(body, ctx);
-    window.pitchside.animEditor = ed.state;
+    expose("animEditor", ed.state);
     ed.picker = robotPicker(ed.$('[data-role="robot"]'), ctx, (robot) => chooseRobot(ed, robot));
     ed.state.recordKeyframe = () => guarded(ed, () => recordKeyframe(ed));
     body.addEventListener("click", (e) => onClick(ed, e));
@@ -108,7 +111,7 @@ export default {
 function newEditor(body, ctx) {
   const $ = (sel) => body.querySelector(sel);
   const state = {
-    robot: "", file: "", anim: null, selected: -1, undo: [], redo: [], check: null, joints: [],
+    robot: "", file: "", anim: null, selected: -1, history: new History(), check: null, joints: [],
     held: {}, limp: new Set(), recordJoints: new Set(), recordOn: false, lastError: "", saved: 0,
     notes: {}, // "goal|<keyframe>|joint" or "held|joint" -> a limit message shown beside that joint
     ghosts: "off", ghostsShown: 0, ghostsFor: "",
@@ -117,6 +120,7 @@ function newEditor(body, ctx) {
   };
   return {
     body, ctx, $, state, picker: null, resend: 0, leave: null,
+    before: null, // the animation (JSON) when an edit in place began: the start of its undo step
     status: statusLine($('[data-role="status"]'), (text) => { state.lastError = text; }),
     ghost: { timer: null, busy: false, again: false }, // keyframe ghosts, see sendGhosts
     goals: { lastSent: 0, pending: null, inFlight: false, again: false }, // record goals, see sendGoals
@@ -257,28 +261,26 @@ function markSaved(ed) {
   ed.state.savedText = JSON.stringify(ed.state.anim);
 }
 
-/** The unsaved animation into localStorage (per robot), so neither a reload nor a closed panel loses it. */
+/** The unsaved animation into the browser's storage (per robot, web/settings.js), so neither a reload nor a closed panel loses it. */
 function keepDraft(ed) {
   const { state } = ed;
   if (!state.robot || !state.anim) return; // nothing shown yet: a kept draft waits for restoreDraft
-  try {
-    if (isDirty(state)) {
-      localStorage.setItem(DRAFT_KEY + state.robot, JSON.stringify({ file: state.file, anim: state.anim,
-        savedText: state.savedText, selected: state.selected })); // where the user was
-    } else localStorage.removeItem(DRAFT_KEY + state.robot);
-  } catch { /* storage full or off: the beforeunload warning still guards the work */ }
+  // storage full or off: the beforeunload warning still guards the work
+  if (isDirty(state)) {
+    setJSON(DRAFT_KEY + state.robot, { file: state.file, anim: state.anim, savedText: state.savedText,
+      selected: state.selected }); // where the user was
+  } else remove(DRAFT_KEY + state.robot);
 }
 
 /** The draft kept for this robot, back in the editor (only when the editor holds nothing yet). */
 function restoreDraft(ed) {
   const { state } = ed;
   if (state.anim) return;
-  let draft = null;
-  try { draft = JSON.parse(localStorage.getItem(DRAFT_KEY + state.robot) ?? "null"); } catch { draft = null; }
+  const draft = getJSON(DRAFT_KEY + state.robot);
   if (!draft?.anim?.keyframes) return;
   state.file = draft.file ?? ""; state.savedText = draft.savedText ?? null;
   const n = draft.anim.keyframes.length;
-  state.undo = []; state.redo = [];
+  state.history.clear();
   state.selected = Number.isInteger(draft.selected) && draft.selected < n ? Math.max(draft.selected, n ? 0 : -1)
     : n ? 0 : -1; // the keyframe the user was on
   setAnimation(ed, draft.anim, null, { history: false });
@@ -296,10 +298,13 @@ function mayDiscard(ed, doing) {
 
 // -- the animation and its history -----------------------------------------------------------------
 
-/** A new animation (an edit's reply, a file opened): the old one goes onto the undo stack unless told not to. */
+/** A new animation (an edit's reply, a file opened): one undo step from the old one unless told not to. */
 function setAnimation(ed, anim, check, { history = true } = {}) {
   const { state } = ed;
-  if (history && state.anim) { state.undo.push(JSON.stringify(state.anim)); state.redo = []; }
+  if (history && state.anim) {
+    state.history.record(replaceCommand("edit", JSON.stringify(state.anim), JSON.stringify(anim),
+      (text) => restore(ed, text)));
+  }
   state.anim = anim;
   if (state.selected >= anim.keyframes.length) state.selected = anim.keyframes.length - 1;
   if (check) state.check = check;
@@ -313,15 +318,19 @@ async function runCheck(ed) {
   renderWarnings(ed);
 }
 
-/** A field changed in place (the history was pushed before, by snapshot): redraw and check again. */
+/** A field changed in place (after snapshot): one undo step from the snapshot to now; redraw and check again. */
 function edited(ed) {
-  ed.state.redo = [];
+  const { state } = ed;
+  if (ed.before !== null && state.anim) {
+    state.history.record(replaceCommand("edit", ed.before, JSON.stringify(state.anim), (text) => restore(ed, text)));
+  }
+  ed.before = null;
   render(ed);
   guarded(ed, () => runCheck(ed));
 }
 
-/** The animation as it is, onto the undo stack, before an edit in place. */
-function snapshot(ed) { if (ed.state.anim) ed.state.undo.push(JSON.stringify(ed.state.anim)); }
+/** The animation as it is, kept as the start of the undo step an edit in place makes (edited ends it). */
+function snapshot(ed) { ed.before = ed.state.anim ? JSON.stringify(ed.state.anim) : null; }
 
 /** An undo/redo step: the animation as it was, the selection kept inside it. */
 function restore(ed, text) {
@@ -332,12 +341,12 @@ function restore(ed, text) {
   render(ed);
 }
 
-/** Undo (or redo): the animation now goes onto the other stack, the one from this stack is shown and checked. */
-async function stepHistory(ed, from, to, what) {
-  if (!from.length) return;
-  to.push(JSON.stringify(ed.state.anim));
-  restore(ed, from.pop());
-  ed.status(`${what} (${from.length} more)${isDirty(ed.state) ? "" : ": as saved"}`);
+/** Undo (or redo) one step of the history; the animation it leaves is shown and checked. */
+async function stepHistory(ed, back) {
+  const { history } = ed.state;
+  if (!(back ? history.undo() : history.redo())) return;
+  const more = back ? history.done.length : history.undone.length;
+  ed.status(`${back ? "undone" : "redone"} (${more} more)${isDirty(ed.state) ? "" : ": as saved"}`);
   await runCheck(ed);
 }
 
@@ -382,7 +391,7 @@ async function openFile(ed, file, { asked = false } = {}) {
   if (!asked && !mayDiscard(ed, `open ${file}`)) { ed.status(`kept the unsaved changes (${file} not opened)`); return; }
   const reply = await api("GET", `${base(ed)}/animations/${encodeURIComponent(file)}`);
   state.file = reply.file;
-  state.undo = []; state.redo = []; state.selected = reply.animation.keyframes.length ? 0 : -1;
+  state.history.clear(); state.selected = reply.animation.keyframes.length ? 0 : -1;
   state.anim = null;
   inRobotOrder(ed, reply.animation);
   state.savedText = JSON.stringify(reply.animation);
@@ -405,7 +414,7 @@ async function startNew(ed) {
     renderJoints(ed);
     keyframes.push({ name: "start", duration: 1.0, pause: 0.0, goals: { ...state.held }, torque: {} });
   }
-  state.file = name; state.undo = []; state.redo = []; state.selected = keyframes.length - 1;
+  state.file = name; state.history.clear(); state.selected = keyframes.length - 1;
   state.anim = null; state.savedText = null;
   setAnimation(ed, { name, version: "1", author: "", description: "", keyframes }, null, { history: false });
   ed.status(pose ? `new ${name}: keyframe 0 is the robot's pose (${Object.keys(keyframes[0].goals).length} joints), ` +
@@ -584,8 +593,8 @@ function renderFileBar(ed) {
   $('[data-role="file"]').value = state.file;
   $('[data-role="name"]').value = anim?.name ?? "";
   if (anim && document.activeElement !== $('[data-role="author"]')) $('[data-role="author"]').value = anim.author ?? "";
-  $('[data-act="undo"]').disabled = !state.undo.length;
-  $('[data-act="redo"]').disabled = !state.redo.length;
+  $('[data-act="undo"]').disabled = !state.history.canUndo;
+  $('[data-act="redo"]').disabled = !state.history.canRedo;
   showEdited(ed);
   const dirty = isDirty(state);
   $('[data-role="dirty"]').textContent = dirty ? "● unsaved" : anim ? "saved" : "";
@@ -858,8 +867,8 @@ const ACTIONS = {
   open: (ed) => openFile(ed, ed.$('[data-role="files"]').value),
   new: startNew,
   save: saveFile,
-  undo: (ed) => stepHistory(ed, ed.state.undo, ed.state.redo, "undone"),
-  redo: (ed) => stepHistory(ed, ed.state.redo, ed.state.undo, "redone"),
+  undo: (ed) => stepHistory(ed, true),
+  redo: (ed) => stepHistory(ed, false),
   insert: insertKeyframe,
   mirror: async (ed) => {
     const k = ed.state.selected;
@@ -1049,7 +1058,7 @@ function editGoal(ed, t, j) {
   if (t.dataset.goal !== undefined) {
     const v = t.value.trim() === "" ? NaN : Number(t.value);
     if (!Number.isFinite(v)) {
-      state.undo.pop(); t.value = kf.goals[j]; ed.status(`${j}: a goal is a number of degrees`, true);
+      ed.before = null; t.value = kf.goals[j]; ed.status(`${j}: a goal is a number of degrees`, true);
       return;
     }
     const limit = inLimits(ed, j, v);

@@ -1,5 +1,7 @@
 // Camera: the focused robot's JPEG with the vision's markers (balls, goal parts, obstacles, lines), each toggleable.
 
+import { expose } from "../test_hooks.js";
+import { KEYS, getJSON, setJSON } from "../settings.js";
 import { fitCanvas } from "../msgtypes.js";
 
 const IMAGE = "camera/image/compressed";
@@ -16,18 +18,18 @@ export default {
   size: [1, 2],
   create(body, ctx) {
     const { store } = ctx;
-    const shown = JSON.parse(localStorage.getItem("pitchside.camera") || "{}");
+    const shown = getJSON(KEYS.camera, {}) ?? {};
     body.innerHTML = `<div class="camera-controls">${CLASSES.map(([topic, label, color]) =>
       `<label style="border-bottom: 4px solid ${color}"><input type="checkbox" data-topic="${topic}"
         ${shown[topic] === false ? "" : "checked"}> ${label}</label>`).join("")}</div>
       <div class="camera-view"><canvas></canvas></div>`;
     const canvas = body.querySelector("canvas");
     const stats = { images: 0, width: 0, height: 0, markers: {} };
-    window.pitchside.camera = stats;
+    expose("camera", stats);
     let bitmap = null, dirty = true, raf = 0, decoding = false, pending = null;
     body.querySelectorAll("input").forEach((box) => box.addEventListener("change", () => {
       shown[box.dataset.topic] = box.checked;
-      localStorage.setItem("pitchside.camera", JSON.stringify(shown));
+      setJSON(KEYS.camera, shown);
       dirty = true;
     }));
 
@@ -68,6 +70,7 @@ export default {
       const s = Math.min(w / bitmap.width, h / bitmap.height);
       const ox = (w - bitmap.width * s) / 2, oy = (h - bitmap.height * s) / 2;
       g.drawImage(bitmap, ox, oy, bitmap.width * s, bitmap.height * s);
+      /** @returns {[number, number]} */
       const P = (p) => [ox + p.x * s, oy + p.y * s];
       const robot = store.focus;
       for (const [topic, , color] of CLASSES) {

@@ -4,6 +4,7 @@
 // tab); poses glide between the 15 Hz updates: extrapolated a short way past the newest sample, never further.
 // One view object holds the panel's state; each function below draws one part or handles one event.
 
+import { expose } from "../test_hooks.js";
 import { css, fitCanvas, fmtClock, gameName, obstacleColor, secondaryName, yaw } from "../msgtypes.js";
 import { onField, roleOf, teamBall, teamColour, teamOf, teamsOf } from "../teams.js";
 
@@ -11,7 +12,7 @@ import { onField, roleOf, teamBall, teamColour, teamOf, teamsOf } from "../teams
 export const FIELD = { length: 9, width: 6, goalDepth: 0.6, goalWidth: 2.6, goalAreaLength: 1, goalAreaWidth: 3,
   penaltyAreaLength: 2, penaltyAreaWidth: 5, penaltyMark: 1.5, centerCircle: 1.5, border: 0.7 };
 const TOPICS = [["position", 15], ["ground_truth", 15], ["ball_relative", 15], ["obstacles_relative", 5],
-  ["team_data", 2], ["gamestate", 2], ["strategy", 2]];
+  ["team_data", 2], ["gamestate", 2], ["strategy", 2], ["overview", 5]]; // overview: a robot heard by telemetry only
 export const MOTION = {
   horizonS: 0.15,  // extrapolate at most this far past the newest sample (and at most 1.5 sample intervals)
   smoothS: 0.06,   // a new sample's correction fades in with this time constant instead of a jump
@@ -91,7 +92,7 @@ export default {
   size: [2, 3],
   create(body, ctx) {
     const fv = newFieldView(body, ctx);
-    window.pitchside.fieldView = fv.stats;
+    expose("fieldView", fv.stats);
     fv.offs = TOPICS.map(([topic, hz]) => ctx.subscribe(topic, hz, () => {}));
     fv.offs.push(ctx.store.on("theme", () => { fv.theme++; }));
     fv.seen = new IntersectionObserver((entries) => {
@@ -115,8 +116,9 @@ function newFieldView(body, ctx) {
   legend.className = "field-legend";
   legend.setAttribute("aria-label", "robots shown on the field");
   legend.addEventListener("change", (e) => {
-    const robot = e.target.closest("[data-robot]")?.dataset.robot;
-    if (robot !== undefined) ctx.store.setShown(robot, e.target.checked);
+    const box = /** @type {HTMLInputElement} */ (e.target);
+    const robot = /** @type {HTMLElement | null} */ (box.closest("[data-robot]"))?.dataset.robot;
+    if (robot !== undefined) ctx.store.setShown(robot, box.checked);
   });
   body.style.position = "relative";
   body.append(canvas, legend);
@@ -267,7 +269,7 @@ function draw(fv, now) {
   let balls = 0;
   // replayed robots first, live ones over them, the focused one on top: a replay never covers a live robot
   const order = [...all].filter(([id]) => !store.hidden.has(id)).sort(([a], [b]) =>
-    (store.isReplayed(b) - store.isReplayed(a)) || ((a === store.focus) - (b === store.focus)));
+    (Number(store.isReplayed(b)) - Number(store.isReplayed(a))) || (Number(a === store.focus) - Number(b === store.focus)));
   for (const [id, entry] of order) {
     drawn.push(drawRobot(fv, g, view, id, entry, silent.has(id)));
     if (drawSeenBall(fv, g, view, id, entry, now)) balls++;
@@ -350,7 +352,8 @@ const LABEL_SPOTS = [[12, 18], [12, -12], [-12, 18], [-12, -12], [12, 36], [-12,
 function placeLabels(g, { X, Y }, drawn, store) {
   g.font = "bold 14px sans-serif";
   const boxes = [];
-  const byPriority = [...drawn].sort((a, b) => (a.replayed - b.replayed) || ((b.id === store.focus) - (a.id === store.focus)));
+  const byPriority = [...drawn].sort((a, b) => (Number(a.replayed) - Number(b.replayed))
+    || (Number(b.id === store.focus) - Number(a.id === store.focus)));
   for (const r of byPriority) {
     const w = g.measureText(r.name).width, h = 16;
     const at = (dx, dy) => ({ x: dx < 0 ? X(r.x) + dx - w : X(r.x) + dx, y: Y(r.y) + dy - 13, w, h });

@@ -1,6 +1,7 @@
 // Node log: every node's log records (rcl_interfaces/msg/Log on rosout), newest first, filtered by level, robot and
 // node, with a search over the text. In a replay it shows the log's records as they play (a seek back starts over).
 
+import { expose } from "../test_hooks.js";
 import { esc, setOptions } from "../dom.js";
 import { constantNames } from "../msgtypes.js";
 
@@ -91,7 +92,7 @@ export default {
     }
     const offs = [ctx.subscribe("rosout", 0, (frame) => add(log, frame))];
     const timer = setInterval(() => render(log), 300);
-    window.pitchside.nodeLog = log;
+    expose("nodeLog", log);
     return { destroy() { clearInterval(timer); offs.forEach((off) => off()); } };
   },
 };

@@ -6,6 +6,7 @@
 // into is never overwritten, and the panel's own writes are never taken for changes made elsewhere.
 // One panel object holds the state; each function below renders one part or handles one user action.
 
+import { expose } from "../test_hooks.js";
 import { api, labToolOff, numericFields, robotPath, robotPicker } from "../lab_api.js";
 import { esc, statusLine } from "../dom.js";
 import { matches } from "../param_search.js";
@@ -88,7 +89,7 @@ export default {
     body.innerHTML = LAYOUT;
     const pp = newPanel(body, ctx);
     const { el } = pp;
-    window.pitchside.params = pp.state;
+    expose("params", pp.state);
     pp.picker = robotPicker(pp.$('[data-role="robot"]'), ctx, (robot) => chooseRobot(pp, robot));
     el.nodes.addEventListener("focusout", (e) => onLeaveInput(pp, e));
     el.nodes.addEventListener("change", (e) => onValueChange(pp, e));
@@ -250,7 +251,7 @@ function applyFilter(pp) {
       const [node, name] = row.dataset.param.split("/");
       const hit = matches(query, node, find(state, node, name) ?? { name });
       row.hidden = !hit;
-      inNode += hit; total++;
+      inNode += Number(hit); total++;
     }
     section.hidden = !inNode;
     if (query && inNode) section.open = true;

@@ -1,6 +1,7 @@
 // Plots: the rerun web viewer, fed by the server with downsampled numbers, in an iframe. Above it, any topic can be
 // added: the server then plots every numeric field of it too (a tab of its own in the viewer).
 
+import { expose } from "../test_hooks.js";
 import { api } from "../lab_api.js";
 import { esc } from "../dom.js";
 
@@ -27,7 +28,7 @@ export default {
     const chosenEl = $('[data-role="chosen"]');
     const statusEl = $('[data-role="status"]');
     const state = { chosen: [], allTopics: false, error: "" };
-    window.pitchside.plots = state;
+    expose("plots", state);
 
     function show(status) {
       state.chosen = status.chosen || [];

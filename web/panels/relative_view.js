@@ -1,5 +1,6 @@
 // Relative view: what the focused robot sees around itself (x forward is up): ball, goal, obstacles, lines.
 
+import { expose } from "../test_hooks.js";
 import { css, fitCanvas, obstacleColor } from "../msgtypes.js";
 
 const TOPICS = [["ball_relative", 15], ["goal_relative", 5], ["obstacles_relative", 5], ["line_information_relative", 5]];
@@ -15,7 +16,7 @@ export default {
     body.append(canvas);
     let dirty = true, raf = 0;
     const stats = { frames: 0, ball: null }; // what the last frame drew (tests and debugging)
-    window.pitchside.relativeView = stats;
+    expose("relativeView", stats);
     const offs = TOPICS.map(([topic, hz]) => ctx.subscribe(topic, hz, (f) => { if (f.robot === store.focus) dirty = true; }));
     offs.push(store.on("focus", () => { dirty = true; }), store.on("theme", () => { dirty = true; }));
 

@@ -64,8 +64,8 @@ export default {
       plot = { topic, robot, field: "", label: "", off: null, points: [], lastFrame: null };
       $(".replay-plot-field").innerHTML = '<option value="">field…</option>';
       if (!topic) return;
-      ctx.conn.subscribe(robot, topic, 30);
-      plot.off = ctx.store.on(`topic:${topic}`, (frame) => {
+      const release = ctx.conn.subscribe(robot, topic, 30);
+      const off = ctx.store.on(`topic:${topic}`, (frame) => {
         if (frame.robot !== robot || frame.type !== "msg") return;
         if (!plot.lastFrame) showFields(plot);
         plot.lastFrame = frame;
@@ -76,6 +76,7 @@ export default {
         plot.points.push([frame.stamp, v]);
         if (plot.points.length > PLOT_POINTS) plot.points.shift();
       });
+      plot.off = () => { off(); release(); };
     }
 
     /** The numeric fields the server lists for the plotted topic (asked once its first message is there), by name:

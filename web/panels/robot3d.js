@@ -70,9 +70,10 @@ export default {
         </label>`).join("");
     }
     legend.addEventListener("change", async (e) => {
-      const name = e.target.closest("[data-figure]")?.dataset.figure;
+      const box = /** @type {HTMLInputElement} */ (e.target);
+      const name = /** @type {HTMLElement | null} */ (box.closest("[data-figure]"))?.dataset.figure;
       if (name === undefined) return;
-      try { await api("POST", "api/robot3d/visible", { name, visible: e.target.checked }); } catch { /* refreshed below */ }
+      try { await api("POST", "api/robot3d/visible", { name, visible: box.checked }); } catch { /* refreshed below */ }
       shownKey = "";
       refreshLegend();
     });

@@ -3,6 +3,9 @@
 // draws it, marks the current state and the last transitions, and names a transition's triggers on hover. Names are
 // set as text nodes only.
 
+import { expose, hooks } from "../test_hooks.js";
+import { KEYS, getText, setText } from "../settings.js";
+
 const SVG = "http://www.w3.org/2000/svg";
 const PAD = 8; // points around the drawing, so a box's border is never cut by the panel's edge
 const MIN_FONT_PX = 11; // below this a state name is not readable at the side of the pitch: scroll instead
@@ -28,13 +31,14 @@ export function recentTransitions(historyStates, count = RECENT) {
 
 /** A panel module drawing a StateMachineGraph stream of the focused robot: `topic`, or one of `topics` ([topic,
  * label] pairs) chosen in the panel (the choice is remembered in this browser). */
+/** @param {{id: string, title: string, topic?: string, topics?: string[][], size?: number[]}} options */
 export function stateGraphPanel({ id, title, topic: only, topics = [[only, only]], size = [2, 2] }) {
   return {
     id, title, size,
     create(body, ctx) {
       const { store } = ctx;
-      const remembered = `pitchside.stateGraph.${id}`;
-      let topic = topics.find(([t]) => t === localStorage.getItem(remembered))?.[0] ?? topics[0][0];
+      const remembered = KEYS.stateGraph + id;
+      let topic = topics.find(([t]) => t === getText(remembered))?.[0] ?? topics[0][0];
       body.classList.add("state-graph-body");
       const bar = document.createElement("div");
       bar.className = "graph-bar";
@@ -70,8 +74,9 @@ export function stateGraphPanel({ id, title, topic: only, topics = [[only, only]
       let asked = "";     // the shape a layout was last asked for (robot + shape)
       let drawing = null; // {svg, layout, scale}
       const shown = { robot: "", topic, scale: 0, fontPx: 0, error: "" }; // for tests and the README's pictures
-      (window.pitchside ??= {}).stateGraphs ??= {};
-      window.pitchside.stateGraphs[id] = shown;
+      const graphs = hooks().stateGraphs ?? {};
+      if (!hooks().stateGraphs) expose("stateGraphs", graphs);
+      graphs[id] = shown;
 
       const follow = (t) => ctx.subscribe(t, 5, (f) => { if (f.robot === store.focus && t === topic) render(); });
       let following = follow(topic);
@@ -79,7 +84,7 @@ export function stateGraphPanel({ id, title, topic: only, topics = [[only, only]
       chooser.addEventListener("change", () => {
         following();
         topic = chooser.value;
-        localStorage.setItem(remembered, topic);
+        setText(remembered, topic);
         following = follow(topic);
         shape = ""; asked = ""; drawing = null;
         shown.topic = topic; shown.robot = "";
@@ -275,7 +280,7 @@ export function stateGraphPanel({ id, title, topic: only, topics = [[only, only]
           following();
           offs.forEach((off) => off());
           resizer.disconnect();
-          delete window.pitchside.stateGraphs[id];
+          delete graphs[id];
         },
       };
     },

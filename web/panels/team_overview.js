@@ -62,16 +62,17 @@ export default {
   size: [3, 2],
   create(body, ctx) {
     const { store, config } = ctx;
-    for (const [topic, hz] of TOPICS) ctx.conn.subscribe("*", topic, hz);
+    const releases = TOPICS.map(([topic, hz]) => ctx.conn.subscribe("*", topic, hz));
     const root = document.createElement("div");
     root.className = "teams";
     body.append(root);
     const folded = new Map(); // robot -> whether its streams table is open, once the user chose
     root.addEventListener("click", (e) => {
-      const card = e.target.closest(".card");
+      const target = /** @type {HTMLElement} */ (e.target);
+      const card = /** @type {HTMLElement | null} */ (target.closest(".card"));
       if (!card) return;
-      const summary = e.target.closest("summary");
-      if (summary) folded.set(card.dataset.robot, !summary.parentElement.open); // the click opens or closes it
+      const summary = target.closest("summary");
+      if (summary) folded.set(card.dataset.robot, !(/** @type {HTMLDetailsElement} */ (summary.parentElement)).open); // the click opens or closes it
       else store.setFocus(card.dataset.robot);
     });
 
@@ -84,7 +85,7 @@ export default {
       }
       const teams = teamsOf(store, ids);
       const perRow = Math.max(2, ...teams.map((t) => t.robots.length));
-      root.style.setProperty("--per-row", Math.min(perRow, 6));
+      root.style.setProperty("--per-row", String(Math.min(perRow, 6)));
       root.innerHTML = teams.map((team) => `<section class="team" data-team="${esc(team.name)}">
           <h4><span class="swatch" style="background:${esc(team.css)}"></span>${esc(team.name)}
           ${team.score === undefined ? "" : `<span class="team-score">${team.score}</span>`}
@@ -101,6 +102,7 @@ export default {
       const f = robotFacts(store, id);
       const stateClass = f.state === undefined ? "" : hcmStateIsBad(f.state) ? "bad" : "ok";
       const streams = info ? Object.entries(info.streams) : [];
+      /** @type {number | null} */
       let worstLoss = null;
       const rows = streams.map(([topic, s]) => {
         const sAge = store.robotAge(info, topic);
@@ -159,7 +161,7 @@ export default {
         chips || '<span class="mate bad">nobody</span>'}${sends}</div>`;
     }
 
-    const offs = [store.on("robots", render), store.on("focus", render)];
+    const offs = [store.on("robots", render), store.on("focus", render), ...releases];
     const timer = setInterval(render, 500); // ages advance even when nothing arrives
     render();
     return { destroy() { clearInterval(timer); offs.forEach((off) => off()); } };

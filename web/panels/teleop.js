@@ -2,6 +2,7 @@
 // cmd_vel; the command is refreshed while held and the server sends zero when refreshes stop. Plus animation and
 // penalize buttons.
 
+import { expose } from "../test_hooks.js";
 import { api, labToolOff, robotPath, robotPicker } from "../lab_api.js";
 import { esc, statusLine } from "../dom.js";
 
@@ -36,7 +37,7 @@ export default {
       </div>`;
     const $ = (sel) => body.querySelector(sel);
     const state = { robot: "", command: { x: 0, y: 0, yaw: 0 }, sent: 0, keys: new Set(), stick: null };
-    window.pitchside.teleop = state;
+    expose("teleop", state);
     const status = statusLine($('[data-role="status"]'));
     const base = () => robotPath(state.robot);
     const picker = robotPicker($('[data-role="robot"]'), ctx, (robot) => {
