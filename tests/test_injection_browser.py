@@ -139,6 +139,8 @@ def _with_markup(typename: str, depth: int = 0, **numbers: Any) -> Any:
     fields: dict[str, Any] = dict(numbers)
     definition: Any = codec.typestore().fielddefs[codec.full_name(typename)][1]
     for name, (kind, detail) in definition:
+        if name in numbers:  # given by the caller
+            continue
         if kind == 1 and detail[0] in ("string", "wstring"):
             fields[name] = HOSTILE
         elif kind == 2 and depth < 4:
@@ -169,7 +171,9 @@ def _hostile_parameters(client: zenoh.Session, robot: str) -> Any:
 
 
 def _publish_every_topic(client: zenoh.Session, robot: str, stop: threading.Event) -> None:
-    numbers = {"rosout": {"level": 40}}  # an error: the node log shows it whatever its level filter
+    # an error: the node log shows it whatever its level filter; /rosout is every robot's, the logger name says
+    # whose (<robot>.<node>), the node's part hostile
+    numbers = {"rosout": {"level": 40, "name": f"{robot}.{HOSTILE}"}}
     payloads = {t.name: schemas.encode(_with_markup(t.type, **numbers.get(t.name, {}))) for t in TOPICS.values()
                 if t.type != "sensor_msgs/msg/CompressedImage"}
     assert len(payloads) >= 30, sorted(payloads)

@@ -71,7 +71,6 @@ def test_rpy_is_about_fixed_axes_and_bad_urdfs_say_why() -> None:
 def test_a_late_ros2_subscriber_gets_the_robots_urdf_and_fixed_joints(bus: BusConfig) -> None:
     """The cm730 node (on the emulated servo bus) published both once at start; a ROS 2 subscriber with transient
     local durability that joins afterwards gets them from the publishers' caches, with rmw_zenoh's attachment."""
-    tokens: list[str] = []
     with ServoBusEmulator(protocol=2, ids=range(1, 21)) as emu:
         backend = DynamixelBackend.from_config(emu.port, 2, 1_000_000, joints=default_joints(2), cm730=False,
                                                probe_timeout_ms=1000.0)
@@ -81,8 +80,6 @@ def test_a_late_ros2_subscriber_gets_the_robots_urdf_and_fixed_joints(bus: BusCo
         late = []
         try:
             assert node._description_pub.count == 1 and node._static_pub.count == 1  # sent before anyone listened
-            graph = peer.liveliness().get("@ros2_lv/0/**", timeout=5.0)
-            tokens = [str(reply.ok.key_expr) for reply in graph if reply.ok is not None]
             for key in got:
                 late.append(zenoh.ext.declare_advanced_subscriber(
                     peer, key, got[key].append, subscriber_detection=True,
@@ -95,11 +92,17 @@ def test_a_late_ros2_subscriber_gets_the_robots_urdf_and_fixed_joints(bus: BusCo
                 {t.child_frame_id for t in fixed_transforms(MINIBOT_URDF.read_text()).transforms}
             for samples in got.values():
                 assert samples[0].attachment is not None and len(samples[0].attachment.to_bytes()) == 33
+
+            def latched() -> list[str]:  # the MP tokens of both, as ros2 topic info -v reads them
+                tokens = [str(reply.ok.key_expr) for reply in peer.liveliness().get("@ros2_lv/0/**", timeout=2.0)
+                          if reply.ok is not None]
+                return [t for t in tokens if "/MP/" in t and ("%robot_description/" in t or "%tf_static/" in t)]
+
+            wait_for(lambda: len(latched()) == 2, timeout=10, what="the latched publishers' tokens")
+            # transient local, KEEP_LAST 1: rmw_zenoh's QoS string
+            assert all(t.endswith("/:1:,1:,:,:,,") for t in latched()), latched()
         finally:
             for subscriber in late:
                 subscriber.undeclare()
             peer.close()
             node.shutdown()
-    # what ros2 topic info -v shows: transient local, KEEP_LAST 1 (rmw_zenoh's QoS string of the MP tokens)
-    latched = [t for t in tokens if "/MP/" in t and ("%robot_description/" in t or "%tf_static/" in t)]
-    assert len(latched) == 2 and all(t.endswith("/:1:,1:,:,:,,") for t in latched), latched

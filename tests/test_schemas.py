@@ -164,4 +164,4 @@ def test_the_overview_and_servo_health_are_rows_of_the_topic_table() -> None:
     assert schemas.constants("pitchside_msgs/msg/RobotOverview") == {"UNKNOWN": 255, "NEVER_MS": 65535}
     assert {t.name for t in schemas.TOPICS.values() if t.event} == {
         "animation", "motor_torque", "speak", "cmd_vel", "walk_odometry", "walk_motor_goals", "head_motor_goals",
-        "record_motor_goals", "motor_goals", "team_data", "rosout", "whistle", "robot_description"}
+        "record_motor_goals", "motor_goals", "team_data", "rosout", "whistle", "robot_description", "tf_static"}
