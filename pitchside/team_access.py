@@ -100,8 +100,7 @@ def _lab_commands() -> dict[str, Any]:
 
 def _lab_requests() -> dict[str, Any]:
     return _rule("lab-requests", ("query",), "ingress",
-                 [keys.params_key("*", "**"), keys.service_key("*", "**"), keys.action_key("*", "*", "goal"),
-                  keys.action_key("*", "*", "cancel")])
+                 [keys.params_key("*", "**"), keys.service_key("*", "**"), *keys.action_request_keys()])
 
 
 def _own_robot(robot: str) -> dict[str, Any]:
