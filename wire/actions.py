@@ -194,7 +194,8 @@ class ActionClient:
                 verdict(False, f"{self.name}: an answer that does not decode: {exc}")
                 return
             if accepted:
-                handle.live_status = GoalStatus.ACCEPTED
+                if handle.live_status is None:  # the status topic may have told more already
+                    handle.live_status = GoalStatus.ACCEPTED
                 verdict(True, "")
                 self._ask_result(handle)
             else:

@@ -228,7 +228,7 @@ class ActionServer:
             if not any_goal and goal_id not in self.goals:
                 self.unknown_goals += 1
                 code = CancelCode.UNKNOWN_GOAL_ID
-            elif chosen:
+            elif not any_goal:
                 code = CancelCode.GOAL_TERMINATED
             else:
                 code = CancelCode.REJECTED

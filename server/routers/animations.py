@@ -195,7 +195,7 @@ class PlayReply(BaseModel):
 class PlayStatus(BaseModel):
     robot: str
     playing: bool
-    status: str | None = None  # the goal's end: SUCCEEDED, CANCELED, PREEMPTED, ABORTED
+    status: str | None = None  # the goal's end: SUCCEEDED, CANCELED, ABORTED (also when preempted), UNKNOWN
     succeeded: bool | None = None  # the play ended and played to its end (what the editor says "done" to)
     percent_done: float | None = None
     message: str | None = None  # the animation node's word on the end (why it failed)

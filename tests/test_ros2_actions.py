@@ -1,0 +1,239 @@
+"""Actions on ROS 2's action protocol over rmw_zenoh, against peers written from the protocol description
+(tests/ros2_action_peer.py): a ROS 2 client drives pitchside's animation node, and pitchside's client (and the
+dashboard) drive a ROS 2 robot's PlayAnimation server. Real Zenoh sessions through a real router on loopback.
+"""
+
+from __future__ import annotations
+
+import json
+import threading
+import uuid
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+import zenoh
+from rosbags.typesys import Stores, get_typestore
+
+import schemas
+from robot_nodes.animation.node import AnimationNode
+from robot_nodes.runtime import Node
+from schemas.interface_folder import load_interfaces
+from schemas.type_hash import type_hash
+from tests.dashboard_server import dashboard_server
+from tests.ros2_action_peer import (
+    ABORTED,
+    CANCEL_GOAL_HASH,
+    CANCELED,
+    EXECUTING,
+    GOAL_STATUS_ARRAY_HASH,
+    SUCCEEDED,
+    UNKNOWN,
+    PeerActionClient,
+    PeerActionServer,
+)
+from tests.waiting import wait_for
+from wire.actions import ActionClient, GoalStatus
+from wire.bus import BusConfig, open_session
+from wire.ros2.actions import Part, action_interface
+
+pytestmark = pytest.mark.realtime
+NOD = {"name": "nod", "keyframes": [{"duration": 0.3, "goals": {"HeadTilt": -20.0}},
+                                    {"duration": 0.3, "goals": {"HeadTilt": 0.0}}]}
+SLOW = {"name": "slow_look", "keyframes": [{"duration": 4.0, "goals": {"HeadPan": 60.0}}]}
+GOAL = "humanoid_league_msgs/action/PlayAnimation_Goal"
+
+
+# what ROS 2 Jazzy publishes for the keys of the action tutorial's /fibonacci (action_tutorials_interfaces'
+# Fibonacci.action: int32 order --- int32[] sequence --- int32[] partial_sequence), as rmw_zenoh's keys carry them
+FIBONACCI = {
+    "Fibonacci_SendGoal": "RIHS01_a0603060ed69fe2dfbd1a6f3b982a1749957ef346e4a4d2b311a05e305ec37bb",
+    "Fibonacci_GetResult": "RIHS01_8b47e383f1e31f6d8df6417ab54957e7d5ea24dad315646ad711ac3fdea81d58",
+    "Fibonacci_FeedbackMessage": "RIHS01_50fc26b9cac313652ecbeab3adf9b5414d59fd4d4d5f9058ddcc7525169927f1",
+}
+
+
+def test_action_keys_carry_the_types_and_hashes_ros2_publishes(tmp_path: Path) -> None:
+    interface = action_interface("humanoid_league_msgs/action/PlayAnimation")
+    keys = {part: interface.key(0, "/robot1/animation", part).keyexpr for part in Part}
+    assert keys[Part.STATUS] == ("0/robot1/animation/_action/status/action_msgs::msg::dds_::GoalStatusArray_/"
+                                 + GOAL_STATUS_ARRAY_HASH)
+    assert keys[Part.CANCEL_GOAL] == ("0/robot1/animation/_action/cancel_goal/action_msgs::srv::dds_::CancelGoal_/"
+                                      + CANCEL_GOAL_HASH)
+    # a service's type is its name without _Request/_Response, as rmw_zenoh writes it
+    assert keys[Part.SEND_GOAL].startswith("0/robot1/animation/_action/send_goal/"
+                                           "humanoid_league_msgs::action::dds_::PlayAnimation_SendGoal_/RIHS01_")
+    folder = tmp_path / "action_tutorials_interfaces" / "action"
+    folder.mkdir(parents=True)
+    (folder / "Fibonacci.action").write_text("int32 order\n---\nint32[] sequence\n---\nint32[] partial_sequence\n")
+    defs = {**get_typestore(Stores.ROS2_JAZZY).fielddefs, **load_interfaces(tmp_path)}
+    for name, published in FIBONACCI.items():
+        assert type_hash(f"action_tutorials_interfaces/action/{name}", defs) == published, name
+
+
+class JointStates(Node):
+    """Stands where cm730 would: the animation node starts from the robot's pose."""
+
+    name = "body"
+
+    def setup(self) -> None:
+        self.joint_states = self.publisher("joint_states")
+        self.timer(50.0, lambda: self.joint_states.publish(schemas.make(
+            "sensor_msgs/msg/JointState", name=["HeadPan", "HeadTilt"], position=[0.0, 0.0])))
+
+
+@pytest.fixture
+def player(bus: BusConfig, tmp_path: Path) -> Iterator[AnimationNode]:
+    (tmp_path / "nod.json").write_text(json.dumps(NOD))
+    (tmp_path / "slow_look.json").write_text(json.dumps(SLOW))
+    body = JointStates(bus=bus).start()
+    node = AnimationNode(bus=bus, overrides={"animation_dir": str(tmp_path)}).start()
+    wait_for(lambda: node.joint_positions is not None, 10.0, what="joint_states at the animation node")
+    yield node
+    node.shutdown()
+    body.shutdown()
+
+
+@pytest.fixture
+def peer_session(bus: BusConfig) -> Iterator[zenoh.Session]:
+    session = open_session(bus)
+    yield session
+    session.close()
+
+
+def test_a_ros2_client_plays_cancels_and_is_told_no_by_pitchsides_animation_server(
+        player: AnimationNode, peer_session: zenoh.Session) -> None:
+    tokens: list[str] = []
+    peer_session.liveliness().declare_subscriber("@ros2_lv/0/**", lambda s: tokens.append(str(s.key_expr)),
+                                                 history=True)
+    client = PeerActionClient(peer_session, 0, "/robot1/animation")
+    try:
+        # what `ros2 action list` reads: the node's services and topics of /robot1/animation, with their QoS
+        wait_for(lambda: any("/SS/%/%robot1/animation/%robot1%animation%_action%send_goal/" in t for t in tokens),
+                 what="the send_goal server's token")
+        assert any(t.endswith(f"/MP/%/%robot1/animation/%robot1%animation%_action%status/"
+                              f"action_msgs::msg::dds_::GoalStatusArray_/{client.keys['status'].rsplit('/', 1)[1]}"
+                              f"/:1:,1:,:,:,,") for t in tokens), tokens
+
+        played = uuid.uuid4().bytes
+        accepted, stamp_ns = client.send_goal(played, "nod")
+        assert accepted and stamp_ns > 0
+        status, result = client.get_result(played)  # answered when the animation ends
+        assert (status, bool(result.successful)) == (SUCCEEDED, True)
+        percents = [percent for goal_id, percent in client.feedback if goal_id == played]
+        assert percents and percents == sorted(percents) and percents[-1] == pytest.approx(100.0)
+        wait_for(lambda: any(s.get(played) == SUCCEEDED for s in client.statuses), what="SUCCEEDED on status")
+        assert any(s.get(played) == EXECUTING for s in client.statuses)
+        assert client.get_result(played) == (SUCCEEDED, result)  # kept for a late asker
+
+        long = uuid.uuid4().bytes
+        assert client.send_goal(long, "slow_look")[0]
+        assert client.cancel(long) == (0, [long])  # ERROR_NONE, the goal canceling
+        status, result = client.get_result(long)
+        assert status == CANCELED and not result.successful
+        assert client.cancel(long) == (3, [])  # ERROR_GOAL_TERMINATED
+        stranger = uuid.uuid4().bytes
+        assert client.cancel(stranger) == (2, [])  # ERROR_UNKNOWN_GOAL_ID
+        assert client.get_result(stranger)[0] == UNKNOWN
+        assert client.cancel(bytes(16)) == (1, [])  # "cancel all" with nothing running: ERROR_REJECTED
+
+        first, second = uuid.uuid4().bytes, uuid.uuid4().bytes  # a newer goal preempts: the older ends ABORTED
+        assert client.send_goal(first, "slow_look")[0] and client.send_goal(second, "nod")[0]
+        assert client.get_result(first)[0] == ABORTED
+        assert client.get_result(second)[0] == SUCCEEDED
+
+        refused = uuid.uuid4().bytes
+        assert client.send_goal(refused, "moonwalk") == (False, 0)
+        status, result = client.get_result(refused)  # pitchside's addition: why, for a client that asks
+        assert status == UNKNOWN and "moonwalk" in result.message
+        assert client.samples_without_attachment == 0
+        assert player.server.unknown_goals == 2  # a cancel and a get_result named no goal the server knows
+    finally:
+        client.close()
+
+
+def test_bad_requests_are_answered_or_dropped_and_counted(player: AnimationNode, peer_session: zenoh.Session
+                                                          ) -> None:
+    client = PeerActionClient(peer_session, 0, "/robot1/animation")
+    try:
+        wait_for(lambda: client.call("get_result", b"\x00\x01\x00\x00" + bytes(16), 1.0) is not None,
+                 what="the action server")
+        server = player.server
+        bad = client.call("send_goal", b"\x00\x01\x00\x00" + uuid.uuid4().bytes + b"\xff\xff")  # goal cut short
+        assert bad is not None and bad[4] == 0  # accepted: false
+        assert client.call("cancel_goal", b"\x00\x01") is not None  # answered ERROR_REJECTED
+        assert client.call("get_result", b"junk") is not None  # answered STATUS_UNKNOWN
+        assert server.bad_requests == 3
+        assert client.call("send_goal", b"", timeout_s=0.5, with_attachment=False) is None  # rmw_zenoh drops it
+        wait_for(lambda: server.dropped == 1, what="the request without attachment counted")
+        played = uuid.uuid4().bytes
+        assert client.send_goal(played, "nod")[0]  # the server goes on
+        assert client.get_result(played)[0] == SUCCEEDED
+        assert player.errors == 0
+    finally:
+        client.close()
+
+
+@pytest.fixture
+def ros2_robot(peer_session: zenoh.Session) -> Iterator[PeerActionServer]:
+    server = PeerActionServer(peer_session, 0, "/robot7", "animation_server", "/robot7/animation")
+    yield server
+    server.close()
+
+
+def test_pitchsides_client_runs_a_ros2_robots_animation_server(ros2_robot: PeerActionServer, bus: BusConfig
+                                                               ) -> None:
+    with open_session(bus) as session:
+        client = ActionClient(session, "robot7", "animation")
+        try:
+            feedback: list[float] = []
+            goal = client.send_goal(schemas.make(GOAL, animation="wave"),
+                                    on_feedback=lambda f: feedback.append(f.percent_done))
+            assert goal.wait_accepted(10.0), goal.reason
+            (goal_id,) = ros2_robot.goals
+            assert goal_id == goal.id and ros2_robot.goals[goal_id]["animation"] == "wave"
+            wait_for(lambda: goal.live_status == GoalStatus.EXECUTING, what="EXECUTING from the status topic")
+            for percent in (25.0, 50.0):
+                ros2_robot.feedback(goal_id, percent)
+            wait_for(lambda: feedback == [25.0, 50.0], what="the robot's feedback")
+            ros2_robot.finish(goal_id, SUCCEEDED, successful=True, message="waved")
+            status, result = goal.wait_result(10.0)
+            assert status == GoalStatus.SUCCEEDED and result.successful and result.message == "waved"
+
+            refused = client.send_goal(schemas.make(GOAL, animation="refuse"))
+            assert refused.wait_accepted(10.0) is False
+            assert refused.reason == "rejected by /robot7/animation"  # a ROS 2 server gives no reason
+
+            long = client.send_goal(schemas.make(GOAL, animation="long"))
+            assert long.wait_accepted(10.0)
+            assert long.cancel(10.0)
+            assert long.wait_result(10.0)[0] == GoalStatus.CANCELED
+            assert ros2_robot.cancel_requests == 1 and client.bad_replies == 0
+        finally:
+            client.close()
+
+
+def test_the_dashboard_plays_an_animation_on_a_ros2_robot(ros2_robot: PeerActionServer, router_endpoint: str,
+                                                          tmp_path: Path) -> None:
+    with dashboard_server(["--connect", router_endpoint, "--no-telemetry"], tmp_path) as server:
+        url = f"{server.url}/api/robots/robot7/animation-play"
+
+        def finish_when_asked() -> bool:
+            for goal_id, goal in list(ros2_robot.goals.items()):
+                if goal["waiting"]:
+                    ros2_robot.finish(goal_id, SUCCEEDED, successful=True, message="done")
+                    return True
+            return False
+
+        answer: list[Any] = []
+        request = threading.Thread(target=lambda: answer.append(
+            server.http.post(url, json={"animation": "stand", "wait": True}, timeout=30)))
+        request.start()
+        wait_for(finish_when_asked, 20.0, what="the dashboard's goal waiting for its result")
+        request.join(30)
+        reply = answer[0]
+        assert reply.status_code == 200, reply.text
+        assert reply.json()["status"] == "SUCCEEDED" and reply.json()["result"]["successful"] is True
+        refused = server.http.post(url, json={"animation": "refuse"}, timeout=30)
+        assert refused.status_code == 409 and "rejected by /robot7/animation" in refused.json()["detail"]
