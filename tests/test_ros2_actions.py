@@ -17,6 +17,7 @@ import zenoh
 from rosbags.typesys import Stores, get_typestore
 
 import schemas
+from pitchside.team_access import Role, access_control
 from robot_nodes.animation.node import AnimationNode
 from robot_nodes.runtime import Node
 from schemas.interface_folder import load_interfaces
@@ -33,6 +34,7 @@ from tests.ros2_action_peer import (
     PeerActionClient,
     PeerActionServer,
 )
+from tests.support import REPO
 from tests.waiting import wait_for
 from wire.actions import ActionClient, GoalStatus
 from wire.bus import BusConfig, open_session
@@ -165,6 +167,7 @@ def test_bad_requests_are_answered_or_dropped_and_counted(player: AnimationNode,
         assert client.call("cancel_goal", b"\x00\x01") is not None  # answered ERROR_REJECTED
         assert client.call("get_result", b"junk") is not None  # answered STATUS_UNKNOWN
         assert server.bad_requests == 3
+        assert player._diag_values["animation/bad_requests"] == "3"  # in the node's diagnostics
         assert client.call("send_goal", b"", timeout_s=0.5, with_attachment=False) is None  # rmw_zenoh drops it
         wait_for(lambda: server.dropped == 1, what="the request without attachment counted")
         played = uuid.uuid4().bytes
@@ -237,3 +240,41 @@ def test_the_dashboard_plays_an_animation_on_a_ros2_robot(ros2_robot: PeerAction
         assert reply.json()["status"] == "SUCCEEDED" and reply.json()["result"]["successful"] is True
         refused = server.http.post(url, json={"animation": "refuse"}, timeout=30)
         assert refused.status_code == 409 and "rejected by /robot7/animation" in refused.json()["detail"]
+
+
+def test_the_guides_python_example_plays_on_a_ros2_robot(ros2_robot: PeerActionServer, bus: BusConfig,
+                                                         capsys: pytest.CaptureFixture[str]) -> None:
+    """docs/guides/ros2-actions.md's snippet, run as written; the robot reports 40 % and ends the goal when asked."""
+    text = (REPO / "docs" / "guides" / "ros2-actions.md").read_text()
+    snippet = text.split("```python", 1)[1].split("\n", 1)[1].split("```", 1)[0]  # the fence has a title
+
+    def play_when_asked() -> bool:
+        for goal_id, goal in list(ros2_robot.goals.items()):
+            if goal["waiting"]:
+                ros2_robot.feedback(goal_id, 40.0)
+                ros2_robot.finish(goal_id, SUCCEEDED, successful=True, message="")
+                return True
+        return False
+
+    with open_session(bus) as session:
+        robot = threading.Thread(target=lambda: wait_for(play_when_asked, 20.0, what="the snippet's goal"))
+        robot.start()
+        exec(compile(snippet, "docs/guides/ros2-actions.md", "exec"), {"session": session})
+        robot.join(30)
+    out = capsys.readouterr().out.splitlines()
+    assert out[-1] == "SUCCEEDED True"
+    assert out[:-1] in ([], ["40 %"])  # the feedback and the result travel apart: the result may come first
+
+
+def test_the_lab_may_ask_a_robots_action_services_on_a_secured_bus() -> None:
+    """The team's access rules (pitchside/team_access.py): the lab laptop may query send_goal, cancel_goal and
+    get_result of any robot's action; feedback and status come only from the robot."""
+    rules = {rule["id"]: rule for rule in access_control({"laptop": Role.LAPTOP, "robot1": Role.ROBOT,
+                                                          "router": Role.ROUTER})["rules"]}
+    lab = [zenoh.KeyExpr(key) for key in rules["lab-requests"]["key_exprs"]]
+    robot = [zenoh.KeyExpr(key) for key in rules["robot-robot1"]["key_exprs"]]
+    interface = action_interface("humanoid_league_msgs/action/PlayAnimation")
+    for part in Part:
+        key = zenoh.KeyExpr(interface.key(0, "/robot1/animation", part).keyexpr)
+        assert any(rule.includes(key) for rule in lab) == (part in (Part.SEND_GOAL, Part.CANCEL_GOAL, Part.GET_RESULT))
+        assert any(rule.includes(key) for rule in robot), part  # its replies, feedback and status

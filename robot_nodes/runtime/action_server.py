@@ -111,6 +111,7 @@ class ActionServer:
         node_id: int,
         entity_ids: Callable[[], int],
         log: Callable[[str], None] | None = None,
+        diagnostic: Callable[[str, Any], None] | None = None,
     ) -> None:
         self.action = action
         self.interface = action_interface(schemas.ACTIONS[action].type)
@@ -128,6 +129,7 @@ class ActionServer:
         self._on_preempt = on_preempt
         self._loop = loop
         self._log = log or (lambda text: None)
+        self._diagnostic = diagnostic or (lambda key, value: None)
         zid = str(session.zid())
 
         def entity(part: Part) -> Any:
@@ -167,7 +169,7 @@ class ActionServer:
             envelope = self.interface.decode("SendGoal_Request", payload)
             goal_id = goal_id_of(envelope.goal_id)
         except SchemaError as exc:
-            self.bad_requests += 1
+            self._count_bad()
             readable_id = goal_id if len(goal_id) == GOAL_ID_SIZE else b""
             self._reject(request, readable_id, f"a goal that does not decode: {exc}")
             return
@@ -213,7 +215,7 @@ class ActionServer:
         try:
             info = decode_cancel("Request", request.payload).goal_info
         except SchemaError as exc:
-            self.bad_requests += 1
+            self._count_bad()
             self._log(f"{self.name}: a cancel request that does not decode: {exc}")
             request.reply(cancel_response(CancelCode.REJECTED, []))
             return
@@ -226,7 +228,7 @@ class ActionServer:
         cancelable = [goal for goal in chosen if not goal.done]
         if not cancelable:
             if not any_goal and goal_id not in self.goals:
-                self.unknown_goals += 1
+                self._count_unknown()
                 code = CancelCode.UNKNOWN_GOAL_ID
             elif not any_goal:
                 code = CancelCode.GOAL_TERMINATED
@@ -250,7 +252,7 @@ class ActionServer:
         try:
             goal_id = goal_id_of(self.interface.decode("GetResult_Request", request.payload).goal_id)
         except SchemaError as exc:
-            self.bad_requests += 1
+            self._count_bad()
             self._log(f"{self.name}: a get_result request that does not decode: {exc}")
             request.reply(self.interface.get_result_response(GoalStatus.UNKNOWN, self.empty_result()))
             return
@@ -258,13 +260,21 @@ class ActionServer:
         if goal is None:
             reason = self.rejected.get(goal_id)
             if reason is None:
-                self.unknown_goals += 1
+                self._count_unknown()
             result = self.rejection_result(reason) if reason is not None else self.empty_result()
             request.reply(self.interface.get_result_response(GoalStatus.UNKNOWN, result))
         elif goal.done:
             request.reply(self.interface.get_result_response(goal.status, goal.result))
         else:
             goal._result_requests.append(request)
+
+    def _count_bad(self) -> None:
+        self.bad_requests += 1
+        self._diagnostic(f"{self.action}/bad_requests", self.bad_requests)
+
+    def _count_unknown(self) -> None:
+        self.unknown_goals += 1
+        self._diagnostic(f"{self.action}/unknown_goals", self.unknown_goals)
 
     def _publish_status(self) -> None:
         self._status.publish(status_array([(goal.id, goal.accepted_ns, goal.status) for goal in self.goals.values()]))

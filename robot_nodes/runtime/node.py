@@ -436,7 +436,7 @@ class Node:
                       on_preempt: Callable[[ServerGoal], None] | None = None) -> ActionServer:
         server = ActionServer(self.session, self.loop, self.robot_id, action, on_goal, on_cancel, on_preempt,
                               node=self._ros2_info, node_id=self.ros2_node_id, entity_ids=self.next_entity_id,
-                              log=self.log.info)
+                              log=self.log.info, diagnostic=self.set_diagnostic)
         self._declared.append(server)
         self._node_graph.serves_action(action)
         return server

@@ -144,8 +144,11 @@ class RequestClient:
                 answered.set()
                 on_fail(f"{name}: no server answered within {timeout_s} s", False)
 
+        # every complete server, each reply passed on as it comes (rmw_zenoh's querier: ALL_COMPLETE, no
+        # consolidation)
         self._session.get(self._keyexpr, zenoh.handlers.Callback(reply, done), target=zenoh.QueryTarget.ALL_COMPLETE,
-                          payload=request, attachment=sent.encode(), timeout=timeout_s)
+                          consolidation=zenoh.ConsolidationMode.NONE, payload=request, attachment=sent.encode(),
+                          timeout=timeout_s)
 
     def close(self) -> None:
         self._token.undeclare()
