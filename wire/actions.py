@@ -121,8 +121,8 @@ class ClientGoal:
 
 class ActionClient:
     """Sends goals to one robot's action ``/<robot>/<action>``. Callbacks run on ``loop`` if given, else on Zenoh
-    threads. ``node`` names the ROS 2 node the client belongs to on the graph (its tokens); the dashboard's
-    clients pass none and appear as ``/<robot>/pitchside_dashboard``."""
+    threads. ``node`` names the ROS 2 node the client belongs to on the graph (its tokens); without one (a
+    script, a test) the client's tokens name ``/<robot>/pitchside_client``."""
 
     def __init__(self, session: zenoh.Session, robot: str, action: str, loop: Loop | None = None, *,
                  node: NodeInfo | None = None, node_id: int | None = None,
@@ -136,7 +136,7 @@ class ActionClient:
         domain = domain_id_from_env() if domain_id is None else domain_id
         self.name = f"{ros2_robots.robot_namespace(robot)}/{action}"
         if node is None:
-            node = NodeInfo(domain, ros2_robots.robot_namespace(robot), "pitchside_dashboard")
+            node = NodeInfo(domain, ros2_robots.robot_namespace(robot), "pitchside_client")
         if node_id is None:
             node_id = ros2_robots.next_node_id()
         if entity_ids is None:
