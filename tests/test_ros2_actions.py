@@ -5,6 +5,7 @@ dashboard) drive a ROS 2 robot's PlayAnimation server. Real Zenoh sessions throu
 
 from __future__ import annotations
 
+import contextlib
 import json
 import threading
 import uuid
@@ -14,12 +15,15 @@ from typing import Any
 
 import pytest
 import zenoh
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from rosbags.typesys import Stores, get_typestore
 
 import schemas
 from pitchside.team_access import Role, access_control
 from robot_nodes.animation.node import AnimationNode
 from robot_nodes.runtime import Node
+from schemas.codec import SchemaError
 from schemas.interface_folder import load_interfaces
 from schemas.type_hash import type_hash
 from tests.dashboard_server import dashboard_server
@@ -38,7 +42,7 @@ from tests.support import REPO
 from tests.waiting import wait_for
 from wire.actions import ActionClient, GoalStatus
 from wire.bus import BusConfig, open_session
-from wire.ros2.actions import Part, action_interface
+from wire.ros2.actions import Part, action_interface, decode_cancel
 
 pytestmark = pytest.mark.realtime
 NOD = {"name": "nod", "keyframes": [{"duration": 0.3, "goals": {"HeadTilt": -20.0}},
@@ -278,3 +282,19 @@ def test_the_lab_may_ask_a_robots_action_services_on_a_secured_bus() -> None:
         key = zenoh.KeyExpr(interface.key(0, "/robot1/animation", part).keyexpr)
         assert any(rule.includes(key) for rule in lab) == (part in (Part.SEND_GOAL, Part.CANCEL_GOAL, Part.GET_RESULT))
         assert any(rule.includes(key) for rule in robot), part  # its replies, feedback and status
+
+
+@settings(max_examples=300, deadline=None, database=None)
+@given(st.binary(max_size=96))
+def test_the_protocols_messages_from_the_network_decode_or_fail_with_one_error(data: bytes) -> None:
+    """What a server or client decodes from the bus: any bytes give a message or SchemaError, nothing else."""
+    interface = action_interface("humanoid_league_msgs/action/PlayAnimation")
+    for envelope in ("SendGoal_Request", "SendGoal_Response", "GetResult_Request", "GetResult_Response",
+                     "FeedbackMessage"):
+        with contextlib.suppress(SchemaError):
+            interface.decode(envelope, data)
+    for envelope in ("Request", "Response"):
+        with contextlib.suppress(SchemaError):
+            decode_cancel(envelope, data)
+    with contextlib.suppress(SchemaError):
+        schemas.decode(data, "action_msgs/msg/GoalStatusArray")

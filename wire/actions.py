@@ -15,6 +15,7 @@ from __future__ import annotations
 import threading
 import time
 import uuid
+from collections import OrderedDict
 from collections.abc import Callable
 from typing import Any, Protocol
 
@@ -43,6 +44,7 @@ __all__ = ["ActionClient", "ActionError", "ClientGoal", "GoalStatus", "action_ty
 
 RESULT_TIMEOUT_S = 24 * 3600.0  # get_result waits for the goal's end (rmw_zenoh waits without limit)
 RETRY_PERIOD_S = 0.05  # asking again for a server not routed to us yet
+ENDED_KEPT = 16  # ended goals whose late feedback is still recorded
 
 
 class ActionError(Exception):
@@ -146,6 +148,8 @@ class ActionClient:
         self._session = session
         self._loop = loop
         self._goals: dict[bytes, ClientGoal] = {}
+        # goals that ended lately: feedback and result travel apart, so a last feedback may come after the result
+        self._ended: OrderedDict[bytes, ClientGoal] = OrderedDict()
         self._lock = threading.Lock()
 
         def entity(part: Part) -> Any:
@@ -248,6 +252,9 @@ class ActionClient:
         with self._lock:
             if self._goals.pop(handle.id, None) is None:
                 return
+            self._ended[handle.id] = handle
+            while len(self._ended) > ENDED_KEPT:
+                self._ended.popitem(last=False)
         handle.status, handle.result, handle.live_status = status, result, status
         handle._done.set()
         self._dispatch(handle._on_result, status, result)
@@ -280,8 +287,12 @@ class ActionClient:
         except SchemaError:
             self.bad_replies += 1
             return
-        handle = self._goals.get(goal_id_of(message.goal_id))
+        goal_id = goal_id_of(message.goal_id)
+        handle = self._goals.get(goal_id)
         if handle is None:
+            late = self._ended.get(goal_id)
+            if late is not None:  # kept in the goal's record, but no callback after the result
+                late.feedback.append(message.feedback)
             return
         handle.feedback.append(message.feedback)
         self._dispatch(handle._on_feedback, message.feedback)

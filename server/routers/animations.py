@@ -552,9 +552,11 @@ async def play_status(robot: str, state: ServerState = Depends(require_control))
     if handle is None:
         return {"robot": robot, "playing": False}
     status = handle.status.name if handle.status is not None else None
-    out = {"robot": robot, "playing": not handle.done, "status": status,
-           "succeeded": handle.done and handle.status == GoalStatus.SUCCEEDED,
-           "percent_done": float(handle.feedback[-1].percent_done) if handle.feedback else 0.0}
+    succeeded = handle.done and handle.status == GoalStatus.SUCCEEDED
+    # ROS 2's feedback and result travel apart: the last feedback may come after the result (and is then dropped)
+    percent = 100.0 if succeeded else float(handle.feedback[-1].percent_done) if handle.feedback else 0.0
+    out = {"robot": robot, "playing": not handle.done, "status": status, "succeeded": succeeded,
+           "percent_done": percent}
     message = getattr(handle.result, "message", None)
     if message:
         out["message"] = str(message)
