@@ -13,11 +13,12 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 import zenoh
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from rosbags.typesys import Stores, get_typestore
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 import schemas
 from pitchside.team_access import Role, access_control
@@ -298,3 +299,36 @@ def test_the_protocols_messages_from_the_network_decode_or_fail_with_one_error(d
             decode_cancel(envelope, data)
     with contextlib.suppress(SchemaError):
         schemas.decode(data, "action_msgs/msg/GoalStatusArray")
+
+
+def test_a_kick_goal_is_the_cdr_a_ros2_client_sends() -> None:
+    """Kick's goal has a Header and float64 points after the 16-byte goal id: pitchside's SendGoal_Request is byte
+    for byte what rosbags makes of the same structure defined from Kick.action, and decodes back."""
+    store = get_typestore(Stores.ROS2_JAZZY)
+    for name, text in {
+        "peer_msgs/msg/KickGoal": "std_msgs/Header header\ngeometry_msgs/Point ball_position\n"
+                                  "geometry_msgs/Quaternion kick_direction\nfloat32 kick_speed\nbool unstable\n",
+        "peer_msgs/msg/KickSendGoal": "unique_identifier_msgs/UUID goal_id\npeer_msgs/KickGoal goal\n",
+    }.items():
+        store.register(get_types_from_msg(text, name))
+    t = store.types
+    goal_id = bytes(range(16))
+    theirs = t["peer_msgs/msg/KickSendGoal"](
+        goal_id=t["unique_identifier_msgs/msg/UUID"](uuid=np.frombuffer(goal_id, dtype=np.uint8).copy()),
+        goal=t["peer_msgs/msg/KickGoal"](
+            header=t["std_msgs/msg/Header"](stamp=t["builtin_interfaces/msg/Time"](sec=3, nanosec=7), frame_id="b"),
+            ball_position=t["geometry_msgs/msg/Point"](x=0.25, y=-0.5, z=0.0),
+            kick_direction=t["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.5, w=0.75),
+            kick_speed=1.5, unstable=True))
+    interface = action_interface("humanoid_league_msgs/action/Kick")
+    goal = schemas.make(interface.goal_type, header=schemas.make(
+        "std_msgs/msg/Header", stamp=schemas.make("builtin_interfaces/msg/Time", sec=3, nanosec=7), frame_id="b"),
+        ball_position=schemas.make("geometry_msgs/msg/Point", x=0.25, y=-0.5, z=0.0),
+        kick_direction=schemas.make("geometry_msgs/msg/Quaternion", x=0.0, y=0.0, z=0.5, w=0.75),
+        kick_speed=1.5, unstable=True)
+    ours = interface.send_goal_request(goal_id, goal)
+    assert ours == bytes(store.serialize_cdr(theirs, "peer_msgs/msg/KickSendGoal"))
+    decoded = interface.decode("SendGoal_Request", ours)
+    assert bytes(decoded.goal_id.uuid) == goal_id and decoded.goal.kick_direction.w == 0.75
+    assert interface.key(0, "/robot1/kick", Part.SEND_GOAL).keyexpr.startswith(
+        "0/robot1/kick/_action/send_goal/humanoid_league_msgs::action::dds_::Kick_SendGoal_/RIHS01_")
