@@ -22,6 +22,7 @@ from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 import schemas
 from pitchside.team_access import Role, access_control
+from pitchside.team_keys import create_team
 from robot_nodes.animation.node import AnimationNode
 from robot_nodes.runtime import Node
 from schemas.codec import SchemaError
@@ -39,10 +40,11 @@ from tests.ros2_action_peer import (
     PeerActionClient,
     PeerActionServer,
 )
-from tests.support import REPO
+from tests.support import REPO, free_port
+from tests.test_bus_security import linked_to_team_router, member_session, robot_process, robot_router
 from tests.waiting import wait_for
 from wire.actions import ActionClient, GoalStatus
-from wire.bus import BusConfig, open_session
+from wire.bus import BusConfig, open_router, open_session
 from wire.ros2.actions import Part, action_interface, decode_cancel
 
 pytestmark = pytest.mark.realtime
@@ -332,3 +334,41 @@ def test_a_kick_goal_is_the_cdr_a_ros2_client_sends() -> None:
     assert bytes(decoded.goal_id.uuid) == goal_id and decoded.goal.kick_direction.w == 0.75
     assert interface.key(0, "/robot1/kick", Part.SEND_GOAL).keyexpr.startswith(
         "0/robot1/kick/_action/send_goal/humanoid_league_msgs::action::dds_::Kick_SendGoal_/RIHS01_")
+
+
+def test_on_the_secured_bus_the_lab_laptop_plays_and_a_viewer_cannot(tmp_path: Path) -> None:
+    """The team's files (pitchside team-keys): the team router with mutual TLS and access control, robot1's own
+    router, the animation node a plain peer of it; the laptop's goal plays, the viewer's never reaches the node."""
+    folder = tmp_path / "team"
+    create_team(folder, "Test Team", ["robot1"], ["laptop"], ["viewer"], router_port=free_port())
+    (tmp_path / "anim").mkdir()
+    (tmp_path / "anim" / "nod.json").write_text(json.dumps(NOD))
+    team_router = open_router(config_file=folder / "router.json5")
+    robot = robot_router(folder, "robot1")
+    sessions: list[zenoh.Session] = []
+    nodes: list[Node] = []
+    try:
+        wait_for(lambda: linked_to_team_router(robot, team_router), 10.0, what="robot1's router at the team's")
+        on_robot = robot_process(robot)
+        sessions.append(on_robot)
+        nodes += [JointStates(bus=on_robot).start(),
+                  AnimationNode(bus=on_robot, overrides={"animation_dir": str(tmp_path / "anim")}).start()]
+        laptop, viewer = member_session(folder, "laptop"), member_session(folder, "viewer")
+        sessions += [laptop, viewer]
+        lab = ActionClient(laptop, "robot1", "animation")
+        goal = lab.send_goal(schemas.make(GOAL, animation="nod"), timeout=10.0)
+        assert goal.wait_accepted(10.0), goal.reason
+        assert goal.wait_result(10.0)[0] == GoalStatus.SUCCEEDED
+        stranger = ActionClient(viewer, "robot1", "animation")
+        refused = stranger.send_goal(schemas.make(GOAL, animation="nod"), timeout=1.0)
+        assert refused.wait_accepted(5.0) is False and "no action server /robot1/animation answered" in refused.reason
+        assert len(nodes[1].server.goals) == 1  # the laptop's only
+        lab.close()
+        stranger.close()
+    finally:
+        for node in nodes:
+            node.shutdown()
+        for session in sessions:
+            session.close()
+        robot.close()
+        team_router.close()
