@@ -125,8 +125,7 @@ def _lab_requests() -> dict[str, Any]:
     # every ROS 2 service of the domain (parameters, actions' goals and cancels, manual_penalize: queryables on
     # rmw_zenoh's keys) and pitchside's own request keys
     return _rule("lab-requests", ("query",), "ingress",
-                 [_data(keys.domain_id()), keys.params_key("*", "**"), keys.service_key("*", "**"),
-                  keys.action_key("*", "*", "goal"), keys.action_key("*", "*", "cancel")])
+                 [_data(keys.domain_id()), keys.params_key("*", "**"), keys.service_key("*", "**")])
 
 
 def _own_robot(robot: str) -> dict[str, Any]:

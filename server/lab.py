@@ -27,7 +27,8 @@ from wire import keys
 from wire.actions import ActionClient, ClientGoal
 from wire.animation import Animation, AnimationPlayer, mirror_signs_from_axes
 from wire.ros2.attachment import AttachmentStamper
-from wire.ros2.robots import next_node_id, publisher_entity
+from wire.ros2.liveliness import NodeInfo
+from wire.ros2.robots import next_node_id, publisher_entity, robot_namespace
 
 if TYPE_CHECKING:
     from server.robot3d import Robot3DView
@@ -167,7 +168,9 @@ class LabTools:
         """Sends PlayAnimation (blocking); retries while the HCM's own animation (e.g. walkready) runs."""
         client = self._clients.get(robot)
         if client is None:
-            client = self._clients[robot] = ActionClient(self.state.link.session(), robot, "animation")
+            # on the ROS 2 graph as the node the dashboard's other commands come from
+            node = NodeInfo(keys.domain_id(), robot_namespace(robot), DASHBOARD_NODE)
+            client = self._clients[robot] = ActionClient(self.state.link.session(), robot, "animation", node=node)
         goal = PlayAnimationGoal(animation=name, hcm=False)
         deadline = time.monotonic() + retry_s
         while True:

@@ -130,7 +130,7 @@ def test_hcm_goal_preempts_normal_goal(player: AnimationNode, body: Body) -> Non
     hcm = body.play("knee_bend", hcm=True)
     assert hcm.wait_accepted(10.0), hcm.reason
     status, _ = normal.wait_result(10.0)
-    assert status == GoalStatus.PREEMPTED
+    assert status == GoalStatus.ABORTED  # preempted (ROS 2 has no status of its own for it)
     status, result = hcm.wait_result(10.0)
     assert status == GoalStatus.SUCCEEDED and result.successful
     knee = wait_for(lambda: [m for m in steps_of(body, ["LKnee"]) if m.last] and steps_of(body, ["LKnee"]), 10.0)
@@ -148,7 +148,7 @@ def test_normal_goal_rejected_while_hcm_animation_runs(player: AnimationNode, bo
     assert not hcm.done
     hcm2 = body.play("knee_bend", hcm=True)  # the HCM may replace its own animation
     assert hcm2.wait_accepted(10.0), hcm2.reason
-    assert hcm.wait_result(10.0)[0] == GoalStatus.PREEMPTED
+    assert hcm.wait_result(10.0)[0] == GoalStatus.ABORTED
     assert hcm2.wait_result(10.0)[0] == GoalStatus.SUCCEEDED
 
 

@@ -9,11 +9,9 @@
     pitchside/<robot>/params/<node>                parameter queryable, JSON request/reply
     pitchside/<robot>/params/<node>/changed        JSON event after every accepted change
     pitchside/<robot>/_srv/<service>               service queryable, CDR request/reply
-    pitchside/<robot>/_action/<action>/goal        queryable: 16-byte goal id + CDR goal -> JSON verdict
-    pitchside/<robot>/_action/<action>/cancel      queryable: 16-byte goal id -> JSON verdict
-    pitchside/<robot>/_action/<action>/events      16-byte goal id + b"F" + CDR feedback, or
-                                                   16-byte goal id + b"R" + 1 status byte + CDR result
-                                                   (one key, so a result never overtakes its last feedback)
+    <domain>/<robot>/<action>/_action/<part>/...   ROS 2's action protocol for the action /<robot>/<action>:
+                                                   services send_goal, cancel_goal, get_result and topics
+                                                   feedback, status, in rmw_zenoh's layout (wire/ros2/actions.py)
     @ros2_lv/<domain>/...                          rmw_zenoh's liveliness tokens: the ROS 2 graph (wire/ros2)
     <domain>/<robot>/_doctor/clock                 pitchside doctor's clock probe through the laptop's router
 
@@ -179,9 +177,11 @@ def logger_name(robot: str, node: str) -> str:
 
 
 def is_topic_key(key: str) -> bool:
-    """True for a key of rmw_zenoh's data layout (the parameter, service and action keys are pitchside's)."""
+    """True for a key of rmw_zenoh's data layout (the parameter and service keys are pitchside's); an
+    action's feedback and status are hidden topics, as ``ros2 topic list`` hides them."""
     parts = key.rsplit("/", 2)
-    return len(parts) == 3 and parts[2].startswith("RIHS01_") and "::msg::dds_::" in parts[1]
+    return len(parts) == 3 and parts[2].startswith("RIHS01_") and "::msg::dds_::" in parts[1] and \
+        "/_action/" not in parts[0]
 
 
 def doctor_probe_key(robot: str) -> str:
@@ -203,7 +203,11 @@ def service_key(robot: str, service: str) -> str:
     return f"{PREFIX}/{robot}/_srv/{service}"
 
 
-def action_key(robot: str, action: str, part: str) -> str:
-    if part not in ("goal", "cancel", "events"):
-        raise ValueError(f"unknown action key part {part!r}")
-    return f"{PREFIX}/{robot}/_action/{action}/{part}"
+ACTION_SERVICES = ("send_goal", "cancel_goal", "get_result")
+
+
+def action_request_keys(robot: str = ANY_ROBOT) -> list[str]:
+    """The keys of the services of every action of a robot (of every robot by default): what a client queries,
+    so what the lab may send on a secured bus."""
+    return [f"{domain_id()}/{robot}/*/_action/{part}/**" for part in ACTION_SERVICES]
+

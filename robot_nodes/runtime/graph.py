@@ -24,12 +24,10 @@ from wire.ros2.liveliness import Entity, EntityKind, NodeInfo
 from wire.ros2.qos import QoS
 
 log = logging.getLogger(__name__)
-# rmw_zenoh's name and type of an action's goal service (ROS 2's action protocol): the part the graph lists
-SEND_GOAL = "_action/send_goal"
 
 
 class ServedTokens:
-    """The SS tokens of one node's services and actions; each declared once, however often the node asks."""
+    """The SS tokens of one node's services; each declared once, however often the node asks."""
 
     def __init__(self, session: zenoh.Session, zid: str, node: NodeInfo, node_id: int,
                  next_entity_id: Callable[[], int]) -> None:
@@ -44,11 +42,6 @@ class ServedTokens:
         """A service of the table (``manual_penalize``) in the node's namespace."""
         srv_type = schemas.SERVICES[service].type
         self._declare(f"{self.node.namespace.rstrip('/')}/{service}", srv_type)
-
-    def serves_action(self, action: str) -> None:
-        """An action of the table (``animation``): its goal service ``<action>/_action/send_goal``."""
-        action_type = schemas.ACTIONS[action].type
-        self._declare(f"{self.node.namespace.rstrip('/')}/{action}/{SEND_GOAL}", action_type + "_SendGoal")
 
     def _declare(self, name: str, ros_type: str) -> None:
         if name in self.tokens:

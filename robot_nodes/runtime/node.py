@@ -388,8 +388,9 @@ class Node:
         self.zid = str(self.session.zid())
         # the node on the ROS 2 graph (ros2 node list: /<robot>/<name>), gone with the node or its session
         ros2_node = node_entity(self.zid, robot_id, self.name, self.ros2_node_id, keys.domain_id())
+        self._ros2_info = ros2_node.node
         self._ros2_token = self.session.liveliness().declare_token(ros2_node.token)
-        # its services and actions on the ROS 2 graph (publishers and subscriptions declare their own tokens)
+        # its services on the ROS 2 graph (publishers, subscriptions and action servers declare their own tokens)
         self._node_graph = ServedTokens(self.session, self.zid, ros2_node.node, self.ros2_node_id, self.next_entity_id)
         self._robot_clock: RobotSimClock | None = None
         if clock is None and sim_time_wanted():
@@ -476,14 +477,16 @@ class Node:
     def action_server(self, action: str, on_goal: Callable[[ServerGoal], str | None],
                       on_cancel: Callable[[ServerGoal], None] | None = None,
                       on_preempt: Callable[[ServerGoal], None] | None = None) -> ActionServer:
-        server = ActionServer(self.session, self.loop, self.robot_id, action, on_goal, on_cancel, on_preempt)
+        server = ActionServer(self.session, self.loop, self.robot_id, action, on_goal, on_cancel, on_preempt,
+                              node=self._ros2_info, node_id=self.ros2_node_id, entity_ids=self.next_entity_id,
+                              log=self.log.info, diagnostic=self.set_diagnostic)
         self._declared.append(server)
-        self._node_graph.serves_action(action)
         return server
 
     def action_client(self, action: str, robot: str | None = None) -> ActionClient:
         """Its callbacks run on this node's loop."""
-        client = ActionClient(self.session, robot or self.robot_id, action, self.loop)
+        client = ActionClient(self.session, robot or self.robot_id, action, self.loop, node=self._ros2_info,
+                              node_id=self.ros2_node_id, entity_ids=self.next_entity_id)
         self._declared.append(client)
         return client
 

@@ -195,7 +195,7 @@ class PlayReply(BaseModel):
 class PlayStatus(BaseModel):
     robot: str
     playing: bool
-    status: str | None = None  # the goal's end: SUCCEEDED, CANCELED, PREEMPTED, ABORTED
+    status: str | None = None  # the goal's end: SUCCEEDED, CANCELED, ABORTED (also when preempted), UNKNOWN
     succeeded: bool | None = None  # the play ended and played to its end (what the editor says "done" to)
     percent_done: float | None = None
     message: str | None = None  # the animation node's word on the end (why it failed)
@@ -552,9 +552,11 @@ async def play_status(robot: str, state: ServerState = Depends(require_control))
     if handle is None:
         return {"robot": robot, "playing": False}
     status = handle.status.name if handle.status is not None else None
-    out = {"robot": robot, "playing": not handle.done, "status": status,
-           "succeeded": handle.done and handle.status == GoalStatus.SUCCEEDED,
-           "percent_done": float(handle.feedback[-1].percent_done) if handle.feedback else 0.0}
+    succeeded = handle.done and handle.status == GoalStatus.SUCCEEDED
+    # ROS 2's feedback and result travel apart: the last feedback may come after the result (and is then dropped)
+    percent = 100.0 if succeeded else float(handle.feedback[-1].percent_done) if handle.feedback else 0.0
+    out = {"robot": robot, "playing": not handle.done, "status": status, "succeeded": succeeded,
+           "percent_done": percent}
     message = getattr(handle.result, "message", None)
     if message:
         out["message"] = str(message)
