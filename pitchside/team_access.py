@@ -9,9 +9,10 @@ that comes in from another machine:
   topics, in rmw_zenoh's layout) and ``pitchside/<robot>/**`` (parameter, service and action replies, its own
   queries), and nothing under another robot's; it may declare tokens of the domain's ROS 2 graph
   (``@ros2_lv/<domain>/**``, which name their robot inside but are not checked per robot: a stranger's tokens
-  could mislead ``ros2 node list``, never move data);
+  could mislead ``ros2 node list``, never move data) and ``/parameter_events`` (which names its node inside: a
+  robot could announce a change of another robot's node that did not happen, never make one);
 * the lab laptop may also send the dashboard's commands: ``cmd_vel`` and ``record_motor_goals`` to any robot,
-  and parameter, service and action requests;
+  and parameter, service and action requests (ROS 2 service calls are queries on ``<domain>/<robot>/**``);
 * every team member may subscribe (a viewer does only that);
 * the team router forwards only what it has checked at its own ingress, so members accept what it relays.
 
@@ -100,13 +101,14 @@ def _lab_commands() -> dict[str, Any]:
 
 def _lab_requests() -> dict[str, Any]:
     return _rule("lab-requests", ("query",), "ingress",
-                 [keys.params_key("*", "**"), keys.service_key("*", "**"), keys.action_key("*", "*", "goal"),
-                  keys.action_key("*", "*", "cancel")])
+                 # ROS 2 service calls (parameter services, the table's services) are queries on the robots' keys
+                 [keys.topic_key("*", "**"), keys.action_key("*", "*", "goal"), keys.action_key("*", "*", "cancel")])
 
 
 def _own_robot(robot: str) -> dict[str, Any]:
     return _rule(f"robot-{robot}", OWN_ROBOT_MESSAGES, "ingress",
-                 [keys.topic_key(robot, "**"), keys.graph_tokens_key(), f"{keys.PREFIX}/{robot}/**"])
+                 [keys.topic_key(robot, "**"), keys.graph_tokens_key(), f"{keys.PREFIX}/{robot}/**",
+                  f"{keys.domain_id()}/parameter_events/**"])  # ROS 2's one topic of every node's changes
 
 
 def _routers(members: Mapping[str, Role]) -> list[str]:

@@ -3,9 +3,11 @@
     <domain>/<robot>/<topic>/<pkg>::msg::dds_::<Type>_/RIHS01_<hash>
                                                    topic data, CDR payload with rmw_zenoh's attachment: the topic
                                                    /<robot>/<topic> of ROS 2 (wire/ros2), domain ROS_DOMAIN_ID
-    pitchside/<robot>/params/<node>                parameter queryable, JSON request/reply
-    pitchside/<robot>/params/<node>/changed        JSON event after every accepted change
-    pitchside/<robot>/_srv/<service>               service queryable, CDR request/reply
+    <domain>/<robot>/<node>/<service>/<pkg>::srv::dds_::<Type>_/RIHS01_<hash>
+                                                   a node's parameter services (rcl_interfaces') and the services of
+                                                   the table (/<robot>/<service>): rmw_zenoh queryables, CDR with
+                                                   attachments (wire.ros2.parameters, wire.services);
+                                                   parameter changes on /parameter_events
     pitchside/<robot>/_action/<action>/goal        queryable: 16-byte goal id + CDR goal -> JSON verdict
     pitchside/<robot>/_action/<action>/cancel      queryable: 16-byte goal id -> JSON verdict
     pitchside/<robot>/_action/<action>/events      16-byte goal id + b"F" + CDR feedback, or
@@ -129,21 +131,9 @@ def split_topic_key(key: str) -> tuple[str, str]:
 
 
 def is_topic_key(key: str) -> bool:
-    """True for a key of rmw_zenoh's data layout (the parameter, service, action and graph keys are pitchside's)."""
+    """True for a topic key of rmw_zenoh's data layout (not a service's, nor pitchside's action and graph keys)."""
     parts = key.rsplit("/", 2)
     return len(parts) == 3 and parts[2].startswith("RIHS01_") and "::msg::dds_::" in parts[1]
-
-
-def params_key(robot: str, node: str) -> str:
-    return f"{PREFIX}/{robot}/params/{node}"
-
-
-def params_changed_key(robot: str, node: str) -> str:
-    return f"{PREFIX}/{robot}/params/{node}/changed"
-
-
-def service_key(robot: str, service: str) -> str:
-    return f"{PREFIX}/{robot}/_srv/{service}"
 
 
 def action_key(robot: str, action: str, part: str) -> str:

@@ -146,8 +146,8 @@ class ParameterClient:
 
     def states(self, node: str, names: list[str] | None = None) -> dict[str, dict[str, Any]]:
         """A pitchside node's value, revision, default and choices of each parameter (read together); {} from a
-        node without pitchside's services."""
-        if not self._pitchside(node, self._offers(node)):
+        node without pitchside's services, or one not (yet) in the graph: this does not wait for the node."""
+        if not self._pitchside(node, self._served(node)):
             return {}
         return self._states(node, names or [])
 
@@ -263,7 +263,12 @@ class ParameterClient:
     def follow(self, node: str, callback: Callable[[str, dict[str, Any]], None]) -> ParameterEvents:
         """callback(node name, {name: value}) for each change of a node of the robot (``*``: every node), as
         /parameter_events tells it; close the returned handle to stop."""
-        return ParameterEvents(self._caller, self.namespace, node, callback)
+        wanted = self.namespace.rstrip("/") or "/"
+
+        def ours(namespace: str, name: str, changed: dict[str, Any]) -> None:
+            if namespace == wanted and node in ("*", name):
+                callback(name, changed)
+        return ParameterEvents(self.session, ours, self.domain_id)
 
 
 def _range(descriptor: Any) -> list[float] | None:
@@ -274,16 +279,16 @@ def _range(descriptor: Any) -> list[float] | None:
 
 
 class ParameterEvents:
-    """The changes of one robot's nodes on /parameter_events (rcl_interfaces/msg/ParameterEvent). Events that do not
-    decode are counted (the first logged), never passed on."""
+    """Every change on /parameter_events (rcl_interfaces/msg/ParameterEvent) of a domain, as callback(namespace of
+    the node, node name, {name: value}); new parameters count as changed. Events that do not decode are counted (the
+    first logged), never passed on."""
 
-    def __init__(self, caller_node: Caller, namespace: str, node: str,
-                 callback: Callable[[str, dict[str, Any]], None]) -> None:
+    def __init__(self, session: zenoh.Session, callback: Callable[[str, str, dict[str, Any]], None],
+                 domain_id: int | None = None) -> None:
         self.bad_events = 0
-        self._prefix = namespace.rstrip("/") + "/"
-        self._node = node
         self._callback = callback
         self._lock = threading.Lock()
+        caller_node = caller(session, keys.domain_id() if domain_id is None else domain_id)
         self._subscription: Ros2Subscription = caller_node.subscribe(
             ros2_params.PARAMETER_EVENTS, ros2_params.PARAMETER_EVENT_TYPE,
             type_hash(ros2_params.PARAMETER_EVENT_TYPE), self._on_event, ros2_params.PARAMETERS_QOS)
@@ -293,6 +298,9 @@ class ParameterEvents:
             event = schemas.decode(payload, ros2_params.PARAMETER_EVENT_TYPE)
             changed = {p.name: ros2_params.from_parameter_value(p.value)
                        for p in [*event.new_parameters, *event.changed_parameters]}
+            namespace, _, name = str(event.node).rpartition("/")
+            if not name or not str(event.node).startswith("/"):
+                raise ros2_params.ParameterValueError(f"{event.node!r} is no fully qualified node name")
         except (SchemaError, ros2_params.ParameterValueError) as exc:
             with self._lock:
                 self.bad_events += 1
@@ -300,13 +308,8 @@ class ParameterEvents:
             if first:
                 log.warning("a /parameter_events sample that does not decode (further ones only counted): %s", exc)
             return
-        fqn = str(event.node)
-        if not fqn.startswith(self._prefix):
-            return
-        name = fqn[len(self._prefix):]
-        if "/" in name or not keys.is_valid_node_name(name) or self._node not in ("*", name) or not changed:
-            return
-        self._callback(name, changed)
+        if changed and keys.is_valid_node_name(name):
+            self._callback(namespace or "/", name, changed)
 
     @property
     def dropped(self) -> int:

@@ -191,9 +191,9 @@ class Ros2Service:
         if self._dispatch is None:
             self._answer(query, payload, request)
         else:
-            self._dispatch(lambda: self._answer(query, payload, request, drop=True))
+            self._dispatch(lambda: self._answer(query, payload, request))
 
-    def _answer(self, query: zenoh.Query, payload: bytes, request: Attachment, drop: bool = False) -> None:
+    def _answer(self, query: zenoh.Query, payload: bytes, request: Attachment) -> None:
         assert self.entity.topic is not None
         try:
             try:
@@ -205,9 +205,8 @@ class Ros2Service:
                 return
             reply = Attachment(request.sequence_number, time.time_ns(), request.gid)
             query.reply(self.entity.topic.keyexpr, response, attachment=reply.encode())
-        finally:
-            if drop:  # answered outside the query's callback: finish it now, not when it is collected
-                query.drop()
+        finally:  # the query is finished now, not when Python collects it (an exception's traceback holds it)
+            query.drop()
 
     def close(self) -> None:
         self._token.undeclare()
