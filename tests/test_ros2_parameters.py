@@ -257,10 +257,12 @@ class Ros2ParameterNode:
     """A ROS 2 node with parameters as rclcpp's ParameterService offers them (the six services; no pitchside
     additions): its tokens, complete queryables that answer with the attachment, values kept here."""
 
-    def __init__(self, session: zenoh.Session, namespace: str, name: str) -> None:
+    def __init__(self, session: zenoh.Session, namespace: str, name: str,
+                 values: dict[str, tuple[int, Any]] | None = None, doc: str = "the camera's") -> None:
         self.fqn = f"{namespace}/{name}"
-        self.values: dict[str, tuple[int, Any]] = {"exposure_ms": (DOUBLE, 10.0), "camera_mode": (STRING, "auto")}
+        self.values = values or {"exposure_ms": (DOUBLE, 10.0), "camera_mode": (STRING, "auto")}
         self.ranges = {"exposure_ms": (1.0, 100.0)}
+        self.doc = doc
         zid = str(session.zid())
         lv = session.liveliness()
         mangled_ns = namespace.replace("/", "%")
@@ -300,7 +302,7 @@ class Ros2ParameterNode:
             ranges = [ROS2.types["rcl_interfaces/msg/FloatingPointRange"](
                 from_value=low_high[0], to_value=low_high[1], step=0.0)] if low_high else []
             descriptors.append(ROS2.types["rcl_interfaces/msg/ParameterDescriptor"](
-                name=name, type=self.values[name][0], description=f"the camera's {name}", additional_constraints="",
+                name=name, type=self.values[name][0], description=f"{self.doc} {name}", additional_constraints="",
                 read_only=False, dynamic_typing=False, floating_point_range=ranges, integer_range=[]))
         return self._response("DescribeParameters", descriptors=descriptors)
 
