@@ -404,3 +404,50 @@ def test_a_ros2_name_for_the_robot_is_required(peer: zenoh.Session) -> None:
     with pytest.raises(ValueError, match="no ROS 2 namespace"):
         ParameterClient(peer, "9lives")
 
+
+
+class Referee(Node):
+    """Serves the table's manual_penalize, as the HCM does."""
+
+    name = "referee"
+
+    def setup(self) -> None:
+        self.service("manual_penalize", lambda request: codec.make(
+            "humanoid_league_msgs/srv/ManualPenalize_Response", penalized=request.penalize == 1))
+
+
+def test_a_service_of_the_table_is_a_ros2_service_both_ways(bus: BusConfig, peer: zenoh.Session) -> None:
+    """/robot1/manual_penalize as rmw_zenoh serves it (SS token, a complete queryable, the reply's attachment), and
+    call_service as rmw_zenoh's clients call (an SC token of the caller node, the attachment)."""
+    from wire.services import call_service
+
+    srv_hash = codec.type_hash("humanoid_league_msgs/srv/ManualPenalize")
+    dds = "humanoid_league_msgs::srv::dds_::ManualPenalize_"
+    tokens: set[str] = set()
+    lv = peer.liveliness().declare_subscriber("@ros2_lv/0/**", lambda s: tokens.add(str(s.key_expr)), history=True)
+    node = Referee("robot1", bus).start()
+    try:
+        server_token = (f"@ros2_lv/0/{node.zid}/{node.ros2_node_id}/*/SS/%/%robot1/referee/%robot1%manual_penalize/"
+                        f"{dds}/{srv_hash}/::,10:,:,:,,")
+        wait_for(lambda: any(zenoh.KeyExpr(server_token).intersects(zenoh.KeyExpr(t)) for t in tokens),
+                 what=lambda: f"the service's SS token, saw {sorted(tokens)}")
+        request = codec.encode(codec.make("humanoid_league_msgs/srv/ManualPenalize_Request", penalize=1))
+        gid = bytes(range(50, 66))
+        replies = wait_for(lambda: [r for r in peer.get(f"0/robot1/manual_penalize/{dds}/{srv_hash}", payload=request,
+                                                        attachment=attachment(7, gid), timeout=2.0) if r.ok],
+                           what="the service's reply")
+        reply = replies[0].ok
+        assert reply is not None and reply.attachment is not None
+        assert read_attachment(reply.attachment.to_bytes()) == (7, gid)
+        assert codec.decode(reply.payload.to_bytes(), "humanoid_league_msgs/srv/ManualPenalize_Response").penalized
+
+        with open_session(bus) as caller_session:
+            request_msg = codec.make("humanoid_league_msgs/srv/ManualPenalize_Request", penalize=2)
+            assert not call_service(caller_session, "robot1", "manual_penalize", request_msg).penalized
+            client_token = (f"@ros2_lv/0/{caller_session.zid()}/*/*/SC/%/%/*/%robot1%manual_penalize/{dds}/"
+                            f"{srv_hash}/*")
+            wait_for(lambda: any(zenoh.KeyExpr(client_token).intersects(zenoh.KeyExpr(t)) for t in tokens),
+                     what="the caller's SC token")
+    finally:
+        node.shutdown()
+        lv.undeclare()
