@@ -368,6 +368,11 @@ def test_the_dashboard_lists_and_sets_a_ros2_nodes_parameters(router_endpoint: s
             assert camera.values["exposure_ms"] == (DOUBLE, 20.0)
             no_defaults = server.http.post(f"{url}/camera/reset", json={"names": []}, timeout=20)
             assert no_defaults.status_code == 422 and "defaults" in no_defaults.text
+            # the panel's own reset writes the defaults it was told: none, so nothing is sent (NOT_SET would delete)
+            unset = server.http.post(f"{url}/camera", json={"values": {"exposure_ms": None}}, timeout=20)
+            assert unset.status_code == 422 and camera.values["exposure_ms"] == (DOUBLE, 20.0)
+            diff = server.http.get(f"{url}/camera/diff", timeout=20)
+            assert diff.status_code == 200 and diff.json()["changes"] == []  # no defaults, no file: nothing differs
     finally:
         camera.close()
 

@@ -204,6 +204,9 @@ class ParameterClient:
     def set(self, node: str, values: dict[str, Any], revisions: dict[str, int] | None = None) -> dict[str, Any]:
         """All or none: the node's reply (changed, params); ParameterError with the node's own reason if it
         refused, StaleRevision if a value was changed since the revision the write is based on."""
+        unset = sorted(name for name, value in values.items() if value is None)
+        if unset:  # to ROS 2, a value of NOT_SET deletes the parameter: never sent for a default nobody knows
+            raise ParameterError(f"no value for {unset} (a node that does not say its defaults cannot be reset)")
         try:
             parameters = [ros2_params.parameter(name, value) for name, value in values.items()]
         except ros2_params.ParameterValueError as exc:

@@ -144,6 +144,8 @@ async def diff_parameters(robot: str, node: str, model: str = "minibot",
     changes = []
     for p in live:
         in_yaml = p["name"] in section
+        if not in_yaml and p["default"] is None:  # a ROS 2 node says no defaults: nothing to compare with
+            continue
         expected = section[p["name"]] if in_yaml else p["default"]
         if expected != p["value"]:
             changes.append(Difference.model_validate({"name": p["name"], "live": p["value"], "yaml": expected,
