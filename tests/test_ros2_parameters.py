@@ -350,12 +350,12 @@ def test_the_dashboard_lists_and_sets_a_ros2_nodes_parameters(router_endpoint: s
                                                               tmp_path: Path) -> None:
     camera = Ros2ParameterNode(peer, "/robot7", "camera")
     try:
-        client = ParameterClient(peer, "robot7", timeout=5.0)  # the client the server uses, here in the test
+        client = ParameterClient(peer, "robot7", timeout=10.0)  # the client the server uses, here in the test
         assert client.describe("camera")[0]["name"] == "camera_mode"
         with dashboard_server(["--connect", router_endpoint, "--no-telemetry"], tmp_path) as server:
             url = f"{server.url}/api/robots/robot7/params"
             listed = wait_for(lambda: (r := server.http.get(url, timeout=20)).status_code == 200 and
-                              r.json().get("camera") and r.json(), 20.0, 0.2, "the ROS 2 node's parameters listed")
+                              r.json().get("camera") and r.json(), 40.0, 0.2, "the ROS 2 node's parameters listed")
             exposure = {p["name"]: p for p in listed["camera"]}["exposure_ms"]
             assert exposure["value"] == 10.0 and exposure["range"] == [1.0, 100.0] and exposure["type"] == "float"
             assert exposure["doc"] == "the camera's exposure_ms" and exposure["revision"] == 0
