@@ -7,12 +7,11 @@ that comes in from another machine:
 
 * a robot (its router relays only its own nodes) writes its own namespace in rmw_zenoh's layout,
   ``<domain>/<robot>/**`` (its topics and services, and under ``@adv`` the caches of its latched topics), the
-  root-namespace topics every ROS 2 node writes (``/rosout``, ``/parameter_events``), ``pitchside/<robot>/**``
-  (parameter, service and action replies still on pitchside's own keys) and nothing under another robot's; it may
-  declare tokens of the domain's ROS 2 graph (``@ros2_lv/<domain>/**``, which name their robot inside but are not
-  checked per robot: a stranger's tokens could mislead ``ros2 node list``, never move data);
+  root-namespace topics every ROS 2 node writes (``/rosout``, ``/parameter_events``), and nothing under another
+  robot's; it may declare tokens of the domain's ROS 2 graph (``@ros2_lv/<domain>/**``, which name their robot
+  inside but are not checked per robot: a stranger's tokens could mislead ``ros2 node list``, never move data);
 * the lab laptop may also send the dashboard's commands: ``cmd_vel`` and ``record_motor_goals`` to any robot,
-  and parameter, service and action requests;
+  and parameter, service and action requests (ROS 2 service calls are queries on the domain's keys);
 * every team member may subscribe, to anything (``**`` too: it receives only what members were allowed to put), and
   ask latched topics' caches (a transient local subscriber's query); a viewer does only that;
 * the team router forwards only what it has checked at its own ingress, so members accept what it relays.
@@ -106,7 +105,7 @@ def _common_rules() -> list[dict[str, Any]]:
     domain = keys.domain_id()
     # the domain's data with the latched topics' caches, the ROS 2 graph, and pitchside's own keys (parameters,
     # services, actions)
-    everything = [_data(domain), _caches(str(domain)), keys.graph_tokens_key(), f"{keys.PREFIX}/*/**"]
+    everything = [_data(domain), _caches(str(domain)), keys.graph_tokens_key()]
     # a member may subscribe to anything, "**" included (every key but the verbatim ones): it receives only what
     # the team's members were allowed to put, so a subscription reaches nothing else; and it may ask a latched
     # topic's publisher for what it kept (transient local), which answers with data it could subscribe to anyway
@@ -125,7 +124,7 @@ def _lab_requests() -> dict[str, Any]:
     # every ROS 2 service of the domain (parameters, actions' goals and cancels, manual_penalize: queryables on
     # rmw_zenoh's keys) and pitchside's own request keys
     return _rule("lab-requests", ("query",), "ingress",
-                 [_data(keys.domain_id()), keys.params_key("*", "**"), keys.service_key("*", "**")])
+                 [_data(keys.domain_id())])
 
 
 def _own_robot(robot: str) -> dict[str, Any]:
@@ -136,7 +135,7 @@ def _own_robot(robot: str) -> dict[str, Any]:
     for shared in ROOT_TOPICS:
         own += [f"{domain}/{shared}/**", _caches(f"{domain}/{shared}")]
     return _rule(f"robot-{robot}", OWN_ROBOT_MESSAGES, "ingress",
-                 [*own, keys.graph_tokens_key(), f"{keys.PREFIX}/{robot}/**"])
+                 [*own, keys.graph_tokens_key()])
 
 
 def _routers(members: Mapping[str, Role]) -> list[str]:

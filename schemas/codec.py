@@ -80,7 +80,7 @@ def _default_for(fieldtype: tuple[Any, ...]) -> Any:
         return [_default_for(sub) for _ in range(length)]
     if kind == 4:
         sub, _ = detail
-        if sub[0] == 1 and sub[1][0] not in ("string", "wstring", "bool"):
+        if sub[0] == 1 and sub[1][0] not in ("string", "wstring"):
             return np.zeros(0, dtype=_NUMPY_TYPES[sub[1][0]])
         return []
     raise SchemaError(f"unsupported field kind {kind}")
@@ -90,7 +90,7 @@ _NUMPY_TYPES = {
     "int8": np.int8, "uint8": np.uint8, "byte": np.uint8, "char": np.uint8,
     "int16": np.int16, "uint16": np.uint16, "int32": np.int32, "uint32": np.uint32,
     "int64": np.int64, "uint64": np.uint64, "float32": np.float32, "float64": np.float64,
-    "octet": np.uint8,
+    "octet": np.uint8, "bool": np.bool_,  # rosbags serialises bool arrays and sequences from numpy too
 }
 
 

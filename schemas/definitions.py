@@ -10,6 +10,9 @@ from rosbags.typesys import get_types_from_msg
 
 SCHEMA_DIR = Path(__file__).resolve().parent
 OWN_PACKAGES = ("humanoid_league_msgs", "pitchside_msgs")
+# standard packages whose services rosbags' Jazzy typestore lacks (it has their messages): their .srv files, field
+# layout only, so the parameter services of ROS 2 get classes and type hashes like every other type
+STANDARD_SERVICE_PACKAGES = ("rcl_interfaces",)
 
 
 def _split_sections(text: str) -> list[str]:
@@ -23,8 +26,8 @@ def _split_sections(text: str) -> list[str]:
 
 
 def source_files() -> list[Path]:
-    """Every definition file of our own packages, in a fixed order."""
-    return [path for package in OWN_PACKAGES for kind in ("msg", "action", "srv")
+    """Every definition file of our own packages and of the standard services we define, in a fixed order."""
+    return [path for package in (*OWN_PACKAGES, *STANDARD_SERVICE_PACKAGES) for kind in ("msg", "action", "srv")
             for path in sorted((SCHEMA_DIR / package / kind).glob(f"*.{kind}"))]
 
 

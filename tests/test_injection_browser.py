@@ -4,7 +4,6 @@ as text and runs none of it."""
 
 from __future__ import annotations
 
-import json
 import threading
 from pathlib import Path
 from typing import Any
@@ -20,7 +19,6 @@ from schemas.logs import LogWriter
 from schemas.topics import TOPICS
 from tests.dashboard_server import RunningServer, dashboard_server
 from tests.waiting import wait_for
-from wire import keys
 from wire.keys import topic_key
 
 pytestmark = [pytest.mark.slow, pytest.mark.browser]
@@ -153,21 +151,19 @@ def _with_markup(typename: str, depth: int = 0, **numbers: Any) -> Any:
 
 
 def _hostile_parameters(client: zenoh.Session, robot: str) -> Any:
-    """A process on the bus answering the robot's parameter queries: one answer as a well-named node whose
-    parameters carry markup, one that names a node with markup, one that claims a node on another node's key."""
-    params = [{"name": "mode", "type": "str", "value": HOSTILE, "default": HOSTILE, "choices": [HOSTILE, "b"],
-               "doc": HOSTILE, "revision": 1},
-              {"name": "gain", "type": "float", "value": 1.0, "default": 0.5, "range": [0.0, 2.0], "doc": HOSTILE,
-               "revision": 2},
-              {"name": "tags", "type": "list", "value": [HOSTILE], "default": [], "doc": HOSTILE, "revision": 3}]
+    """A ROS 2 node on the bus (its parameter services as rclcpp offers them) whose parameters carry markup in
+    their names, values and descriptions; a token that names a node with markup is not a ROS 2 name: not listed."""
+    from tests.test_ros2_parameters import STRING, Ros2ParameterNode
 
-    def answer(query: zenoh.Query) -> None:
-        # each on a key of its own: Zenoh keeps one reply per key
-        for node, key in (("evil_node", "evil_node"), (HOSTILE, "marked"), ("hcm", "impostor")):
-            query.reply(keys.params_key(robot, key), json.dumps({"ok": True, "node": node, "robot": robot,
-                                                                 "params": params}))
+    node = Ros2ParameterNode(client, f"/{robot}", "evil_node", doc=HOSTILE,
+                             values={"mode": (STRING, HOSTILE), HOSTILE: (STRING, "b")})
+    stranger = client.liveliness().declare_token(f"@ros2_lv/0/{client.zid()}/9/9/NN/%/%{robot}/{HOSTILE[:20]}")
 
-    return client.declare_queryable(keys.params_key(robot, "*"), answer)
+    class Both:
+        def undeclare(self) -> None:
+            node.close()
+            stranger.undeclare()
+    return Both()
 
 
 def _publish_every_topic(client: zenoh.Session, robot: str, stop: threading.Event) -> None:

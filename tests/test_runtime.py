@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import struct
 import subprocess
 import sys
 import threading
@@ -96,29 +97,15 @@ class Tunable(Node):
         self.seen_changes.append(changed)
 
 
-def _ask(session: zenoh.Session, payload: bytes) -> dict[str, object]:
-    """A raw parameter request as any process on the bus can send it; the node's JSON reply."""
-    import json
-
-    replies = wait_for(lambda: list(session.get(keys.params_key("robot1", "tunable"), payload=payload, timeout=2.0)),
-                       10.0, 0.1, "the node's answer (once its queryable is known to this session)")
-    assert replies[0].ok is not None
-    return dict(json.loads(replies[0].ok.payload.to_bytes()))
-
-
-def test_parameter_requests_from_the_bus_write_no_other_file_and_change_no_startup_value(
+def test_parameter_requests_from_the_bus_change_no_startup_value_and_bad_ones_are_counted(
         bus: BusConfig, tmp_path: Path) -> None:
+    """The node saves to its own file only (no request names a path); a request that does not decode gets an error
+    reply and is counted, and the node goes on answering."""
     yaml_path = tmp_path / "params.yaml"
     yaml_path.write_text("tunable:\n  gain: 1.5\n")
-    elsewhere = tmp_path / "elsewhere.yaml"
     node = Tunable(bus=bus, params_file=yaml_path).start()
     try:
         with open_session(bus) as session:
-            reply = _ask(session, f'{{"op": "save", "path": "{elsewhere}"}}'.encode())
-            assert reply["ok"] is False and "own parameter file only" in str(reply["error"])
-            assert not elsewhere.exists()
-            reply = _ask(session, b"[" * 100_000)  # nested past any limit: an answer, not a RecursionError
-            assert reply["ok"] is False and "nested deeper" in str(reply["error"])
             client = ParameterClient(session, "robot1")
             with pytest.raises(ParameterError, match="read once when tunable starts"):
                 client.set("tunable", {"wiring": "other"})
@@ -127,6 +114,14 @@ def test_parameter_requests_from_the_bus_write_no_other_file_and_change_no_start
             client.reset("tunable")  # every parameter that may change live
             assert client.get("tunable", "gain") == 1.0 and client.get("tunable", "wiring") == "fixed"
             assert {p["name"]: p["startup"] for p in client.describe("tunable")}["wiring"] is True
+            set_key = (f"{keys.domain_id()}/robot1/tunable/set_parameters/rcl_interfaces::srv::dds_::SetParameters_/"
+                       f"{schemas.codec.type_hash('rcl_interfaces/srv/SetParameters')}")
+            attachment = struct.pack("<qqB", 1, 0, 16) + bytes(16)
+            replies = list(session.get(set_key, payload=b"\x00\x01\x00\x00" + b"\xff" * 7, attachment=attachment,
+                                       timeout=5.0))
+            assert replies and replies[0].err is not None  # an error reply with the reason, not silence
+            wait_for(lambda: node._parameter_server.bad_requests == 1, what="the bad request counted")
+            assert client.get("tunable", "gain") == 1.0  # still answering
     finally:
         node.shutdown()
 

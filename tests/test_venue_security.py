@@ -251,12 +251,30 @@ def test_nested_huge_and_binary_bodies_are_answered_not_crashed(server: RunningS
 
 def test_parameter_events_outlive_what_a_process_on_the_bus_sends(router_endpoint: str, client: zenoh.Session,
                                                                   tmp_path: Path) -> None:
-    """The browser's stream of parameter events carries what nodes announce on the bus. JSON nested 100,000 deep
-    (which made Python's parser raise RecursionError and cut every browser's stream) is skipped, and an event
-    with a carriage return (which ends a line of a server-sent event) arrives as one line, as the server writes
-    it; the stream stays open and the next event arrives."""
-    changed = keys.params_changed_key("r6", "hcm")
-    good = {"node": "hcm", "changed": {"gain": 2.0}, "revisions": {"gain": 4}}
+    """The browser's stream of parameter events carries what nodes announce on /parameter_events. A sample that is
+    no ParameterEvent, or comes without rmw_zenoh's attachment, is skipped; a value with a carriage return (which
+    ends a line of a server-sent event) arrives as one line, as the server writes it; the stream stays open and
+    the next event arrives."""
+    import struct
+    import time
+
+    import schemas
+    from schemas.codec import type_hash
+
+    key = f"{keys.domain_id()}/parameter_events/rcl_interfaces::msg::dds_::ParameterEvent_/" + type_hash(
+        "rcl_interfaces/msg/ParameterEvent")
+    numbers = iter(range(1, 1_000_000))
+
+    def event(name: str, text: str) -> bytes:
+        value = schemas.make("rcl_interfaces/msg/ParameterValue", type=4, string_value=text)
+        return schemas.encode(schemas.make(
+            "rcl_interfaces/msg/ParameterEvent", node="/r6/hcm",
+            changed_parameters=[schemas.make("rcl_interfaces/msg/Parameter", name=name, value=value)]))
+
+    def stamped() -> bytes:  # rmw_zenoh's attachment: sequence number, time, GID
+        return struct.pack("<qqB", next(numbers), time.time_ns(), 16) + bytes(16)
+
+    good = {"node": "hcm", "changed": {"mode": "good"}}
     lines: list[str] = []
     closed = threading.Event()
     with dashboard_server(["--connect", router_endpoint, "--no-telemetry"], tmp_path) as server:
@@ -276,15 +294,17 @@ def test_parameter_events_outlive_what_a_process_on_the_bus_sends(router_endpoin
         wait_for(lambda: lines, 20.0, 0.05, "the event stream open")
 
         def delivered() -> bool:  # sent again until the server's subscription is routed to this session
-            client.put(changed, b"[" * 100_000)
-            client.put(changed, b'{"node": "hcm",\r"changed": {"gain": 1.0},\r"revisions": {"gain": 3}}\r')
-            client.put(changed, json.dumps(good))
+            client.put(key, b"[" * 100_000, attachment=stamped())  # no ParameterEvent
+            client.put(key, event("mode", "unattached"))  # rmw_zenoh drops it, so does the server
+            client.put(key, event("mode", "a\rb\r\nc"), attachment=stamped())
+            client.put(key, event("mode", "good"), attachment=stamped())
             return closed.is_set() or any(line.startswith("data: ") and json.loads(line[6:]) == good for line in lines)
 
         wait_for(delivered, 20.0, 0.2, "an event after the hostile ones")
         assert not closed.is_set(), lines
         data = [json.loads(line[6:]) for line in lines if line.startswith("data: ")]  # every one a whole event
-        assert {"node": "hcm", "changed": {"gain": 1.0}, "revisions": {"gain": 3}} in data
+        assert {"node": "hcm", "changed": {"mode": "a\rb\r\nc"}} in data
+        assert not [d for d in data if d["changed"] == {"mode": "unattached"}]
         assert not [line for line in lines if line and not line.startswith(("data: ", ": "))], lines
     reader.join(10)
 

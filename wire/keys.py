@@ -6,9 +6,11 @@
     <domain>/rosout/rcl_interfaces::msg::dds_::Log_/RIHS01_<hash>
                                                    a topic of the root namespace (ROS 2's /rosout): every robot's,
                                                    the robot told by the message (logger name robot1.hcm)
-    pitchside/<robot>/params/<node>                parameter queryable, JSON request/reply
-    pitchside/<robot>/params/<node>/changed        JSON event after every accepted change
-    pitchside/<robot>/_srv/<service>               service queryable, CDR request/reply
+    <domain>/<robot>/<node>/<service>/<pkg>::srv::dds_::<Type>_/RIHS01_<hash>
+                                                   a node's parameter services (rcl_interfaces') and the services of
+                                                   the table (/<robot>/<service>): rmw_zenoh queryables, CDR with
+                                                   attachments (wire.ros2.parameters, wire.services);
+                                                   parameter changes on /parameter_events
     <domain>/<robot>/<action>/_action/<part>/...   ROS 2's action protocol for the action /<robot>/<action>:
                                                    services send_goal, cancel_goal, get_result and topics
                                                    feedback, status, in rmw_zenoh's layout (wire/ros2/actions.py)
@@ -189,18 +191,6 @@ def doctor_probe_key(robot: str) -> str:
     no topic of the table and no rmw_zenoh data key (no type, no hash), so no ROS 2 subscriber and no dashboard
     takes it for data."""
     return f"{domain_id()}/{check_robot_id(robot)}/_doctor/clock"
-
-
-def params_key(robot: str, node: str) -> str:
-    return f"{PREFIX}/{robot}/params/{node}"
-
-
-def params_changed_key(robot: str, node: str) -> str:
-    return f"{PREFIX}/{robot}/params/{node}/changed"
-
-
-def service_key(robot: str, service: str) -> str:
-    return f"{PREFIX}/{robot}/_srv/{service}"
 
 
 ACTION_SERVICES = ("send_goal", "cancel_goal", "get_result")

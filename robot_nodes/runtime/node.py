@@ -6,7 +6,6 @@ import argparse
 import contextlib
 import inspect
 import itertools
-import json
 import logging
 import math
 import signal
@@ -23,9 +22,9 @@ import zenoh
 import schemas
 from robot_nodes.runtime.action_server import ActionServer, ServerGoal
 from robot_nodes.runtime.clock import WALL_CLOCK, Clock, RobotSimClock, sim_time_wanted
-from robot_nodes.runtime.graph import ServedTokens
 from robot_nodes.runtime.local_bus import LocalBus, RemoteInterest, freeze, thawed
 from robot_nodes.runtime.loop import EventLoop, Timer
+from robot_nodes.runtime.parameter_server import ParameterServer
 from robot_nodes.runtime.parameters import ParameterStore
 from robot_nodes.runtime.rosout import RosoutHandler
 from robot_nodes.runtime.service_server import ServiceServer
@@ -36,11 +35,17 @@ from wire.actions import ActionClient
 from wire.bus import BusConfig, add_bus_arguments, bus_from_arguments, load_config_file, open_session
 from wire.command_line import CommandParser
 from wire.heap import freeze_startup_heap
-from wire.json_limits import JsonLimitError, loads_limited
-from wire.parameters import ParameterError
 from wire.ros2.attachment import AttachmentStamper
 from wire.ros2.endpoints import declare_latched_publisher
-from wire.ros2.robots import next_node_id, node_entity, publisher_entity, subscription_entity, topic_qos
+from wire.ros2.liveliness import NodeInfo
+from wire.ros2.robots import (
+    next_node_id,
+    node_entity,
+    publisher_entity,
+    robot_namespace,
+    subscription_entity,
+    topic_qos,
+)
 
 log = logging.getLogger(__name__)
 FIRST_REPORT_AGAIN_S = 0.5  # the second report of a starting node (see spin)
@@ -388,10 +393,7 @@ class Node:
         self.zid = str(self.session.zid())
         # the node on the ROS 2 graph (ros2 node list: /<robot>/<name>), gone with the node or its session
         ros2_node = node_entity(self.zid, robot_id, self.name, self.ros2_node_id, keys.domain_id())
-        self._ros2_info = ros2_node.node
         self._ros2_token = self.session.liveliness().declare_token(ros2_node.token)
-        # its services on the ROS 2 graph (publishers, subscriptions and action servers declare their own tokens)
-        self._node_graph = ServedTokens(self.session, self.zid, ros2_node.node, self.ros2_node_id, self.next_entity_id)
         self._robot_clock: RobotSimClock | None = None
         if clock is None and sim_time_wanted():
             clock = self._robot_clock = RobotSimClock.join(self.local_bus, robot_id)
@@ -408,6 +410,7 @@ class Node:
         self._subscriptions: list[Subscription] = []
         self._timers: list[Timer] = []
         self._declared: list[Any] = []  # queryables, servers and clients to close with the node
+        self._services: list[ServiceServer] = []
         self.errors = 0
         self.last_error = ""
         self._diag_values: dict[str, str] = {}
@@ -419,10 +422,10 @@ class Node:
         self._rosout_publisher = self.publisher("rosout")  # ROS 2's /rosout, every robot's (its logger name says whose)
         self._rosout = RosoutHandler(self._rosout_publisher.publish, keys.logger_name(robot_id, self.name))
         self.log.addHandler(self._rosout)
-        self._declared.append(self.session.declare_queryable(keys.params_key(robot_id, self.name),
-                                                             self._on_params_query))
-        self._params_changed = self.session.declare_publisher(keys.params_changed_key(robot_id, self.name))
-        self.parameters.on_change(self._announce_parameters)
+        # ros2 param list/get/set /<robot>/<node>, the dashboard's parameter panel, /parameter_events
+        self._parameter_server = ParameterServer(self.session, self.ros2_node_info, self.zid, self.ros2_node_id,
+                                                 self.next_entity_id, self.parameters)
+        self._declared.append(self._parameter_server)
         self.timer(1.0 / self.diagnostics_period, self._publish_diagnostics)
         try:
             self.setup()
@@ -478,22 +481,29 @@ class Node:
                       on_cancel: Callable[[ServerGoal], None] | None = None,
                       on_preempt: Callable[[ServerGoal], None] | None = None) -> ActionServer:
         server = ActionServer(self.session, self.loop, self.robot_id, action, on_goal, on_cancel, on_preempt,
-                              node=self._ros2_info, node_id=self.ros2_node_id, entity_ids=self.next_entity_id,
+                              node=self.ros2_node_info, node_id=self.ros2_node_id, entity_ids=self.next_entity_id,
                               log=self.log.info, diagnostic=self.set_diagnostic)
         self._declared.append(server)
         return server
 
     def action_client(self, action: str, robot: str | None = None) -> ActionClient:
         """Its callbacks run on this node's loop."""
-        client = ActionClient(self.session, robot or self.robot_id, action, self.loop, node=self._ros2_info,
+        client = ActionClient(self.session, robot or self.robot_id, action, self.loop, node=self.ros2_node_info,
                               node_id=self.ros2_node_id, entity_ids=self.next_entity_id)
         self._declared.append(client)
         return client
 
+    @property
+    def ros2_node_info(self) -> NodeInfo:
+        """The node as ROS 2 names it: /<robot>/<name> in the domain."""
+        return NodeInfo(keys.domain_id(), robot_namespace(self.robot_id), self.name)
+
     def service(self, name: str, handler: Callable[[Any], Message]) -> ServiceServer:
-        server = ServiceServer(self.session, self.loop, self.robot_id, name, handler)
+        """A service of the table as the ROS 2 service /<robot>/<name>; handler(request) runs on the loop."""
+        server = ServiceServer(self.session, self.loop, self.ros2_node_info, self.ros2_node_id, self.next_entity_id(),
+                               self.robot_id, name, handler)
+        self._services.append(server)
         self._declared.append(server)
-        self._node_graph.serves(name)
         return server
 
     def set_diagnostic(self, key: str, value: Any) -> None:
@@ -602,7 +612,6 @@ class Node:
             for declared in self._declared:
                 with contextlib.suppress(Exception):
                     declared.close() if hasattr(declared, "close") else declared.undeclare()
-            self._node_graph.close()
             with contextlib.suppress(Exception):
                 self._ros2_token.undeclare()
             if self._robot_clock is not None:
@@ -628,6 +637,9 @@ class Node:
             "decode_errors": str(sum(s.decode_errors for s in self._subscriptions)),
             "queue_overflows": str(sum(s.overflowed for s in self._subscriptions)),
             "rosout_dropped": str(self._rosout.dropped),
+            # requests without an attachment, that did not decode, or that a handler failed on
+            "bad_service_requests": str(self._parameter_server.bad_requests
+                                        + sum(s.bad_requests for s in self._services)),
         }
         for t in self._timers:
             if t.callback != self._publish_diagnostics:
@@ -643,50 +655,6 @@ class Node:
             values=[schemas.make(KeyValue, key=k, value=v) for k, v in values.items()],
         )
         self._diag_pub.publish(schemas.make(DiagnosticArray, header=header(), status=[status]))
-
-    def _announce_parameters(self, changed: dict[str, Any]) -> None:
-        """Every accepted change (set, reset, or the node's own) as a JSON event with the new revisions, so
-        dashboards follow changes made elsewhere without asking again and again."""
-        event = {"node": self.name, "changed": changed,
-                 "revisions": {name: self.parameters.revisions[name] for name in changed}}
-        try:
-            self._params_changed.put(json.dumps(event))
-        except Exception as exc:  # closing, or a value JSON cannot carry: the change itself stands
-            self.log.debug("parameter event not sent: %s", exc)
-
-    def _on_params_query(self, query: zenoh.Query) -> None:
-        """Runs on a Zenoh thread: the store has its own lock, change callbacks go to the loop."""
-        reply: dict[str, Any]
-        try:
-            request: dict[str, Any] = (loads_limited(query.payload.to_bytes(), MAX_PARAMETER_REQUEST)
-                                       if query.payload is not None else {"op": "list"})
-            if not isinstance(request, dict):
-                raise ValueError("a parameter request is a JSON object")
-            op = request.get("op", "list")
-            if op == "list":
-                reply = {"ok": True}
-            elif op == "set":
-                changed = self.parameters.set(request.get("values", {}), request.get("revisions"))
-                reply = {"ok": True, "changed": sorted(changed)}
-            elif op == "reset":
-                changed = self.parameters.reset(request.get("names"))
-                reply = {"ok": True, "changed": sorted(changed)}
-            elif op == "save":
-                if request.get("path"):  # a path from the bus would let anyone on it write any file the node may
-                    raise ParameterError(f"{self.name} saves to its own parameter file only, not to a path asked "
-                                         "for over the bus")
-                reply = {"ok": True, "path": str(self.parameters.save())}
-            elif op == "file":
-                file, values = self.parameters.file_values()
-                reply = {"ok": True, "path": str(file) if file else None, "values": values}
-            else:
-                reply = {"ok": False, "error": f"unknown parameter operation {op!r}"}
-        except ParameterError as exc:
-            reply = {"ok": False, "error": str(exc), "reason": exc.reason}
-        except (ValueError, TypeError, KeyError, JsonLimitError) as exc:
-            reply = {"ok": False, "error": str(exc), "reason": ParameterError.reason}
-        reply.update({"node": self.name, "robot": self.robot_id, "params": self.parameters.describe()})
-        query.reply(keys.params_key(self.robot_id, self.name), json.dumps(reply))
 
 
 def node_arguments(description: str) -> argparse.ArgumentParser:

@@ -135,6 +135,11 @@ class ParameterStore:
     def get(self, name: str) -> Any:
         return getattr(self.values, name)
 
+    def value_and_revision(self, name: str) -> tuple[Any, int]:
+        """Read together, so a caller never pairs a new value with an old revision."""
+        with self._lock:
+            return getattr(self.values, name), self.revisions[name]
+
     def describe(self) -> list[dict[str, Any]]:
         return [
             {

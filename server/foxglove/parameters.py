@@ -5,8 +5,8 @@ node validates as it does for the parameters panel: a value out of range, of the
 (``param(startup=True)``) while the node runs is refused, the old value stays, and every client of the endpoint gets a
 status message with the node's reason. A write carries the revision the endpoint last told its clients (as the
 panel's writes do), so a write based on a value someone changed meanwhile is refused as stale. Changes made
-elsewhere (the panel, the CLI, the node itself) arrive as the nodes' change events (``params/<node>/changed``) and
-are pushed to the clients subscribed to those parameters.
+elsewhere (the panel, ``ros2 param set``, the node itself) arrive on ROS 2's /parameter_events and are pushed to
+the clients subscribed to those parameters.
 
 Lab only, and only for clients that showed the token (server.foxglove.servers): in match mode the capability is not
 offered at all.
@@ -21,16 +21,13 @@ from collections.abc import Callable, Iterable
 from typing import Any
 
 import foxglove
-import zenoh
 
 from server.zenoh_link import ZenohLink
 from wire import keys
-from wire.json_limits import JsonLimitError, loads_limited
-from wire.parameters import ParameterClient, ParameterError
+from wire.parameters import ParameterClient, ParameterError, ParameterEvents
 
 log = logging.getLogger(__name__)
 TIMEOUT_S = 2.0  # a node that does not answer holds only the asking client (each has its own thread in the SDK)
-MAX_EVENT_BYTES = 256 << 10
 
 
 def parameter_name(robot: str, node: str, name: str) -> str:
@@ -148,7 +145,7 @@ class RobotParameters:
         try:
             with self._lock:
                 known = dict(self._cache.get((robot, node), {}))
-            if not all(name in known for name in values):
+            if not all(isinstance(known.get(name, {}).get("revision"), int) for name in values):
                 self._remember(robot, node, client.describe(node))
                 with self._lock:
                     known = dict(self._cache.get((robot, node), {}))
@@ -168,31 +165,21 @@ class RobotParameters:
 
     # -- changes made elsewhere -------------------------------------------------------------------------------
     def follow(self, publish: Callable[[list[foxglove.Parameter]], None]) -> None:
-        """Pushes every node's change events to ``publish`` (blocking: opens the Zenoh session)."""
+        """Pushes every robot's parameter changes (/parameter_events) to ``publish`` (blocking: opens the session)."""
         self._publish = publish
-        key = keys.params_changed_key(keys.ANY_ROBOT, "*")
-        self._events = self.link.session().declare_subscriber(key, self._on_event)
+        self._events = ParameterEvents(self.link.session(), self._on_event)
 
-    def _on_event(self, sample: zenoh.Sample) -> None:
-        parts = str(sample.key_expr).split("/")
-        if len(parts) != 5 or not keys.is_valid_name(parts[1]) or not keys.is_valid_node_name(parts[3]):
+    def _on_event(self, namespace: str, node: str, changed: dict[str, Any]) -> None:
+        robot = namespace.strip("/")
+        if not keys.is_valid_name(robot):  # a node outside a robot's namespace: no parameter of ours
             return
-        robot, node = parts[1], parts[3]
-        try:
-            event = loads_limited(sample.payload.to_bytes(), MAX_EVENT_BYTES)
-        except JsonLimitError:
-            return
-        if not isinstance(event, dict) or event.get("node") != node or not isinstance(event.get("changed"), dict):
-            return
-        revisions: dict[str, Any] = event["revisions"] if isinstance(event.get("revisions"), dict) else {}
         with self._lock:
             table = self._cache.setdefault((robot, node), {})
             params = []
-            for name, value in event["changed"].items():
+            for name, value in changed.items():
                 description = dict(table.get(name) or {"name": name, "type": _type_of(value)})
                 description["value"] = value
-                if isinstance(revisions.get(name), int):
-                    description["revision"] = revisions[name]
+                description.pop("revision", None)  # the event has none: the next write reads it from the node
                 table[name] = description
                 params.append(description)
         shown = [p for p in (foxglove_parameter(parameter_name(robot, node, d["name"]), d) for d in params
@@ -207,7 +194,7 @@ class RobotParameters:
         events, self._events = self._events, None
         if events is not None:
             with contextlib.suppress(Exception):
-                events.undeclare()
+                events.close()
 
 
 def _type_of(value: Any) -> str:

@@ -17,14 +17,12 @@ import json
 from collections.abc import AsyncIterator
 from typing import Any, Literal
 
-import zenoh
 from fastapi import APIRouter, Depends, HTTPException
 from fastapi.responses import StreamingResponse
 from pydantic import BaseModel, ConfigDict, Field
 
 import robots
 from server.deps import require_control, robot_on_link, valid_node, valid_robot
-from server.security import JsonLimitError, loads_limited
 from server.state import ServerState
 from wire import keys
 from wire.parameters import NodeSilent, ParameterClient, ParameterError, load_yaml_section
@@ -32,7 +30,6 @@ from wire.parameters import NodeSilent, ParameterClient, ParameterError, load_ya
 router = APIRouter(prefix="/api/robots/{robot}/params", tags=["parameters"], dependencies=[Depends(valid_robot)])
 EVENTS_KEEPALIVE_S = 15.0  # a comment line this often, so proxies and the browser see the stream alive
 EVENTS_QUEUE = 1000  # a browser this far behind loses events and is told to read everything again
-MAX_EVENT_BYTES = 256 << 10  # a node's change event: a few parameters' values, well under this
 ON_LINK = [Depends(robot_on_link), Depends(valid_node)]
 
 
@@ -147,6 +144,8 @@ async def diff_parameters(robot: str, node: str, model: str = "minibot",
     changes = []
     for p in live:
         in_yaml = p["name"] in section
+        if not in_yaml and p["default"] is None:  # a ROS 2 node says no defaults: nothing to compare with
+            continue
         expected = section[p["name"]] if in_yaml else p["default"]
         if expected != p["value"]:
             changes.append(Difference.model_validate({"name": p["name"], "live": p["value"], "yaml": expected,
@@ -158,14 +157,16 @@ async def diff_parameters(robot: str, node: str, model: str = "minibot",
 async def parameter_events(robot: str, node: str, state: ServerState = Depends(require_control)) -> StreamingResponse:
     """Server-sent events: one ``data:`` line (JSON ``{"node", "changed": {name: value}, "revisions": {name: n}}``)
     per accepted change of the node's parameters (``*``: every node of the robot), whoever made it: another
-    dashboard, the command line, or the node itself. ``event: resync`` says events were lost: read again."""
+    dashboard, ``ros2 param set``, or the node itself, as /parameter_events tells it. A pitchside node's values and
+    revisions are read together from the node (so a value is never paired with another's revision); a ROS 2
+    node's come as its event says, without revisions. ``event: resync`` says events were lost: read again."""
     if not (node == "*" or keys.is_valid_node_name(node)):  # the robot: valid_robot, as on every route here
         raise HTTPException(422, f"bad node name {node!r}: {keys.NODE_RULE} (or '*' for every node)")
-    session = await asyncio.to_thread(state.link.session)
+    client = await asyncio.to_thread(_client, state, robot)
     loop = asyncio.get_running_loop()
-    queue: asyncio.Queue[str | None] = asyncio.Queue(EVENTS_QUEUE)
+    queue: asyncio.Queue[tuple[str, dict[str, Any]] | None] = asyncio.Queue(EVENTS_QUEUE)
 
-    def put(item: str | None) -> None:
+    def put(item: tuple[str, dict[str, Any]] | None) -> None:
         try:
             queue.put_nowait(item)
         except asyncio.QueueFull:  # the browser is far behind: drop, then tell it to read everything again
@@ -174,11 +175,21 @@ async def parameter_events(robot: str, node: str, state: ServerState = Depends(r
                     queue.get_nowait()
             queue.put_nowait(None)
 
-    def on_sample(sample: zenoh.Sample) -> None:  # a Zenoh thread: hand over to the event loop
+    def on_change(name: str, changed: dict[str, Any]) -> None:  # a Zenoh thread: hand over to the event loop
         with contextlib.suppress(RuntimeError):  # the loop closed with the server
-            loop.call_soon_threadsafe(put, sample.payload.to_string())
+            loop.call_soon_threadsafe(put, (name, changed))
 
-    subscriber = await asyncio.to_thread(session.declare_subscriber, keys.params_changed_key(robot, node), on_sample)
+    events = await asyncio.to_thread(client.follow, node, on_change)
+
+    async def with_revisions(name: str, changed: dict[str, Any]) -> dict[str, Any]:
+        try:
+            states = await asyncio.to_thread(client.states, name, sorted(changed))
+        except ParameterError:  # gone meanwhile: the event as it came
+            states = {}
+        if not states:
+            return {"node": name, "changed": changed}
+        return {"node": name, "changed": {n: s["value"] for n, s in states.items()},
+                "revisions": {n: s["revision"] for n, s in states.items()}}
 
     async def stream() -> AsyncIterator[str]:
         try:
@@ -193,13 +204,14 @@ async def parameter_events(robot: str, node: str, state: ServerState = Depends(r
                 if item is None:
                     yield "event: resync\ndata: {}\n\n"
                     continue
-                try:  # written again by us: one line, whatever line breaks (CR too ends an SSE line) it held
-                    line = json.dumps(loads_limited(item, MAX_EVENT_BYTES), separators=(",", ":"), allow_nan=False)
-                except (JsonLimitError, ValueError):
-                    continue  # not ours (or too deep, too large): never pass on what the browser cannot read
+                event = await with_revisions(*item)
+                try:  # one line, whatever line breaks (CR too ends an SSE line) a value held
+                    line = json.dumps(event, separators=(",", ":"), allow_nan=False)
+                except ValueError:
+                    continue  # a value JSON cannot carry (NaN): never pass on what the browser cannot read
                 yield f"data: {line}\n\n"
         finally:
             with contextlib.suppress(Exception):
-                subscriber.undeclare()
+                await asyncio.to_thread(events.close)
 
     return StreamingResponse(stream(), media_type="text/event-stream", headers={"cache-control": "no-cache"})

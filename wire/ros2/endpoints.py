@@ -35,6 +35,13 @@ class Ros2ServiceError(Exception):
     """A service call that got no reply, or an error reply, in time."""
 
 
+class Ros2ServiceUnanswered(Ros2ServiceError):
+    """No server answered in time (none there yet, or gone): a caller may try again."""
+
+
+ZENOH_TIMEOUT = "Timeout"  # the error reply Zenoh itself gives a query that no queryable answered in time
+
+
 class Ros2Node:
     """A node's NN token and the ids of its entities (the node id is its first entity id, as in rmw_zenoh)."""
 
@@ -168,12 +175,15 @@ class Ros2Service:
     """A service server as rmw_zenoh's: a complete queryable on the service's key; a request without a valid
     attachment is dropped (counted), a reply carries the request's sequence number and client GID."""
 
-    def __init__(self, session: zenoh.Session, entity: Entity, handler: ServiceHandler) -> None:
+    def __init__(self, session: zenoh.Session, entity: Entity, handler: ServiceHandler,
+                 dispatch: Callable[[Callable[[], None]], None] | None = None) -> None:
+        """``dispatch``: where the handler runs (e.g. a node's loop); None: on the Zenoh thread of the request."""
         assert entity.topic is not None
         self.entity = entity
         self.dropped = 0
         self.failed = 0  # requests the handler raised on: answered with an error reply
         self._handler = handler
+        self._dispatch = dispatch
         self._queryable: Any = session.declare_queryable(entity.topic.keyexpr, self._on_query, complete=True)
         self._token = session.liveliness().declare_token(entity.token)
 
@@ -190,15 +200,25 @@ class Ros2Service:
                             self.entity.topic.name, exc)
             return
         payload = query.payload.to_bytes() if query.payload is not None else b""
+        if self._dispatch is None:
+            self._answer(query, payload, request)
+        else:
+            self._dispatch(lambda: self._answer(query, payload, request))
+
+    def _answer(self, query: zenoh.Query, payload: bytes, request: Attachment) -> None:
+        assert self.entity.topic is not None
         try:
-            response = self._handler(payload, request)
-        except Exception as exc:  # a bad request or a bug in the handler: the caller hears why, the server stays
-            self.failed += 1
-            log.warning("service %s failed on a request: %s", self.entity.topic.name, exc)
-            query.reply_err(f"{self.entity.topic.name}: {exc}")
-            return
-        reply = Attachment(request.sequence_number, time.time_ns(), request.gid)
-        query.reply(self.entity.topic.keyexpr, response, attachment=reply.encode())
+            try:
+                response = self._handler(payload, request)
+            except Exception as exc:  # a bad request or a bug in the handler: the caller hears why, the server stays
+                self.failed += 1
+                log.warning("service %s failed on a request: %s", self.entity.topic.name, exc)
+                query.reply_err(f"{self.entity.topic.name}: {exc}")
+                return
+            reply = Attachment(request.sequence_number, time.time_ns(), request.gid)
+            query.reply(self.entity.topic.keyexpr, response, attachment=reply.encode())
+        finally:  # the query is finished now, not when Python collects it (an exception's traceback holds it)
+            query.drop()
 
     def close(self) -> None:
         self._token.undeclare()
@@ -228,6 +248,8 @@ class Ros2Client:
         for reply in replies:
             if reply.ok is None:
                 why = reply.err.payload.to_string() if reply.err is not None else "an empty reply"
+                if why == ZENOH_TIMEOUT:
+                    break
                 raise Ros2ServiceError(f"{self.entity.topic.name}: {why}")
             sample = reply.ok
             if sample.attachment is None:
@@ -237,7 +259,7 @@ class Ros2Client:
                 raise Ros2ServiceError(f"{self.entity.topic.name}: a reply to request {attachment.sequence_number},"
                                        f" not to {sent.sequence_number}")
             return sample.payload.to_bytes(), attachment
-        raise Ros2ServiceError(f"{self.entity.topic.name}: no server answered within {timeout_s} s")
+        raise Ros2ServiceUnanswered(f"{self.entity.topic.name}: no server answered within {timeout_s} s")
 
     def close(self) -> None:
         self._token.undeclare()
