@@ -382,7 +382,20 @@ def test_ros2s_graph_lists_pitchsides_runtime_nodes(bus: BusConfig,
                   ("MP", "/rosout", "rcl_interfaces::msg::dds_::Log_", ":1:,1000:,:10,0:,,"),
                   ("MS", "/robot1/cmd_vel", "geometry_msgs::msg::dds_::Twist_", "::,10:,:,:,,"),
                   ("SS", "/robot1/manual_penalize", "humanoid_league_msgs::srv::dds_::ManualPenalize_",
-                   "::,10:,:,:,,")}
+                   "::,10:,:,:,,"),
+                  # every node's parameter changes and parameter services, with rclcpp's parameter QoS (depth 1000)
+                  ("MP", "/parameter_events", "rcl_interfaces::msg::dds_::ParameterEvent_", "::,1000:,:,:,,")}
+        wanted |= {("SS", f"/robot1/node/{name}", f"rcl_interfaces::srv::dds_::{ros_type}_", "::,1000:,:,:,,")
+                   for name, ros_type in [("list_parameters", "ListParameters"),
+                                          ("describe_parameters", "DescribeParameters"),
+                                          ("get_parameters", "GetParameters"), ("set_parameters", "SetParameters"),
+                                          ("set_parameters_atomically", "SetParametersAtomically"),
+                                          ("get_parameter_types", "GetParameterTypes")]}
+        # what rcl_interfaces has no field for: values with their revisions, the checked set, the YAML file
+        wanted |= {("SS", f"/robot1/node/pitchside/{name}", f"pitchside_msgs::srv::dds_::{ros_type}_", "::,1000:,:,:,,")
+                   for name, ros_type in [("get_parameter_states", "GetParameterStates"),
+                                          ("set_parameters_checked", "SetParametersChecked"),
+                                          ("parameter_file", "ParameterFile")]}
         wait_for(lambda: listed().get("/robot1/node") == wanted,
                  what=lambda: f"the node's tokens: {listed().get('/robot1/node')}")
         assert set(listed()) == {"/robot1/node"}  # ros2 node list
