@@ -11,6 +11,7 @@ import sys
 from pathlib import Path
 
 from server.config import RobotDescription, ServerConfig
+from server.profiles import ProfileError, Ros2Setup, load_profile, load_team, parse_domains
 from server.security.credentials import ENV_TOKEN
 from server.security.token_file import remove_token_file, write_token_file
 from wire.bus import add_bus_arguments, bus_from_arguments
@@ -45,6 +46,15 @@ def arguments(prog: str = "pitchside serve", description: str = "the pitchside d
     add_bus_arguments(p, connect_help="the team's Zenoh router (repeatable; default the one on this machine, "
                                       "tcp/127.0.0.1:7447); on another machine the server joins as a client")
     p.add_argument("--no-live", action="store_true", help="do not join the Zenoh network at start")
+    p.add_argument("--ros-domains", default=None, metavar="LIST",
+                   help="ROS 2 domains to listen to, e.g. 0,11-16 (default: ROS_DOMAIN_ID's, plus --ros-team's)")
+    p.add_argument("--ros-team", default=None, metavar="FILE",
+                   help="team file naming a robot per ROS 2 domain, a line each like '11: amy' (that domain's root "
+                        "topics are the robot's)")
+    p.add_argument("--ros-profile", default="pitchside", metavar="NAME|FILE",
+                   help="team profile mapping a team's topics onto the panels: pitchside, bitbots, or a YAML file")
+    p.add_argument("--ros-interfaces", default=None, metavar="DIR",
+                   help="the team's ROS 2 interface definitions (DIR/<package>/msg/*.msg, srv, action)")
     p.add_argument("--no-telemetry", action="store_true", help="do not listen for UDP telemetry")
     p.add_argument("--telemetry-host", default="", metavar="ADDRESS",
                    help="the address telemetry is heard on: where the robots send from (default every interface; "
@@ -104,6 +114,19 @@ def arguments(prog: str = "pitchside serve", description: str = "the pitchside d
     return p
 
 
+def ros2_setup(args: argparse.Namespace) -> Ros2Setup:
+    """The ROS 2 side of the live source from the --ros-* flags; SystemExit naming a bad flag or file."""
+    try:
+        domains = parse_domains(args.ros_domains) if args.ros_domains else None
+        team = load_team(Path(args.ros_team)) if args.ros_team else {}
+        interfaces = Path(args.ros_interfaces) if args.ros_interfaces else None
+        if interfaces is not None and not interfaces.is_dir():
+            raise ValueError(f"--ros-interfaces {interfaces} is not a folder")
+        return Ros2Setup(domains, team, load_profile(args.ros_profile), interfaces)
+    except (ValueError, ProfileError) as exc:
+        raise SystemExit(str(exc)) from None
+
+
 def config_from(args: argparse.Namespace) -> ServerConfig:
     bus = bus_from_arguments(args)
     secured = False
@@ -116,7 +139,8 @@ def config_from(args: argparse.Namespace) -> ServerConfig:
         if secured and not telemetry_key:
             found = team_key_beside(args.zenoh_config)
             telemetry_key = str(found) if found else None
-    packages = {}
+    ros2 = ros2_setup(args)
+    packages = dict(ros2.profile.packages)
     for item in args.package:
         name, sep, folder = item.partition("=")
         if not sep:
@@ -140,7 +164,7 @@ def config_from(args: argparse.Namespace) -> ServerConfig:
         return ServerConfig(match_mode=args.match, host=args.host, port=args.port, token=args.token, bus=bus,
                             allowed_hosts=args.allow_host, allowed_origins=args.allow_origin,
                             allowed_folders=[Path(f) for f in args.allow_folder], allow_dev_key=args.allow_dev_key,
-                            live_source=False if (args.no_live or args.match) else None,
+                            live_source=False if (args.no_live or args.match) else None, ros2=ros2,
                             telemetry_source=not args.no_telemetry, telemetry_host=args.telemetry_host,
                             telemetry_port=args.telemetry_port, telemetry_key=telemetry_key,
                             gc_monitor=args.gc_monitor, robot3d=args.robot3d, secured_team=secured,
