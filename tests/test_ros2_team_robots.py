@@ -8,6 +8,7 @@ pitchside's wire.ros2 or schemas, so the dashboard can only show it if it reads 
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 import struct
 import time
@@ -18,13 +19,14 @@ from typing import Any
 import numpy as np
 import pytest
 import zenoh
+import zenoh.ext
 from fastapi.testclient import TestClient
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
+from server.__main__ import arguments, config_from
 from server.app import create_app
-from server.config import ServerConfig
-from server.profiles import Ros2Setup, load_profile
-from tests.support import TESTDATA
+from server.robot3d import load_urdf, own_description
+from tests.support import REPO, TESTDATA
 from tests.waiting import wait_for
 from wire.bus import BusConfig, open_session
 
@@ -120,16 +122,26 @@ def amy(bus: BusConfig) -> Iterator[BitbotsRobot]:
     session.close()
 
 
-@pytest.fixture
-def dashboard(bus: BusConfig, tmp_path: Path) -> Iterator[TestClient]:
+@contextlib.contextmanager
+def serving(bus: BusConfig, tmp_path: Path, profile: str = "bitbots") -> Iterator[TestClient]:
     """The dashboard as `pitchside serve --ros-domains 0,11 --ros-team team.yaml --ros-profile bitbots
-    --ros-interfaces tests/data/ros2_interfaces` would make it, in this process."""
-    setup = Ros2Setup(domains=(0, DOMAIN), team={DOMAIN: "amy"}, profile=load_profile("bitbots"),
-                      interfaces=INTERFACES)
-    config = ServerConfig(bus=bus, telemetry_source=False, recordings_dir=tmp_path, auto_record_matches=False,
-                          ros2=setup)
+    --ros-interfaces tests/data/ros2_interfaces` makes it (the guide's command), in this process."""
+    team = tmp_path / "team.yaml"
+    team.write_text("11: amy\n12: rory\n")
+    args = arguments().parse_args(["--connect", *bus.connect, "--no-telemetry", "--ros-domains", "0,11",
+                                   "--ros-team", str(team), "--ros-profile", profile,
+                                   "--ros-interfaces", str(INTERFACES)])
+    config = config_from(args)
+    assert config.ros2.listened() == (0, 11, 12)  # the team file's domains are listened to as well
+    config.recordings_dir, config.auto_record_matches = tmp_path, False
     with TestClient(create_app(config), base_url="http://127.0.0.1",
                     headers={"Authorization": f"Bearer {config.token}"}) as client:
+        yield client
+
+
+@pytest.fixture
+def dashboard(bus: BusConfig, tmp_path: Path) -> Iterator[TestClient]:
+    with serving(bus, tmp_path) as client:
         yield client
 
 
@@ -228,3 +240,43 @@ def test_bad_samples_from_a_ros2_robot_are_counted_and_nothing_crashes(amy: Bitb
     wait_for(lambda: amy.put("robot_state", state) or any(r["robot"] == "amy"
                                                           for r in dashboard.get("/api/robots").json()),
              10.0, 0.05, "amy's good data after the bad")
+
+
+def test_a_latched_robot_description_reaches_a_dashboard_started_later(bus: BusConfig, tmp_path: Path) -> None:
+    """rmw_zenoh keeps a transient local topic in a zenoh-ext cache; the 3D view takes the robot's own URDF from it,
+    its meshes through the profile's package:// map."""
+    wolfgang = TESTDATA / "robots" / "wolfgang"
+    profile = tmp_path / "bitbots_lab.yaml"  # the shipped profile, plus where this laptop keeps the meshes
+    profile.write_text((REPO / "server" / "profiles" / "bitbots.yaml").read_text()
+                       + f"packages:\n  wolfgang_description: {wolfgang}\n")
+    session = open_session(bus)
+    robot = BitbotsRobot(session)
+    robot.node("robot_state_publisher")
+    string_hash = robot.hash("std_msgs/msg/String")
+    robot.tokens.append(session.liveliness().declare_token(
+        f"@ros2_lv/{DOMAIN}/{robot.zid}/1/2/MP/%/%/robot_state_publisher/%robot_description/"
+        f"std_msgs::msg::dds_::String_/{string_hash}/:1:,1:,:,:,,"))  # transient local, keep last 1
+    urdf = (wolfgang / "urdf" / "robot.urdf").read_text()
+    latched = zenoh.ext.declare_advanced_publisher(
+        session, f"{DOMAIN}/robot_description/std_msgs::msg::dds_::String_/{string_hash}",
+        cache=zenoh.ext.CacheConfig(max_samples=1), publisher_detection=True)
+    gid = bytes(range(16))
+    latched.put(robot.cdr("std_msgs/msg/String", data=urdf),
+                attachment=struct.pack("<qqB", 1, time.time_ns(), len(gid)) + gid)
+    try:
+        with serving(bus, tmp_path, str(profile)) as dashboard:  # started after the robot said it, once
+            def described() -> bool:
+                robots = {r["robot"]: r for r in dashboard.get("/api/robots").json()}
+                return "robot_description" in robots.get("amy", {}).get("streams", {})
+
+            wait_for(described, 10.0, 0.05, "amy's latched robot_description")
+            state = dashboard.app.state.pitchside  # type: ignore[attr-defined]
+            own = own_description(state.hub, state.config, "amy", tmp_path)
+            assert own is not None and own.urdf.read_text() == urdf
+            assert own.packages == {"wolfgang_description": wolfgang.resolve()}
+            model = load_urdf(own)  # every package:// mesh found through the profile's map
+            assert "HeadPan" in model.actuated_joint_names and len(model.scene.geometry) > 20
+    finally:
+        latched.undeclare()
+        robot.close()
+        session.close()

@@ -17,6 +17,7 @@ from collections import Counter, deque
 from typing import Any
 
 import zenoh
+import zenoh.ext
 
 import schemas
 from schemas.interface_folder import InterfaceFolderError, register_interfaces
@@ -102,7 +103,7 @@ class LiveZenohSource(Source):
         self._warned: set[tuple[str, str]] = set()  # (reason, key) logged once
         self._lock = threading.Lock()
         self._scheduled = False
-        self._subs: list[zenoh.Subscriber] = []
+        self._subs: list[Any] = []
         self._loop: asyncio.AbstractEventLoop | None = None
 
     async def start(self) -> None:
@@ -118,7 +119,11 @@ class LiveZenohSource(Source):
                 raise SourceError(self.error) from exc
         try:
             session = await asyncio.to_thread(self.link.session)
-            self._subs = [session.declare_subscriber(key, self._on_sample) for key in subscribe_keys(self.setup)]
+            # an advanced subscriber with history: latched topics (robot_description, tf_static; rmw_zenoh's
+            # transient local publishers keep them in a zenoh-ext cache) reach a dashboard started after the robot
+            self._subs = [zenoh.ext.declare_advanced_subscriber(
+                session, key, self._on_sample, history=zenoh.ext.HistoryConfig(detect_late_publishers=True))
+                for key in subscribe_keys(self.setup)]
             self.robots = await asyncio.to_thread(Ros2Robots, session, self.setup)
         except zenoh.ZError as exc:
             self.error = f"cannot join the Zenoh network: {exc}"
