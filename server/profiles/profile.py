@@ -30,6 +30,7 @@ from typing import Any
 import yaml
 
 import schemas
+from server.profiles.images import CONVERTERS
 from wire import keys
 
 # A standard type reaches its panel by type when the profile names no topic of it (the panels subscribe to these
@@ -40,6 +41,7 @@ DEFAULT_BY_TYPE: dict[str, str] = {
     "diagnostic_msgs/msg/DiagnosticArray": "diagnostics",
     "rcl_interfaces/msg/Log": "rosout",
     "sensor_msgs/msg/CompressedImage": "camera/image/compressed",
+    "sensor_msgs/msg/Image": "camera/image/compressed",  # made a JPEG on the way (server.profiles.images)
     "sensor_msgs/msg/CameraInfo": "camera/camera_info",
 }
 SHIPPED = ("pitchside", "bitbots")
@@ -89,7 +91,8 @@ class TeamProfile:
         if mapped is not None and mapped.ros_type == ros_type:
             return mapped.panel, mapped
         panel = self.by_type.get(ros_type)
-        if panel is not None and schemas.topic(panel).type == ros_type:
+        if panel is not None and (schemas.topic(panel).type == ros_type
+                                  or (ros_type, schemas.topic(panel).type) in CONVERTERS):
             return panel, None
         return None
 
@@ -137,7 +140,12 @@ def profile_from(data: Any, file: Path | None = None) -> TeamProfile:
         topics[name] = PanelTopic(name, _ros_type(spec["type"], here), _panel(spec["panel"], here), fields)
     by_type = dict(DEFAULT_BY_TYPE)
     for ros_type, panel in (data.get("by_type") or {}).items():
-        by_type[_ros_type(ros_type, f"{where}: by_type")] = _panel(panel, f"{where}: by_type.{ros_type}")
+        wire_type, here = _ros_type(ros_type, f"{where}: by_type"), f"{where}: by_type.{ros_type}"
+        panel_type = schemas.topic(_panel(panel, here)).type
+        if panel_type != wire_type and (wire_type, panel_type) not in CONVERTERS:
+            raise ProfileError(f"{here}: the panel topic {panel} is a {panel_type}; a {wire_type} needs a mapping "
+                               "under topics")
+        by_type[wire_type] = panel
     base = file.parent if file is not None else Path.cwd()
     packages = {str(k): (base / str(v)).resolve() for k, v in (data.get("packages") or {}).items()}
     return TeamProfile(data["name"], topics, by_type, packages, file)

@@ -59,7 +59,7 @@ def _convert(value: Any, fieldtype: tuple[Any, ...], where: str) -> Any:
             return bool(value)
         return float(value) if base.startswith("float") else int(value)
     if kind == _NAME:
-        return _build(detail, value, {}, where)
+        return _build(detail, value, {}, value, where)
     element, _ = detail
     items = list(value) if isinstance(value, np.ndarray | list | tuple) else [value]
     return [_convert(item, element, f"{where}.{i}") for i, item in enumerate(items)]
@@ -76,14 +76,16 @@ def _source(spec: FieldSource, message: Any) -> Any:
     return yaw_of(found) if spec.yaw else found
 
 
-def _build(panel_type: str, message: Any, fields: dict[str, FieldSource], where: str) -> Any:
+def _build(panel_type: str, message: Any, fields: dict[str, FieldSource], root: Any, where: str) -> Any:
+    """The panel type's message: explicit fields from paths in ``root`` (the team's whole message), the others
+    from ``message``'s fields of the same name (the part of the team's message at this level)."""
     values: dict[str, Any] = {}
     for name, fieldtype in codec.typestore().fielddefs[codec.full_name(panel_type)][1]:
         nested = {k.split(".", 1)[1]: v for k, v in fields.items() if k.startswith(name + ".")}
         if name in fields:
-            value = _source(fields[name], message)
+            value = _source(fields[name], root)
         elif nested and fieldtype[0] == _NAME:
-            values[name] = _build(str(fieldtype[1]), getattr(message, name, None), nested, f"{where}.{name}")
+            values[name] = _build(str(fieldtype[1]), getattr(message, name, None), nested, root, f"{where}.{name}")
             continue
         else:
             value = getattr(message, name, _MISSING) if message is not None else _MISSING
@@ -98,4 +100,4 @@ def _build(panel_type: str, message: Any, fields: dict[str, FieldSource], where:
 
 def translate(mapping: PanelTopic, message: Any) -> Any:
     """The panel's message (pitchside's type) made from the team's decoded message."""
-    return _build(mapping.panel_type, message, mapping.fields, mapping.panel)
+    return _build(mapping.panel_type, message, mapping.fields, message, mapping.panel)

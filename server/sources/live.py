@@ -23,6 +23,7 @@ import schemas
 from schemas.interface_folder import InterfaceFolderError, register_interfaces
 from server.hub import Hub, HubMessage
 from server.profiles import Refusal, Ros2Setup, Route, RouteRefused, route, translate
+from server.profiles.images import CONVERTERS
 from server.profiles.routes import ROSOUT
 from server.sources import Source, SourceError
 from server.sources.ros2_robots import Ros2Robots
@@ -214,6 +215,10 @@ class LiveZenohSource(Source):
                 self._refuse(key, RouteRefused(Refusal.NO_ROBOT, f"a {ROSOUT} record of no robot's node"))
                 return None
             stamp = stamp_of(payload, found.wire_type)
+            converter = CONVERTERS.get((found.wire_type, found.typename))
+            if converter is not None:  # a raw image as the camera panel's JPEG
+                return HubMessage(robot, found.topic, found.typename, stamp, converter(wire_message), self.name,
+                                  sent=sent)
             if found.mapping is None:
                 return HubMessage(robot, found.topic, found.typename, stamp, payload, self.name, sent=sent,
                                   decoded=wire_message)
