@@ -11,7 +11,7 @@ import sys
 from pathlib import Path
 
 from server.config import RobotDescription, ServerConfig
-from server.profiles import ProfileError, Ros2Setup, load_profile, load_team, parse_domains
+from server.profiles.flags import add_ros2_arguments, ros2_setup
 from server.security.credentials import ENV_TOKEN
 from server.security.token_file import remove_token_file, write_token_file
 from wire.bus import add_bus_arguments, bus_from_arguments
@@ -46,15 +46,7 @@ def arguments(prog: str = "pitchside serve", description: str = "the pitchside d
     add_bus_arguments(p, connect_help="the team's Zenoh router (repeatable; default the one on this machine, "
                                       "tcp/127.0.0.1:7447); on another machine the server joins as a client")
     p.add_argument("--no-live", action="store_true", help="do not join the Zenoh network at start")
-    p.add_argument("--ros-domains", default=None, metavar="LIST",
-                   help="ROS 2 domains to listen to, e.g. 0,11-16 (default: ROS_DOMAIN_ID's, plus --ros-team's)")
-    p.add_argument("--ros-team", default=None, metavar="FILE",
-                   help="team file naming a robot per ROS 2 domain, a line each like '11: amy' (that domain's root "
-                        "topics are the robot's)")
-    p.add_argument("--ros-profile", default="pitchside", metavar="NAME|FILE",
-                   help="team profile mapping a team's topics onto the panels: pitchside, bitbots, or a YAML file")
-    p.add_argument("--ros-interfaces", default=None, metavar="DIR",
-                   help="the team's ROS 2 interface definitions (DIR/<package>/msg/*.msg, srv, action)")
+    add_ros2_arguments(p)
     p.add_argument("--no-telemetry", action="store_true", help="do not listen for UDP telemetry")
     p.add_argument("--telemetry-host", default="", metavar="ADDRESS",
                    help="the address telemetry is heard on: where the robots send from (default every interface; "
@@ -112,19 +104,6 @@ def arguments(prog: str = "pitchside serve", description: str = "the pitchside d
     p.add_argument("--replay", default=None, metavar="FILE", help="open this MCAP log in the replay source")
     p.add_argument("--log-level", default="INFO")
     return p
-
-
-def ros2_setup(args: argparse.Namespace) -> Ros2Setup:
-    """The ROS 2 side of the live source from the --ros-* flags; SystemExit naming a bad flag or file."""
-    try:
-        domains = parse_domains(args.ros_domains) if args.ros_domains else None
-        team = load_team(Path(args.ros_team)) if args.ros_team else {}
-        interfaces = Path(args.ros_interfaces) if args.ros_interfaces else None
-        if interfaces is not None and not interfaces.is_dir():
-            raise ValueError(f"--ros-interfaces {interfaces} is not a folder")
-        return Ros2Setup(domains, team, load_profile(args.ros_profile), interfaces)
-    except (ValueError, ProfileError) as exc:
-        raise SystemExit(str(exc)) from None
 
 
 def config_from(args: argparse.Namespace) -> ServerConfig:
