@@ -40,6 +40,8 @@ MAX_PENDING = 50_000
 MAX_PENDING_BYTES = 32 << 20
 MAX_ROUTES = 4096  # routes kept per key (a bus has few keys; a flood of made-up keys only empties the cache)
 BAD_NAMES = (Refusal.BAD_KEY, Refusal.BAD_NAME)
+# normal on a ROS 2 bus (/parameter_events, /clock of the root namespace; an action's hidden topics): counted only
+QUIET = (Refusal.NO_ROBOT, Refusal.HIDDEN)
 
 
 def subscribe_keys(setup: Ros2Setup) -> list[str]:
@@ -174,6 +176,8 @@ class LiveZenohSource(Source):
             self.bad_names += 1  # a name that breaks the rules never reaches the hub (or a page)
             if self.bad_names in (1, 10, 100, 1000) or self.bad_names % 10000 == 0:
                 log.warning("live: dropped %d messages with bad names, latest: %s", self.bad_names, refusal)
+            return
+        if refusal.reason in QUIET:
             return
         if refusal.reason is Refusal.DEFINITION_MISSING and refusal.key is not None:
             self.missing.add(refusal.key.ros_type)
