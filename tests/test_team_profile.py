@@ -154,3 +154,27 @@ def test_a_raw_image_becomes_the_camera_panels_jpeg() -> None:
         jpeg_of(codec.make("sensor_msgs/msg/Image", height=1, width=1, encoding="16UC1", step=2, data=[0, 0]))
     with pytest.raises(ImageEncodingError, match="needs"):
         jpeg_of(codec.make("sensor_msgs/msg/Image", height=2, width=2, encoding="mono8", step=2, data=[0]))
+
+
+def test_the_demo_hands_its_ros2_flags_to_its_dashboard(tmp_path: Path) -> None:
+    import argparse
+
+    from pitchside.demo import demo_processes
+    from server.__main__ import arguments, config_from
+    from server.profiles.flags import add_ros2_arguments, ros2_flags
+
+    team = tmp_path / "team.yaml"
+    team.write_text("11: amy\n")
+    parser = argparse.ArgumentParser()
+    add_ros2_arguments(parser)
+    given = parser.parse_args(["--ros-domains", "0,11-12", "--ros-team", str(team), "--ros-profile", "bitbots",
+                               "--ros-interfaces", str(INTERFACES)])
+    flags = ros2_flags(given)
+    (server,) = [p for p in demo_processes(1, "tcp/127.0.0.1:7447", 8080, 5800, "minibot", False, [3838], 3939,
+                                           server_flags=flags) if p.name == "server"]
+    assert server.argv[-len(flags):] == flags
+    config = config_from(arguments().parse_args(server.argv[server.argv.index("server") + 1:]))
+    assert config.ros2.listened() == (0, 11, 12) and config.ros2.team == {11: "amy"}
+    assert config.ros2.profile.name == "bitbots" and config.ros2.interfaces == INTERFACES.resolve()
+    with pytest.raises(SystemExit, match="not a folder"):
+        config_from(arguments().parse_args(["--ros-interfaces", str(tmp_path / "absent")]))
