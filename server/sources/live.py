@@ -122,17 +122,23 @@ class LiveZenohSource(Source):
                 raise SourceError(self.error) from exc
         try:
             session = await asyncio.to_thread(self.link.session)
+            self.robots = await asyncio.to_thread(Ros2Robots, session, self.setup)
+            # running before the first sample can be drained: the latched ones come at once (the drain, on this
+            # loop, may run while the subscribers are being declared)
+            self.running = True
             # an advanced subscriber with history: latched topics (robot_description, tf_static; rmw_zenoh's
             # transient local publishers keep them in a zenoh-ext cache) reach a dashboard started after the robot
-            self._subs = [zenoh.ext.declare_advanced_subscriber(
-                session, key, self._on_sample, history=zenoh.ext.HistoryConfig(detect_late_publishers=True))
-                for key in subscribe_keys(self.setup)]
-            self.robots = await asyncio.to_thread(Ros2Robots, session, self.setup)
+            self._subs = await asyncio.to_thread(self._subscribe, session)
         except zenoh.ZError as exc:
+            await self.stop()
             self.error = f"cannot join the Zenoh network: {exc}"
             raise SourceError(self.error) from exc
         self.error = ""
-        self.running = True
+
+    def _subscribe(self, session: zenoh.Session) -> list[Any]:
+        return [zenoh.ext.declare_advanced_subscriber(
+            session, key, self._on_sample, history=zenoh.ext.HistoryConfig(detect_late_publishers=True))
+            for key in subscribe_keys(self.setup)]
 
     async def stop(self) -> None:
         self.running = False
