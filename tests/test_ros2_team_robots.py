@@ -155,7 +155,7 @@ def test_a_bitbots_robot_in_its_own_domain_is_shown_as_amy(amy: BitbotsRobot, da
         found = dashboard.get("/api/ros2/robots").json()["robots"]
         return next((r for r in found if r["robot"] == "amy" and len(r["topics"]) == 7), None)
 
-    robot = wait_for(ros2_amy, 20.0, what="amy from her tokens")
+    robot = wait_for(ros2_amy, 30.0, what="amy from her tokens")
     assert robot["domain"] == DOMAIN
     assert robot["nodes"] == ["/game_controller", "/hcm", "/ros_control"]
     topics = {t["name"]: (t["status"], t["panel"]) for t in robot["topics"]}
@@ -191,7 +191,7 @@ def test_a_bitbots_robot_in_its_own_domain_is_shown_as_amy(amy: BitbotsRobot, da
         return "amy" in robots and {"robot_state", "gamestate", "joint_states", "rosout"} <= set(
             robots["amy"]["streams"])
 
-    wait_for(published, 20.0, 0.05, "amy's messages in the dashboard")
+    wait_for(published, 30.0, 0.05, "amy's messages in the dashboard")
     robots = {r["robot"]: r for r in dashboard.get("/api/robots").json()}
     assert set(robots) == {"amy"}
     assert robots["amy"]["streams"]["robot_state"]["msgtype"] == "humanoid_league_msgs/msg/RobotControlState"
@@ -233,7 +233,7 @@ def test_bad_samples_from_a_ros2_robot_are_counted_and_nothing_crashes(amy: Bitb
               and status["undecodable"] >= 2)
         return status if ok else None
 
-    status = wait_for(counted, 20.0, 0.05, lambda: f"the bad samples counted: {live_status(dashboard)}")
+    status = wait_for(counted, 30.0, 0.05, lambda: f"the bad samples counted: {live_status(dashboard)}")
     assert status["definitions_missing"] == [MISSING_TYPE]
     assert status["running"] and status["bad_names"] == 0
     assert dashboard.get("/api/robots").json() == []  # none of it reached the hub
@@ -241,7 +241,7 @@ def test_bad_samples_from_a_ros2_robot_are_counted_and_nothing_crashes(amy: Bitb
     state = amy.cdr("bitbots_msgs/msg/RobotControlState", state=10)  # the robot's good data still passes
     wait_for(lambda: amy.put("robot_state", state) or any(r["robot"] == "amy"
                                                           for r in dashboard.get("/api/robots").json()),
-             20.0, 0.05, "amy's good data after the bad")
+             30.0, 0.05, "amy's good data after the bad")
 
 
 def test_a_latched_robot_description_reaches_a_dashboard_started_later(bus: BusConfig, tmp_path: Path) -> None:
@@ -271,7 +271,7 @@ def test_a_latched_robot_description_reaches_a_dashboard_started_later(bus: BusC
                 robots = {r["robot"]: r for r in dashboard.get("/api/robots").json()}
                 return "robot_description" in robots.get("amy", {}).get("streams", {})
 
-            wait_for(described, 20.0, 0.05, "amy's latched robot_description")
+            wait_for(described, 30.0, 0.05, "amy's latched robot_description")
             state = dashboard.app.state.pitchside  # type: ignore[attr-defined]
             own = own_description(state.hub, state.config, "amy", tmp_path)
             assert own is not None and own.urdf.read_text() == urdf
