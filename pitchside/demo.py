@@ -24,6 +24,7 @@ from pitchside.local_run import (
 )
 from pitchside.robot import MOTION_NODES, available, simulated_robots
 from robot_nodes.launch import COMPOSE_HELP, NodeProcess, RobotNodes, process_groups
+from server.profiles.flags import add_ros2_arguments, ros2_flags, ros2_setup
 from server.security.credentials import ENV_TOKEN, new_token
 from wire.command_line import CommandParser
 
@@ -35,11 +36,12 @@ def demo_processes(robots: int, endpoint: str, http_port: int, telemetry_port: i
                    match: bool, gc_ports: list[int], gc_return_port: int,
                    token: str = "",
                    telemetry_key: Path | None = None, compose: str = "all", cameras: int = 1,
-                   robots_per_process: int = 1) -> list[NodeProcess]:
+                   robots_per_process: int = 1, server_flags: list[str] | None = None) -> list[NodeProcess]:
     """Every process of the demo.
 
     token: the dashboard's control token; telemetry_key: a key file the robots and the dashboard share;
-    robots_per_process: with compose "all", that many robots' nodes share a process (shared_process)."""
+    robots_per_process: with compose "all", that many robots' nodes share a process (shared_process);
+    server_flags: more flags of the dashboard (the --ros-* ones: ROS 2 robots of other teams beside the demo's)."""
     py = sys.executable
     connect = ["--connect", endpoint]
     world = [py, "-m", "robot_nodes.cm730.sim", "--robots", str(robots), "--cameras", str(cameras), *connect,
@@ -64,7 +66,8 @@ def demo_processes(robots: int, endpoint: str, http_port: int, telemetry_port: i
     for port in gc_ports:
         gc += ["--to", f"127.0.0.1:{port}"]
     processes.append(NodeProcess("gamecontroller", gc))
-    processes.append(server_process(http_port, telemetry_port, model, [endpoint], match, token, telemetry_key))
+    processes.append(server_process(http_port, telemetry_port, model, [endpoint], match, token, telemetry_key,
+                                    server_flags or []))
     return world_first(processes)
 
 
@@ -83,7 +86,9 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--robots-per-process", type=int, default=ROBOTS_PER_PROCESS,
                         help=f"with --compose all: how many robots' nodes share a process (default "
                              f"{ROBOTS_PER_PROCESS}; 1: a process per robot, as on real robots)")
+    add_ros2_arguments(parser)
     args = parser.parse_args(argv)
+    ros2_setup(args)  # a bad --ros-* flag or file is said here, not by the dashboard's process later
     if args.robots_per_process < 1:
         parser.error("--robots-per-process must be at least 1")
     try:
@@ -101,7 +106,7 @@ def main(argv: list[str] | None = None) -> None:
     token = os.environ.get(ENV_TOKEN) or new_token()
     run_on_this_machine("demo", endpoint, http_port, token, lambda key: demo_processes(
         args.robots, endpoint, http_port, telemetry_port, args.model, args.match, gc_ports, gc_return_port, token,
-        key, args.compose, args.cameras, args.robots_per_process))
+        key, args.compose, args.cameras, args.robots_per_process, ros2_flags(args)))
 
 
 if __name__ == "__main__":

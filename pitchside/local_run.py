@@ -10,7 +10,7 @@ from __future__ import annotations
 import socket
 import sys
 import tempfile
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import robots as descriptions
@@ -70,7 +70,7 @@ def telemetry_image_rate() -> float:
 
 
 def server_process(http_port: int, telemetry_port: int, model: str, connect: list[str], match: bool,
-                   token: str = "", telemetry_key: Path | None = None) -> NodeProcess:
+                   token: str = "", telemetry_key: Path | None = None, extra: Sequence[str] = ()) -> NodeProcess:
     """The dashboard: telemetry on loopback, the 3D robot and plots; in match mode it hears telemetry only.
 
     token: the dashboard's control token (handed over in the environment, not on the command line where other
@@ -83,6 +83,7 @@ def server_process(http_port: int, telemetry_port: int, model: str, connect: lis
     server += ["--telemetry-key", str(telemetry_key)] if telemetry_key else ["--allow-dev-key"]
     if match:
         server.append("--match")
+    server += extra  # e.g. the ROS 2 robots to show (server.__main__.ros2_flags)
     return NodeProcess("server", server, env={ENV_TOKEN: token} if token else {})
 
 

@@ -35,3 +35,18 @@ def load_interfaces(folder: Path) -> Typesdict:
         except Exception as exc:  # rosbags raises its own parse errors; name the file the user must fix
             raise InterfaceFolderError(f"{path}: {exc}") from exc
     return types
+
+
+def register_interfaces(folder: Path) -> list[str]:
+    """Adds the folder's message types to the process's typestore (schemas.codec), so they decode, hash and show
+    like pitchside's own; returns the names added. A type the store already has (a standard type, pitchside's) is
+    never redefined: the folder's copy is left out."""
+    from schemas.codec import typestore
+
+    store = typestore()
+    new = {name: fields for name, fields in load_interfaces(folder).items() if name not in store.fielddefs}
+    try:
+        store.register(new)
+    except Exception as exc:  # rosbags' TypesysError: a definition refers to a type no one defines
+        raise InterfaceFolderError(f"{folder}: {exc}") from exc
+    return sorted(new)

@@ -11,6 +11,7 @@ import sys
 from pathlib import Path
 
 from server.config import RobotDescription, ServerConfig
+from server.profiles.flags import add_ros2_arguments, ros2_setup
 from server.security.credentials import ENV_TOKEN
 from server.security.token_file import remove_token_file, write_token_file
 from wire.bus import add_bus_arguments, bus_from_arguments
@@ -45,6 +46,7 @@ def arguments(prog: str = "pitchside serve", description: str = "the pitchside d
     add_bus_arguments(p, connect_help="the team's Zenoh router (repeatable; default the one on this machine, "
                                       "tcp/127.0.0.1:7447); on another machine the server joins as a client")
     p.add_argument("--no-live", action="store_true", help="do not join the Zenoh network at start")
+    add_ros2_arguments(p)
     p.add_argument("--no-telemetry", action="store_true", help="do not listen for UDP telemetry")
     p.add_argument("--telemetry-host", default="", metavar="ADDRESS",
                    help="the address telemetry is heard on: where the robots send from (default every interface; "
@@ -116,7 +118,8 @@ def config_from(args: argparse.Namespace) -> ServerConfig:
         if secured and not telemetry_key:
             found = team_key_beside(args.zenoh_config)
             telemetry_key = str(found) if found else None
-    packages = {}
+    ros2 = ros2_setup(args)
+    packages = dict(ros2.profile.packages)
     for item in args.package:
         name, sep, folder = item.partition("=")
         if not sep:
@@ -140,7 +143,7 @@ def config_from(args: argparse.Namespace) -> ServerConfig:
         return ServerConfig(match_mode=args.match, host=args.host, port=args.port, token=args.token, bus=bus,
                             allowed_hosts=args.allow_host, allowed_origins=args.allow_origin,
                             allowed_folders=[Path(f) for f in args.allow_folder], allow_dev_key=args.allow_dev_key,
-                            live_source=False if (args.no_live or args.match) else None,
+                            live_source=False if (args.no_live or args.match) else None, ros2=ros2,
                             telemetry_source=not args.no_telemetry, telemetry_host=args.telemetry_host,
                             telemetry_port=args.telemetry_port, telemetry_key=telemetry_key,
                             gc_monitor=args.gc_monitor, robot3d=args.robot3d, secured_team=secured,

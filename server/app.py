@@ -28,6 +28,7 @@ from server.routers import (
     replay,
     robot3d,
     robots,
+    ros2,
     session,
     sources,
     state_graphs,
@@ -52,7 +53,7 @@ def create_app(config: ServerConfig) -> FastAPI:
     hub = Hub(config.queue_size)
     link = ZenohLink(config.bus, config.match_mode)
     feeds: list[Source] = [
-        LiveZenohSource(hub, link),
+        LiveZenohSource(hub, link, config.ros2),
         TelemetrySource(hub, config.telemetry_host, config.telemetry_port, config.telemetry_key),
     ]
     if config.gc_monitor:  # asks the GameController, never a robot: allowed in match mode too
@@ -95,7 +96,7 @@ def create_app(config: ServerConfig) -> FastAPI:
     recording = attach_recording(state)
     install_error_statuses(app)
     for module in (recordings, replay, session, dashboard, robots, message_schemas, sources, parameters, animations,
-                   teleop, ws, plots, robot3d, state_graphs, graph, foxglove):
+                   teleop, ws, plots, robot3d, state_graphs, graph, foxglove, ros2):
         app.include_router(module.router)
     app.mount("/", StaticFiles(directory=config.web_dir, html=True), name="web")
     return app

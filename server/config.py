@@ -8,6 +8,7 @@ from pathlib import Path
 
 import robots
 import web
+from server.profiles.team import Ros2Setup
 from server.security.credentials import ENV_TOKEN, new_token
 from wire.bus import BusConfig
 from wire.machine import is_loopback
@@ -44,6 +45,8 @@ class ServerConfig:
     max_body_bytes: int = 4 << 20
     bus: BusConfig = field(default_factory=BusConfig)
     live_source: bool | None = None  # None: on outside match mode, off in match mode
+    # the ROS 2 domains the live source listens to, the team file's robots, the team profile, interface folder
+    ros2: Ros2Setup = field(default_factory=Ros2Setup)
     telemetry_source: bool = True
     # where telemetry is heard: "" chooses by mode (every interface, except a secured team's lab dashboard, whose
     # robots talk over the bus: loopback)

@@ -13,6 +13,7 @@ import asyncio
 import contextlib
 import logging
 import math
+import tempfile
 import threading
 from pathlib import Path
 from typing import Any
@@ -68,6 +69,27 @@ def package_resolver(description: RobotDescription) -> Any:
         return str(yourdfpy.filename_handler_magic(fname, dir=base))
 
     return handler
+
+
+OWN_DESCRIPTION = "robot_description"  # the robot's own URDF, latched (robot_state_publisher's topic)
+
+
+def own_description(hub: Hub, config: ServerConfig, robot: str, folder: Path) -> RobotDescription | None:
+    """The robot's own URDF from its robot_description topic, written into ``folder``, with the ``package://``
+    folders configured (--package, the team profile's packages); None when it sent none or a URDF is given for this
+    robot by name (--urdf ROBOT=PATH wins over what the robot says)."""
+    if robot in config.descriptions:
+        return None
+    latest = hub.latest.get((robot, OWN_DESCRIPTION))
+    if latest is None or latest.typename != "std_msgs/msg/String":
+        return None
+    path = folder / f"{robot}.urdf"
+    path.write_text(own_text(latest))
+    return RobotDescription(path, config.description_for(robot).packages)
+
+
+def own_text(msg: HubMessage) -> str:
+    return str(getattr(msg.message, "data", ""))
 
 
 def load_urdf(description: RobotDescription) -> Any:
@@ -267,6 +289,8 @@ class Robot3DView:
         self.previews: dict[str, RobotModel] = {}  # robot -> the editor's preview ghost, only while it plays
         self.hidden: set[str] = set()  # figures the user hid (kept for a figure that comes back, e.g. a preview)
         self._forgetting: set[asyncio.Task[None]] = set()
+        self._own = tempfile.TemporaryDirectory(prefix="pitchside-urdf-")  # robots' own URDFs (robot_description)
+        self.described: dict[str, str] = {}  # robot -> the URDF of its own it is shown with
 
     async def start(self) -> None:
         import viser
@@ -294,6 +318,7 @@ class Robot3DView:
         self._sub = self.hub.subscribe("robot3d", maxlen=64)
         self.hub.on_robot_gone(self._on_gone)
         self._sub.subscribe("*", "joint_states", max_hz=self.config.robot3d_max_hz)
+        self._sub.subscribe("*", OWN_DESCRIPTION)
         self._task = asyncio.create_task(self._run())
 
     async def _run(self) -> None:
@@ -302,6 +327,11 @@ class Robot3DView:
             await self._sub.wait()
             newest: dict[str, HubMessage] = {}
             for msg in self._sub.drain():
+                if msg.topic == OWN_DESCRIPTION:  # a URDF of its own, or a new one: the robot is shown anew with it
+                    shown = msg.robot in self.robots or msg.robot in self.failed
+                    if shown and self.described.get(msg.robot) != own_text(msg):
+                        await self.forget(msg.robot)
+                    continue
                 newest[msg.robot] = msg
             for robot in newest:
                 if robot not in self.robots and robot not in self.failed:
@@ -326,7 +356,12 @@ class Robot3DView:
 
     def _add_model(self, robot: str) -> None:
         kind = kind_of(robot)
-        model = RobotModel(self.server, robot, self.config.description_for(robot), len(self.robots),
+        own = own_description(self.hub, self.config, robot, Path(self._own.name))
+        if own is not None:
+            self.described[robot] = own.urdf.read_text()
+        else:
+            self.described.pop(robot, None)
+        model = RobotModel(self.server, robot, own or self.config.description_for(robot), len(self.robots),
                            color=KIND_RGBA[kind], label=robot, label_height_m=LABEL_HEIGHT_M[kind])
         model.visible = robot not in self.hidden
         self.robots[robot] = model
@@ -408,3 +443,4 @@ class Robot3DView:
             self._sub.close()
         if self.server is not None:
             await asyncio.to_thread(self.server.stop)
+        self._own.cleanup()
