@@ -165,11 +165,11 @@ def label_of(cmdline: list[str]) -> str | None:
     if "-m" not in cmdline:
         return None
     module = cmdline[cmdline.index("-m") + 1]
-    if module == "robot_nodes.cm730.sim":
+    if module == "robot_nodes.sim":
         return "world"
     if module == "server":
         return "server"
-    if module == "robot_nodes.game_controller.simulator":
+    if module == "robot_nodes.sim.gamecontroller":
         return "gamecontroller"
     node = NODE_OF_MODULE.get(module)
     if node is None or "--robot-id" not in cmdline:

@@ -46,7 +46,7 @@ import psutil
 import robots
 import schemas
 from robot_nodes.runtime import BusConfig, open_router, open_session
-from server.foxglove.transforms import load_kinematics
+from server.transforms import load_kinematics
 from tests.foxglove_node import foxglove_url, run_client
 from tests.support import free_port
 from tests.waiting import wait_for

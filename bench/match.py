@@ -49,7 +49,7 @@ import httpx
 import psutil
 
 from bench.machine import describe, probe_ms
-from robot_nodes.cm730.sim.lineup import Lineup, parse_robots
+from robot_nodes.sim.lineup import Lineup, parse_robots
 from tests.match_log import GC_URL, MatchFigures, read_output
 from tests.real_time_factor import ROUTER, RealTimeFactor
 from tests.running_demo import process_label, running_demo

@@ -7,8 +7,8 @@ import time
 
 import numpy as np
 
-from robot_nodes.cm730.sim import GroundTruthVision, SimWorld
-from robot_nodes.cm730.sim.camera import HeadCamera
+from robot_nodes.sim import GroundTruthVision, SimWorld
+from robot_nodes.sim.camera import HeadCamera
 
 SIM_SECONDS = 20.0
 CONTROL_PERIOD = 0.01  # s: a 100 Hz motion loop writes goals and reads the bus, as the cm730 node does

@@ -42,7 +42,7 @@ def demo_processes(robots: int, endpoint: str, http_port: int, telemetry_port: i
     robots_per_process: with compose "all", that many robots' nodes share a process (shared_process)."""
     py = sys.executable
     connect = ["--connect", endpoint]
-    world = [py, "-m", "robot_nodes.cm730.sim", "--robots", str(robots), "--cameras", str(cameras), *connect,
+    world = [py, "-m", "robot_nodes.sim", "--robots", str(robots), "--cameras", str(cameras), *connect,
              "--params", str(descriptions.params_file(model))]
     if match:  # the dashboard sees images only through telemetry: render no more than it sends
         world += ["--set", f"image_rate={telemetry_image_rate()}"]
@@ -59,7 +59,7 @@ def demo_processes(robots: int, endpoint: str, http_port: int, telemetry_port: i
         }
         sharing.append(RobotNodes(f"robot{i}", per_robot, extra))
     processes += simulated_robots(sharing, [endpoint], model, compose, robots_per_process)
-    gc = [py, "-m", "robot_nodes.game_controller.simulator", "--players-per-team", str(max(robots, 4)),
+    gc = [py, "-m", "robot_nodes.sim.gamecontroller", "--players-per-team", str(max(robots, 4)),
           "--return-address", f"127.0.0.1:{gc_return_port}"]
     for port in gc_ports:
         gc += ["--to", f"127.0.0.1:{port}"]

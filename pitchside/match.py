@@ -1,6 +1,6 @@
 """`pitchside match`: two teams of simulated robots play a game under the GameController, the dashboard watches.
 
-One MuJoCo world with both teams and the referee (robot_nodes/cm730/sim/match.py), each robot's nodes as the demo
+One MuJoCo world with both teams and the referee (robot_nodes/sim/match.py), each robot's nodes as the demo
 starts them (composed per robot), the simulated GameController on the world's clock (or a real one on the network:
 ``--gamecontroller external``), and the dashboard in match mode: it hears the robots' one-way telemetry only and
 records each half. Everything but an external GameController runs on this machine (pitchside/local_run.py).
@@ -29,9 +29,9 @@ from pitchside.local_run import (
 )
 from pitchside.robot import MOTION_NODES, available, simulated_robots
 from robot_nodes.catalog import NODES
-from robot_nodes.cm730.sim.lineup import Lineup, LineupError, Team, parse_robots
 from robot_nodes.launch import COMPOSE_HELP, NodeProcess, RobotNodes, process_groups
 from robot_nodes.runtime.clock import LOCKSTEP, SIM_TIME_ENV
+from robot_nodes.sim.lineup import Lineup, LineupError, Team, parse_robots
 from server.security.credentials import ENV_TOKEN, new_token
 from wire.command_line import CommandParser
 from wire.gamecontroller.packets import DATA_PORT, RETURN_PORT
@@ -133,7 +133,7 @@ def match_processes(plan: MatchPlan, endpoint: str, http_port: int, telemetry_po
     """Every process of the match: the world (with the referee and a simulated GameController), each robot's
     nodes, the dashboard in match mode."""
     lineup = plan.lineup
-    world = [sys.executable, "-m", "robot_nodes.cm730.sim.match", "--robots",
+    world = [sys.executable, "-m", "robot_nodes.sim.match", "--robots",
              f"{lineup.home.players}v{lineup.away.players}", "--teams", str(lineup.home.number),
              str(lineup.away.number), "--gamecontroller", gc.kind, "--gc-port", str(gc.port),
              "--gc-return-port", str(gc.return_port), "--half-seconds", str(plan.half_s),

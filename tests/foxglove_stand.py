@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import schemas
 from robot_nodes.runtime import Node, header, param
-from server.foxglove.transforms import load_kinematics
+from server.transforms import load_kinematics
 
 HL = "humanoid_league_msgs/msg/"
 BALL = (1.2, -0.3)

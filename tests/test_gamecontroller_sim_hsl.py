@@ -8,7 +8,7 @@ import time
 
 import pytest
 
-from robot_nodes.game_controller.simulator import SimulatedGame, SimulatedGameController
+from robot_nodes.sim.gamecontroller import SimulatedGame, SimulatedGameController
 from tests.support import free_port
 from tests.waiting import wait_for
 from wire.gamecontroller.packets import HslPenalty, SetPlay, parse_state_packet

@@ -27,9 +27,9 @@ from pitchside.match import (
     robot_settings,
 )
 from pitchside.match import main as match_main
-from robot_nodes.cm730.sim.lineup import Lineup, LineupError, parse_robots
-from robot_nodes.game_controller.simulator import SimulatedGame, SimulatedGameController
 from robot_nodes.runtime.clock import SIM_TIME_ENV
+from robot_nodes.sim.gamecontroller import SimulatedGame, SimulatedGameController
+from robot_nodes.sim.lineup import Lineup, LineupError, parse_robots
 from schemas.logs import LogSeriesReader
 from server.hub import Hub
 from server.sources.replay import ReplaySource
@@ -209,7 +209,7 @@ def assert_world_first(processes: list[psutil.Process]) -> None:
             continue
         if command[1:2] == ["-m"]:
             modules[command[2]] = nice
-    assert modules.pop("robot_nodes.cm730.sim.match") == launcher, modules
+    assert modules.pop("robot_nodes.sim.match") == launcher, modules
     assert modules.pop("server") == launcher + BEHIND_THE_WORLD_NICE, modules
     assert "robot_nodes.compose" in modules, modules
     assert set(modules.values()) == {launcher + ROBOTS_IN_MATCH_NICE}, modules

@@ -11,21 +11,18 @@ import time
 import pytest
 
 import schemas
-from robot_nodes.cm730.sim import SimRunner, SimWorld
 from robot_nodes.runtime import BusConfig, Node, open_session
 from robot_nodes.runtime.clock import (
     LOCKSTEP,
     SIM_TIME_ENV,
-    ClockPublisher,
     RobotSimClock,
     SimClock,
-    SlowestTick,
-    SlowestTicks,
-    WorldClock,
     clock_cdr,
     clock_seconds,
 )
 from robot_nodes.runtime.one_loop import NodesOnOneLoop
+from robot_nodes.sim import SimRunner, SimWorld
+from robot_nodes.sim.world_clock import ClockPublisher, SlowestTick, SlowestTicks, WorldClock
 from tests.waiting import wait_for
 from wire import keys
 

@@ -21,9 +21,9 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from robot_nodes.cm730.sim.perception import DetectionNoise, GroundTruthVision, Observation, observe_all
-from robot_nodes.cm730.sim.world import RobotHandle, SimWorld
-from robot_nodes.runtime.clock import SlowestTicks
+from robot_nodes.sim.perception import DetectionNoise, GroundTruthVision, Observation, observe_all
+from robot_nodes.sim.world import RobotHandle, SimWorld
+from robot_nodes.sim.world_clock import SlowestTicks
 
 log = logging.getLogger(__name__)
 
@@ -217,7 +217,7 @@ class SimRunner:
             log.exception("periodic work on the physics thread failed")
 
     def _run_cameras(self) -> None:
-        from robot_nodes.cm730.sim.camera import HeadCamera, RenderError
+        from robot_nodes.sim.camera import HeadCamera, RenderError
 
         cameras: dict[tuple[int, int, int], HeadCamera] = {}
         world = self.world
