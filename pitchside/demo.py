@@ -22,7 +22,7 @@ from pitchside.local_run import (
     telemetry_settings,
     world_first,
 )
-from pitchside.robot import MOTION_NODES, available, simulated_robots
+from robot_nodes.catalog import MOTION_NODES
 from robot_nodes.launch import COMPOSE_HELP, NodeProcess, RobotNodes, process_groups
 from server.security.credentials import ENV_TOKEN, new_token
 from wire.command_line import CommandParser
@@ -46,6 +46,8 @@ def demo_processes(robots: int, endpoint: str, http_port: int, telemetry_port: i
              "--params", str(descriptions.params_file(model))]
     if match:  # the dashboard sees images only through telemetry: render no more than it sends
         world += ["--set", f"image_rate={telemetry_image_rate()}"]
+    from pitchside.robot import available, simulated_robots  # the team's keys and access rules: not for --help
+
     processes = [NodeProcess("world", world)]
     per_robot = available(DEMO_ROBOT_NODES)
     sharing: list[RobotNodes] = []

@@ -27,8 +27,8 @@ from pitchside.local_run import (
     telemetry_settings,
     world_first,
 )
-from pitchside.robot import MOTION_NODES, available, simulated_robots
-from robot_nodes.catalog import NODES
+from pitchside.robot import available, simulated_robots
+from robot_nodes.catalog import MOTION_NODES, NODES
 from robot_nodes.launch import COMPOSE_HELP, NodeProcess, RobotNodes, process_groups
 from robot_nodes.runtime.clock import LOCKSTEP, SIM_TIME_ENV
 from robot_nodes.sim.lineup import Lineup, LineupError, Team, parse_robots

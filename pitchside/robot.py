@@ -17,7 +17,7 @@ import robots
 from pitchside.service import DEFAULT_UNIT, UNIT_DIR, RobotService, ServiceError, install, invoking_user, robot_program
 from pitchside.team_access import Role
 from pitchside.team_keys import member_of
-from robot_nodes.catalog import NODE_MODULES
+from robot_nodes.catalog import MOTION_NODES, NODE_MODULES
 from robot_nodes.launch import (
     COMPOSE_HELP,
     Launcher,
@@ -34,7 +34,6 @@ from wire.machine_router import MachineRouter, is_router_config, start_machine_r
 from wire.team_key import secured_bus, team_key_beside
 from wire.telemetry.datagram import DEFAULT_PORT
 
-MOTION_NODES = ["hcm", "animation", "pause", "speaker"]
 # everything a robot runs in a match (telemetry only when it has somewhere to send to)
 ROBOT_NODES = ["cm730", *MOTION_NODES, "walking", "game_controller", "mitecom", "telemetry"]
 

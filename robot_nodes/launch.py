@@ -19,8 +19,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from robot_nodes.catalog import NODE_MODULES, NODES, node_label
-from robot_nodes.compose import FAILED_NODE_EXIT, ROBOT_SEPARATOR
+from robot_nodes.catalog import FAILED_NODE_EXIT, NODE_MODULES, NODES, ROBOT_SEPARATOR, node_label
 from wire.bus import add_bus_arguments, bus_from_arguments
 from wire.command_line import CommandParser
 from wire.machine_router import is_router_config, remote, start_machine_router

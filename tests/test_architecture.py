@@ -164,3 +164,18 @@ def test_every_layer_ships_in_the_package() -> None:
     on_disk = {p.parent.name for p in REPO.glob("*/__init__.py")} - {"tests", "bench", "tools"}  # dev only
     assert on_disk <= shipped, on_disk - shipped
     assert set(PACKAGES) == on_disk, set(PACKAGES) ^ on_disk
+
+
+def test_a_commands_help_loads_no_web_framework() -> None:
+    """``pitchside demo --help`` answers at once: no FastAPI, MuJoCo or message types before the arguments are read
+    (bench/cli_help.py times it)."""
+    import subprocess
+    import sys
+
+    probe = ("import sys\nimport server, schemas, robot_nodes.sim\nfrom pitchside.cli import main\n"
+             "sys.argv = ['pitchside', 'demo', '--help']\ntry:\n    main()\nexcept SystemExit:\n    pass\n"
+             "heavy = ('fastapi', 'starlette', 'uvicorn', 'mujoco', 'schemas.messages', 'numpy')\n"
+             "print('LOADED', *[m for m in heavy if m in sys.modules])\n")
+    out = subprocess.run([sys.executable, "-c", probe], cwd=REPO, capture_output=True, text=True, timeout=60)
+    assert "usage: pitchside demo" in out.stdout, out.stderr
+    assert out.stdout.splitlines()[-1] == "LOADED"
