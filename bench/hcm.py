@@ -62,7 +62,7 @@ class Bench(Node):
         self.subscribe("motor_goals", self.on_goals)
         self.subscribe("animation", self.on_animation)
         self.client = self.action_client("animation")
-        self.timer(5.0, self.keep_playing)
+        self.timer(self.keep_playing, rate_hz=5.0)
 
     def on_state(self, msg: Any) -> None:
         self.state = int(msg.state)

@@ -65,7 +65,7 @@ class Sender(Node):
     def setup(self) -> None:
         self.msg = trajectory()
         self.pub = self.publisher(TOPIC)
-        self.timer(self.hz, self.tick)
+        self.timer(self.tick, rate_hz=self.hz)
 
     def tick(self) -> None:
         if self.sent >= self.count:

@@ -72,10 +72,10 @@ class RobotTopics(Node):
         joints = schemas.make(JointState, name=[f"j{i}" for i in range(20)],
                               position=np.zeros(20), velocity=np.zeros(20), effort=np.zeros(20))
         self.image_bytes = len(buf.getvalue())
-        self.timer(self.camera_hz, lambda: cam.publish(image), "camera")
-        self.timer(100, lambda: js.publish(joints), "joints")
-        self.timer(100, lambda: imu.publish(schemas.make(Imu)), "imu")
-        self.timer(50, lambda: state.publish(schemas.make(RobotControlState)), "state")
+        self.timer(lambda: cam.publish(image), rate_hz=self.camera_hz, name="camera")
+        self.timer(lambda: js.publish(joints), rate_hz=100, name="joints")
+        self.timer(lambda: imu.publish(schemas.make(Imu)), rate_hz=100, name="imu")
+        self.timer(lambda: state.publish(schemas.make(RobotControlState)), rate_hz=50, name="state")
 
 
 def run_sender(endpoint: str, seconds: float, image_max_width: int) -> tuple[float, float, float]:

@@ -81,8 +81,8 @@ class Feeder(Node):
         self.positions = np.array(list(WalkEngine().stance_goals().values()))
         self.subscribe("walk_motor_goals", self.on_goals)
         self.subscribe("walking_active", self.on_active)
-        self.timer(10.0, self.command)
-        self.sensor_timer = self.timer(100.0, self.sensors)
+        self.timer(self.command, rate_hz=10.0)
+        self.sensor_timer = self.timer(self.sensors, rate_hz=100.0)
 
     def on_goals(self, msg: object) -> None:
         self.goals += 1

@@ -48,7 +48,7 @@ class PoseStand(Node):
         self.pose = known_pose()
         self.pubs = {t: self.publisher(t) for t in ("joint_states", "imu/data", "position", "ball_relative",
                                                     "obstacles_relative", "ground_truth")}
-        self.timer(self.params.rate_hz, self.tick)
+        self.timer(self.tick, rate_hz=self.params.rate_hz)
 
     def tick(self) -> None:
         p = self.pubs

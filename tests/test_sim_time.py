@@ -32,7 +32,7 @@ class Ticker(Node):
 
     def setup(self) -> None:
         self.ticks: list[float] = []
-        self.timer(100.0, lambda: self.ticks.append(self.now()), "tick")
+        self.timer(lambda: self.ticks.append(self.now()), rate_hz=100.0, name="tick")
 
     def on_loop(self) -> float:
         """now() as the loop sees it, after everything queued before (the loop has caught up)."""
@@ -73,7 +73,7 @@ class SlowTalker(Node):
 
     def setup(self) -> None:
         self.out = self.publisher("cmd_vel")
-        self.timer(100.0, self.tick, "tick")
+        self.timer(self.tick, rate_hz=100.0, name="tick")
 
     def tick(self) -> None:
         time.sleep(0.02)  # a loaded machine: the node takes longer than the world's step

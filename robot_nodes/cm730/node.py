@@ -65,9 +65,9 @@ class Cm730Node(Node):
         self._imu_pub = self.publisher("imu/data")
         self._servo_pub = self.publisher("servo_data")
         self._health_pub = self.publisher("servo_health")
-        self._state_timer = self.timer(p.publish_rate, self._publish_state, name="joint_states")
-        self._servo_timer = self.timer(p.servo_data_rate, self._publish_servo_data, name="servo_data")
-        self.timer(1.0 / SERVO_HEALTH_PERIOD_S, self._publish_servo_health, name="servo_health")
+        self._state_timer = self.timer(self._publish_state, rate_hz=p.publish_rate, name="joint_states")
+        self._servo_timer = self.timer(self._publish_servo_data, rate_hz=p.servo_data_rate, name="servo_data")
+        self.timer(self._publish_servo_health, period_s=SERVO_HEALTH_PERIOD_S, name="servo_health")
         self._last: BusReading | None = None
         self.extras: BackendExtras | None = (self.backend.extras(self, p) if isinstance(self.backend, WithExtras)
                                              else None)

@@ -32,13 +32,13 @@ class SimExtras:
         self.camera = runner.add_camera(robot, self.topics.on_frame, params.camera_width, params.camera_height,
                                         params.camera_rate, want_image=self.topics.wants_image,
                                         noise=self.topics.noise)
-        self._ground_truth_timer = node.timer(max(params.ground_truth_rate, 0.1), self.topics.publish_ground_truth,
-                                              name="ground_truth")
+        self._ground_truth_timer = node.timer(self.topics.publish_ground_truth,
+                                              rate_hz=max(params.ground_truth_rate, 0.1), name="ground_truth")
         if params.ground_truth_rate <= 0:
             self._ground_truth_timer.pause()
         self._rtf_marks: deque[tuple[float, float]] = deque([(world.time, time.monotonic())],
                                                             maxlen=RTF_LONG_S + 1)
-        node.timer(1.0, self._measure_real_time_factor, name="real_time_factor")
+        node.timer(self._measure_real_time_factor, rate_hz=1.0, name="real_time_factor")
 
     def _measure_real_time_factor(self) -> None:
         """Sim seconds per wall second over the last second (``real_time_factor``) and the last RTF_LONG_S
