@@ -31,7 +31,7 @@ log = logging.getLogger("pitchside.demo")
 DEMO_ROBOT_NODES = [*MOTION_NODES, "walking", "game_controller", "telemetry"]  # cm730: in the world's process
 
 
-def demo_processes(robots: int, endpoint: str, http_port: int, telemetry_port: int, model: str,
+def demo_processes(*, robots: int, endpoint: str, http_port: int, telemetry_port: int, model: str,
                    match: bool, gc_ports: list[int], gc_return_port: int,
                    token: str = "",
                    telemetry_key: Path | None = None, compose: str = "all", cameras: int = 1,
@@ -60,13 +60,14 @@ def demo_processes(robots: int, endpoint: str, http_port: int, telemetry_port: i
             "telemetry": telemetry_settings(telemetry_port, telemetry_key),
         }
         sharing.append(RobotNodes(f"robot{i}", per_robot, extra))
-    processes += simulated_robots(sharing, [endpoint], model, compose, robots_per_process)
+    processes += simulated_robots(sharing, [endpoint], model=model, compose=compose, per_process=robots_per_process)
     gc = [py, "-m", "robot_nodes.sim.gamecontroller", "--players-per-team", str(max(robots, 4)),
           "--return-address", f"127.0.0.1:{gc_return_port}"]
     for port in gc_ports:
         gc += ["--to", f"127.0.0.1:{port}"]
     processes.append(NodeProcess("gamecontroller", gc))
-    processes.append(server_process(http_port, telemetry_port, model, [endpoint], match, token, telemetry_key))
+    processes.append(server_process(http_port=http_port, telemetry_port=telemetry_port, model=model, connect=[endpoint],
+                                    match=match, token=token, telemetry_key=telemetry_key))
     return world_first(processes)
 
 
@@ -102,8 +103,9 @@ def main(argv: list[str] | None = None) -> None:
     gc_return_port = kernel_port()
     token = os.environ.get(ENV_TOKEN) or new_token()
     run_on_this_machine("demo", endpoint, http_port, token, lambda key: demo_processes(
-        args.robots, endpoint, http_port, telemetry_port, args.model, args.match, gc_ports, gc_return_port, token,
-        key, args.compose, args.cameras, args.robots_per_process))
+        robots=args.robots, endpoint=endpoint, http_port=http_port, telemetry_port=telemetry_port, model=args.model,
+        match=args.match, gc_ports=gc_ports, gc_return_port=gc_return_port, token=token, telemetry_key=key,
+        compose=args.compose, cameras=args.cameras, robots_per_process=args.robots_per_process))
 
 
 if __name__ == "__main__":

@@ -68,7 +68,7 @@ def telemetry_image_rate() -> float:
     return parse_topics(DEFAULT_TOPICS)[IMAGE_TOPIC]
 
 
-def server_process(http_port: int, telemetry_port: int, model: str, connect: list[str], match: bool,
+def server_process(*, http_port: int, telemetry_port: int, model: str, connect: list[str], match: bool,
                    token: str = "", telemetry_key: Path | None = None) -> NodeProcess:
     """The dashboard: telemetry on loopback, the 3D robot and plots; in match mode it hears telemetry only.
 

@@ -128,7 +128,7 @@ class MatchPlan:
     robots_per_process: int = 1  # with compose "all": that many robots of a team share a process (shared_process)
 
 
-def match_processes(plan: MatchPlan, endpoint: str, http_port: int, telemetry_port: int, gc: GameControllerPlan,
+def match_processes(plan: MatchPlan, *, endpoint: str, http_port: int, telemetry_port: int, gc: GameControllerPlan,
                     mitecom_ports: dict[str, int], token: str, telemetry_key: Path | None) -> list[NodeProcess]:
     """Every process of the match: the world (with the referee and a simulated GameController), each robot's
     nodes, the dashboard in match mode."""
@@ -155,11 +155,13 @@ def match_processes(plan: MatchPlan, endpoint: str, http_port: int, telemetry_po
                              robot_settings(team, player, gc, mitecom_ports, telemetry_port, telemetry_key,
                                             plan.half_s))
                   for player in range(1, team.players + 1)]
-        for process in simulated_robots(robots, [endpoint], plan.model, plan.compose, plan.robots_per_process):
+        for process in simulated_robots(robots, [endpoint], model=plan.model, compose=plan.compose,
+                                        per_process=plan.robots_per_process):
             if plan.sim_time:
                 process.env[SIM_TIME_ENV] = LOCKSTEP if plan.lockstep else "1"
             processes.append(process)
-    processes.append(server_process(http_port, telemetry_port, plan.model, [], True, token, telemetry_key))
+    processes.append(server_process(http_port=http_port, telemetry_port=telemetry_port, model=plan.model, connect=[],
+                                    match=True, token=token, telemetry_key=telemetry_key))
     return world_first(processes, others_nice=ROBOTS_IN_MATCH_NICE)
 
 
@@ -240,7 +242,8 @@ def main(argv: list[str] | None = None) -> None:
         where = f"listening for the GameController on UDP {gc.port}"
     token = os.environ.get(ENV_TOKEN) or new_token()
     run_on_this_machine("match", endpoint, http_port, token, lambda key: match_processes(
-        plan, endpoint, http_port, telemetry_port, gc, mitecom_ports, token, key), also=where)
+        plan, endpoint=endpoint, http_port=http_port, telemetry_port=telemetry_port, gc=gc, mitecom_ports=mitecom_ports,
+        token=token, telemetry_key=key), also=where)
 
 
 if __name__ == "__main__":

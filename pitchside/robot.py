@@ -42,7 +42,7 @@ def params_file(model: str) -> Path:
     return robots.params_file(model)
 
 
-def robot_nodes(robot_id: str, connect: list[str], model: str, names: list[str],
+def robot_nodes(robot_id: str, connect: list[str], *, model: str, names: list[str],
                 extra: dict[str, list[str]] | None = None, zenoh_config: str | Path | None = None,
                 params: Path | None = None, mode: str = "auto", compose: str = "all",
                 alone: list[str] | None = None) -> list[NodeProcess]:
@@ -50,11 +50,11 @@ def robot_nodes(robot_id: str, connect: list[str], model: str, names: list[str],
     arguments to that node."""
     params = params or params_file(model)
     groups = process_groups(names, compose, alone)
-    return robot_processes(robot_id, groups, connect, params if params.exists() else None, extra, zenoh_config,
-                           mode)
+    return robot_processes(robot_id, groups, connect, params=params if params.exists() else None, extra=extra,
+                           zenoh_config=zenoh_config, mode=mode)
 
 
-def simulated_robots(robots: list[RobotNodes], connect: list[str], model: str, compose: str = "all",
+def simulated_robots(robots: list[RobotNodes], connect: list[str], *, model: str, compose: str = "all",
                      per_process: int = 1) -> list[NodeProcess]:
     """The processes of simulated robots: with compose "all", per_process robots to a process (launch.shared_process;
     a group of one as robot_nodes makes it), otherwise each robot's own as robot_nodes makes them."""
@@ -63,10 +63,10 @@ def simulated_robots(robots: list[RobotNodes], connect: list[str], model: str, c
     for first in range(0, len(robots), size):
         group = robots[first:first + size]
         if len(group) > 1:
-            processes.append(shared_process(group, connect, params_file(model)))
+            processes.append(shared_process(group, connect, params=params_file(model)))
         else:
-            processes += robot_nodes(group[0].robot_id, connect, model, group[0].nodes, group[0].extra,
-                                     compose=compose)
+            processes += robot_nodes(group[0].robot_id, connect, model=model, names=group[0].nodes,
+                                     extra=group[0].extra, compose=compose)
     return processes
 
 
@@ -297,8 +297,8 @@ def main(argv: list[str] | None = None) -> None:
         parser.error(str(exc))
     router = robot_router(args)
     # the nodes join the robot's router on loopback; a team file (the robot's key) stays with the router
-    launcher = Launcher(robot_nodes(robot_id, [router.local_endpoint], args.model, names,
-                                    {"telemetry": telemetry or [], "mitecom": team_comm}, params=args.params,
+    launcher = Launcher(robot_nodes(robot_id, [router.local_endpoint], model=args.model, names=names,
+                                    extra={"telemetry": telemetry or [], "mitecom": team_comm}, params=args.params,
                                     mode=args.mode, compose=args.compose, alone=alone))
     try:
         run_until_signal(launcher)
