@@ -445,7 +445,10 @@ def main() -> None:
     parser.add_argument("--robots", type=int, default=1)
     parser.add_argument("--quick", action="store_true", help="the HCM, telemetry, the world and the server only")
     parser.add_argument("--settle", type=float, default=None, help="seconds between recovery and the next kill")
+    parser.add_argument("--smoke", action="store_true", help="a few seconds: that it runs, not what it measures")
     args = parser.parse_args()
+    if args.smoke:
+        args.quick = True
     settle = args.settle if args.settle is not None else (1.5 if args.quick else 3.0)
     token = secrets.token_urlsafe(16)
     with tempfile.TemporaryDirectory() as tmp_name, running_stack(Path(tmp_name), args.robots, token) as stack:

@@ -165,7 +165,10 @@ def main() -> None:
     parser.add_argument("--hz", type=float, default=100.0)
     parser.add_argument("--count", type=int, default=0)
     parser.add_argument("--connect", default="")
+    parser.add_argument("--smoke", action="store_true", help="a few seconds: that it runs, not what it measures")
     args = parser.parse_args()
+    if args.smoke:
+        args.seconds = 1.0
     if args.publisher:
         publisher_main(args.publisher, args.hz, args.count, args.connect)
         return

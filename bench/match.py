@@ -138,7 +138,10 @@ def main() -> None:
                         help="lockstep (the default): the world waits for every robot's nodes each 10 ms of "
                              "simulated time; sim: the robots follow the simulation's time but the world keeps its "
                              "own pace; wall: the robots on the wall clock")
+    parser.add_argument("--smoke", action="store_true", help="a few seconds: that it runs, not what it measures")
     args = parser.parse_args()
+    if args.smoke:
+        args.robots, args.half_minutes, args.seeds = "1v1", 0.25, "1"
     seeds = [int(s) for s in args.seeds.split(",")]
     half = args.half_minutes
     if args.quick:

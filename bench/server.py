@@ -283,7 +283,10 @@ def main() -> None:
     parser.add_argument("--seconds", type=float, default=5.0)
     parser.add_argument("--no-browser", action="store_true")
     parser.add_argument("--no-live", action="store_true", help="skip the live Zenoh flood")
+    parser.add_argument("--smoke", action="store_true", help="a few seconds: that it runs, not what it measures")
     args = parser.parse_args()
+    if args.smoke:
+        args.seconds = 1.0
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     router = open_router([endpoint])
     port, udp = free_port(), free_port(socket.SOCK_DGRAM)

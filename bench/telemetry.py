@@ -153,7 +153,10 @@ def receiver_rate(n: int = 20_000) -> float:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--seconds", type=float, default=10.0)
+    parser.add_argument("--smoke", action="store_true", help="a few seconds: that it runs, not what it measures")
     args = parser.parse_args()
+    if args.smoke:
+        args.seconds = 1.0
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     router = open_router([endpoint])
     pub = RobotTopics(robot_id="bench1", bus=BusConfig(connect=[endpoint]))

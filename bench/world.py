@@ -85,7 +85,10 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=15.0)
     parser.add_argument("--robots", default="1,2,4,8")
+    parser.add_argument("--smoke", action="store_true", help="a few seconds: that it runs, not what it measures")
     args = parser.parse_args()
+    if args.smoke:
+        args.seconds, args.robots = 2.0, "1"
     sizes = sorted({int(n) for n in args.robots.split(",")})
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     router = open_router([endpoint])
