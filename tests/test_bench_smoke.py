@@ -34,6 +34,8 @@ HEAVY = {  # bench -> why it is slow or needs more than Python
     "foxglove": "the Foxglove endpoint with clients",
     "export_rerun": "a log written and exported",
     "replay": "a log written and replayed",
+    "latency": "node processes for each publisher kind",
+    "telemetry": "the sender against a budget, several rounds",
 }
 RESULT_NAME = {"network": "net"}  # a bench whose RESULT line names it otherwise
 BROWSER = {"plots_memory", "server", "demo"}
