@@ -48,7 +48,10 @@ def timed(fn: object, steps: int) -> list[float]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--steps", type=int, default=5000)
+    parser.add_argument("--smoke", action="store_true", help="a few seconds: that it runs, not what it measures")
     args = parser.parse_args()
+    if args.smoke:
+        args.steps = 200
     anim = load_animation(FILE)
     player = AnimationPlayer(anim, dict.fromkeys(anim.joints, 0.0))
     names = list(player.joint_names)

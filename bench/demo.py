@@ -44,7 +44,10 @@ def main() -> None:
     parser.add_argument("--seconds", type=float, default=30.0)
     parser.add_argument("--robots", type=int, default=1)
     parser.add_argument("--no-browser", action="store_true")
+    parser.add_argument("--smoke", action="store_true", help="a few seconds: that it runs, not what it measures")
     args = parser.parse_args()
+    if args.smoke:
+        args.seconds, args.no_browser = 3.0, True
     from playwright.sync_api import sync_playwright
 
     with tempfile.TemporaryDirectory() as tmp, running_demo(Path(tmp), "--robots", str(args.robots)) as demo, \

@@ -87,7 +87,10 @@ def main() -> None:
     ap.add_argument("--cycles", type=int, default=500)
     ap.add_argument("--servos", type=int, default=20)
     ap.add_argument("--inproc", action="store_true", help="emulator as a thread of this process (like the tests)")
+    ap.add_argument("--smoke", action="store_true", help="a few seconds: that it runs, not what it measures")
     args = ap.parse_args()
+    if args.smoke:
+        args.cycles = 20
     results = {}
     for protocol in (1, 2):
         r = run(protocol, args.servos, args.cycles, args.inproc)

@@ -45,7 +45,10 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--gigabytes", type=float, default=1.0)
     parser.add_argument("--robots", type=int, default=4)
+    parser.add_argument("--smoke", action="store_true", help="a few seconds: that it runs, not what it measures")
     args = parser.parse_args()
+    if args.smoke:
+        args.gigabytes, args.robots = 0.005, 1
     folder = Path(tempfile.mkdtemp(prefix="pitchside-bench-export-"))
     try:
         log = folder / "big.mcap"

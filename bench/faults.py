@@ -165,11 +165,11 @@ def label_of(cmdline: list[str]) -> str | None:
     if "-m" not in cmdline:
         return None
     module = cmdline[cmdline.index("-m") + 1]
-    if module == "robot_nodes.cm730.sim":
+    if module == "robot_nodes.sim":
         return "world"
     if module == "server":
         return "server"
-    if module == "robot_nodes.game_controller.simulator":
+    if module == "robot_nodes.sim.gamecontroller":
         return "gamecontroller"
     node = NODE_OF_MODULE.get(module)
     if node is None or "--robot-id" not in cmdline:
@@ -445,7 +445,10 @@ def main() -> None:
     parser.add_argument("--robots", type=int, default=1)
     parser.add_argument("--quick", action="store_true", help="the HCM, telemetry, the world and the server only")
     parser.add_argument("--settle", type=float, default=None, help="seconds between recovery and the next kill")
+    parser.add_argument("--smoke", action="store_true", help="a few seconds: that it runs, not what it measures")
     args = parser.parse_args()
+    if args.smoke:
+        args.quick = True
     settle = args.settle if args.settle is not None else (1.5 if args.quick else 3.0)
     token = secrets.token_urlsafe(16)
     with tempfile.TemporaryDirectory() as tmp_name, running_stack(Path(tmp_name), args.robots, token) as stack:

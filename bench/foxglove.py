@@ -46,7 +46,7 @@ import psutil
 import robots
 import schemas
 from robot_nodes.runtime import BusConfig, open_router, open_session
-from server.foxglove.transforms import load_kinematics
+from server.transforms import load_kinematics
 from tests.foxglove_node import foxglove_url, run_client
 from tests.support import free_port
 from tests.waiting import wait_for
@@ -205,7 +205,10 @@ def main() -> None:
         return
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=8.0)
+    parser.add_argument("--smoke", action="store_true", help="a few seconds: that it runs, not what it measures")
     args = parser.parse_args()
+    if args.smoke:
+        args.seconds = 1.0
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     router = open_router([endpoint])
     s = args.seconds

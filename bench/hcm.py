@@ -62,7 +62,7 @@ class Bench(Node):
         self.subscribe("motor_goals", self.on_goals)
         self.subscribe("animation", self.on_animation)
         self.client = self.action_client("animation")
-        self.timer(5.0, self.keep_playing)
+        self.timer(self.keep_playing, rate_hz=5.0)
 
     def on_state(self, msg: Any) -> None:
         self.state = int(msg.state)
@@ -177,7 +177,10 @@ def raw_hop(endpoint: str, n: int = 2000) -> list[float]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--seconds", type=float, default=6.0, help="measuring window per rate")
+    parser.add_argument("--smoke", action="store_true", help="a few seconds: that it runs, not what it measures")
     args = parser.parse_args()
+    if args.smoke:
+        args.seconds = 1.0
     print(f"load average {' '.join(f'{v:.1f}' for v in psutil.getloadavg())} on {psutil.cpu_count()} cores")
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     router = open_router([endpoint])

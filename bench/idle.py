@@ -68,7 +68,10 @@ def cpu_of(argv: list[str], seconds: float) -> float:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=20.0)
+    parser.add_argument("--smoke", action="store_true", help="a few seconds: that it runs, not what it measures")
     args = parser.parse_args()
+    if args.smoke:
+        args.seconds = 1.0
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     router = open_router([endpoint])
     params = str(robots.params_file("minibot"))

@@ -53,7 +53,10 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--profiles", default="core,robot,dashboard,sim,all,dev")
     parser.add_argument("--offline", action="store_true", help="the test environment's files, no network")
+    parser.add_argument("--smoke", action="store_true", help="a few seconds: that it runs, not what it measures")
     args = parser.parse_args()
+    if args.smoke:
+        args.profiles, args.offline = "core", True
     profiles = [p.strip() for p in args.profiles.split(",") if p.strip() and not (args.offline and p.strip() == "dev")]
     folder = Path(tempfile.mkdtemp(prefix="pitchside-bench-install-"))
     sizes: dict[str, float] = {}

@@ -65,7 +65,7 @@ class Sender(Node):
     def setup(self) -> None:
         self.msg = trajectory()
         self.pub = self.publisher(TOPIC)
-        self.timer(self.hz, self.tick)
+        self.timer(self.tick, rate_hz=self.hz)
 
     def tick(self) -> None:
         if self.sent >= self.count:
@@ -165,7 +165,10 @@ def main() -> None:
     parser.add_argument("--hz", type=float, default=100.0)
     parser.add_argument("--count", type=int, default=0)
     parser.add_argument("--connect", default="")
+    parser.add_argument("--smoke", action="store_true", help="a few seconds: that it runs, not what it measures")
     args = parser.parse_args()
+    if args.smoke:
+        args.seconds = 1.0
     if args.publisher:
         publisher_main(args.publisher, args.hz, args.count, args.connect)
         return

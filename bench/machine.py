@@ -8,6 +8,7 @@ of work the nodes do: attribute access, small arithmetic, calls), best of three 
 
 from __future__ import annotations
 
+import argparse
 import time
 
 # the probe's time on the 2-core CI machine at the fastest it has been seen (2026-11-29); minutes later it took
@@ -40,6 +41,9 @@ def describe(ms: float) -> str:
 
 
 if __name__ == "__main__":
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--smoke", action="store_true", help="the same probe: it takes well under a second")
+    parser.parse_args()
     ms = probe_ms()
     print(describe(ms))
     print(f"RESULT machine probe_ms={ms:.0f} ratio={ms / REFERENCE_MS:.2f}")

@@ -51,7 +51,7 @@ import httpx
 import psutil
 
 from bench.machine import describe, probe_ms
-from robot_nodes.cm730.sim.lineup import Lineup, parse_robots
+from robot_nodes.sim.lineup import Lineup, parse_robots
 from tests.match_log import GC_URL, MatchFigures, read_output
 from tests.real_time_factor import ROUTER, RealTimeFactor
 from tests.running_demo import process_label, running_demo
@@ -151,10 +151,13 @@ def main() -> None:
                         help="lockstep (the default): the world waits for every robot's nodes each 10 ms of "
                              "simulated time; sim: the robots follow the simulation's time but the world keeps its "
                              "own pace; wall: the robots on the wall clock")
+    parser.add_argument("--smoke", action="store_true", help="a few seconds: that it runs, not what it measures")
     args = parser.parse_args()
     if args.players is not None and args.robots is not None:
         parser.error("give --players or --robots, not both")
     args.robots = f"{args.players}v{args.players}" if args.players is not None else args.robots or "4v4"
+    if args.smoke:
+        args.robots, args.half_minutes, args.seeds = "1v1", 0.25, "1"
     seeds = [int(s) for s in args.seeds.split(",")]
     half = args.half_minutes
     if args.quick:

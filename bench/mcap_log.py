@@ -40,7 +40,10 @@ def main() -> None:
     parser.add_argument("--messages", type=int, default=100_000)
     parser.add_argument("--robots", type=int, default=4)
     parser.add_argument("--seeks", type=int, default=10)
+    parser.add_argument("--smoke", action="store_true", help="a few seconds: that it runs, not what it measures")
     args = parser.parse_args()
+    if args.smoke:
+        args.messages, args.robots, args.seeks = 2000, 1, 2
     rng = random.Random(1)
 
     with tempfile.TemporaryDirectory() as tmp:

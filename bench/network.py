@@ -494,7 +494,10 @@ def main() -> None:
     parser.add_argument("--modes", default="lab,match", help="comma-separated: lab, match")
     parser.add_argument("--logs", type=Path, default=None, help="keep the processes' logs in this folder")
     parser.add_argument("--quick", action="store_true", help="a short run: 4 s windows, 4 s cuts")
+    parser.add_argument("--smoke", action="store_true", help="a few seconds: that it runs, not what it measures")
     args = parser.parse_args()
+    if args.smoke:
+        args.seconds, args.cut_seconds, args.modes = 2.0, 1.0, "lab"
     if args.quick:
         args.seconds, args.cut_seconds = 4.0, 4.0
     modes = [m.strip() for m in args.modes.split(",") if m.strip()]

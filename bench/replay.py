@@ -124,7 +124,10 @@ def main() -> None:
     parser.add_argument("--gigabytes", type=float, default=1.0)
     parser.add_argument("--robots", type=int, default=4)
     parser.add_argument("--seeks", type=int, default=10)
+    parser.add_argument("--smoke", action="store_true", help="a few seconds: that it runs, not what it measures")
     args = parser.parse_args()
+    if args.smoke:
+        args.gigabytes, args.robots, args.seeks = 0.005, 1, 2
     folder = Path(tempfile.mkdtemp(prefix="pitchside-bench-replay-"))
     try:
         path = folder / "big.mcap"

@@ -149,7 +149,10 @@ def main() -> None:
     parser.add_argument("--no-lab", action="store_true", help="skip the lab runs (the server on live Zenoh)")
     parser.add_argument("--soak-minutes", type=float, default=0.0,
                         help="run the largest team this long instead (the server's memory slope over a match day)")
+    parser.add_argument("--smoke", action="store_true", help="a few seconds: that it runs, not what it measures")
     args = parser.parse_args()
+    if args.smoke:
+        args.seconds, args.robots, args.no_lab = 3.0, "1", True
     sizes = sorted({int(n) for n in args.robots.split(",")})
     load = os.getloadavg()[0]
     split = measure(1, "none", args.seconds)

@@ -72,10 +72,10 @@ class RobotTopics(Node):
         joints = schemas.make(JointState, name=[f"j{i}" for i in range(20)],
                               position=np.zeros(20), velocity=np.zeros(20), effort=np.zeros(20))
         self.image_bytes = len(buf.getvalue())
-        self.timer(self.camera_hz, lambda: cam.publish(image), "camera")
-        self.timer(100, lambda: js.publish(joints), "joints")
-        self.timer(100, lambda: imu.publish(schemas.make(Imu)), "imu")
-        self.timer(50, lambda: state.publish(schemas.make(RobotControlState)), "state")
+        self.timer(lambda: cam.publish(image), rate_hz=self.camera_hz, name="camera")
+        self.timer(lambda: js.publish(joints), rate_hz=100, name="joints")
+        self.timer(lambda: imu.publish(schemas.make(Imu)), rate_hz=100, name="imu")
+        self.timer(lambda: state.publish(schemas.make(RobotControlState)), rate_hz=50, name="state")
 
 
 def run_sender(endpoint: str, seconds: float, image_max_width: int) -> tuple[float, float, float]:
@@ -153,7 +153,10 @@ def receiver_rate(n: int = 20_000) -> float:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--seconds", type=float, default=10.0)
+    parser.add_argument("--smoke", action="store_true", help="a few seconds: that it runs, not what it measures")
     args = parser.parse_args()
+    if args.smoke:
+        args.seconds = 1.0
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     router = open_router([endpoint])
     pub = RobotTopics(robot_id="bench1", bus=BusConfig(connect=[endpoint]))

@@ -81,8 +81,8 @@ class Feeder(Node):
         self.positions = np.array(list(WalkEngine().stance_goals().values()))
         self.subscribe("walk_motor_goals", self.on_goals)
         self.subscribe("walking_active", self.on_active)
-        self.timer(10.0, self.command)
-        self.sensor_timer = self.timer(100.0, self.sensors)
+        self.timer(self.command, rate_hz=10.0)
+        self.sensor_timer = self.timer(self.sensors, rate_hz=100.0)
 
     def on_goals(self, msg: object) -> None:
         self.goals += 1
@@ -136,7 +136,10 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--cycles", type=int, default=5000)
     parser.add_argument("--seconds", type=float, default=6.0, help="CPU measuring window per rate")
+    parser.add_argument("--smoke", action="store_true", help="a few seconds: that it runs, not what it measures")
     args = parser.parse_args()
+    if args.smoke:
+        args.cycles, args.seconds = 200, 1.0
 
     times, cpu, base = engine_cycles(args.cycles)
     p50, p99 = statistics.median(times), float(np.percentile(times, 99))

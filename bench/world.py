@@ -2,7 +2,7 @@
 
     python bench/world.py [--seconds 15] [--robots 1,2,4,8]
 
-Runs the world process as the demo does (``python -m robot_nodes.cm730.sim --robots N``: MuJoCo and one cm730 node
+Runs the world process as the demo does (``python -m robot_nodes.sim --robots N``: MuJoCo and one cm730 node
 per robot) against a Zenoh router in this process, with a subscriber to every robot's joint_states and imu/data
 (as each robot's own nodes would be), and measures the CPU time of the world's process (% of one core) and its
 real-time factor (the ``real_time_factor`` diagnostic, minimum over 1 s windows). Each N runs in four
@@ -56,7 +56,7 @@ def run(robots: int, extra: list[str], seconds: float, endpoint: str) -> tuple[f
                 if kv.key == "real_time_factor" and status.name == "robot1/cm730":
                     factors.append(float(kv.value))
 
-    world = subprocess.Popen([sys.executable, "-m", "robot_nodes.cm730.sim", "--robots", str(robots), "--connect",
+    world = subprocess.Popen([sys.executable, "-m", "robot_nodes.sim", "--robots", str(robots), "--connect",
                               endpoint, *extra], cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     with open_session(BusConfig(connect=[endpoint])) as session:
         subs = [session.declare_subscriber(keys.topic_key("*", topic), lambda _s: received.__setitem__(
@@ -85,7 +85,10 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=15.0)
     parser.add_argument("--robots", default="1,2,4,8")
+    parser.add_argument("--smoke", action="store_true", help="a few seconds: that it runs, not what it measures")
     args = parser.parse_args()
+    if args.smoke:
+        args.seconds, args.robots = 2.0, "1"
     sizes = sorted({int(n) for n in args.robots.split(",")})
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     router = open_router([endpoint])

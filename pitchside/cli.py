@@ -34,7 +34,7 @@ COMMANDS: dict[str, Command] = {
                      "by default: the sim profile)"),
     "doctor": Command("pitchside.doctor:main", "core", "checks a robot (serial port, router, clock, disk, telemetry "
                       "key, GameController) or the team laptop (profile, ports, router) and says how to fix it"),
-    "sim": Command("robot_nodes.cm730.sim.__main__:main", "sim", "the MuJoCo world and one cm730 node per robot "
+    "sim": Command("robot_nodes.sim.__main__:main", "sim", "the MuJoCo world and one cm730 node per robot "
                    "(robot1..N)"),
     "serve": Command("server.__main__:serve", "dashboard", "the dashboard server (live Zenoh and UDP telemetry "
                      "sources)"),
@@ -43,7 +43,7 @@ COMMANDS: dict[str, Command] = {
     "team-keys": Command("pitchside.team_keys:main", "core", "a team's CA, certificates, access control and Zenoh "
                          "configs (secured bus)"),
     "launch": Command("robot_nodes.launch:main", "robot", "start named nodes as supervised processes"),
-    "gamecontroller": Command("robot_nodes.game_controller.simulator:main", "core", "a simulated RoboCup "
+    "gamecontroller": Command("robot_nodes.sim.gamecontroller:main", "core", "a simulated RoboCup "
                               "GameController"),
     "record": Command("pitchside.record:main", "dashboard", "start/stop/list recordings of a running dashboard "
                       "server"),

@@ -22,7 +22,7 @@ from pitchside.local_run import (
     telemetry_settings,
     world_first,
 )
-from pitchside.robot import MOTION_NODES, available, simulated_robots
+from robot_nodes.catalog import MOTION_NODES
 from robot_nodes.launch import COMPOSE_HELP, NodeProcess, RobotNodes, process_groups
 from server.profiles.flags import add_ros2_arguments, ros2_flags, ros2_setup
 from server.security.credentials import ENV_TOKEN, new_token
@@ -32,7 +32,7 @@ log = logging.getLogger("pitchside.demo")
 DEMO_ROBOT_NODES = [*MOTION_NODES, "walking", "game_controller", "telemetry"]  # cm730: in the world's process
 
 
-def demo_processes(robots: int, endpoint: str, http_port: int, telemetry_port: int, model: str,
+def demo_processes(*, robots: int, endpoint: str, http_port: int, telemetry_port: int, model: str,
                    match: bool, gc_ports: list[int], gc_return_port: int,
                    token: str = "",
                    telemetry_key: Path | None = None, compose: str = "all", cameras: int = 1,
@@ -44,10 +44,12 @@ def demo_processes(robots: int, endpoint: str, http_port: int, telemetry_port: i
     server_flags: more flags of the dashboard (the --ros-* ones: ROS 2 robots of other teams beside the demo's)."""
     py = sys.executable
     connect = ["--connect", endpoint]
-    world = [py, "-m", "robot_nodes.cm730.sim", "--robots", str(robots), "--cameras", str(cameras), *connect,
+    world = [py, "-m", "robot_nodes.sim", "--robots", str(robots), "--cameras", str(cameras), *connect,
              "--params", str(descriptions.params_file(model))]
     if match:  # the dashboard sees images only through telemetry: render no more than it sends
         world += ["--set", f"image_rate={telemetry_image_rate()}"]
+    from pitchside.robot import available, simulated_robots  # the team's keys and access rules: not for --help
+
     processes = [NodeProcess("world", world)]
     per_robot = available(DEMO_ROBOT_NODES)
     sharing: list[RobotNodes] = []
@@ -60,14 +62,14 @@ def demo_processes(robots: int, endpoint: str, http_port: int, telemetry_port: i
             "telemetry": telemetry_settings(telemetry_port, telemetry_key),
         }
         sharing.append(RobotNodes(f"robot{i}", per_robot, extra))
-    processes += simulated_robots(sharing, [endpoint], model, compose, robots_per_process)
-    gc = [py, "-m", "robot_nodes.game_controller.simulator", "--players-per-team", str(max(robots, 4)),
+    processes += simulated_robots(sharing, [endpoint], model=model, compose=compose, per_process=robots_per_process)
+    gc = [py, "-m", "robot_nodes.sim.gamecontroller", "--players-per-team", str(max(robots, 4)),
           "--return-address", f"127.0.0.1:{gc_return_port}"]
     for port in gc_ports:
         gc += ["--to", f"127.0.0.1:{port}"]
     processes.append(NodeProcess("gamecontroller", gc))
-    processes.append(server_process(http_port, telemetry_port, model, [endpoint], match, token, telemetry_key,
-                                    server_flags or []))
+    processes.append(server_process(http_port=http_port, telemetry_port=telemetry_port, model=model, connect=[endpoint],
+                                    match=match, token=token, telemetry_key=telemetry_key, extra=server_flags or []))
     return world_first(processes)
 
 
@@ -105,8 +107,10 @@ def main(argv: list[str] | None = None) -> None:
     gc_return_port = kernel_port()
     token = os.environ.get(ENV_TOKEN) or new_token()
     run_on_this_machine("demo", endpoint, http_port, token, lambda key: demo_processes(
-        args.robots, endpoint, http_port, telemetry_port, args.model, args.match, gc_ports, gc_return_port, token,
-        key, args.compose, args.cameras, args.robots_per_process, ros2_flags(args)))
+        robots=args.robots, endpoint=endpoint, http_port=http_port, telemetry_port=telemetry_port, model=args.model,
+        match=args.match, gc_ports=gc_ports, gc_return_port=gc_return_port, token=token, telemetry_key=key,
+        compose=args.compose, cameras=args.cameras, robots_per_process=args.robots_per_process,
+        server_flags=ros2_flags(args)))
 
 
 if __name__ == "__main__":

@@ -17,7 +17,6 @@ import robots as descriptions
 from robot_nodes.launch import Launcher, NodeProcess, run_until_signal
 from server.security.credentials import ENV_TOKEN
 from wire.bus import open_router
-from wire.telemetry.datagram import write_new_key
 
 
 def port_is_free(port: int, kind: int = socket.SOCK_STREAM, host: str = "127.0.0.1") -> bool:
@@ -69,7 +68,7 @@ def telemetry_image_rate() -> float:
     return parse_topics(DEFAULT_TOPICS)[IMAGE_TOPIC]
 
 
-def server_process(http_port: int, telemetry_port: int, model: str, connect: list[str], match: bool,
+def server_process(*, http_port: int, telemetry_port: int, model: str, connect: list[str], match: bool,
                    token: str = "", telemetry_key: Path | None = None, extra: Sequence[str] = ()) -> NodeProcess:
     """The dashboard: telemetry on loopback, the 3D robot and plots; in match mode it hears telemetry only.
 
@@ -117,6 +116,8 @@ def world_first(processes: list[NodeProcess], world: str = "world", dashboard: s
 def run_on_this_machine(command: str, zenoh_endpoint: str, http_port: int, token: str,
                         processes: Callable[[Path], list[NodeProcess]], also: str = "") -> None:
     """Starts the router and ``processes(telemetry key file)``, prints the link, runs until a signal stops it."""
+    from wire.telemetry.datagram import write_new_key  # the message types: not for a command's --help
+
     with tempfile.TemporaryDirectory(prefix=f"pitchside-{command}-") as keys:
         # a fresh team key per run: the robots' telemetry and the dashboard share it, nobody else has it
         key_file = Path(keys) / "telemetry.key"

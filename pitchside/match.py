@@ -1,6 +1,6 @@
 """`pitchside match`: two teams of simulated robots play a game under the GameController, the dashboard watches.
 
-One MuJoCo world with both teams and the referee (robot_nodes/cm730/sim/match.py), each robot's nodes as the demo
+One MuJoCo world with both teams and the referee (robot_nodes/sim/match.py), each robot's nodes as the demo
 starts them (composed per robot), the simulated GameController on the world's clock (or a real one on the network:
 ``--gamecontroller external``), and the dashboard in match mode: it hears the robots' one-way telemetry only and
 records each half. Everything but an external GameController runs on this machine (pitchside/local_run.py).
@@ -27,11 +27,11 @@ from pitchside.local_run import (
     telemetry_settings,
     world_first,
 )
-from pitchside.robot import MOTION_NODES, available, simulated_robots
-from robot_nodes.catalog import NODES
-from robot_nodes.cm730.sim.lineup import Lineup, LineupError, Team, parse_robots
+from pitchside.robot import available, simulated_robots
+from robot_nodes.catalog import MOTION_NODES, NODES
 from robot_nodes.launch import COMPOSE_HELP, NodeProcess, RobotNodes, process_groups
 from robot_nodes.runtime.clock import LOCKSTEP, SIM_TIME_ENV
+from robot_nodes.sim.lineup import Lineup, LineupError, Team, parse_robots
 from server.security.credentials import ENV_TOKEN, new_token
 from wire.command_line import CommandParser
 from wire.gamecontroller.packets import DATA_PORT, RETURN_PORT
@@ -144,12 +144,12 @@ class MatchPlan:
     robots_per_process: int = 1  # with compose "all": that many robots of a team share a process (shared_process)
 
 
-def match_processes(plan: MatchPlan, endpoint: str, http_port: int, telemetry_port: int, gc: GameControllerPlan,
+def match_processes(plan: MatchPlan, *, endpoint: str, http_port: int, telemetry_port: int, gc: GameControllerPlan,
                     mitecom_ports: dict[str, int], token: str, telemetry_key: Path | None) -> list[NodeProcess]:
     """Every process of the match: the world (with the referee and a simulated GameController), each robot's
     nodes, the dashboard in match mode."""
     lineup = plan.lineup
-    world = [sys.executable, "-m", "robot_nodes.cm730.sim.match", "--robots",
+    world = [sys.executable, "-m", "robot_nodes.sim.match", "--robots",
              f"{lineup.home.players}v{lineup.away.players}", "--teams", str(lineup.home.number),
              str(lineup.away.number), "--gamecontroller", gc.kind, "--gc-port", str(gc.port),
              "--gc-return-port", str(gc.return_port), "--half-seconds", str(plan.half_s),
@@ -171,11 +171,13 @@ def match_processes(plan: MatchPlan, endpoint: str, http_port: int, telemetry_po
                              robot_settings(team, player, gc, mitecom_ports, telemetry_port, telemetry_key,
                                             plan.half_s))
                   for player in range(1, team.players + 1)]
-        for process in simulated_robots(robots, [endpoint], plan.model, plan.compose, plan.robots_per_process):
+        for process in simulated_robots(robots, [endpoint], model=plan.model, compose=plan.compose,
+                                        per_process=plan.robots_per_process):
             if plan.sim_time:
                 process.env[SIM_TIME_ENV] = LOCKSTEP if plan.lockstep else "1"
             processes.append(process)
-    processes.append(server_process(http_port, telemetry_port, plan.model, [], True, token, telemetry_key))
+    processes.append(server_process(http_port=http_port, telemetry_port=telemetry_port, model=plan.model, connect=[],
+                                    match=True, token=token, telemetry_key=telemetry_key))
     return world_first(processes, others_nice=ROBOTS_IN_MATCH_NICE)
 
 
@@ -256,7 +258,8 @@ def main(argv: list[str] | None = None) -> None:
         where = f"listening for the GameController on UDP {gc.port}"
     token = os.environ.get(ENV_TOKEN) or new_token()
     run_on_this_machine("match", endpoint, http_port, token, lambda key: match_processes(
-        plan, endpoint, http_port, telemetry_port, gc, mitecom_ports, token, key), also=where)
+        plan, endpoint=endpoint, http_port=http_port, telemetry_port=telemetry_port, gc=gc, mitecom_ports=mitecom_ports,
+        token=token, telemetry_key=key), also=where)
 
 
 if __name__ == "__main__":

@@ -17,7 +17,7 @@ import robots
 from pitchside.service import DEFAULT_UNIT, UNIT_DIR, RobotService, ServiceError, install, invoking_user, robot_program
 from pitchside.team_access import Role
 from pitchside.team_keys import member_of
-from robot_nodes.catalog import NODE_MODULES
+from robot_nodes.catalog import MOTION_NODES, NODE_MODULES
 from robot_nodes.launch import (
     COMPOSE_HELP,
     Launcher,
@@ -34,7 +34,6 @@ from wire.machine_router import MachineRouter, is_router_config, start_machine_r
 from wire.team_key import secured_bus, team_key_beside
 from wire.telemetry.datagram import DEFAULT_PORT
 
-MOTION_NODES = ["hcm", "animation", "pause", "speaker"]
 # everything a robot runs in a match (telemetry only when it has somewhere to send to)
 ROBOT_NODES = ["cm730", *MOTION_NODES, "walking", "game_controller", "mitecom", "telemetry"]
 
@@ -43,7 +42,7 @@ def params_file(model: str) -> Path:
     return robots.params_file(model)
 
 
-def robot_nodes(robot_id: str, connect: list[str], model: str, names: list[str],
+def robot_nodes(robot_id: str, connect: list[str], *, model: str, names: list[str],
                 extra: dict[str, list[str]] | None = None, zenoh_config: str | Path | None = None,
                 params: Path | None = None, mode: str = "auto", compose: str = "all",
                 alone: list[str] | None = None) -> list[NodeProcess]:
@@ -51,11 +50,11 @@ def robot_nodes(robot_id: str, connect: list[str], model: str, names: list[str],
     arguments to that node."""
     params = params or params_file(model)
     groups = process_groups(names, compose, alone)
-    return robot_processes(robot_id, groups, connect, params if params.exists() else None, extra, zenoh_config,
-                           mode)
+    return robot_processes(robot_id, groups, connect, params=params if params.exists() else None, extra=extra,
+                           zenoh_config=zenoh_config, mode=mode)
 
 
-def simulated_robots(robots: list[RobotNodes], connect: list[str], model: str, compose: str = "all",
+def simulated_robots(robots: list[RobotNodes], connect: list[str], *, model: str, compose: str = "all",
                      per_process: int = 1) -> list[NodeProcess]:
     """The processes of simulated robots: with compose "all", per_process robots to a process (launch.shared_process;
     a group of one as robot_nodes makes it), otherwise each robot's own as robot_nodes makes them."""
@@ -64,10 +63,10 @@ def simulated_robots(robots: list[RobotNodes], connect: list[str], model: str, c
     for first in range(0, len(robots), size):
         group = robots[first:first + size]
         if len(group) > 1:
-            processes.append(shared_process(group, connect, params_file(model)))
+            processes.append(shared_process(group, connect, params=params_file(model)))
         else:
-            processes += robot_nodes(group[0].robot_id, connect, model, group[0].nodes, group[0].extra,
-                                     compose=compose)
+            processes += robot_nodes(group[0].robot_id, connect, model=model, names=group[0].nodes,
+                                     extra=group[0].extra, compose=compose)
     return processes
 
 
@@ -298,8 +297,8 @@ def main(argv: list[str] | None = None) -> None:
         parser.error(str(exc))
     router = robot_router(args)
     # the nodes join the robot's router on loopback; a team file (the robot's key) stays with the router
-    launcher = Launcher(robot_nodes(robot_id, [router.local_endpoint], args.model, names,
-                                    {"telemetry": telemetry or [], "mitecom": team_comm}, params=args.params,
+    launcher = Launcher(robot_nodes(robot_id, [router.local_endpoint], model=args.model, names=names,
+                                    extra={"telemetry": telemetry or [], "mitecom": team_comm}, params=args.params,
                                     mode=args.mode, compose=args.compose, alone=alone))
     try:
         run_until_signal(launcher)

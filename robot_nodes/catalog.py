@@ -8,8 +8,16 @@ from __future__ import annotations
 
 import importlib
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-from robot_nodes.runtime import Node
+if TYPE_CHECKING:
+    from robot_nodes.runtime import Node
+
+# how a composed process (robot_nodes/compose.py) and its supervisor (launch.py) speak: kept here, where the
+# supervisor reads them without loading the runtime
+FAILED_NODE_EXIT = 64  # exit code of a composed process whose node i failed: FAILED_NODE_EXIT + i
+ROBOT_SEPARATOR = "+"  # between the robots of one process on the command line
+MOTION_NODES = ["hcm", "animation", "pause", "speaker"]  # beside cm730 and walking in every robot's motion chain
 
 
 @dataclass(frozen=True)
@@ -21,6 +29,8 @@ class NodeEntry:
 
     def load(self) -> type[Node]:
         """The node class (imports its module): ValueError if it is not a pitchside Node."""
+        from robot_nodes.runtime import Node  # the runtime (Zenoh, the messages) only when a node is wanted
+
         module_name, _, class_name = self.node_class.partition(":")
         cls = getattr(importlib.import_module(module_name), class_name, None)
         if not (isinstance(cls, type) and issubclass(cls, Node)):

@@ -37,7 +37,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from robot_nodes.catalog import NODES, entry, node_label
+from robot_nodes.catalog import FAILED_NODE_EXIT, NODES, ROBOT_SEPARATOR, entry, node_label
 from robot_nodes.runtime import Node
 from robot_nodes.runtime.clock import sim_time_wanted
 from robot_nodes.runtime.node import parse_overrides
@@ -48,9 +48,7 @@ from wire.heap import freeze_startup_heap
 
 log = logging.getLogger("pitchside.compose")
 
-FAILED_NODE_EXIT = 64  # exit code of a composed process whose node i failed: FAILED_NODE_EXIT + i
 MAX_NODES = 255 - FAILED_NODE_EXIT  # of one process, robots together: each failure must have an exit code
-ROBOT_SEPARATOR = "+"  # between the robots of one process on the command line
 SHUTDOWN_WAIT_S = 10.0  # per stage of a clean stop (nodes with last duties first, then the others)
 
 

@@ -19,8 +19,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from robot_nodes.catalog import NODE_MODULES, NODES, node_label
-from robot_nodes.compose import FAILED_NODE_EXIT, ROBOT_SEPARATOR
+from robot_nodes.catalog import FAILED_NODE_EXIT, NODE_MODULES, NODES, ROBOT_SEPARATOR, node_label
 from wire.bus import add_bus_arguments, bus_from_arguments
 from wire.command_line import CommandParser
 from wire.machine_router import is_router_config, remote, start_machine_router
@@ -178,7 +177,7 @@ def _composed_sets(name: str, extra: list[str]) -> list[str]:
     return [a for value in extra[1::2] for a in ("--set", f"{node_label(name)}.{value}")]  # a module has dots
 
 
-def robot_processes(robot_id: str, groups: list[list[str]], connect: list[str], params: Path | None = None,
+def robot_processes(robot_id: str, groups: list[list[str]], connect: list[str], *, params: Path | None = None,
                     extra: dict[str, list[str]] | None = None, zenoh_config: str | Path | None = None,
                     mode: str = "auto") -> list[NodeProcess]:
     """One supervised process per group: a node alone as ``python -m <module>``, several as robot_nodes.compose;
@@ -212,7 +211,7 @@ class RobotNodes:
     extra: dict[str, list[str]] = field(default_factory=dict)
 
 
-def shared_process(robots: list[RobotNodes], connect: list[str], params: Path | None = None,
+def shared_process(robots: list[RobotNodes], connect: list[str], *, params: Path | None = None,
                    zenoh_config: str | Path | None = None, mode: str = "auto") -> NodeProcess:
     """Several robots' nodes in one supervised process (robot_nodes.compose): the simulated team's layout, which the
     world's 100 Hz sensor messages reach once per process, not once per robot. Its robots share one loop thread
@@ -264,7 +263,7 @@ def main(argv: list[str] | None = None) -> None:
             connect = [router.local_endpoint]
     except ValueError as exc:
         raise SystemExit(f"launch: {exc}") from None
-    launcher = Launcher(robot_processes(args.robot_id, groups, connect, args.params, zenoh_config=zenoh_config,
+    launcher = Launcher(robot_processes(args.robot_id, groups, connect, params=args.params, zenoh_config=zenoh_config,
                                         mode=args.mode))
     try:
         run_until_signal(launcher)

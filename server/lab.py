@@ -191,8 +191,10 @@ class LabTools:
 
     # -- 3D preview ---------------------------------------------------------------------------------
     def _view(self) -> Robot3DView:
+        from server.robot3d import Robot3DView  # viser: loaded only with the 3D view on
+
         view = self.state.robot3d
-        if view is None or view.server is None:
+        if not isinstance(view, Robot3DView) or view.server is None:
             raise RuntimeError("the 3D view is off (start the server with --robot3d)")
         return view
 
@@ -300,9 +302,10 @@ def twist(x: float, y: float, yaw: float) -> Twist:
 
 def lab_tools(state: ServerState) -> LabTools:
     """The app's LabTools, made on first use."""
-    if state.lab is None:
-        state.lab = LabTools(state)
-    return state.lab
+    lab = state.lab
+    if not isinstance(lab, LabTools):
+        lab = state.lab = LabTools(state)
+    return lab
 
 
 def finite(value: float, what: str) -> float:

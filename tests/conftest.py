@@ -19,7 +19,7 @@ from tests.installs import build_wheel, fresh_venv, pip_install_extra, provide_p
 from tests.support import TESTDATA, free_port, launch_chromium
 from tests.teststand import SceneStand
 
-# a test file that imports mujoco before robot_nodes.cm730.sim must still render offscreen (that module's choice)
+# a test file that imports mujoco before robot_nodes.sim must still render offscreen (that module's choice)
 os.environ.setdefault("MUJOCO_GL", "egl")
 # every test checks the in-process bus's rule, in this process and in the nodes it starts: a published message is
 # never changed afterwards (robot_nodes/runtime/local_bus.py)

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import schemas
 from robot_nodes.runtime import Node, header, param
-from server.foxglove.transforms import load_kinematics
+from server.transforms import load_kinematics
 
 HL = "humanoid_league_msgs/msg/"
 BALL = (1.2, -0.3)
@@ -48,7 +48,7 @@ class PoseStand(Node):
         self.pose = known_pose()
         self.pubs = {t: self.publisher(t) for t in ("joint_states", "imu/data", "position", "ball_relative",
                                                     "obstacles_relative", "ground_truth")}
-        self.timer(self.params.rate_hz, self.tick)
+        self.timer(self.tick, rate_hz=self.params.rate_hz)
 
     def tick(self) -> None:
         p = self.pubs

@@ -24,7 +24,7 @@ class Talker(Node):
     def setup(self) -> None:
         self.seq = 0
         self.pub = self.publisher("joint_states")
-        self.tick_timer = self.timer(self.params.rate_hz, self.tick)
+        self.tick_timer = self.timer(self.tick, rate_hz=self.params.rate_hz)
 
     def on_parameters_changed(self, changed: dict[str, object]) -> None:
         if "rate_hz" in changed:
@@ -68,7 +68,7 @@ class LeavesSoon(Node):
     name = "leaves_soon"
 
     def setup(self) -> None:
-        self.timer(5.0, self.shutdown, name="leave")
+        self.timer(self.shutdown, rate_hz=5.0, name="leave")
 
 
 NODES = {"talker": Talker, "echo": Echo}

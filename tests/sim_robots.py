@@ -19,10 +19,10 @@ import robots
 import schemas
 from robot_nodes.catalog import entry
 from robot_nodes.cm730.node import Cm730Node
-from robot_nodes.cm730.sim import PhysicsConfig, Placement, RobotHandle, SimRunner, SimWorld
 from robot_nodes.cm730.sim_backend import MujocoBackend
 from robot_nodes.runtime import BusConfig, Node, open_session
 from robot_nodes.runtime.clock import CLOCK_PERIOD_S, SimClock
+from robot_nodes.sim import PhysicsConfig, Placement, RobotHandle, SimRunner, SimWorld
 from schemas.codec import Message
 from tests.waiting import wait_for
 from wire.keys import topic_key

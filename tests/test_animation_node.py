@@ -45,7 +45,7 @@ class Body(Node):
         self.received: list[Any] = []
         self.joint_states = self.publisher("joint_states")
         self.subscribe("animation", self.received.append)
-        self.timer(50.0, self.publish_state)
+        self.timer(self.publish_state, rate_hz=50.0)
         self.client = self.action_client("animation")
 
     def publish_state(self) -> None:

@@ -15,8 +15,8 @@ from robot_nodes.behavior.node import BehaviorParams, player_number_of, rivals_k
 from robot_nodes.behavior.roles import DEFENDER, GOALIE, STRIKER, SUPPORTER, Candidate, assign_roles, ready_rank
 from robot_nodes.behavior.state_machine import BehaviorStateMachine, Blackboard, State
 from robot_nodes.behavior.world_model import Teammate, WorldModel
-from robot_nodes.cm730.sim.field import KID_SIZE
 from robot_nodes.ground_pose import GroundPose
+from robot_nodes.sim.field import KID_SIZE
 from schemas.messages import GameState, Position2D, TeamData
 from schemas.std import Pose2D as RosPose2D
 

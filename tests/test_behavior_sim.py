@@ -15,8 +15,8 @@ import pytest
 
 import schemas
 from robot_nodes.behavior.field import Field, ready_legal
-from robot_nodes.cm730.sim import Placement
 from robot_nodes.runtime import BusConfig
+from robot_nodes.sim import Placement
 from schemas.messages import GameState, Strategy
 from tests.sim_robots import SimRobots
 from tests.support import free_port

@@ -28,7 +28,7 @@ class Talker(Node):
     def setup(self) -> None:
         self.speak = self.publisher("speak")
         self.strategy = self.publisher("strategy")
-        self.timer(0.2, self.tick)
+        self.timer(self.tick, rate_hz=0.2)
 
     def tick(self) -> None:
         self.speak.publish(schemas.make("humanoid_league_msgs/msg/Speak", text="ball"))

@@ -573,7 +573,8 @@ class Describing(Node):
     def setup(self) -> None:
         self.publisher("robot_description").publish(schemas.make("std_msgs/msg/String", data="<robot name='r1'/>"))
         self.joint_states = self.publisher("joint_states")
-        self.timer(20.0, lambda: self.joint_states.publish(schemas.make("sensor_msgs/msg/JointState", name=["a"])))
+        self.timer(lambda: self.joint_states.publish(schemas.make("sensor_msgs/msg/JointState", name=["a"])),
+                   rate_hz=20.0)
 
 
 def test_a_member_lists_the_graph_and_receives_what_it_subscribes_to_even_everything(team: Path,

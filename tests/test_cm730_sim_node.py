@@ -14,6 +14,7 @@ import zenoh
 import schemas
 from robot_nodes.cm730.node import Cm730Node
 from robot_nodes.runtime import BusConfig, ParameterClient
+from robot_nodes.sim.extras import SimExtras
 from tests.waiting import wait_for
 from wire.keys import topic_key
 
@@ -151,8 +152,8 @@ def test_camera_image_and_detections_are_published(node: Cm730Node, client: zeno
     goals = client.declare_publisher(topic_key("robot1", "motor_goals"))
     try:
         goals.put(schemas.encode(_goals(["HeadTilt"], [-0.6])))  # look down at the ball in front of the feet
-        sim = node._sim
-        assert sim is not None
+        sim = node.extras
+        assert isinstance(sim, SimExtras)
         with sim.world.lock:
             x, y, _ = sim.robot.pose2d()
             sim.world.set_ball(x + 0.8, y)
@@ -174,8 +175,8 @@ def test_camera_image_and_detections_are_published(node: Cm730Node, client: zeno
         pos = wait_for(lambda: listener.last("position"), timeout=10, what="position").pose
         assert pos.x == pytest.approx(x, abs=0.05)
         # what no one listens to is not even built: each robot's frames come ten times a second
-        topics_of_sim = node._sim_topics
-        assert topics_of_sim is not None and topics_of_sim.frames_published > 0
+        topics_of_sim = sim.topics
+        assert topics_of_sim.frames_published > 0
         assert topics_of_sim.pubs["obstacles_in_image"].count == topics_of_sim.pubs["goal_in_image"].count == 0
     finally:
         listener.close()
@@ -188,8 +189,8 @@ def test_images_come_at_image_rate_while_the_detections_keep_the_camera_rate(bus
     node = Cm730Node(robot_id="robot1", bus=bus, overrides={"camera_rate": 10.0, "image_rate": 2.5}).start()
     listener = Listener(client, "robot1", ["camera/image/compressed", "position"])
     try:
-        topics = node._sim_topics
-        assert topics is not None
+        assert isinstance(node.extras, SimExtras)
+        topics = node.extras.topics
         wait_for(lambda: listener.count("camera/image/compressed") >= 1, timeout=30, what="the first image")
         start_frames, start_images = topics.frames_published, topics.pubs["camera/image/compressed"].count
         wait_for(lambda: topics.frames_published >= start_frames + 24, timeout=60, what="24 camera frames")

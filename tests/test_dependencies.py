@@ -25,7 +25,7 @@ OWN = {*PROGRAM, "tests", "bench", "tools"}  # tools: developer tools of the che
 PROFILE_OF = [
     # each command's own module: the profile pitchside.cli's table gives the command
     *[(c.target.partition(":")[0].replace(".", "/") + ".py", c.profile) for c in COMMANDS.values()],
-    ("robot_nodes/cm730/sim", "sim"),  # the MuJoCo world, its backend and its topics
+    ("robot_nodes/sim", "sim"),  # the MuJoCo world, its backend and its topics
     ("pitchside/local_run.py", "all"),
     ("robot_nodes/", "robot"),
     ("pitchside/service.py", "robot"),

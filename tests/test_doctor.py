@@ -15,8 +15,8 @@ import pytest
 
 from pitchside.doctor import Status, serial_port
 from robot_nodes.game_controller.receiver import GameControllerNode
-from robot_nodes.game_controller.simulator import SimulatedGame, SimulatedGameController
 from robot_nodes.runtime import BusConfig
+from robot_nodes.sim.gamecontroller import SimulatedGame, SimulatedGameController
 from tests.support import REPO, free_port
 from tests.waiting import wait_for
 from wire.telemetry.datagram import DEV_KEY, write_new_key

@@ -33,7 +33,7 @@ class Walker(Node):
     def setup(self) -> None:
         self.t0 = time.monotonic()
         self.pub = self.publisher("position")
-        self.timer(10.0, self.tick)
+        self.timer(self.tick, rate_hz=10.0)
 
     def tick(self) -> None:
         phase = (time.monotonic() - self.t0) * SPEED % 12.0  # triangle wave over -3 .. 3 m

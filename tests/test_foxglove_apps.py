@@ -34,9 +34,9 @@ from robot_nodes.hcm.pause import PauseNode
 from robot_nodes.runtime import BusConfig, Node, open_router, open_session
 from server.foxglove import subprotocols
 from server.foxglove.guard import GuardPolicy, Refused
-from server.foxglove.layout import layout_topics
 from server.foxglove.subprotocols import pass_to_websocket_v1, request_for_sdk, response_for_client
 from server.foxglove.tls import TlsError, server_context
+from server.foxglove_layout import layout_topics
 from server.security.credentials import Credentials
 from server.security.hosts import AllowedHosts
 from tests.dashboard_server import RunningServer, dashboard_server

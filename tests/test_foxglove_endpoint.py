@@ -31,7 +31,7 @@ from server.config import ServerConfig
 from server.foxglove.channels import channel_topic, stream_ended
 from server.foxglove.endpoint import urls_of
 from server.foxglove.guard import GuardPolicy, Refused
-from server.foxglove.layout import layout_topics
+from server.foxglove_layout import layout_topics
 from server.hub import RobotSeen, StreamStats
 from server.loopback_ports import BROWSER_BLOCKED_PORTS
 from server.security.credentials import Credentials

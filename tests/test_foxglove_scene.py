@@ -20,7 +20,7 @@ import yourdfpy
 import robots
 from robot_nodes.runtime import BusConfig
 from schemas.logs import LogReader
-from server.foxglove.transforms import rotation_of
+from server.transforms import rotation_of
 from tests.dashboard_server import RunningServer, dashboard_server
 from tests.foxglove_node import foxglove_url, run_session
 from tests.foxglove_stand import BALL, OBSTACLE, TRUE_BALL, TRUE_TORSO, PoseStand, known_pose

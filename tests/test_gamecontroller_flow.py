@@ -10,7 +10,7 @@ from collections.abc import Iterator
 import pytest
 
 from robot_nodes.game_controller.receiver import allowed_to_move
-from robot_nodes.game_controller.simulator import CommandError, SimulatedGame, SimulatedGameController
+from robot_nodes.sim.gamecontroller import CommandError, SimulatedGame, SimulatedGameController
 from tests.support import free_port
 from tests.waiting import wait_for
 from wire.gamecontroller.packets import (

@@ -12,8 +12,8 @@ import pytest
 
 import schemas
 from robot_nodes.game_controller.receiver import GameControllerNode, gamestate_fields
-from robot_nodes.game_controller.simulator import SimulatedGame, SimulatedGameController
 from robot_nodes.runtime import BusConfig, Node
+from robot_nodes.sim.gamecontroller import SimulatedGame, SimulatedGameController
 from tests.support import free_port
 from tests.waiting import wait_for
 from wire.gamecontroller.packets import (

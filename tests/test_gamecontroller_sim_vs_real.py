@@ -12,7 +12,7 @@ from typing import Any
 import pytest
 
 from robot_nodes.game_controller.receiver import gamestate_fields
-from robot_nodes.game_controller.simulator import SimulatedGame, SimulatedGameController
+from robot_nodes.sim.gamecontroller import SimulatedGame, SimulatedGameController
 from wire.gamecontroller.packets import parse_state_packet
 
 # these follow the clocks, which a simulation started now cannot share with a capture

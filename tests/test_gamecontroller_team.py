@@ -12,9 +12,9 @@ import pytest
 
 import schemas
 from robot_nodes.game_controller.receiver import GameControllerNode
-from robot_nodes.game_controller.simulator import SimulatedGame, SimulatedGameController
 from robot_nodes.hcm.pause import PauseNode
 from robot_nodes.runtime import BusConfig, Node, open_session
+from robot_nodes.sim.gamecontroller import SimulatedGame, SimulatedGameController
 from tests.support import free_port
 from tests.waiting import wait_for
 from wire.gamecontroller.packets import Penalty, ReturnMessage

@@ -10,11 +10,11 @@ import pytest
 
 import robots
 import schemas
-from robot_nodes.cm730.sim import GroundTruthVision, SimWorld
 from robot_nodes.hcm.joint_mutex import GoalSource
 from robot_nodes.head.geometry import HeadGeometry
 from robot_nodes.head.pattern import SearchPattern
 from robot_nodes.runtime import BusConfig
+from robot_nodes.sim import GroundTruthVision, SimWorld
 from schemas.messages import HeadMode
 from tests.sim_robots import SimRobots
 from tests.waiting import wait_for

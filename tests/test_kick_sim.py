@@ -129,6 +129,6 @@ def good(trial: tuple[float, float, float, str, float, float]) -> bool:
 @pytest.mark.slow
 def test_kicks_send_the_ball_far_and_straight(bus: BusConfig) -> None:
     """In the world as built: the ball's centre of mass at its centre, the rolling resistance of artificial turf
-    (robot_nodes/cm730/sim/scene.py)."""
+    (robot_nodes/sim/scene.py)."""
     results = kick_trials(bus)
     assert sum(map(good, results)) >= NEEDED, results

@@ -28,9 +28,9 @@ from pitchside.match import (
     robot_settings,
 )
 from pitchside.match import main as match_main
-from robot_nodes.cm730.sim.lineup import Lineup, LineupError, parse_robots
-from robot_nodes.game_controller.simulator import SimulatedGame, SimulatedGameController
 from robot_nodes.runtime.clock import SIM_TIME_ENV
+from robot_nodes.sim.gamecontroller import SimulatedGame, SimulatedGameController
+from robot_nodes.sim.lineup import Lineup, LineupError, parse_robots
 from robot_nodes.telemetry.sender import DEFAULT_TOPICS, parse_topics
 from schemas.logs import LogSeriesReader
 from server.hub import Hub
@@ -177,8 +177,9 @@ def test_the_world_waits_for_every_robot_unless_told_not_to() -> None:
     ports = {r: 4000 + i for i, r in enumerate(lineup.robot_ids())}
 
     def clocks(plan: MatchPlan) -> tuple[list[str], set[str | None]]:
-        processes = match_processes(plan, "tcp/127.0.0.1:7447", 8080, 5800, GameControllerPlan("sim", 3838, 3939, 1),
-                                    ports, "token", None)
+        processes = match_processes(plan, endpoint="tcp/127.0.0.1:7447", http_port=8080, telemetry_port=5800,
+                                    gc=GameControllerPlan("sim", 3838, 3939, 1), mitecom_ports=ports, token="token",
+                                    telemetry_key=None)
         world = next(p for p in processes if p.name == "world")
         robots = [p for p in processes if p.name not in ("world", "server")]
         assert len(robots) == 3  # composed: one process a robot
@@ -188,8 +189,9 @@ def test_the_world_waits_for_every_robot_unless_told_not_to() -> None:
     assert clocks(replace(plan, lockstep=False)) == (["--sim-time"], {"1"})
     assert clocks(replace(plan, sim_time=False, lockstep=False)) == ([], {None})
     # a team's robots sharing a process (the command's default): each such process follows the simulated clock too
-    shared = match_processes(replace(plan, robots_per_process=4), "tcp/127.0.0.1:7447", 8080, 5800,
-                             GameControllerPlan("sim", 3838, 3939, 1), ports, "token", None)
+    shared = match_processes(replace(plan, robots_per_process=4), endpoint="tcp/127.0.0.1:7447", http_port=8080,
+                             telemetry_port=5800, gc=GameControllerPlan("sim", 3838, 3939, 1), mitecom_ports=ports,
+                             token="token", telemetry_key=None)
     robots = [p for p in shared if p.name not in ("world", "server")]
     assert [p.name for p in robots] == ["home1+home2", "away1/hcm+walking"]
     assert robots[0].members == ["home1/hcm", "home1/walking", "home2/hcm", "home2/walking"]
@@ -215,7 +217,7 @@ def assert_world_first(processes: list[psutil.Process]) -> None:
             continue
         if command[1:2] == ["-m"]:
             modules[command[2]] = nice
-    assert modules.pop("robot_nodes.cm730.sim.match") == launcher, modules
+    assert modules.pop("robot_nodes.sim.match") == launcher, modules
     assert modules.pop("server") == launcher + BEHIND_THE_WORLD_NICE, modules
     assert "robot_nodes.compose" in modules, modules
     assert set(modules.values()) == {launcher + ROBOTS_IN_MATCH_NICE}, modules

@@ -143,7 +143,8 @@ def test_the_demo_in_match_mode_renders_no_more_images_than_telemetry_sends() ->
     from robot_nodes.telemetry.sender import DEFAULT_TOPICS, IMAGE_TOPIC, parse_topics
 
     def world_argv(match: bool) -> list[str]:
-        processes = demo_processes(2, "tcp/127.0.0.1:7447", 8080, 5800, "minibot", match, [3838, 3839], 3939)
+        processes = demo_processes(robots=2, endpoint="tcp/127.0.0.1:7447", http_port=8080, telemetry_port=5800,
+                                   model="minibot", match=match, gc_ports=[3838, 3839], gc_return_port=3939)
         return next(p.argv for p in processes if p.name == "world")
 
     rate = parse_topics(DEFAULT_TOPICS)[IMAGE_TOPIC]

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from robot_nodes.cm730.sim import RobotHandle, SimWorld
+from robot_nodes.sim import RobotHandle, SimWorld
 from wire.animation import AnimationPlayer, load_animation, validate
 
 ANIMATIONS = Path(__file__).resolve().parents[1] / "robots" / "minibot" / "animations"

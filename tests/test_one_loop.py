@@ -61,7 +61,7 @@ def test_nodes_on_one_loop_keep_their_own_timers_parameters_diagnostics_and_erro
         wait_for(lambda: {"talker", "echo"} <= set(params.nodes()), 10.0, what="both robot1 nodes' parameters")
         params.set("talker", {"rate_hz": 20.0})
         assert ParameterClient(client, "robot2").get("failing", "rate_hz") == 50.0
-        wait_for(lambda: talker.tick_timer.period == pytest.approx(0.05), 5.0, what="the talker's new rate")
+        wait_for(lambda: talker.tick_timer.period_s == pytest.approx(0.05), 5.0, what="the talker's new rate")
         # each node reports under its own name, and says whom it shares the loop with
         wait_for(lambda: {"robot1/talker", "robot1/echo", "robot2/failing"} <= set(statuses)
                  and statuses["robot1/talker"].get("loop_shared_by") == "3", 10.0, what="three nodes' diagnostics")

@@ -12,8 +12,9 @@ import zenoh
 
 import schemas
 from robot_nodes.cm730.node import Cm730Node
-from robot_nodes.cm730.sim import DetectionNoise, GroundTruthVision, SimWorld, observe_all
 from robot_nodes.runtime import BusConfig
+from robot_nodes.sim import DetectionNoise, GroundTruthVision, SimWorld, observe_all
+from robot_nodes.sim.extras import SimExtras
 from tests.waiting import wait_for
 from wire.keys import topic_key
 
@@ -188,8 +189,8 @@ def test_position_is_published_in_the_team_frame(bus: BusConfig, client: zenoh.S
     sub = client.declare_subscriber(topic_key("robot1", "position"), lambda s: latest.append(
         schemas.decode(s.payload.to_bytes(), "humanoid_league_msgs/msg/Position2D")))
     try:
-        sim = node._sim
-        assert sim is not None
+        sim = node.extras
+        assert isinstance(sim, SimExtras)
         with sim.world.lock:
             sim.robot.set_pose(2.0, 1.0, 0.5)
         wait_for(lambda: latest and latest[-1].pose.x < 0, timeout=20, what="a position after the move")

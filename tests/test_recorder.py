@@ -253,7 +253,7 @@ class GameStand(Node):
     def setup(self) -> None:
         self.state = INITIAL
         self.pub = self.publisher("gamestate")
-        self.timer(20.0, lambda: self.pub.publish(gamestate(self.state)))
+        self.timer(lambda: self.pub.publish(gamestate(self.state)), rate_hz=20.0)
 
 
 def test_a_killed_server_goes_on_recording_after_its_restart(router_endpoint: str, bus: BusConfig,

@@ -14,12 +14,12 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from robot_nodes.cm730.sim import RobotHandle, SimRunner, SimWorld
-from robot_nodes.cm730.sim.lineup import Lineup
-from robot_nodes.cm730.sim.placements import lineup_start
-from robot_nodes.cm730.sim.referee import TEAM_COLOURS, Call, Referee, RefereeRules
-from robot_nodes.game_controller.listener import GameControllerListener
-from robot_nodes.game_controller.simulator import SimulatedGame, SimulatedGameController
+from robot_nodes.sim import RobotHandle, SimRunner, SimWorld
+from robot_nodes.sim.gamecontroller import SimulatedGame, SimulatedGameController
+from robot_nodes.sim.gamecontroller_listener import GameControllerListener
+from robot_nodes.sim.lineup import Lineup
+from robot_nodes.sim.placements import lineup_start
+from robot_nodes.sim.referee import TEAM_COLOURS, Call, Referee, RefereeRules
 from tests.support import free_port
 from tests.waiting import wait_for
 from wire.gamecontroller.packets import (

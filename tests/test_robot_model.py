@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import yourdfpy
 
-from robot_nodes.cm730.sim import MINIBOT_URDF, STAND_POSE, SimWorld
+from robot_nodes.sim import MINIBOT_URDF, STAND_POSE, SimWorld
 
 JOINTS = ["HeadPan", "HeadTilt", "LShoulderPitch", "LShoulderRoll", "LElbow", "RShoulderPitch", "RShoulderRoll",
           "RElbow", "LHipYaw", "LHipRoll", "LHipPitch", "LKnee", "LAnklePitch", "LAnkleRoll", "RHipYaw", "RHipRoll",

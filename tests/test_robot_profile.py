@@ -19,8 +19,8 @@ import yaml
 import zenoh
 
 import schemas
-from robot_nodes.game_controller.simulator import SimulatedGame, SimulatedGameController
 from robot_nodes.runtime import BusConfig, open_session
+from robot_nodes.sim.gamecontroller import SimulatedGame, SimulatedGameController
 from tests.installs import profile_megabytes
 from tests.servo_bus_emulator import ServoBusEmulator
 from tests.support import free_port

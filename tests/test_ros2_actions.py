@@ -88,8 +88,8 @@ class JointStates(Node):
 
     def setup(self) -> None:
         self.joint_states = self.publisher("joint_states")
-        self.timer(50.0, lambda: self.joint_states.publish(schemas.make(
-            "sensor_msgs/msg/JointState", name=["HeadPan", "HeadTilt"], position=[0.0, 0.0])))
+        self.timer(lambda: self.joint_states.publish(schemas.make(
+            "sensor_msgs/msg/JointState", name=["HeadPan", "HeadTilt"], position=[0.0, 0.0])), rate_hz=50.0)
 
 
 @pytest.fixture

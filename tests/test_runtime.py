@@ -195,7 +195,7 @@ class Player(Node):
         self.active: ServerGoal | None = None
         self.progress = 0
         self.server = self.action_server("animation", self.on_goal, self.on_cancel)
-        self.timer(50, self.step)
+        self.timer(self.step, rate_hz=50)
 
     def on_goal(self, goal: ServerGoal) -> str | None:
         if goal.goal.animation == "forbidden":

@@ -6,9 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from robot_nodes.cm730.sim import SimWorld
-from robot_nodes.cm730.sim.scene import PhysicsConfig
-from robot_nodes.cm730.sim.world import RESTING_ENCODER_NOISE, WAKE_GOAL_RAD, RobotHandle
+from robot_nodes.sim import SimWorld
+from robot_nodes.sim.scene import PhysicsConfig
+from robot_nodes.sim.world import RESTING_ENCODER_NOISE, WAKE_GOAL_RAD, RobotHandle
 
 TICK_STEPS = 5  # the servo bus's 100 Hz tick at the 2 ms physics step
 

@@ -9,10 +9,10 @@ import time
 import mujoco
 import numpy as np
 
-from robot_nodes.cm730.sim import SimWorld
-from robot_nodes.cm730.sim.__main__ import serve_world
-from robot_nodes.cm730.sim.stepping import step_holding_gil, step_releasing_gil
 from robot_nodes.runtime import BusConfig
+from robot_nodes.sim import SimWorld
+from robot_nodes.sim.__main__ import serve_world
+from robot_nodes.sim.stepping import step_holding_gil, step_releasing_gil
 from tests.waiting import wait_for
 
 
@@ -65,7 +65,7 @@ def test_no_other_python_thread_runs_while_the_world_steps_and_with_the_binding_
 
 def test_a_world_in_lockstep_holds_the_gil_and_a_free_running_one_lets_go(bus: BusConfig) -> None:
     """In lockstep the physics is on every tick's critical path; free-running, the world's loop and cameras need the
-    other core while it steps (robot_nodes/cm730/sim/stepping.py)."""
+    other core while it steps (robot_nodes/sim/stepping.py)."""
     for sim_time, lockstep, held in ((True, True, True), (True, False, False), (False, False, False)):
         world = SimWorld(n_robots=1)
         served = serve_world(world, bus, sim_time=sim_time, lockstep=lockstep, cameras=0)

@@ -11,21 +11,18 @@ import time
 import pytest
 
 import schemas
-from robot_nodes.cm730.sim import SimRunner, SimWorld
 from robot_nodes.runtime import BusConfig, Node, open_session
 from robot_nodes.runtime.clock import (
     LOCKSTEP,
     SIM_TIME_ENV,
-    ClockPublisher,
     RobotSimClock,
     SimClock,
-    SlowestTick,
-    SlowestTicks,
-    WorldClock,
     clock_cdr,
     clock_seconds,
 )
 from robot_nodes.runtime.one_loop import NodesOnOneLoop
+from robot_nodes.sim import SimRunner, SimWorld
+from robot_nodes.sim.world_clock import ClockPublisher, SlowestTick, SlowestTicks, WorldClock
 from tests.waiting import wait_for
 from wire import keys
 
@@ -35,7 +32,7 @@ class Ticker(Node):
 
     def setup(self) -> None:
         self.ticks: list[float] = []
-        self.timer(100.0, lambda: self.ticks.append(self.now()), "tick")
+        self.timer(lambda: self.ticks.append(self.now()), rate_hz=100.0, name="tick")
 
     def on_loop(self) -> float:
         """now() as the loop sees it, after everything queued before (the loop has caught up)."""
@@ -76,7 +73,7 @@ class SlowTalker(Node):
 
     def setup(self) -> None:
         self.out = self.publisher("cmd_vel")
-        self.timer(100.0, self.tick, "tick")
+        self.timer(self.tick, rate_hz=100.0, name="tick")
 
     def tick(self) -> None:
         time.sleep(0.02)  # a loaded machine: the node takes longer than the world's step

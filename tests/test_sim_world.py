@@ -9,7 +9,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from robot_nodes.cm730.sim import GroundTruthVision, SimError, SimWorld
+from robot_nodes.sim import GroundTruthVision, SimError, SimWorld
 
 
 def _tilt(quat_xyzw: np.ndarray) -> float:
@@ -139,7 +139,7 @@ def test_ground_truth_read_without_the_lock_is_the_live_pose_of_the_last_step() 
 
 @pytest.mark.slow
 def test_ball_in_image_matches_the_rendered_ball() -> None:
-    from robot_nodes.cm730.sim.camera import HeadCamera
+    from robot_nodes.sim.camera import HeadCamera
 
     world = SimWorld(n_robots=2)
     robot = world.robots[0]
@@ -189,7 +189,7 @@ def test_detections_see_goal_posts_lines_and_the_other_robot() -> None:
 def test_cameras_of_several_robots_tick_together_from_one_world_state_at_their_rate() -> None:
     """The camera thread serves every robot due on the same grid from one copy of the world (one mj_copyData per
     pass): frames of one pass share a stamp, and each camera still gets its rate."""
-    from robot_nodes.cm730.sim import CameraFrame, SimRunner
+    from robot_nodes.sim import CameraFrame, SimRunner
     from tests.waiting import wait_for
 
     world = SimWorld(n_robots=3)
@@ -217,7 +217,7 @@ def test_cameras_keep_their_rate_in_simulated_time_when_the_world_runs_slower() 
     """A world behind real time (here a quarter of it, as a loaded machine in lockstep) sees at 10 Hz of its own
     time: not 10 Hz of wall time, which made the perception 4 times dearer per simulated second just when the
     machine was short."""
-    from robot_nodes.cm730.sim import CameraFrame, SimRunner
+    from robot_nodes.sim import CameraFrame, SimRunner
     from tests.waiting import wait_for
 
     world = SimWorld(n_robots=1)

@@ -34,7 +34,7 @@ class HcmGraphStand(Node):
 
     def setup(self) -> None:
         self.pub = self.publisher("hcm_graph")
-        self.timer(5.0, self.tick)
+        self.timer(self.tick, rate_hz=5.0)
 
     def tick(self) -> None:
         hostile = self.robot_id == "evil"

@@ -75,7 +75,7 @@ class GraphStand(Node):
     def setup(self) -> None:
         self.graph = self.publisher("hcm_graph")
         self.joints = self.publisher("joint_states")
-        self.timer(5.0, self.tick)
+        self.timer(self.tick, rate_hz=5.0)
 
     def tick(self) -> None:
         self.graph.publish(schemas.make(

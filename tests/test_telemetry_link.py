@@ -128,7 +128,7 @@ class OtherRobotNodes(Node):
             with self.lock:
                 self.sent[name].append(time.monotonic())
 
-        self.timer(hz, tick, name)
+        self.timer(tick, rate_hz=hz, name=name)
 
     def publish(self, name: str, msg: Any) -> None:
         self.pubs.setdefault(name, self.publisher(name)).publish(msg)

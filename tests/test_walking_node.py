@@ -115,4 +115,4 @@ def test_gait_parameters_are_live_and_checked(walking: tuple[WalkingNode, Probe]
         params.set("walking", {"step_frequency": 10.0})
     assert params.get("walking", "step_frequency") == 2.4
     params.set("walking", {"rate_hz": 200.0})
-    wait_for(lambda: node.cycle_timer.period == pytest.approx(1 / 200.0), 5.0, what="engine timer at 200 Hz")
+    wait_for(lambda: node.cycle_timer.period_s == pytest.approx(1 / 200.0), 5.0, what="engine timer at 200 Hz")

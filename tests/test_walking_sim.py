@@ -14,11 +14,11 @@ import zenoh
 import schemas
 from robot_nodes.animation.node import AnimationNode
 from robot_nodes.cm730.node import Cm730Node
-from robot_nodes.cm730.sim import SimWorld
 from robot_nodes.cm730.sim_backend import MujocoBackend
 from robot_nodes.hcm.node import HcmNode
 from robot_nodes.runtime import BusConfig, Node
 from robot_nodes.runtime.clock import CLOCK_PERIOD_S, SimClock
+from robot_nodes.sim import SimWorld
 from robot_nodes.walking import Phase, WalkEngine, WalkParams
 from robot_nodes.walking.node import WalkingNode, tilt_of
 from tests.waiting import wait_for

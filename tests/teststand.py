@@ -56,10 +56,10 @@ class TestStand(Node):
         self.state_pub = self.publisher("robot_state")
         self.joints_pub = self.publisher("joint_states")
         self.image_pub = self.publisher("camera/image/compressed")
-        self.timer(self.params.rate_hz, self.tick)
+        self.timer(self.tick, rate_hz=self.params.rate_hz)
         if self.params.image_hz > 0:
             self.image = jpeg(640, 480, noise=self.params.noisy_image)
-            self.timer(self.params.image_hz, self.publish_image)
+            self.timer(self.publish_image, rate_hz=self.params.image_hz)
 
     def tick(self) -> None:
         self.seq += 1
@@ -101,7 +101,7 @@ class SceneStand(Node):
             "robot_state", "gamestate", "position", "ball_relative", "obstacles_relative", "goal_relative",
             "hcm_graph", "camera/image/compressed", "ball_in_image", "goal_in_image", "servo_data")}
         self.image = np.frombuffer(jpeg(320, 240), dtype=np.uint8)
-        self.timer(5.0, self.tick)
+        self.timer(self.tick, rate_hz=5.0)
 
     def tick(self) -> None:
         p = self.pubs
@@ -179,7 +179,7 @@ class MatchStand(Node):
         self.pubs = {t: self.publisher(t) for t in (
             "robot_state", "gamestate", "position", "ball_relative", "strategy", "team_comm", "servo_data",
             "behavior_graph")}
-        self.timer(5.0, self.tick)
+        self.timer(self.tick, rate_hz=5.0)
 
     def tick(self) -> None:
         p, q = self.pubs, self.params

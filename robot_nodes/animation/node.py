@@ -81,7 +81,7 @@ class AnimationNode(Node):
         self.pub = self.publisher("animation")
         self.joints = self.keep_latest("joint_states")  # read when an animation starts, never woken by it
         self.server = self.action_server("animation", self.on_goal, self.on_cancel)
-        self.tick_timer = self.timer(self.params.rate_hz, self.tick)
+        self.tick_timer = self.timer(self.tick, rate_hz=self.params.rate_hz)
         self.tick_timer.pause()  # ticks only while an animation plays
         self._refresh_library()
 

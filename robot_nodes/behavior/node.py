@@ -162,8 +162,8 @@ class BehaviorNode(Node):
         self.subscribe("walk_odometry", self.on_odometry)
         self.subscribe("team_data", self.on_team_data)
         self.obstacles = self.keep_latest("obstacles_relative")  # read when walking and kicking, never woken by it
-        self.tick_timer = self.timer(p.rate_hz, self.tick, name="decide")
-        self.timer(1.0, self.publish_status, name="status")
+        self.tick_timer = self.timer(self.tick, rate_hz=p.rate_hz, name="decide")
+        self.timer(self.publish_status, rate_hz=1.0, name="status")
         self.set_diagnostic("player", self.player)
         self.tick()
 

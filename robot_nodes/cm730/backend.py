@@ -3,9 +3,13 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from robot_nodes.cm730.params import Cm730Params
+    from robot_nodes.runtime import Node
 
 
 @dataclass(slots=True)
@@ -49,4 +53,24 @@ class AngleLimitRegisters(Protocol):
     def write_angle_limits(self, ranges: dict[str, tuple[float, float]]) -> dict[str, str]:
         """ranges: joint name -> (lower, upper) rad on the joint side; returns per joint 'ok' (already set),
         'written', or what went wrong."""
+        ...
+
+
+class BackendExtras(Protocol):
+    """What a backend publishes beside the servos through its node (the simulation: camera, perception stand-ins,
+    ground truth); the node passes on its parameter changes and its end, and knows nothing more of them."""
+
+    def parameters_changed(self, changed: dict[str, Any]) -> None: ...
+
+    def close(self) -> None: ...
+
+
+@runtime_checkable
+class WithExtras(Protocol):
+    """A backend that adds topics of its own to its node (robot_nodes/cm730/sim_backend.py)."""
+
+    simulated: bool  # goals are clamped by the world's model anyway: the node may start without URDF limits
+
+    def extras(self, node: Node, params: Cm730Params) -> BackendExtras | None:
+        """Set up with the node, on its loop (its timers and publishers are the node's); None: nothing to add."""
         ...

@@ -4,9 +4,9 @@ Every motor goal passes one clamp first (joint_limits.GoalLimits): positions int
 `limit_margin_deg`, speeds capped at the URDF velocity, whichever backend drives the joints; on Dynamixel the
 same limits also go into the servos' angle-limit registers at start-up, so the servo itself refuses the rest.
 
-With the MuJoCo backend it also publishes what the simulated robot's head camera sees (JPEG image,
-camera info, ground-truth detections), its relative perceptions, its field position and the world's
-ground truth, standing in for camera, vision and localization nodes.
+A backend may add topics of its own (``BackendExtras``): the MuJoCo backend publishes what the simulated robot's
+head camera sees, its relative perceptions, its field position and the world's ground truth, standing in for
+camera, vision and localization nodes (robot_nodes/sim/extras.py). This node knows them only by that interface.
 """
 
 from __future__ import annotations
@@ -14,8 +14,6 @@ from __future__ import annotations
 import importlib
 import math
 import time
-from collections import deque
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -23,72 +21,20 @@ import numpy as np
 
 import robots
 import schemas
-from robot_nodes.cm730.backend import AngleLimitRegisters, BusReading, ServoBackend
+from robot_nodes.cm730.backend import AngleLimitRegisters, BackendExtras, BusReading, ServoBackend, WithExtras
 from robot_nodes.cm730.description import DescriptionError, fixed_transforms
 from robot_nodes.cm730.joint_limits import ClampedGoals, ClampTally, GoalLimits, JointLimitsError
-from robot_nodes.runtime import Node, param
+from robot_nodes.cm730.params import Cm730Params
+from robot_nodes.runtime import Node
 from schemas.messages import AdditionalServoData, ServoHealth
 from schemas.std import Header, Imu, JointState, JointTrajectory, Quaternion, Temperature, Vector3
 
-OPTICAL_FRAME = "camera_optical_frame"
-FOOTPRINT_FRAME = "base_footprint"
-MAP_FRAME = "map"
 CLAMP_REPORT_EVERY_S = 5.0  # at most one error line per this many seconds while goals are being clamped
 SERVO_HEALTH_PERIOD_S = 1.0  # servo_health goes out on every change and at least this often
-RTF_LONG_S = 10  # s of the world's time: the long real-time factor's window
 
 
 class SimulationNotInstalled(RuntimeError):
     """backend mujoco on an install without the simulation profile."""
-
-
-@dataclass
-class Cm730Params:
-    backend: str = param("mujoco", choices=["mujoco", "dynamixel"], doc="servo bus: simulated or real Dynamixel")
-    publish_rate: float = param(100.0, range=(1.0, 1000.0),
-                                doc="Hz of joint_states and imu/data (the motion chain runs at 100 Hz)")
-    servo_data_rate: float = param(5.0, range=(0.1, 50.0), doc="Hz of servo_data (temperatures, voltage)")
-    device: str = param("/dev/ttyUSB0", doc="dynamixel: serial port of the servo bus")
-    baudrate: int = param(1000000, range=(9600, 4500000), doc="dynamixel: bus baud rate")
-    model: str = param("minibot", startup=True, doc="robot model; its URDF is robots/<model>/urdf/<model>.urdf")
-    urdf: str = param("", startup=True, doc="URDF whose joint limits every goal is clamped to; empty = the model's")
-    limit_margin_deg: float = param(
-        1.0, range=(0.0, 10.0), startup=True,
-        doc="goals stay this far inside each URDF joint limit: a servo overshoots its goal by a few ticks and the "
-            "URDF limit is where parts touch")
-    real_time_factor: float = param(1.0, range=(0.0, 100.0), doc="mujoco: sim speed, 0 = as fast as possible")
-    imu_gyro_noise: float = param(0.005, range=(0.0, 1.0), doc="mujoco: gyro noise std dev, rad/s")
-    imu_accel_noise: float = param(0.05, range=(0.0, 5.0), doc="mujoco: accelerometer noise std dev, m/s^2")
-    imu_orientation_noise: float = param(0.002, range=(0.0, 0.5), doc="mujoco: orientation noise std dev, rad")
-    camera_rate: float = param(10.0, range=(0.1, 60.0), doc="mujoco: Hz of detections (images: image_rate)")
-    image_rate: float = param(10.0, range=(0.1, 60.0),
-                              doc="mujoco: Hz of rendered camera images (at most camera_rate; detections keep it)")
-    camera_width: int = param(320, range=(16, 640), doc="mujoco: image width, px")
-    camera_height: int = param(240, range=(16, 480), doc="mujoco: image height, px")
-    jpeg_quality: int = param(80, range=(10, 100), doc="mujoco: JPEG quality of camera/image/compressed")
-    render_camera: bool = param(True, doc="mujoco: render images (only while someone subscribes)")
-    # the perception stand-ins (robot_nodes/cm730/sim/perception.py): defaults are what a decent robot's vision and
-    # localization give; all 0 (and max distance 100 m) is the exact ground truth of what is in view
-    detection_pixel_noise: float = param(0.0, range=(0.0, 50.0), doc="mujoco: std dev of image detections, px")
-    detection_relative_noise: float = param(0.02, range=(0.0, 2.0),
-                                            doc="mujoco: std dev of relative positions right at the lens, m")
-    detection_noise_per_m: float = param(0.05, range=(0.0, 1.0),
-                                         doc="mujoco: std dev added per metre of distance (a far ball is noisier)")
-    detection_max_distance: float = param(6.0, range=(0.5, 100.0),
-                                          doc="mujoco: ball and robots farther from the camera are not seen, m")
-    detection_dropout: float = param(0.1, range=(0.0, 1.0),
-                                     doc="mujoco: probability a detection in view is missed (false negative)")
-    position_noise: float = param(0.08, range=(0.0, 2.0), doc="mujoco: std dev of the own position (x, y), m")
-    yaw_noise: float = param(0.05, range=(0.0, 1.0), doc="mujoco: std dev of the own heading, rad")
-    position_losses_per_min: float = param(1.0, range=(0.0, 60.0),
-                                           doc="mujoco: how often the localization is lost (no position)")
-    position_loss_s: float = param(2.0, range=(0.0, 60.0), doc="mujoco: how long each loss lasts, s")
-    own_half: str = param("-x", choices=["-x", "+x"],
-                          doc="mujoco: the half of the simulated field this robot's team defends; position is "
-                              "published in the team's frame (own goal at -x), as a localization gives it")
-    ground_truth_rate: float = param(20.0, range=(0.0, 200.0),
-                                     doc="mujoco: Hz of ground_truth (every robot's pose: one node of a world sends "
-                                         "it, the others have 0)")
 
 
 class Cm730Node(Node):
@@ -114,8 +60,6 @@ class Cm730Node(Node):
         self.angle_limit_report: dict[str, str] = {}
         self._missing: tuple[str, ...] | None = None  # joints not answering in the last read (None: no read yet)
         self._start_limits()
-        self._sim = _sim_parts(self.backend)
-        self._apply_sim_params()
         self.subscribe("motor_goals", self._on_motor_goals)
         self.subscribe("motor_torque", self._on_motor_torque)
         self._joint_pub = self.publisher("joint_states")
@@ -123,13 +67,12 @@ class Cm730Node(Node):
         self._servo_pub = self.publisher("servo_data")
         self._health_pub = self.publisher("servo_health")
         self._publish_description()
-        self._state_timer = self.timer(p.publish_rate, self._publish_state, name="joint_states")
-        self._servo_timer = self.timer(p.servo_data_rate, self._publish_servo_data, name="servo_data")
-        self.timer(1.0 / SERVO_HEALTH_PERIOD_S, self._publish_servo_health, name="servo_health")
+        self._state_timer = self.timer(self._publish_state, rate_hz=p.publish_rate, name="joint_states")
+        self._servo_timer = self.timer(self._publish_servo_data, rate_hz=p.servo_data_rate, name="servo_data")
+        self.timer(self._publish_servo_health, period_s=SERVO_HEALTH_PERIOD_S, name="servo_health")
         self._last: BusReading | None = None
-        self._camera = None
-        if self._sim is not None:
-            self._setup_sim()
+        self.extras: BackendExtras | None = (self.backend.extras(self, p) if isinstance(self.backend, WithExtras)
+                                             else None)
 
     def _publish_description(self) -> None:
         """The URDF on robot_description and its fixed joints on tf_static, once: latched topics (as
@@ -166,8 +109,8 @@ class Cm730Node(Node):
         try:
             return GoalLimits.from_urdf(self.urdf_path(), self.params.limit_margin_deg)
         except JointLimitsError as exc:
-            simulated = (_sim_parts(self._given_backend) is not None if self._given_backend is not None
-                         else self.params.backend == "mujoco")
+            simulated = (isinstance(self._given_backend, WithExtras) and self._given_backend.simulated
+                         if self._given_backend is not None else self.params.backend == "mujoco")
             if not simulated:
                 self.shutdown()
                 raise JointLimitsError(f"cm730: no joint limits, so the servo bus stays off: {exc}") from None
@@ -230,8 +173,8 @@ class Cm730Node(Node):
         return backend
 
     def on_shutdown(self) -> None:
-        if self._sim is not None and self._camera is not None:
-            self._sim.runner.remove_camera(self._camera)
+        if self.extras is not None:
+            self.extras.close()
         self.backend.close()
 
     # -- motor commands ----------------------------------------------------------------------------------
@@ -347,84 +290,13 @@ class Cm730Node(Node):
             AdditionalServoData,
             header=Header(stamp=stamp, frame_id=""), temperature=temps, voltage=voltage))
 
-    # -- simulation extras -------------------------------------------------------------------------------
-    def _setup_sim(self) -> None:
-        from robot_nodes.cm730.sim_topics import SimTopics
-
-        assert self._sim is not None, "simulation extras need the MuJoCo backend"
-        self._sim_topics = SimTopics(self)
-        self._camera = self._sim.runner.add_camera(
-            self._sim.robot, self._sim_topics.on_frame, self.params.camera_width, self.params.camera_height,
-            self.params.camera_rate, want_image=self._sim_topics.wants_image, noise=self._sim_topics.noise)
-        self._ground_truth_timer = self.timer(max(self.params.ground_truth_rate, 0.1),
-                                              self._sim_topics.publish_ground_truth, name="ground_truth")
-        if self.params.ground_truth_rate <= 0:
-            self._ground_truth_timer.pause()
-        self._rtf_marks: deque[tuple[float, float]] = deque([(self._sim.world.time, time.monotonic())],
-                                                            maxlen=RTF_LONG_S + 1)
-        self.timer(1.0, self._measure_real_time_factor, name="real_time_factor")
-
-    def _measure_real_time_factor(self) -> None:
-        """Sim seconds per wall second over the last second (``real_time_factor``) and the last RTF_LONG_S
-        (``real_time_factor_10s``): below 1 the machine cannot keep up with the world. A world behind real time
-        catches up (runner.MAX_LAG): a short dip followed by a second above 1 kept real time, the long figure says
-        whether the match did."""
-        assert self._sim is not None
-        marks = self._rtf_marks
-        sim_now, wall_now = self._sim.world.time, time.monotonic()
-        (sim0, wall0), (sim_long, wall_long) = marks[-1], marks[0]
-        marks.append((sim_now, wall_now))
-        if wall_now > wall0:
-            self.set_diagnostic("real_time_factor", f"{(sim_now - sim0) / (wall_now - wall0):.3f}")
-            self.set_diagnostic(f"real_time_factor_{RTF_LONG_S}s",
-                                f"{(sim_now - sim_long) / (wall_now - wall_long):.3f}")
-            self.set_diagnostic("lag_resets", self._sim.runner.lag_resets)
-        slowest = self._sim.runner.slowest_ticks
-        if slowest is not None:  # lockstep: what held the world in its slowest tick of the last second
-            self.set_diagnostic("slowest_tick", slowest.last.describe())
-        # MuJoCo stops stepping a robot at rest (SimWorld): what the physics costs is its awake robots'
-        self.set_diagnostic("physics_asleep", bool(self._sim.world.latest.asleep[self._sim.robot.tree]))
-
-    def _apply_sim_params(self) -> None:
-        if self._sim is None:
-            return
-        p = self.params
-        noise = self._sim.world.imu_noise
-        noise.gyro, noise.accel, noise.orientation = p.imu_gyro_noise, p.imu_accel_noise, p.imu_orientation_noise
-        self._sim.runner.set_real_time_factor(p.real_time_factor)
-
     def on_parameters_changed(self, changed: dict[str, Any]) -> None:
         if "publish_rate" in changed:
             self._state_timer.set_rate(self.params.publish_rate)
         if "servo_data_rate" in changed:
             self._servo_timer.set_rate(self.params.servo_data_rate)
-        if self._sim is not None:
-            self._apply_sim_params()
-            self._sim_topics.apply_params()
-            if "ground_truth_rate" in changed:
-                rate = self.params.ground_truth_rate
-                self._ground_truth_timer.set_rate(max(rate, 0.1))
-                self._ground_truth_timer.resume() if rate > 0 else self._ground_truth_timer.pause()
-            if self._camera is not None:
-                self._camera.rate_hz = self.params.camera_rate
-                if {"camera_width", "camera_height"} & set(changed):
-                    self._camera.resize(self.params.camera_width, self.params.camera_height)
-
-
-@dataclass
-class _SimParts:
-    world: Any
-    robot: Any
-    runner: Any
-
-
-def _sim_parts(backend: ServoBackend) -> _SimParts | None:
-    """The simulation behind a MuJoCo backend (None for real hardware)."""
-    runner = getattr(backend, "runner", None)
-    robot = getattr(backend, "robot", None)
-    if runner is None or robot is None:
-        return None
-    return _SimParts(backend.world, robot, runner)  # type: ignore[attr-defined]
+        if self.extras is not None:
+            self.extras.parameters_changed(changed)
 
 
 def _optional(values: Any, n: int) -> np.ndarray | None:

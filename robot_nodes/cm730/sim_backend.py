@@ -1,17 +1,29 @@
-"""The MuJoCo backend of the cm730 node: one robot of a SimWorld behind the ServoBackend interface."""
+"""The MuJoCo backend of the cm730 node: one robot of a SimWorld behind the ServoBackend interface. The only file
+of cm730 that knows the simulation (robot_nodes/sim): what the simulated robot publishes beside its servos comes to
+the node as the backend's extras."""
 
 from __future__ import annotations
+
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from robot_nodes.cm730.backend import BusReading
-from robot_nodes.cm730.sim import RobotHandle, SimRunner, SimWorld
+from robot_nodes.sim.extras import SimExtras
+from robot_nodes.sim.runner import SimRunner
+from robot_nodes.sim.world import RobotHandle, SimWorld
+
+if TYPE_CHECKING:
+    from robot_nodes.cm730.params import Cm730Params
+    from robot_nodes.runtime import Node
 
 
 class MujocoBackend:
     """ServoBackend of one simulated robot, called from the node's loop while the physics thread (SimRunner)
     steps: it reads the copy of the state made after the last step and queues goals and torque switches for the
     next one (SimWorld.later), in the order sent, without taking the world's lock."""
+
+    simulated = True
 
     def __init__(self, world: SimWorld, robot: RobotHandle, runner: SimRunner | None = None,
                  owns_world: bool = False) -> None:
@@ -27,6 +39,13 @@ class MujocoBackend:
         world = SimWorld(n_robots=1, seed=seed)
         runner = SimRunner(world, real_time_factor).start()
         return cls(world, world.robots[0], runner, owns_world=True)
+
+    def extras(self, node: Node, params: Cm730Params) -> SimExtras | None:
+        """The head camera, perception stand-ins, ground truth and real-time factor of this robot, on the node
+        (None without the world's runner: a world stepped by hand has no camera thread)."""
+        if self.runner is None:
+            return None
+        return SimExtras(node, params, self.world, self.robot, self.runner)
 
     def read(self) -> BusReading:
         return self.robot.read(self.world.latest)

@@ -1,6 +1,6 @@
-"""RoboCup GameController: the receiver node (receiver), what it tells an HSL GameController (status), the delayed
-state after the whistle (fake_state) and a simulated GC (simulator); the codec is wire.gamecontroller's, re-exported
-here."""
+"""RoboCup GameController: the receiver node (receiver), what it tells an HSL GameController (status) and the delayed
+state after the whistle (fake_state); the codec is wire.gamecontroller's, re-exported here. A simulated GameController
+lives with the simulation (robot_nodes/sim/gamecontroller.py)."""
 
 from wire.gamecontroller.packets import (
     GameControlData,

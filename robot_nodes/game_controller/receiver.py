@@ -90,8 +90,8 @@ class GameControllerNode(Node):
         self.manual_penalty = False
         self._unpenalise_left = 0  # MAN_UNPENALISE packets still to send
         self._open_socket()
-        self._return_timer = self.timer(self.params.return_rate_hz, self._send_return, "return_packets")
-        self._keepalive_timer = self.timer(10.0, self._keepalive, "keepalive")
+        self._return_timer = self.timer(self._send_return, rate_hz=self.params.return_rate_hz, name="return_packets")
+        self._keepalive_timer = self.timer(self._keepalive, rate_hz=10.0, name="keepalive")
         self._idle()  # both timers wait for the first packet of a GameController
         self.subscribe("manual_penalty", self._on_manual_penalty)
         self.subscribe("whistle", self._on_whistle)

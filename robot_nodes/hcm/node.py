@@ -110,9 +110,9 @@ class HcmNode(Node):
         self.subscribe("walking_active", self.on_walking_active)
         self.subscribe("servo_data", self.on_servo_data)
         self.subscribe("servo_health", self.on_servo_health)
-        self.step_timer = self.timer(self.params.rate_hz, self.step)
-        self.state_timer = self.timer(self.params.state_publish_hz, self.publish_state)
-        self.timer(1.0, self.publish_graph)
+        self.step_timer = self.timer(self.step, rate_hz=self.params.rate_hz)
+        self.state_timer = self.timer(self.publish_state, rate_hz=self.params.state_publish_hz)
+        self.timer(self.publish_graph, rate_hz=1.0)
         self.publish_state()
 
     # -- inputs -------------------------------------------------------------------------------------------

@@ -27,7 +27,7 @@ class PauseNode(Node):
         self.manual_pub = self.publisher("manual_penalty")
         self.subscribe("gamestate", self.on_gamestate)
         self.service("manual_penalize", self.on_manual_penalize)
-        self.timer(2.0, self.publish)
+        self.timer(self.publish, rate_hz=2.0)
         self.publish()
 
     @property

@@ -100,7 +100,7 @@ class HeadNode(Node):
         self.subscribe("goal_relative", self.on_goal)
         self.subscribe("position", self.on_position)
         self.joints = self.keep_latest("joint_states")  # read by the tick: 100 messages a second never wake it
-        self.tick_timer = self.timer(p.rate_hz, self.tick, name="head")
+        self.tick_timer = self.timer(self.tick, rate_hz=p.rate_hz, name="head")
         self._update_activity()
 
     # -- inputs -------------------------------------------------------------------------------------------

@@ -103,7 +103,7 @@ class KickNode(Node):
         self.subscribe("walk_odometry", self.on_odometry)
         self.subscribe("robot_state", self.on_robot_state)
         self.subscribe("walking_active", self.on_walking_active)
-        self.tick_timer = self.timer(self.params.rate_hz, self.tick, name="kick")
+        self.tick_timer = self.timer(self.tick, rate_hz=self.params.rate_hz, name="kick")
         self.tick_timer.pause()  # ticks only while a goal runs
 
     @property

@@ -150,7 +150,7 @@ class MitecomNode(Node):
         self.guard = self._make_guard()
         self._update_destinations()
         self._open_socket()
-        self._send_timer = self.timer(self.params.send_rate_hz, self._tick, "team_messages")
+        self._send_timer = self.timer(self._tick, rate_hz=self.params.send_rate_hz, name="team_messages")
 
     # -- inputs ---------------------------------------------------------------------------------------------
     def _remember(self, topic: str, msg: Message) -> None:

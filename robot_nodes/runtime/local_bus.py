@@ -24,7 +24,7 @@ import os
 import threading
 from collections.abc import Callable
 from dataclasses import fields, is_dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import numpy as np
 import zenoh
@@ -33,8 +33,25 @@ import schemas
 from schemas.codec import Message, SchemaError
 from wire import keys
 
-if TYPE_CHECKING:
-    from robot_nodes.runtime.node import Subscription
+
+class Subscription(Protocol):
+    """What the bus hands messages to: a node's subscription (robot_nodes/runtime/node.py) or a robot's simulated
+    clock (clock.py). Declared here so the bus needs neither."""
+
+    robot: str  # whose topic, or keys.ANY_ROBOT
+    topic: schemas.Topic
+
+    def hand_over(self, key: str, msg: Message | SchemaError) -> None:
+        """From Zenoh: the decoded message, or why it could not be decoded."""
+        ...
+
+    def hand_over_cdr(self, key: str, cdr: bytes) -> None:
+        """From Zenoh, for a subscriber that decodes itself."""
+        ...
+
+    def hand_over_local(self, robot: str, msg: Message, cdr: bytes | None) -> None:
+        """From a publisher of this process: the object itself (cdr only to check it stays unchanged)."""
+        ...
 
 CHECK_FROZEN_ENV = "PITCHSIDE_CHECK_FROZEN"
 

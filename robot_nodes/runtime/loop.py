@@ -18,17 +18,27 @@ from robot_nodes.runtime.clock import WALL_CLOCK, Clock
 log = logging.getLogger(__name__)
 
 
+def timer_period_s(rate_hz: float | None, period_s: float | None) -> float:
+    """A timer's period from its rate or its period, exactly one given, finite and above 0 (else ValueError)."""
+    if (rate_hz is None) == (period_s is None):
+        raise ValueError(f"a timer takes rate_hz or period_s, exactly one (got rate_hz={rate_hz}, period_s={period_s})")
+    period = period_s if period_s is not None else 1.0 / rate_hz if rate_hz else math.inf
+    if not (0.0 < period < math.inf):
+        raise ValueError(f"a timer's period must be finite and above 0 s (rate_hz={rate_hz}, period_s={period_s})")
+    return period
+
+
 class Timer:
     """A periodic callback; its measured rate goes into the node's diagnostics.
 
     A node with nothing to do pauses its timer and resumes it when work comes (a walk command, an animation
     goal): a paused timer costs nothing, the loop does not wake for it."""
 
-    def __init__(self, loop: EventLoop, period: float, callback: Callable[[], None], name: str) -> None:
-        self.period = period
+    def __init__(self, loop: EventLoop, period_s: float, callback: Callable[[], None], name: str) -> None:
+        self.period_s = period_s
         self.callback = callback
         self.name = name
-        self.next_due = loop.clock.now() + period
+        self.next_due = loop.clock.now() + period_s
         self.cancelled = False
         self.active = True
         self.ticks = 0
@@ -38,8 +48,11 @@ class Timer:
     def cancel(self) -> None:
         self.cancelled = True
 
-    def set_rate(self, hz: float) -> None:
-        self.period = 1.0 / hz
+    def set_rate(self, rate_hz: float) -> None:
+        self.period_s = timer_period_s(rate_hz, None)
+
+    def set_period(self, period_s: float) -> None:
+        self.period_s = timer_period_s(None, period_s)
 
     def pause(self) -> None:
         """Stops ticking until resume (on the node's loop thread, like all node code)."""
@@ -50,7 +63,7 @@ class Timer:
         if self.active or self.cancelled:
             return
         self.active = True
-        self.next_due = self._loop.clock.now() + (0.0 if at_once else self.period)
+        self.next_due = self._loop.clock.now() + (0.0 if at_once else self.period_s)
         self._loop.add_timer(self)
 
 
@@ -159,10 +172,10 @@ class EventLoop:
                 continue
             self._call(timer.callback, ())
             timer.ticks += 1
-            timer.next_due += timer.period
+            timer.next_due += timer.period_s
             now = clock.now() + slack
-            if timer.next_due < now - timer.period:  # fell behind by more than a period: skip, don't burst
-                timer.next_due = clock.now() + timer.period  # on the clock's grid (slack added would straddle it)
+            if timer.next_due < now - timer.period_s:  # fell behind by more than a period: skip, don't burst
+                timer.next_due = clock.now() + timer.period_s  # on the clock's grid (slack added would straddle it)
             if timer.active and not timer.cancelled:  # the callback may have paused or cancelled it
                 self.add_timer(timer)
         if not self._timers:

@@ -23,7 +23,7 @@ import schemas
 from robot_nodes.runtime.action_server import ActionServer, ServerGoal
 from robot_nodes.runtime.clock import WALL_CLOCK, Clock, RobotSimClock, sim_time_wanted
 from robot_nodes.runtime.local_bus import LocalBus, RemoteInterest, freeze, thawed
-from robot_nodes.runtime.loop import EventLoop, Timer
+from robot_nodes.runtime.loop import EventLoop, Timer, timer_period_s
 from robot_nodes.runtime.parameter_server import ParameterServer
 from robot_nodes.runtime.parameters import ParameterStore
 from robot_nodes.runtime.rosout import RosoutHandler
@@ -426,7 +426,7 @@ class Node:
         self._parameter_server = ParameterServer(self.session, self.ros2_node_info, self.zid, self.ros2_node_id,
                                                  self.next_entity_id, self.parameters)
         self._declared.append(self._parameter_server)
-        self.timer(1.0 / self.diagnostics_period, self._publish_diagnostics)
+        self.timer(self._publish_diagnostics, period_s=self.diagnostics_period)
         try:
             self.setup()
         except BaseException:  # a node that cannot start leaves no session behind (it would hold the process)
@@ -471,8 +471,13 @@ class Node:
         self._subscriptions.append(sub)
         return sub
 
-    def timer(self, hz: float, callback: Callable[[], None], name: str | None = None) -> Timer:
-        t = Timer(self.loop, 1.0 / hz, callback, name or str(getattr(callback, "__name__", "timer")))
+    def timer(self, callback: Callable[[], None], *, rate_hz: float | None = None, period_s: float | None = None,
+              name: str | None = None) -> Timer:
+        """``callback`` on the node's loop ``rate_hz`` times a second or every ``period_s`` seconds of the node's
+        clock: exactly one of the two, named, so a rate is never read as a period (rclpy's ``create_timer`` takes
+        the period: a ``timer(0.01, ...)`` there is 100 Hz)."""
+        t = Timer(self.loop, timer_period_s(rate_hz, period_s), callback,
+                  name or str(getattr(callback, "__name__", "timer")))
         self._timers.append(t)
         self.loop.add_timer(t) if self.loop.thread is None else self.loop.call_soon(self.loop.add_timer, t)
         return t

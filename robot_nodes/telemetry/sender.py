@@ -176,7 +176,8 @@ class TelemetryNode(Node):
         self._address: tuple[str, int] | None = None
         self._resolve_destination()
         self.budget = ByteBudget(self.params.budget_bytes_per_s)
-        self._pump_timer = self.timer(PUMP_HZ, self._pump, "pump")  # only while the budget holds datagrams back
+        # only while the budget holds datagrams back
+        self._pump_timer = self.timer(self._pump, rate_hz=PUMP_HZ, name="pump")
         self._rates: dict[str, float] = {}
         self._last_taken: dict[Any, float] = {}
         self._stream_ids: dict[str, int] = {}
@@ -192,9 +193,9 @@ class TelemetryNode(Node):
         for name in OVERVIEW_SOURCES:
             self._ensure_subscribed(name)
         self._announce_table()
-        self._overview_timer = self.timer(self.params.overview_hz, self._send_overview, "overview")
-        self._table_timer = self.timer(1.0 / self.params.table_period_s, self._announce_table, "stream_table")
-        self.timer(1.0, self._report, "report")
+        self._overview_timer = self.timer(self._send_overview, rate_hz=self.params.overview_hz, name="overview")
+        self._table_timer = self.timer(self._announce_table, period_s=self.params.table_period_s, name="stream_table")
+        self.timer(self._report, rate_hz=1.0, name="report")
 
     # -- configuration --------------------------------------------------------------------------------
     def _check_key(self) -> str:

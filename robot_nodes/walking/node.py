@@ -67,8 +67,8 @@ class WalkingNode(Node):
         # read by the cycle when it runs: 100 messages a second each do not wake a standing robot's walking
         self.imu = self.keep_latest("imu/data")
         self.joints = self.keep_latest("joint_states")
-        self.cycle_timer = self.timer(self.params.rate_hz, self.tick, name="walk")
-        self.timer(ACTIVE_PUBLISH_HZ, self.standing_tick, name="standing")
+        self.cycle_timer = self.timer(self.tick, rate_hz=self.params.rate_hz, name="walk")
+        self.timer(self.standing_tick, rate_hz=ACTIVE_PUBLISH_HZ, name="standing")
         self._update_stop()  # no robot_state yet: the HCM has not allowed walking
 
     def on_parameters_changed(self, changed: dict[str, Any]) -> None:

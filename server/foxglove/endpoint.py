@@ -33,12 +33,12 @@ from server.foxglove.servers import Offer, SdkServers, ServerStartError
 from server.foxglove.services import SERVED_BY, RobotServices, service_name
 from server.foxglove.teleop import FoxgloveTeleop
 from server.foxglove.tls import TlsError, server_context
-from server.foxglove.transforms import DEFAULT_MAX_HZ
 from server.hub import HubMessage
 from server.node_graph import service_providers, topic_links
 from server.security.credentials import Credentials
 from server.security.guard import normalized_origin
 from server.security.hosts import AllowedHosts
+from server.transforms import DEFAULT_MAX_HZ
 from wire import keys
 from wire.machine import machine_addresses
 

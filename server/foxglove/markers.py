@@ -12,7 +12,7 @@ import dataclasses
 from typing import Any
 
 import schemas
-from server.foxglove.transforms import FOOTPRINT, MAP_FRAME, frame
+from server.transforms import FOOTPRINT, MAP_FRAME, frame
 
 MARKER_ARRAY = "visualization_msgs/msg/MarkerArray"
 LIFETIME_S = 1.0

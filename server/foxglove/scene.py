@@ -2,7 +2,7 @@
 and ``/<robot>/markers``.
 
 Derived channels (server.foxglove.channels offers them the hub streams they need): the transforms come from
-server.foxglove.transforms (robot_state_publisher's job), the markers from server.foxglove.markers. A robot joins
+server.transforms (robot_state_publisher's job), the markers from server.foxglove.markers. A robot joins
 the scene with its first joint_states (its URDF from the server's ``--urdf``) and leaves with its streams. Each robot
 has its own tf and tf_static, as ROS 2 namespaces a robot's (``/<robot>/tf``); Foxglove's 3D panel reads transforms
 from every topic of their type, and the frames carry the robot id, so all robots share one scene. A log's own tf
@@ -25,9 +25,9 @@ import foxglove
 import schemas
 from server.config import RobotDescription
 from server.foxglove.markers import MARKER_ARRAY, field_markers
-from server.foxglove.transforms import DESCRIPTION_TYPE, TF_TYPE, RobotStatePublisher
-from server.foxglove.transforms import TOPICS as TRANSFORM_TOPICS
 from server.hub import HubMessage
+from server.transforms import DESCRIPTION_TYPE, TF_TYPE, RobotStatePublisher
+from server.transforms import TOPICS as TRANSFORM_TOPICS
 from wire import keys
 
 log = logging.getLogger(__name__)

@@ -1,7 +1,7 @@
 """Foxglove's ClientPublish on ``/<robot>/cmd_vel``: the Teleop panel drives a robot as the dashboard's teleop does.
 
 Each geometry_msgs/Twist (CDR, or JSON as Foxglove's Teleop panel sends it) goes through the teleop panel's own path
-(server.lab.LabTools.drive): the same limits (server.routers.teleop.DriveCommand: |x|, |y| <= 1 m/s, |yaw| <= 3 rad/s;
+(server.lab.LabTools.drive): the same limits (server.drive_command.DriveCommand: |x|, |y| <= 1 m/s, |yaw| <= 3 rad/s;
 a message outside them is refused whole, with a status saying why, and nothing of it is sent), cmd_vel at 10 Hz
 while the client keeps publishing, and the dead-man stop: zero once the client's messages stop for longer than it
 publishes (at least the panel's 0.5 s, at most its 2 s), at once when the client unadvertises or goes.
@@ -24,8 +24,8 @@ from typing import Any
 import pydantic
 
 import schemas
+from server.drive_command import DriveCommand
 from server.lab import TELEOP_HOLD_S, lab_tools
-from server.routers.teleop import DriveCommand
 from server.state import ServerState
 from wire import keys
 from wire.json_limits import JsonLimitError, loads_limited

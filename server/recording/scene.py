@@ -1,7 +1,7 @@
 """The robots in 3D in a recording: ``/<robot>/tf``, ``/<robot>/tf_static`` and ``/<robot>/robot_description``
 written beside the streams.
 
-The same messages the Foxglove endpoint serves live (server.foxglove.transforms: robot_state_publisher's job from
+The same messages the Foxglove endpoint serves live (server.transforms: robot_state_publisher's job from
 joint_states and the URDF), so a recorded match opened in Foxglove or Lichtblick shows each robot moving on the field:
 each robot's tf with its frames (``<robot>/<link>``, at most RECORDED_TF_HZ), and in each file of a series, before a
 robot's first tf, its fixed joints on its tf_static and its URDF on its robot_description (std_msgs/String, link
@@ -16,8 +16,8 @@ from dataclasses import dataclass
 
 import schemas
 from server.config import RobotDescription
-from server.foxglove.transforms import DESCRIPTION_TYPE, TF_TYPE, TOPICS, RobotStatePublisher
 from server.hub import HubMessage
+from server.transforms import DESCRIPTION_TYPE, TF_TYPE, TOPICS, RobotStatePublisher
 
 log = logging.getLogger(__name__)
 TF, TF_STATIC, DESCRIPTION = "tf", "tf_static", "robot_description"

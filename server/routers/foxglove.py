@@ -1,5 +1,5 @@
 """/api/foxglove: the Foxglove endpoint's state (where it listens, who connected, who was refused and why) and the
-Foxglove/Lichtblick layout pitchside ships (server.foxglove.layout), to import in the app.
+Foxglove/Lichtblick layout pitchside ships (server.foxglove_layout), to import in the app.
 
 Reading only, behind the same Host, Origin and credential checks as every other /api/ path (beyond loopback they need
 the token). ``/api/foxglove/layout?robot=`` makes the layout another robot's; it downloads as
@@ -14,7 +14,7 @@ from fastapi import APIRouter, Depends
 from fastapi.responses import Response
 
 from server.deps import get_state, valid_robot
-from server.foxglove.layout import LAYOUT_ROBOT, layout_text
+from server.foxglove_layout import LAYOUT_ROBOT, layout_text
 from server.state import ServerState
 
 router = APIRouter(prefix="/api/foxglove", tags=["foxglove"])

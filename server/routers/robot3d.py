@@ -27,7 +27,7 @@ import hashlib
 import logging
 import re
 from functools import lru_cache
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import httpx
 import numpy as np
@@ -37,10 +37,7 @@ from pydantic import BaseModel
 
 from server.deps import get_state, require_token
 from server.loopback_ports import LOOPBACK
-from server.state import ServerState
-
-if TYPE_CHECKING:
-    from server.robot3d import Robot3DView
+from server.state import Robot3D, ServerState
 
 log = logging.getLogger(__name__)
 router = APIRouter(tags=["robot3d"])
@@ -160,7 +157,7 @@ class VisibleRequest(BaseModel):
     visible: bool
 
 
-def _view(state: ServerState) -> Robot3DView:
+def _view(state: ServerState) -> Robot3D:
     view = state.robot3d
     if view is None or view.server is None:
         raise HTTPException(404, "the 3D view is off (start the server with --robot3d)")

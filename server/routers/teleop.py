@@ -7,20 +7,14 @@ stop (released, tab closed, network gone), the server sends zero after ``hold_s`
 from __future__ import annotations
 
 from fastapi import APIRouter, Depends
-from pydantic import BaseModel, Field
+from pydantic import BaseModel
 
 from server.deps import require_control, robot_on_link, valid_robot
-from server.lab import TELEOP_HOLD_S, TELEOP_HZ, lab_tools
+from server.drive_command import DriveCommand
+from server.lab import TELEOP_HZ, lab_tools
 from server.state import ServerState
 
 router = APIRouter(prefix="/api/robots/{robot}/teleop", tags=["teleop"], dependencies=[Depends(valid_robot)])
-
-
-class DriveCommand(BaseModel):
-    x: float = Field(0.0, ge=-1.0, le=1.0, description="forward, m/s")
-    y: float = Field(0.0, ge=-1.0, le=1.0, description="left, m/s")
-    yaw: float = Field(0.0, ge=-3.0, le=3.0, description="turn left, rad/s")
-    hold_s: float = Field(TELEOP_HOLD_S, gt=0.0, le=2.0, description="zero after this long without a refresh")
 
 
 class Driving(BaseModel):

@@ -1,4 +1,4 @@
-"""The Foxglove/Lichtblick layout that ships with pitchside (layout.json beside this module), for one robot.
+"""The Foxglove/Lichtblick layout that ships with pitchside (foxglove_layout.json beside this module), for one robot.
 
 A layout is the apps' own JSON (``configById``: each panel's settings by panel id; ``layout``: the split tree of panel
 ids; ``globalVariables``, ``userNodes``, ``playbackConfig``), what "Import from file" in Foxglove and Lichtblick reads.
@@ -13,7 +13,7 @@ from __future__ import annotations
 from importlib import resources
 from typing import Any
 
-LAYOUT_FILE = "layout.json"
+LAYOUT_FILE = "foxglove_layout.json"
 LAYOUT_ROBOT = "robot1"
 
 

@@ -10,7 +10,7 @@ import mujoco
 import numpy as np
 
 import robots
-from robot_nodes.cm730.sim.field import KID_SIZE, FieldDimensions, goal_posts, line_segments
+from robot_nodes.sim.field import KID_SIZE, FieldDimensions, goal_posts, line_segments
 
 MINIBOT_URDF = robots.urdf("minibot")
 

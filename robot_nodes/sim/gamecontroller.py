@@ -15,7 +15,7 @@ an HSL GameController) tells that the robot is there. With ``team_message_addres
 team number and counts each team's messages against its budget in READY, SET and PLAYING as the HSL GameController
 does: a message over 512 bytes or one sent with budget 0 is counted as illegal and logged.
 
-Run: ``python -m robot_nodes.game_controller.simulator --teams 1 2 --http-port 8038``; in-process:
+Run: ``python -m robot_nodes.sim.gamecontroller --teams 1 2 --http-port 8038``; in-process:
 ``with SimulatedGameController(SimulatedGame(teams=(1, 2)), destinations=[("127.0.0.1", port)]) as gc: ...``;
 ``clock=`` makes it follow another clock (a simulation's time) instead of the wall clock.
 """

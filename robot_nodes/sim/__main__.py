@@ -1,4 +1,4 @@
-"""A multi-robot simulation in one process: ``python -m robot_nodes.cm730.sim --robots 3``.
+"""A multi-robot simulation in one process: ``python -m robot_nodes.sim --robots 3``.
 
 One SimWorld with robots robot1..robotN, one SimRunner stepping it, and one cm730 node per robot, all on
 one Zenoh session; each node serves its robot's topics (/robotK/... in rmw_zenoh's keys) exactly as a standalone
@@ -15,12 +15,14 @@ from pathlib import Path
 from typing import Any
 
 from robot_nodes.cm730.node import Cm730Node
-from robot_nodes.cm730.sim import SimRunner, SimWorld
 from robot_nodes.cm730.sim_backend import MujocoBackend
 from robot_nodes.runtime import BusConfig, Node, open_session
-from robot_nodes.runtime.clock import CLOCK_PERIOD_S, WALL_CLOCK, WorldClock
+from robot_nodes.runtime.clock import CLOCK_PERIOD_S, WALL_CLOCK
 from robot_nodes.runtime.node import parse_overrides
 from robot_nodes.runtime.one_loop import NodesOnOneLoop
+from robot_nodes.sim.runner import SimRunner
+from robot_nodes.sim.world import SimWorld
+from robot_nodes.sim.world_clock import WorldClock
 from wire.bus import add_bus_arguments, bus_from_arguments
 from wire.command_line import CommandParser
 from wire.heap import freeze_startup_heap

@@ -14,10 +14,10 @@ import numpy as np
 
 from robot_nodes.cm730 import quaternion
 from robot_nodes.cm730.backend import BusReading, ImuReading
-from robot_nodes.cm730.sim.field import KID_SIZE, FieldDimensions
-from robot_nodes.cm730.sim.lineup import Lineup, Team
-from robot_nodes.cm730.sim.scene import MINIBOT_URDF, PhysicsConfig, Placement, build_world, default_placements
-from robot_nodes.cm730.sim.stepping import step_holding_gil, step_releasing_gil
+from robot_nodes.sim.field import KID_SIZE, FieldDimensions
+from robot_nodes.sim.lineup import Lineup, Team
+from robot_nodes.sim.scene import MINIBOT_URDF, PhysicsConfig, Placement, build_world, default_placements
+from robot_nodes.sim.stepping import step_holding_gil, step_releasing_gil
 
 # a stand pose with slightly bent knees (Wolfgang sign conventions; the knee is straight at +-0.2618)
 STAND_POSE: dict[str, float] = {

@@ -23,11 +23,11 @@ from typing import Protocol
 
 import numpy as np
 
-from robot_nodes.cm730.sim import placements
-from robot_nodes.cm730.sim.lineup import Lineup, Team
-from robot_nodes.cm730.sim.runner import SimRunner
-from robot_nodes.cm730.sim.scene import Placement
-from robot_nodes.cm730.sim.world import RobotHandle, SimWorld
+from robot_nodes.sim import placements
+from robot_nodes.sim.lineup import Lineup, Team
+from robot_nodes.sim.runner import SimRunner
+from robot_nodes.sim.scene import Placement
+from robot_nodes.sim.world import RobotHandle, SimWorld
 from wire.gamecontroller.packets import (
     SET_PIECES,
     GameControlData,

@@ -1,7 +1,7 @@
 """Where robots and the ball stand in a simulated match: kick-off positions, the touch line, penalties, set plays.
 
 Robot spots are written in the team's own frame (x towards the goal it attacks, y to the left, its own goal at
-x = -4.5) and turned into field coordinates for the team's end (robot_nodes/cm730/sim/lineup.py). The Humanoid
+x = -4.5) and turned into field coordinates for the team's end (robot_nodes/sim/lineup.py). The Humanoid
 League rules name where robots start, where a penalised robot waits and comes back, and where the ball is put for a
 set play; these are our readings of them (the README's list of simplifications says where we simplified).
 """
@@ -10,9 +10,9 @@ from __future__ import annotations
 
 import math
 
-from robot_nodes.cm730.sim.field import KID_SIZE, FieldDimensions
-from robot_nodes.cm730.sim.lineup import Lineup, Team
-from robot_nodes.cm730.sim.scene import Placement
+from robot_nodes.sim.field import KID_SIZE, FieldDimensions
+from robot_nodes.sim.lineup import Lineup, Team
+from robot_nodes.sim.scene import Placement
 
 ROBOT_RADIUS = 0.15  # m, about a Minibot's footprint
 # kick-off positions by player number (1 is the goalkeeper), own frame; player 2 of the kicking team at the ball

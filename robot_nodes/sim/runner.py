@@ -21,9 +21,9 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from robot_nodes.cm730.sim.perception import DetectionNoise, GroundTruthVision, Observation, observe_all
-from robot_nodes.cm730.sim.world import RobotHandle, SimWorld
-from robot_nodes.runtime.clock import SlowestTicks
+from robot_nodes.sim.perception import DetectionNoise, GroundTruthVision, Observation, observe_all
+from robot_nodes.sim.world import RobotHandle, SimWorld
+from robot_nodes.sim.world_clock import SlowestTicks
 
 log = logging.getLogger(__name__)
 
@@ -140,14 +140,14 @@ class SimRunner:
             raise ValueError(f"period must be > 0 s, got {seconds}")
         self._periodic.append(_Periodic(seconds, work, self.world.time + seconds))
 
-    def tick_clock(self, period: float, tick: Callable[[float], None]) -> None:
+    def tick_clock(self, period_s: float, tick: Callable[[float], None]) -> None:
         """Calls ``tick(simulated seconds)`` on the physics thread, without the world's lock, each time simulated
-        time reaches a multiple of ``period``; the runner steps to those times exactly. This is the simulated clock
+        time reaches a multiple of ``period_s``; the runner steps to those times exactly. This is the simulated clock
         the robots' nodes follow (robot_nodes/runtime/clock.py)."""
-        if period <= 0:
-            raise ValueError(f"period must be > 0 s, got {period}")
-        self._clock_period, self._clock_tick = period, tick
-        self._clock_due = (math.floor(self.world.time / period + 1e-6) + 1) * period
+        if period_s <= 0:
+            raise ValueError(f"period_s must be > 0 s, got {period_s}")
+        self._clock_period, self._clock_tick = period_s, tick
+        self._clock_due = (math.floor(self.world.time / period_s + 1e-6) + 1) * period_s
 
     def add_camera(self, robot: RobotHandle, on_frame: Callable[[CameraFrame], None], width: int = 320,
                    height: int = 240, rate_hz: float = 10.0, want_image: Callable[[], bool] = lambda: True,
@@ -217,7 +217,7 @@ class SimRunner:
             log.exception("periodic work on the physics thread failed")
 
     def _run_cameras(self) -> None:
-        from robot_nodes.cm730.sim.camera import HeadCamera, RenderError
+        from robot_nodes.sim.camera import HeadCamera, RenderError
 
         cameras: dict[tuple[int, int, int], HeadCamera] = {}
         world = self.world

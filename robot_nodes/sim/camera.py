@@ -6,7 +6,7 @@ import os
 
 import numpy as np
 
-from robot_nodes.cm730.sim.world import RobotHandle, SimWorld
+from robot_nodes.sim.world import RobotHandle, SimWorld
 
 
 class RenderError(RuntimeError):

@@ -20,9 +20,9 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
-from robot_nodes.cm730.sim.field import goal_posts, line_segments
-from robot_nodes.cm730.sim.scene import GROUP_LINES
-from robot_nodes.cm730.sim.world import RobotHandle, SimWorld
+from robot_nodes.sim.field import goal_posts, line_segments
+from robot_nodes.sim.scene import GROUP_LINES
+from robot_nodes.sim.world import RobotHandle, SimWorld
 
 NEAR = 0.05  # m, nothing closer to the lens is seen
 ROBOT_HALF_SIZE = (0.08, 0.14)  # m, footprint half extents of a Minibot for obstacle boxes

@@ -1,7 +1,7 @@
-"""The world of a simulated match in one process: ``python -m robot_nodes.cm730.sim.match --robots 2v2 ...``.
+"""The world of a simulated match in one process: ``python -m robot_nodes.sim.match --robots 2v2 ...``.
 
 Two teams in one MuJoCo world (home1..homeN defend -x, away1..awayM defend +x), a cm730 node per robot (as
-``python -m robot_nodes.cm730.sim`` serves them), the referee on the physics thread, and the GameController: the
+``python -m robot_nodes.sim`` serves them), the referee on the physics thread, and the GameController: the
 simulated one on the world's clock (``--gamecontroller sim``: it broadcasts to the robots on this machine, the
 referee whistles to it, its HTTP API on ``--gc-http-port``), or a real one on the network (``external``: the
 referee listens to its broadcasts like a robot and only says what the human at the GameController should press).
@@ -14,14 +14,14 @@ import signal
 import threading
 from pathlib import Path
 
-from robot_nodes.cm730.sim import SimWorld
-from robot_nodes.cm730.sim.__main__ import serve_world
-from robot_nodes.cm730.sim.lineup import Lineup, LineupError, parse_robots
-from robot_nodes.cm730.sim.placements import lineup_start
-from robot_nodes.cm730.sim.referee import LoggingWhistle, Referee, RefereeRules
-from robot_nodes.game_controller.listener import GameControllerListener
-from robot_nodes.game_controller.simulator import SimulatedGame, SimulatedGameController
 from robot_nodes.runtime.node import parse_overrides
+from robot_nodes.sim.__main__ import serve_world
+from robot_nodes.sim.gamecontroller import SimulatedGame, SimulatedGameController
+from robot_nodes.sim.gamecontroller_listener import GameControllerListener
+from robot_nodes.sim.lineup import Lineup, LineupError, parse_robots
+from robot_nodes.sim.placements import lineup_start
+from robot_nodes.sim.referee import LoggingWhistle, Referee, RefereeRules
+from robot_nodes.sim.world import SimWorld
 from wire.bus import add_bus_arguments, bus_from_arguments
 from wire.command_line import CommandParser
 from wire.gamecontroller.packets import DATA_PORT, RETURN_PORT

@@ -1,7 +1,7 @@
 """What the cm730 node publishes only in simulation: camera image and info, detections, relative positions,
 own position and ground truth (messages built from a SimRunner CameraFrame).
 
-The relative positions and the own position are perception stand-ins (robot_nodes/cm730/sim/perception.py): they go
+The relative positions and the own position are perception stand-ins (robot_nodes/sim/perception.py): they go
 out on the topics real vision and localization use (ball_relative, goal_relative, obstacles_relative, position), only
 for what the camera sees, with the noise the node's parameters state, so real nodes can take their place."""
 
@@ -17,7 +17,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 import schemas
-from robot_nodes.cm730.sim import CameraFrame, DetectionNoise
+from robot_nodes.sim.perception import DetectionNoise
+from robot_nodes.sim.runner import CameraFrame
 from schemas.messages import (
     BallInImage,
     BallRelative,
@@ -38,7 +39,9 @@ from schemas.messages import (
 from schemas.std import CameraInfo, CompressedImage, Header, Point, Pose, Pose2D, Quaternion
 
 if TYPE_CHECKING:
-    from robot_nodes.cm730.node import Cm730Node
+    from robot_nodes.cm730.params import Cm730Params
+    from robot_nodes.runtime import Node
+    from robot_nodes.sim.world import SimWorld
 
 OPTICAL_FRAME = "camera_optical_frame"
 FOOTPRINT_FRAME = "base_footprint"
@@ -67,7 +70,7 @@ def _header(stamp: float, frame: str) -> Header:
 def camera_info(width: int, height: int, fovy_deg: float) -> CameraInfo:
     """The simulated camera's calibration (header left empty): the same every frame, so made once; the arrays it
     shares with each frame's message are frozen by the first publish (published messages never change)."""
-    from robot_nodes.cm730.sim.perception import Intrinsics
+    from robot_nodes.sim.perception import Intrinsics
 
     k = Intrinsics.from_fovy(width, height, fovy_deg)
     return schemas.make(
@@ -80,8 +83,10 @@ def camera_info(width: int, height: int, fovy_deg: float) -> CameraInfo:
 class SimTopics:
     """The simulation-only publishers of one cm730 node."""
 
-    def __init__(self, node: Cm730Node) -> None:
+    def __init__(self, node: Node, params: Cm730Params, world: SimWorld) -> None:
         self.node = node
+        self.params = params  # the node's live parameters
+        self.world = world
         self.noise = DetectionNoise()
         self.apply_params()
         names = ("camera/image/compressed", "camera/camera_info", "ball_in_image", "goal_in_image",
@@ -92,7 +97,7 @@ class SimTopics:
         self.frames_without_image = 1 << 30  # the first frame someone wants an image of gets one
 
     def apply_params(self) -> None:
-        p, noise = self.node.params, self.noise
+        p, noise = self.params, self.noise
         noise.pixel = p.detection_pixel_noise
         noise.relative = p.detection_relative_noise
         noise.relative_per_m = p.detection_noise_per_m
@@ -107,7 +112,7 @@ class SimTopics:
     def wants_image(self) -> bool:
         """Camera thread, once a frame: an image every camera_rate / image_rate frames while someone subscribes (in
         a match the team PC gets 2 images a second through telemetry: rendering 10 would waste 8)."""
-        p = self.node.params
+        p = self.params
         if not (p.render_camera and self.pubs["camera/image/compressed"].has_subscribers):
             return False
         self.frames_without_image += 1
@@ -119,7 +124,7 @@ class SimTopics:
     def on_frame(self, frame: CameraFrame) -> None:
         """Camera thread: JPEG-encode here (off the node loop), publish on the loop."""
 
-        data = jpeg(frame.image, self.node.params.jpeg_quality) if frame.image is not None else None
+        data = jpeg(frame.image, self.params.jpeg_quality) if frame.image is not None else None
         self.node.loop.call_soon(self._publish_frame, frame, data)
 
     # -- on the node loop --------------------------------------------------------------------------------
@@ -184,9 +189,7 @@ class SimTopics:
         return 1.0 / (1.0 + (self.noise.position / 0.2) ** 2)
 
     def publish_ground_truth(self) -> None:
-        sim = self.node._sim
-        assert sim is not None
-        world = sim.world
+        world = self.world
         # the state the servo buses read, copied after the last step: taken without the world's lock, which the
         # physics holds while it steps (this loop sends every robot's sensors and must not wait for it)
         state = world.latest
