@@ -1,6 +1,6 @@
 """How far the Lab's plots run behind live: from a value published to its place in rerun's viewer.
 
-    python bench/plots_lag.py [--seconds 90] [--warm-up 30] [--history 0]
+    python bench/plots_lag.py [--seconds 90] [--warm-up 30] [--history 0] [--smoke]
 
 Runs the real demo (one robot) and one chromium (Debian's, headless) on the dashboard's Lab preset at 1920x1080,
 as a team member would have it. Every second it reads, in one step of the page:
@@ -85,7 +85,11 @@ def main() -> None:
     parser.add_argument("--seconds", type=float, default=90.0, help="how long to measure after the warm-up")
     parser.add_argument("--warm-up", type=float, default=30.0, help="seconds after the viewer's first data")
     parser.add_argument("--history", type=float, default=0.0, help="seconds the demo runs before the page opens")
+    parser.add_argument("--smoke", action="store_true",
+                        help="5 s measured, no warm-up: that the bench runs (the demo and the viewer's start remain)")
     args = parser.parse_args()
+    if args.smoke:
+        args.seconds, args.warm_up, args.history = 5.0, 0.0, 0.0
     from playwright.sync_api import sync_playwright
 
     with tempfile.TemporaryDirectory() as tmp, running_demo(Path(tmp)) as demo, sync_playwright() as pw:

@@ -20,7 +20,7 @@ from tests.support import REPO, launch_chromium
 
 OUTPUT = REPO / "test-output" / "field_view"
 SPEED = 0.5  # m/s along x
-HORIZON_S = 0.15  # MOTION.horizonS in web/panels/field_view.js
+HORIZON_S = 0.15  # MOTION.horizonS in web/models/field_motion.js
 pytestmark = [pytest.mark.slow, pytest.mark.browser, pytest.mark.timeout(180)]
 
 

@@ -111,6 +111,7 @@ OTHER_PROGRAMS = {
     "--upgrade": "./run lock (uv pip compile)", "--upgrade-package": "./run lock (uv pip compile)",
     "--quick": "bench/match.py, bench/faults.py, bench/network.py",
     "--strict": "twine check, mkdocs build",
+    "--test": "node --test (the web UI's unit tests, tests/web/)",
 }
 
 

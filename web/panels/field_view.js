@@ -5,86 +5,20 @@
 // One view object holds the panel's state; each function below draws one part or handles one event.
 
 import { expose } from "../test_hooks.js";
+import { FIELD, HEADER, ballShape, fieldScale, robotShape, staticField } from "./field_drawing.js";
+import { MOTION, Track } from "../models/field_motion.js";
 import { css, fitCanvas, fmtClock, gameName, obstacleColor, secondaryName, yaw } from "../msgtypes.js";
 import { onField, roleOf, teamBall, teamColour, teamOf, teamsOf } from "../teams.js";
 
-// RoboCup Humanoid League kid-size field (metres)
-export const FIELD = { length: 9, width: 6, goalDepth: 0.6, goalWidth: 2.6, goalAreaLength: 1, goalAreaWidth: 3,
-  penaltyAreaLength: 2, penaltyAreaWidth: 5, penaltyMark: 1.5, centerCircle: 1.5, border: 0.7 };
+export { FIELD, MOTION, Track }; // where the tests and other views find them
+
 const TOPICS = [["position", 15], ["ground_truth", 15], ["ball_relative", 15], ["obstacles_relative", 5],
   ["team_data", 2], ["gamestate", 2], ["strategy", 2], ["overview", 5]]; // overview: a robot heard by telemetry only
-export const MOTION = {
-  horizonS: 0.15,  // extrapolate at most this far past the newest sample (and at most 1.5 sample intervals)
-  smoothS: 0.06,   // a new sample's correction fades in with this time constant instead of a jump
-  jumpM: 0.75,     // a correction bigger than this (teleport, replay seek) is shown at once
-  maxSpeed: 4,     // m/s; faster apparent motion is noise or a jump, not velocity
-  maxTurn: 8,      // rad/s
-};
-const HEADER = 28; // px: the game state bar
 const REPLAY_COLOUR = "#9b2fd1"; // replayed robots (the page's --replay)
 const FOCUS_COLOUR = "#ff2d95"; // the ring around the focused robot
 const NO_TEAM_COLOUR = "#1f3cff"; // a robot whose team is not known yet
 
 const transform = onField; // a point relative to a robot (its x forward) on the field, given the robot's pose
-
-/** a - b wrapped into [-pi, pi], so turning through pi is not a jump. */
-function angleDiff(a, b) {
-  return Math.atan2(Math.sin(a - b), Math.cos(a - b));
-}
-
-/** One moving thing (a robot pose or a ball): its newest sample, velocity from the two newest, and the pose it is
- * shown at, which follows the samples smoothly. A stream that stops is shown where it was last seen (plus at most
- * one short extrapolation step), never carried on. */
-export class Track {
-  constructor() {
-    this.key = null;   // the frame the newest sample came from
-    this.p = null;     // newest sample {x, y, theta}
-    this.stamp = 0;    // its time (s, the message's stamp)
-    this.at = 0;       // performance.now() when it arrived
-    this.interval = 0; // s between the two newest samples
-    this.v = { x: 0, y: 0, theta: 0 };
-    this.off = { x: 0, y: 0, theta: 0 }; // shown minus predicted: fades out
-    this.shown = null;
-    this.drawnAt = 0;
-  }
-
-  update(key, p, stamp, now) {
-    if (key === this.key) return;
-    this.key = key;
-    const prev = this.p, dt = stamp - this.stamp;
-    this.v = { x: 0, y: 0, theta: 0 };
-    this.interval = 0;
-    if (prev && dt > 0.005 && dt < 1) {
-      this.interval = dt;
-      this.v = { x: (p.x - prev.x) / dt, y: (p.y - prev.y) / dt, theta: angleDiff(p.theta, prev.theta) / dt };
-      if (Math.hypot(this.v.x, this.v.y) > MOTION.maxSpeed || Math.abs(this.v.theta) > MOTION.maxTurn) {
-        this.v = { x: 0, y: 0, theta: 0 };
-      }
-    }
-    this.p = p;
-    this.stamp = stamp;
-    this.at = now;
-    const s = this.shown;
-    this.off = { x: 0, y: 0, theta: 0 };
-    if (s) {
-      const off = { x: s.x - p.x, y: s.y - p.y, theta: angleDiff(s.theta, p.theta) };
-      if (Math.hypot(off.x, off.y) < MOTION.jumpM && Math.abs(off.theta) < 1) this.off = off;
-    }
-  }
-
-  pose(now) {
-    const horizon = Math.min(MOTION.horizonS, 1.5 * this.interval);
-    const age = Math.max(0, Math.min((now - this.at) / 1000, horizon));
-    const fade = Math.exp(-Math.max(0, now - (this.drawnAt || now)) / 1000 / MOTION.smoothS);
-    this.drawnAt = now;
-    for (const k of ["x", "y", "theta"]) {
-      this.off[k] = Math.abs(this.off[k] * fade) < 1e-4 ? 0 : this.off[k] * fade;
-    }
-    const p = this.p, v = this.v, off = this.off;
-    this.shown = { x: p.x + v.x * age + off.x, y: p.y + v.y * age + off.y, theta: p.theta + v.theta * age + off.theta };
-    return { ...this.shown, confidence: p.confidence };
-  }
-}
 
 export default {
   id: "field",
@@ -200,55 +134,6 @@ function truthFrames(store) {
 }
 
 // -- drawing ----------------------------------------------------------------------------------------
-
-/** Metres to pixels: the field with its border fits below the game state bar, centred. */
-function fieldScale(w, h) {
-  const F = FIELD;
-  const scale = Math.min(w / (F.length + 2 * F.border), (h - HEADER) / (F.width + 2 * F.border));
-  const ox = w / 2, oy = HEADER + (h - HEADER) / 2;
-  return { X: (x) => ox + x * scale, Y: (y) => oy - y * scale, scale };
-}
-
-/** Grass, lines and goals into an offscreen canvas of the visible one's size: one drawImage per frame. */
-function staticField(fv, w, h, scale, X, Y) {
-  const { canvas } = fv;
-  const key = `${canvas.width}x${canvas.height}|${fv.theme}`;
-  if (fv.field?.key === key) return fv.field.canvas;
-  const off = fv.field?.canvas || document.createElement("canvas");
-  off.width = canvas.width;
-  off.height = canvas.height;
-  const g = off.getContext("2d");
-  g.setTransform(canvas.width / w, 0, 0, canvas.height / h, 0, 0);
-  const F = FIELD;
-  g.fillStyle = css("--field");
-  g.fillRect(0, 0, w, h);
-  g.strokeStyle = css("--field-line") || "#ffffff";
-  g.lineWidth = Math.max(2, 0.05 * scale);
-  const L = F.length / 2, W = F.width / 2;
-  g.strokeRect(X(-L), Y(W), F.length * scale, F.width * scale);
-  g.beginPath(); g.moveTo(X(0), Y(W)); g.lineTo(X(0), Y(-W)); g.stroke();
-  g.beginPath(); g.arc(X(0), Y(0), F.centerCircle / 2 * scale, 0, 2 * Math.PI); g.stroke();
-  for (const side of [-1, 1]) fieldEnd(g, side * L, side, scale, X, Y);
-  fv.field = { key, canvas: off };
-  return off;
-}
-
-/** One end of the field: goal area, penalty area, penalty mark and the goal (own yellow, opponent cyan). */
-function fieldEnd(g, gx, side, scale, X, Y) {
-  const F = FIELD;
-  g.strokeRect(Math.min(X(gx), X(gx - side * F.goalAreaLength)), Y(F.goalAreaWidth / 2),
-    F.goalAreaLength * scale, F.goalAreaWidth * scale);
-  g.strokeRect(Math.min(X(gx), X(gx - side * F.penaltyAreaLength)), Y(F.penaltyAreaWidth / 2),
-    F.penaltyAreaLength * scale, F.penaltyAreaWidth * scale);
-  g.fillStyle = "#ffffff";
-  g.fillRect(X(gx - side * F.penaltyMark) - 3, Y(0) - 3, 6, 6);
-  g.save();
-  g.strokeStyle = side < 0 ? "#ffe600" : "#00e5ff"; // own goal yellow, opponent goal cyan
-  g.lineWidth = Math.max(3, 0.08 * scale);
-  g.strokeRect(Math.min(X(gx), X(gx + side * F.goalDepth)), Y(F.goalWidth / 2), F.goalDepth * scale,
-    F.goalWidth * scale);
-  g.restore();
-}
 
 /** One frame: the field, teammates, every robot with its ball and obstacles, true balls, the game state bar. */
 function draw(fv, now) {
@@ -502,29 +387,4 @@ function focusAt(fv, e) {
     if (d < bestD) { best = r.id; bestD = d; }
   }
   if (best) fv.store.setFocus(best);
-}
-
-/** A robot as a triangle pointing where it faces: filled (alpha > 0) for an estimate, hollow for ground truth. */
-function robotShape(g, X, Y, scale, pose, color, alpha, focused) {
-  const r = 0.2 * scale;
-  g.save();
-  g.translate(X(pose.x), Y(pose.y));
-  g.rotate(-pose.theta);
-  g.beginPath();
-  g.moveTo(r * 1.4, 0); g.lineTo(-r, r); g.lineTo(-r, -r); g.closePath();
-  if (alpha > 0) { g.globalAlpha = alpha; g.fillStyle = color; g.fill(); g.globalAlpha = 1; }
-  g.strokeStyle = alpha > 0 ? "#000000" : color;
-  g.lineWidth = focused ? 4 : 2;
-  g.stroke();
-  g.restore();
-}
-
-/** A ball: orange as a robot sees it (outlined in its team's colour), white where the simulator has it. */
-function ballShape(g, x, y, scale, alpha, truth = false, outline = "#000000") {
-  g.globalAlpha = alpha;
-  g.fillStyle = truth ? "#ffffff" : "#ff8c00";
-  g.strokeStyle = outline;
-  g.lineWidth = 2;
-  g.beginPath(); g.arc(x, y, Math.max(5, 0.08 * scale), 0, 2 * Math.PI); g.fill(); g.stroke();
-  g.globalAlpha = 1;
 }

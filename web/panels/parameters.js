@@ -6,6 +6,7 @@
 // into is never overwritten, and the panel's own writes are never taken for changes made elsewhere.
 // One panel object holds the state; each function below renders one part or handles one user action.
 
+import { defaultsOf, describeValues, differing, find, pick, same, typedValue } from "../models/param_table.js";
 import { expose } from "../test_hooks.js";
 import { api, labToolOff, numericFields, robotPath, robotPicker } from "../lab_api.js";
 import { esc, statusLine } from "../dom.js";
@@ -14,14 +15,6 @@ import { matches } from "../param_search.js";
 const PLOT_SECONDS = 20;
 const PLOT_HZ = 30;
 const DEFAULT_PLOT = ["imu/data", "angular_velocity/y"]; // the fall checker's gyro pitch against its threshold
-
-/** The number at a field path ("angular_velocity/y") of a message's data. */
-function pick(obj, path) {
-  return path.split("/").reduce((o, k) => (o == null ? undefined : o[k]), obj);
-}
-
-/** Two parameter values are the same (lists compared by content). */
-function same(a, b) { return JSON.stringify(a) === JSON.stringify(b); }
 
 /** The input that fits a parameter's type: a toggle, a menu of its choices, a number (with a slider in a range). */
 function controlFor(p) {
@@ -49,12 +42,7 @@ function controlFor(p) {
 
 /** The value a parameter's input holds, in the parameter's type; throws on a list or choice that is not JSON. */
 function readControl(p, row) {
-  const el = row.querySelector('[data-role="value"]');
-  if (p.type === "bool") return el.checked;
-  if (p.choices) return JSON.parse(el.value);
-  if (p.type === "int" || p.type === "float") return el.value.trim() === "" ? null : Number(el.value);
-  if (p.type === "list") return JSON.parse(el.value);
-  return el.value;
+  return typedValue(p, /** @type {HTMLInputElement} */ (row.querySelector('[data-role="value"]')));
 }
 
 // The panel's markup; the nodes' tables are rendered into data-role="nodes".
@@ -208,7 +196,6 @@ function paramRow(node, p) {
 }
 
 /** A parameter as the panel holds it. */
-function find(state, node, name) { return state.nodes[node]?.find((p) => p.name === name); }
 
 /** The row of a parameter ("node/name"), if shown. */
 function rowOf(pp, key) {
@@ -382,11 +369,6 @@ function write(pp, node, values, options = {}) {
   return done;
 }
 
-/** "node.name = value, ..." for the status line and the confirmations. */
-function describeValues(node, values) {
-  return Object.entries(values).map(([name, v]) => `${node}.${name} = ${JSON.stringify(v)}`).join(", ");
-}
-
 /** Writes values of one node in one request based on the revisions we showed (or those given: an undo is based
  * on the revisions its change produced), so the node takes all or none. Accepted: the values the write replaced
  * go onto the undo stack (unless it is an undo), old refusal notes go. Refused: the reason at the row (or in the
@@ -493,14 +475,13 @@ async function fileValues(pp, node) {
 }
 
 /** The values of a node that differ from those given ({name: value}), for a reset or revert to write. */
-function differing(pp, node, targets) {
-  return Object.fromEntries(Object.entries(targets).filter(([n, v]) => !same(find(pp.state, node, n)?.value, v)));
+function differingNow(pp, node, targets) {
+  return differing(pp.state.nodes[node] ?? [], targets);
 }
 
 /** A node's defaults ({name: default}), all or of the named parameter. */
 function defaults(pp, node, name) {
-  return Object.fromEntries((pp.state.nodes[node] ?? []).filter((p) => !name || p.name === name)
-    .map((p) => [p.name, p.default]));
+  return defaultsOf(pp.state.nodes[node] ?? [], name);
 }
 
 /** Writes a node's values back (a reset or a revert) as one undoable write; for more than one, asks first. */
@@ -535,7 +516,7 @@ function refreshShownDiff(pp, node) {
 const NODE_ACTIONS = {
   async reset(pp, e, node) {
     const name = e.target.closest("tr").dataset.param.split("/")[1];
-    const values = differing(pp, node, defaults(pp, node, name));
+    const values = differingNow(pp, node, defaults(pp, node, name));
     await writeBack(pp, node, values, `${node}.${name} reset to default`, false);
   },
   async revert(pp, e, node) {
@@ -545,7 +526,7 @@ const NODE_ACTIONS = {
     await writeBack(pp, node, { [name]: values[name] }, `${node}.${name} reverted to ${file}`, false);
   },
   async "reset-node"(pp, e, node) {
-    await writeBack(pp, node, differing(pp, node, defaults(pp, node)), `reset ${node} to defaults`, true);
+    await writeBack(pp, node, differingNow(pp, node, defaults(pp, node)), `reset ${node} to defaults`, true);
   },
   async "revert-node"(pp, e, node) {
     const { file, values } = await fileValues(pp, node);
