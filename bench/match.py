@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import re
 import statistics
 import sys
 import tempfile
@@ -103,10 +104,21 @@ def play(robots: str, half_minutes: float, seed: int, out: Path, logs: Path | No
             rtf.close()
         figures.goals = sum(int(t["score"]) for t in status["teams"])
         read_output(match.output(), figures)
+        figures.silent_at_start = silent_at_start(match.output())
         if logs is not None:
             logs.mkdir(parents=True, exist_ok=True)
             (logs / f"match-{robots}-seed{seed}.log").write_text(match.output())
     return figures
+
+
+SILENT_AT_START = re.compile(r"starting without return packets from (.*) \(waited")
+
+
+def silent_at_start(output: str) -> int:
+    """Robots the GameController never heard before the first kick-off (their nodes hung at start-up): a match
+    with fewer robots costs less, so its CPU figures are not the lineup's."""
+    found = SILENT_AT_START.search(output)
+    return found.group(1).count("player") if found else 0
 
 
 def cpu_s_per_sim_s(figures: MatchFigures, cpu_pct: float) -> float:
@@ -178,6 +190,9 @@ def main() -> None:
             print(f"  kicks: {m.strikes} of {m.kicks} struck; how they ended: "
                   f"{', '.join(f'{why} {n}' for why, n in m.kick_outcomes.most_common()) or '-'}", flush=True)
             print(cpu_shares(m), flush=True)
+            if m.silent_at_start:
+                print(f"  WARNING: {m.silent_at_start} robots never heard by the GameController before the first "
+                      "kick-off (their nodes hung at start-up): the CPU figures are not the whole lineup's", flush=True)
             matches.append(m)
     print(f"RESULT match robots={args.robots} half_minutes={half:g} matches={len(matches)} "
           f"clock={args.clock} "
@@ -192,6 +207,7 @@ def main() -> None:
           f"rtf_min_first_min={matches[0].rtf_min_first_minute():.3f} "
           f"cpu_pct={statistics.mean(m.cpu_pct for m in matches):.0f} "
           f"cpu_s_per_sim_s={statistics.mean(cpu_s_per_sim_s(m, m.cpu_pct) for m in matches):.3f} "
+          f"silent_at_start={sum(m.silent_at_start for m in matches)} "
           f"probe_ms={statistics.mean(probes):.0f}")
 
 

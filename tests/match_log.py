@@ -47,6 +47,7 @@ class MatchFigures:
     cpu_by_process: list[tuple[str, float]] = field(default_factory=list)  # (what it runs, % of one core)
     seconds: float = 0.0
     started: float = 0.0
+    silent_at_start: int = 0  # robots the GameController never heard before the first kick-off
 
     @property
     def longest_down_s(self) -> float:
