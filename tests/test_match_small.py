@@ -13,7 +13,7 @@ from pathlib import Path
 import httpx
 import pytest
 
-from robot_nodes.cm730.sim.lineup import Lineup
+from robot_nodes.sim.lineup import Lineup
 from tests.match_log import GC_URL, MatchFigures, read_output
 from tests.running_demo import running_demo
 from tests.test_match import FALLEN_LIMIT_S, FINISHED, INITIAL, PLAYING, READY, SET, GameWatch, missing_gamestate
