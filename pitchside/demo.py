@@ -14,10 +14,11 @@ from pathlib import Path
 import robots as descriptions
 from pitchside.local_run import (
     ROBOTS_PER_PROCESS,
+    DashboardPlan,
+    dashboard_processes,
     free_port,
     kernel_port,
     run_on_this_machine,
-    server_process,
     telemetry_image_rate,
     telemetry_settings,
     world_first,
@@ -31,14 +32,15 @@ log = logging.getLogger("pitchside.demo")
 DEMO_ROBOT_NODES = [*MOTION_NODES, "walking", "game_controller", "telemetry"]  # cm730: in the world's process
 
 
-def demo_processes(robots: int, endpoint: str, http_port: int, telemetry_port: int, model: str,
+def demo_processes(robots: int, endpoint: str, http_port: int, dashboard: DashboardPlan, model: str,
                    match: bool, gc_ports: list[int], gc_return_port: int,
                    token: str = "",
                    telemetry_key: Path | None = None, compose: str = "all", cameras: int = 1,
                    robots_per_process: int = 1) -> list[NodeProcess]:
     """Every process of the demo.
 
-    token: the dashboard's control token; telemetry_key: a key file the robots and the dashboard share;
+    dashboard: the ports of the dashboard and its recorder; token: the dashboard's control token;
+    telemetry_key: a key file the robots and the dashboard share;
     robots_per_process: with compose "all", that many robots' nodes share a process (shared_process)."""
     py = sys.executable
     connect = ["--connect", endpoint]
@@ -55,7 +57,7 @@ def demo_processes(robots: int, endpoint: str, http_port: int, telemetry_port: i
             # the venue"); a real robot hears the GameController's broadcast on every interface
             "game_controller": ["--set", f"player_number={i}", "--set", f"listen_port={gc_ports[i - 1]}",
                                 "--set", "listen_address=127.0.0.1", "--set", f"return_port={gc_return_port}"],
-            "telemetry": telemetry_settings(telemetry_port, telemetry_key),
+            "telemetry": telemetry_settings(dashboard.robots_port, telemetry_key),
         }
         sharing.append(RobotNodes(f"robot{i}", per_robot, extra))
     processes += simulated_robots(sharing, [endpoint], model, compose, robots_per_process)
@@ -64,7 +66,7 @@ def demo_processes(robots: int, endpoint: str, http_port: int, telemetry_port: i
     for port in gc_ports:
         gc += ["--to", f"127.0.0.1:{port}"]
     processes.append(NodeProcess("gamecontroller", gc))
-    processes.append(server_process(http_port, telemetry_port, model, [endpoint], match, token, telemetry_key))
+    processes += dashboard_processes(dashboard, http_port, model, [endpoint], match, token, telemetry_key)
     return world_first(processes)
 
 
@@ -95,13 +97,13 @@ def main(argv: list[str] | None = None) -> None:
     http_port = free_port(args.port)
     # the robots' telemetry, the simulated GameController and the robots' receivers talk on this machine only: the
     # kernel's free ports (local_run.kernel_port)
-    telemetry_port = kernel_port()
+    dashboard = DashboardPlan.fresh()
     gc_ports = [kernel_port() for _ in range(args.robots)]
     gc_return_port = kernel_port()
     token = os.environ.get(ENV_TOKEN) or new_token()
     run_on_this_machine("demo", endpoint, http_port, token, lambda key: demo_processes(
-        args.robots, endpoint, http_port, telemetry_port, args.model, args.match, gc_ports, gc_return_port, token,
-        key, args.compose, args.cameras, args.robots_per_process))
+        args.robots, endpoint, http_port, dashboard, args.model, args.match, gc_ports, gc_return_port, token,
+        key, args.compose, args.cameras, args.robots_per_process), dashboard=dashboard)
 
 
 if __name__ == "__main__":

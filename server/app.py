@@ -73,13 +73,19 @@ def create_app(config: ServerConfig) -> FastAPI:
                     await source_set.switch(name, True)
                 except SourceError as exc:
                     log.warning("source %s not started: %s", name, exc)
-        await _start_views(state)
+        views = None
+        if config.views_in_background:
+            views = asyncio.get_running_loop().create_task(_start_views(state))
+        else:
+            await _start_views(state)
         await _start_graph(state)
         await recording.start()
         state.foxglove = await start_foxglove(state)
         try:
             yield
         finally:
+            if views is not None and not views.done():
+                views.cancel()
             with contextlib.suppress(Exception):
                 await recording.stop()
             await _stop_views(state)

@@ -26,8 +26,8 @@ BATCH_S = 0.1
 # The open chunk goes to disk at the first write this long after the last one (or after this long of quiet), so
 # a killed server's file holds every message it received until CRASH_LOSS_BOUND_S before the kill: the product's
 # promise (README, Recording), with room for a busy machine's scheduling above the flush interval.
-IDLE_FLUSH_S = 0.5
-CRASH_LOSS_BOUND_S = 1.0
+IDLE_FLUSH_S = 0.2
+CRASH_LOSS_BOUND_S = 0.5
 # A recording opens with each stream's newest message (the state a replay starts from) if it is at most this old:
 # an older one is stale news (a robot gone minutes ago, the last half's game state) and would stretch the timeline.
 OPENING_FRESH_S = 2.0
