@@ -177,10 +177,17 @@ class Recorder:
     def bookmark(self, name: str, data: dict[str, Any] | None = None) -> list[str]:
         """Marks now in every running recording; the names of the recordings marked."""
         marked = []
+        refused = []
         for recording in (self.manual, self.match):
             if recording is not None:
-                recording.bookmark(name, data)
+                try:
+                    recording.bookmark(name, data)
+                except LogError as exc:  # the disk takes no data (the banner says so)
+                    refused.append(f"{recording.path.name}: {exc}")
+                    continue
                 marked.append(recording.path.name)
+        if refused and not marked:
+            raise RecorderError("; ".join(refused))
         if not marked:
             raise RecorderError("nothing is being recorded")
         return marked

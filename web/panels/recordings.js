@@ -123,6 +123,20 @@ export default {
       }
     }
 
+    /** The recorder process beside the dashboard: down (its spare takes over), a disk error, the gaps it left. */
+    function recorderBanner(process, listing) {
+      const error = process?.error || listing.manual?.error || listing.match?.error || "";
+      let html = error ? `<div class="rec-banner bad" role="alert">recording: ${esc(error)}</div>` : "";
+      if (process && !process.up) {
+        const since = process.down_since ? ` for ${Math.max(0, Date.now() / 1000 - process.down_since).toFixed(1)} s` : "";
+        html += `<div class="rec-banner bad" role="alert">the recorder does not answer${since}: it is restarted, the recording will have a gap</div>`;
+      } else if (process?.outages?.length) {
+        const gaps = process.outages.map((o) => `${o.down_s.toFixed(2)} s`).join(", ");
+        html += `<div class="rec-banner warn">the recorder was restarted (gaps of ${esc(gaps)}, bookmarked "recording gap" on the timeline)</div>`;
+      }
+      return html;
+    }
+
     async function refresh() {
       let listing;
       try {
@@ -130,8 +144,9 @@ export default {
         listing = files;
         replaying = replay && !["closed", "loading"].includes(replay.state) ? replay : null;
       } catch (err) { fail(err); return; }
-      setHtml($(".rec-status"), running(listing.manual, "manual") + running(listing.match, "match") ||
-        `<div class="empty">not recording${listing.auto_match ? " (matches are recorded automatically)" : ""}</div>`);
+      setHtml($(".rec-status"), recorderBanner(listing.process, listing) + (running(listing.manual, "manual") +
+        running(listing.match, "match") ||
+        `<div class="empty">not recording${listing.auto_match ? " (matches are recorded automatically)" : ""}</div>`));
       $(".rec-start").disabled = !!listing.manual;
       $(".rec-stop").disabled = !listing.manual;
       const mark = $(".rec-mark");
