@@ -97,6 +97,7 @@ class RecordingFile(BaseModel):
     bookmarks: int | None = None
     error: str | None = None  # a file that cannot be read: why
     series: list[str] | None = None  # the first file of a size-rotated recording (a half): all its files, in order
+    pulled: list[str] | None = None  # a match log's half: the robots whose own logs were pulled and merged
 
 
 class RecordingsListing(RecorderStatus):

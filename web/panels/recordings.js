@@ -30,12 +30,13 @@ function running(status, label) {
 function fileRow(f) {
   const facts = f.recording ? `${size(f.size_bytes)} · recording…`
     : f.error ? `${size(f.size_bytes)} · <span class="bad">${esc(f.error)}</span>` : `${size(f.size_bytes)} · ${clock(f.duration_s)}`;
+  const pulled = f.pulled ? ` · robot logs: ${f.pulled.length ? esc(f.pulled.join(", ")) : "none"}` : "";
   const buttons = f.recording ? "" : `<button type="button" data-open="${esc(f.name)}">replay</button>
     <a class="button" data-download="${esc(f.name)}" href="api/recordings/files/${esc(encodeURIComponent(f.name))}"
       download="${esc(f.name)}">download</a>${f.series ? `<a class="button" data-download-series="${esc(f.name)}"
       href="api/recordings/series/${esc(encodeURIComponent(f.name))}" title="${esc(f.series.join(", "))}"
       >all ${f.series.length} files (zip)</a>` : ""}`;
-  return `<td class="rec-file"><span class="rec-file-name">${esc(f.name)}</span><span class="rec-facts">${facts}</span></td>
+  return `<td class="rec-file"><span class="rec-file-name">${esc(f.name)}</span><span class="rec-facts">${facts}${pulled}</span></td>
     <td class="rec-actions-cell"><div class="rec-actions">${buttons}</div></td>`;
 }
 
