@@ -22,6 +22,7 @@ from wire.telemetry.datagram import write_new_key
 from wire.telemetry.tap import TelemetryTap
 
 RECORDER_TOKEN_ENV = "PITCHSIDE_RECORDER_TOKEN"  # server.recording.service reads it (not imported: a light module)
+SPARE_START_DELAY_S = 20.0
 STANDBY_LOCKS = {"server": "dashboard.lock", "recorder": "recorder.lock"}
 
 
@@ -126,6 +127,8 @@ def dashboard_processes(plan: DashboardPlan, http_port: int, model: str, connect
                 process = server_process(http_port, plan.dashboard_port, model, connect, match, token, telemetry_key)
                 process.argv += ["--recorder", f"http://127.0.0.1:{plan.control_port}"]
             process.name = name
+            if name.endswith("-spare"):  # its imports wait until the run has started: a busy machine starts faster
+                process.start_delay_s = SPARE_START_DELAY_S
             if lock is not None:
                 process.argv += ["--standby-lock", str(lock)]
             process.env[RECORDER_TOKEN_ENV] = plan.recorder_token

@@ -22,6 +22,7 @@ from server.recorder import RecorderError
 from server.recording.files import RecordingsFolder
 
 log = logging.getLogger(__name__)
+logging.getLogger("httpx").setLevel(logging.WARNING)  # a status request every POLL_S is no news for the log
 
 POLL_S = 0.25
 REQUEST_TIMEOUT_S = 5.0
