@@ -7,6 +7,7 @@ settings, and the run itself: the link printed (it signs the browser in), everyt
 
 from __future__ import annotations
 
+import os
 import socket
 import sys
 import tempfile
@@ -23,6 +24,8 @@ from wire.telemetry.tap import TelemetryTap
 
 RECORDER_TOKEN_ENV = "PITCHSIDE_RECORDER_TOKEN"  # server.recording.service reads it (not imported: a light module)
 SPARE_START_DELAY_S = 20.0
+# a share of the robots' telemetry datagrams the tap drops at random: bench/chaos.py's stand-in for a venue's Wi-Fi
+TELEMETRY_DROP_ENV = "PITCHSIDE_TELEMETRY_DROP"
 STANDBY_LOCKS = {"server": "dashboard.lock", "recorder": "recorder.lock"}
 
 
@@ -176,7 +179,8 @@ def run_on_this_machine(command: str, zenoh_endpoint: str, http_port: int, token
         tap = None
         if dashboard is not None:  # in this process: it outlives the dashboard and the recorder
             tap = TelemetryTap("127.0.0.1", dashboard.robots_port, [("127.0.0.1", dashboard.dashboard_port),
-                                                                    ("127.0.0.1", dashboard.recorder_port)]).start()
+                                                                    ("127.0.0.1", dashboard.recorder_port)],
+                               drop_fraction=float(os.environ.get(TELEMETRY_DROP_ENV) or 0.0)).start()
         launcher = Launcher(processes(key_file))
         print(f"\n  pitchside {command}: open http://127.0.0.1:{http_port}/?token={token}  (the link signs the "
               f"browser in; Zenoh router {zenoh_endpoint}{'; ' + also if also else ''}; Ctrl-C stops)\n",

@@ -9,6 +9,7 @@ acknowledgement, nothing sent back to a robot. A destination that is down (resta
 from __future__ import annotations
 
 import logging
+import random
 import select
 import socket
 import threading
@@ -22,8 +23,12 @@ RECEIVE_BUFFER_BYTES = 4 << 20  # a burst of camera fragments while the tap's th
 class TelemetryTap:
     """Listens on ``host:port`` and copies every datagram to ``destinations`` ((host, port) pairs on loopback)."""
 
-    def __init__(self, host: str, port: int, destinations: list[tuple[str, int]]) -> None:
+    def __init__(self, host: str, port: int, destinations: list[tuple[str, int]], drop_fraction: float = 0.0) -> None:
+        """drop_fraction: that share of datagrams dropped at random (a bench's stand-in for a venue's Wi-Fi)."""
         self.destinations = list(destinations)
+        self.drop_fraction = drop_fraction
+        self.dropped = 0
+        self._random = random.Random()
         self.datagrams = 0
         self.send_errors = 0  # a destination down: counted, never fatal
         self._in = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
@@ -48,6 +53,9 @@ class TelemetryTap:
             except OSError:
                 continue
             self.datagrams += 1
+            if self.drop_fraction and self._random.random() < self.drop_fraction:
+                self.dropped += 1
+                continue
             for destination in self.destinations:
                 try:
                     self._out.sendto(data, destination)
