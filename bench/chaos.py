@@ -172,7 +172,7 @@ def main() -> None:
                            "PITCHSIDE_TELEMETRY_DROP": str(args.drop)})
         match_args = ("--players", "4", "--half-minutes", str(args.half_minutes), "--seed", str(args.seed),
                       "--initial-seconds", "2", "--ready-seconds", "15", "--set-seconds", "2")
-        with running_demo(tmp, *match_args, command="match") as match:
+        with running_demo(tmp, *match_args, command="match", up_timeout_s=600) as match:
             endpoint = ROUTER.search(match.output())
             assert endpoint is not None, "the match did not say where its Zenoh router is"
             loggers = [subprocess.Popen([sys.executable, "-m", "robot_nodes.robot_log", "--robot-id", robot,
