@@ -145,3 +145,41 @@ def test_the_ring_drops_the_oldest_halves_first_and_never_the_file_being_written
     assert middle.exists() and writing.exists()
     assert enforce(tmp_path, cap_bytes=100, keep_free_bytes=0, writing=writing) == [middle]
     assert writing.exists()  # never the file being written, even over the cap
+
+
+@pytest.mark.timeout(180)
+def test_kill_9_of_every_writer_at_once_leaves_files_that_open_to_within_a_second(
+        router_endpoint: str, bus: BusConfig, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The laptop's recorder and the robot's log, both SIGKILLed mid-write at the same moment: every file opens
+    without repair and holds the messages until less than a second before the cut."""
+    from server.recording.service import RECORDER_TOKEN_ENV
+    from tests.running_recorder import answers, control, recorder_processes
+    from tests.support import free_port
+    from tests.teststand import TestStand
+
+    token, port = "kill-all-token", free_port()
+    monkeypatch.setenv(RECORDER_TOKEN_ENV, token)
+    laptop, robot_folder = tmp_path / "recordings", tmp_path / "robot"
+    node = TestStand(ROBOT, bus, overrides={"rate_hz": 100.0}).start()
+    try:
+        with recorder_processes(["--connect", router_endpoint, "--no-telemetry", "--recordings", str(laptop),
+                                 "--control-port", str(port), "--no-auto-record"], tmp_path) as (recorder,), \
+                robot_log(router_endpoint, robot_folder, tmp_path) as logger:
+            wait_for(lambda: answers(port, token), timeout=60, interval=0.1, what="the recorder up")
+            control(port, token, "/start", "POST")
+            wait_for(lambda: control(port, token)["manual"]["flushed_messages"] > 300
+                     and len(logged_sequences(robot_folder)) > 300, timeout=60, interval=0.2,
+                     what="both writing")
+            killed_at = time.time()
+            for process in (recorder, logger):
+                os.kill(process.pid, signal.SIGKILL)
+            for process in (recorder, logger):
+                process.wait(10)
+    finally:
+        node.shutdown()
+    files = [*laptop.glob("*.mcap"), *robot_folder.glob("*.mcap")]
+    assert len(files) >= 2
+    for path in files:
+        with LogReader(path) as log:  # opens as it is: the index rebuilt from its complete chunks
+            last = max(m.log_time_ns for m in log.messages(topics=["joint_states"], decode=False)) / 1e9
+        assert last >= killed_at - 1.0, (path.name, killed_at - last)
