@@ -10,6 +10,7 @@ access control); the nodes join it on loopback as always and never hold the robo
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import logging
 import sys
 from pathlib import Path
@@ -319,8 +320,11 @@ def main(argv: list[str] | None = None) -> None:
     processes = robot_nodes(robot_id, [router.local_endpoint], args.model, names,
                             {"telemetry": telemetry or [], "mitecom": team_comm}, params=args.params,
                             mode=args.mode, compose=args.compose, alone=alone)
-    processes.append(robot_log_process(robot_id, router.local_endpoint, args.match, args.log_folder,
-                                       args.log_cap_bytes))
+    if importlib.util.find_spec("mcap") is not None:
+        processes.append(robot_log_process(robot_id, router.local_endpoint, args.match, args.log_folder,
+                                           args.log_cap_bytes))
+    else:  # the robot profile without the log writer's packages: the robot plays, unlogged, and says so
+        logging.warning("no robot log: the mcap package is not installed (pip install mcap zstandard)")
     launcher = Launcher(processes)
     try:
         run_until_signal(launcher)
