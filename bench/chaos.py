@@ -10,8 +10,10 @@ recovered (the victim's new process works: the robots' telemetry at the dashboar
 world, the page for the dashboard, the recording going on for the recorder) and how long it took. Afterwards:
 
 - laptop_recording_gap_max_s: over every kill but the recorder's, the longest silence in the match recording
-  (every robot's telemetry together) around the kill, minus its usual interval; recorder_gap_max_s: the same for
-  the recorder's kills (its budget: under 0.5 s plus its spare's takeover);
+  (every robot's telemetry together) around the kill, minus its usual interval, minus the silence of the robots'
+  joint_states on the bus itself over the same window (in lockstep a dead robot process or world stops the whole
+  simulation: that is no recording's loss); recorder_gap_max_s: the same for the recorder's kills (its budget:
+  under 0.5 s plus its spare's takeover);
 - robot_log_gap_max_s: the longest silence in a logged robot's robot_state outside its own process's and the
   world's down time (what the robot's log lost);
 - merged_messages: the half pulled from the robots' logs over the bus and merged with the laptop's (pitchside logs);
@@ -43,9 +45,12 @@ import httpx
 import psutil
 
 from bench.faults import lock_holders
+from robot_nodes.runtime import BusConfig
 from schemas.logs import LogError, LogReader, log_series
 from tests.running_demo import running_demo
 from tests.support import REPO
+from wire import keys
+from wire.bus import open_session
 
 ROUTER = re.compile(r"Zenoh router (tcp/[0-9.]+:\d+)")
 RECOVERY_TIMEOUT_S = 30.0
@@ -180,6 +185,11 @@ def main() -> None:
                                         cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
                        for robot in LOGGED_ROBOTS]
             dash = Dashboard(match.url, token)
+            # the robots' joint_states on the match's bus (the bench listens there, not the laptop)
+            bus_times: list[float] = []
+            bus = open_session(BusConfig(connect=[endpoint.group(1)]))
+            bus_sub = bus.declare_subscriber(keys.topic_key("*", "joint_states"),
+                                             lambda _sample: bus_times.append(time.time()))
             root = psutil.Process(match.process.pid)
             deadline = time.monotonic() + 600
             while not (dash.get("/recordings/status") or {}).get("match") and time.monotonic() < deadline:
@@ -212,6 +222,16 @@ def main() -> None:
                     time.sleep(0.05)
                 print(f"  killed {victim:14s} recovered after "
                       f"{'never' if kill.recovery_s is None else f'{kill.recovery_s:.2f} s'}", flush=True)
+            bus_sub.undeclare()
+            bus.close()
+            # the robots back in the lab: their logs stop recording and serve the files (as after a reboot)
+            for logger in loggers:
+                logger.terminate()
+                logger.wait(10)
+            loggers = [subprocess.Popen([sys.executable, "-m", "robot_nodes.robot_log", "--robot-id", robot,
+                                         "--connect", endpoint.group(1), "--folder", str(robot_logs / robot),
+                                         "--no-record"], cwd=REPO, stdout=subprocess.DEVNULL,
+                                        stderr=subprocess.DEVNULL) for robot in LOGGED_ROBOTS]
             robots = ",".join(LOGGED_ROBOTS)
             match_logs = sorted(recordings.glob("match-*_half1.mcap"))
             merged_messages = 0
@@ -230,7 +250,10 @@ def main() -> None:
         laptop_all = sorted(t for times in laptop.values() for t in times)
         robot_times = {r: recorded_times(sorted((robot_logs / r).glob("*.mcap")), ["robot_state"], [r]).get(r, [])
                        for r in LOGGED_ROBOTS}
-    gaps = {id(k): silence(laptop_all, k.at - 2.0, k.at + (k.recovery_s or RECOVERY_TIMEOUT_S) + 2.0) for k in kills}
+    def window(k: Kill) -> tuple[float, float]:
+        return k.at - 2.0, k.at + (k.recovery_s or RECOVERY_TIMEOUT_S) + 2.0
+
+    gaps = {id(k): max(0.0, silence(laptop_all, *window(k)) - silence(bus_times, *window(k))) for k in kills}
     laptop_gap = max((gaps[id(k)] for k in kills if k.victim != "recorder"), default=0.0)
     recorder_gap = max((gaps[id(k)] for k in kills if k.victim == "recorder"), default=0.0)
     robot_gap = 0.0

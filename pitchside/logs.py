@@ -22,7 +22,7 @@ from wire.bus import add_bus_arguments
 from wire.command_line import CommandParser
 
 PULLED_SUFFIX = ".pulled.json"
-QUERY_TIMEOUT_S = 10.0
+QUERY_TIMEOUT_S = 30.0  # a busy robot answers late; nothing else waits on it
 
 
 class PullError(RuntimeError):
