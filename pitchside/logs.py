@@ -15,6 +15,7 @@ import argparse
 import json
 import subprocess
 import sys
+import time
 from pathlib import Path
 from typing import Any
 
@@ -72,12 +73,18 @@ def fetch_over_bus(session: Any, robot: str, half: str, into: Path) -> list[Path
 
 
 def _ask(session: Any, key: str, payload: bytes | None) -> bytes:
-    for reply in session.get(key, payload=payload, timeout=QUERY_TIMEOUT_S):
-        if reply.ok is not None:
-            return bytes(reply.ok.payload.to_bytes())
-        raise PullError(f"{key}: {reply.err.payload.to_string()}")
-    raise PullError(f"{key}: no answer within {QUERY_TIMEOUT_S:.0f} s (is the robot on the bus, its robot_log "
-                    "running?)")
+    """The robot's answer; asked again while nobody answers (a robot still starting its log process)."""
+    deadline = time.monotonic() + QUERY_TIMEOUT_S
+    while True:
+        remaining = max(0.5, deadline - time.monotonic())
+        for reply in session.get(key, payload=payload, timeout=remaining):
+            if reply.ok is not None:
+                return bytes(reply.ok.payload.to_bytes())
+            raise PullError(f"{key}: {reply.err.payload.to_string()}")
+        if time.monotonic() >= deadline:
+            raise PullError(f"{key}: no answer within {QUERY_TIMEOUT_S:.0f} s (is the robot on the bus, its "
+                            "robot_log running?)")
+        time.sleep(0.5)
 
 
 def fetch_over_ssh(source: str, robot: str, half: str, into: Path) -> list[Path]:

@@ -167,8 +167,8 @@ def test_kill_9_of_every_writer_at_once_leaves_files_that_open_to_within_a_secon
                 robot_log(router_endpoint, robot_folder, tmp_path) as logger:
             wait_for(lambda: answers(port, token), timeout=60, interval=0.1, what="the recorder up")
             control(port, token, "/start", "POST")
-            wait_for(lambda: control(port, token)["manual"]["flushed_messages"] > 300
-                     and len(logged_sequences(robot_folder)) > 300, timeout=60, interval=0.2,
+            wait_for(lambda: control(port, token)["manual"]["messages"] > 300
+                     and len(logged_sequences(robot_folder)) > 300, timeout=120, interval=0.5,
                      what="both writing")
             killed_at = time.time()
             for process in (recorder, logger):
