@@ -18,9 +18,11 @@ the robot is CONTROLLABLE again, lets the stack settle, and kills the next. Per 
   stamp, so its bytes are unique) seen on the bus is looked up in the manual recording; the longest run of missing
   messages, from the last one recorded before it to the first one after, minus the stream's usual interval, is
   lost. What a dead node did not publish is not missing, and a server that received late but wrote everything lost
-  nothing. Server: the kill time minus the last message before it that made it into the file (what reached the
-  server but not the disk); gap_s: kill -> first message of the recording the restarted server resumed (manual and
-  match recording each), the time nobody could record;
+  nothing. Server and recorder: the kill time minus the last message before it that made it into the file (what
+  reached the recorder but not the disk); gap_s: kill -> first message recorded after it (manual and match recording
+  each), the time nobody could record. The recorder is a process of its own beside the dashboard, each with a warm
+  spare (server.standby): a dashboard kill should leave the recording untouched (gap_s about one message interval),
+  a recorder kill cost at most its unflushed buffer (lost_s < 0.5);
 - crashes: processes other than the victim that died or restarted meanwhile, and victims never brought back.
 
 The baseline, measured in the same run on the same loaded machine: a minimal node (tests.proc_nodes talker) from
@@ -160,15 +162,28 @@ class DashboardWatch(DashboardObserver):
 
 
 # -- the processes ----------------------------------------------------------------------------------------------
-def label_of(cmdline: list[str]) -> str | None:
-    """The launcher's name of a demo process ("world", "robot1/hcm", "server", "gamecontroller")."""
+def lock_holders() -> set[int]:
+    """The processes holding a file lock now (/proc/locks; a waiting one's line has "->")."""
+    holders = set()
+    for line in Path("/proc/locks").read_text().splitlines():
+        fields = line.split()
+        if len(fields) > 4 and "->" not in fields:
+            with contextlib.suppress(ValueError):
+                holders.add(int(fields[4]))
+    return holders
+
+
+def label_of(cmdline: list[str], pid: int = 0) -> str | None:
+    """The launcher's name of a demo process ("world", "robot1/hcm", "server", "recorder", "server-spare", ...)."""
     if "-m" not in cmdline:
         return None
     module = cmdline[cmdline.index("-m") + 1]
     if module == "robot_nodes.sim":
         return "world"
-    if module == "server":
-        return "server"
+    if module in ("server", "server.recording"):
+        role = "server" if module == "server" else "recorder"
+        # two copies with --standby-lock: the one holding the lock works, the other is its warm spare
+        return role if "--standby-lock" not in cmdline or pid in lock_holders() else f"{role}-spare"
     if module == "robot_nodes.sim.gamecontroller":
         return "gamecontroller"
     node = NODE_OF_MODULE.get(module)
@@ -212,7 +227,7 @@ class ProcessWatch:
             with contextlib.suppress(psutil.Error):
                 if child.status() == psutil.STATUS_ZOMBIE:
                     continue  # dead, not yet reaped by the launcher
-                label = label_of(child.cmdline())
+                label = label_of(child.cmdline(), child.pid)
                 if label is not None:
                     found[label] = child.pid
                     self.created.setdefault(child.pid, started_at(child.pid))
@@ -295,6 +310,18 @@ def flows_probe(stack: Stack, victim: str) -> tuple[str, Callable[[float, float]
             times = [dash.first_after(r, "joint_states", "live", killed) for r in stack.robots]
             return None if None in times else max(t for t in times if t is not None)
         return "fresh joint_states over a new WebSocket", dashboard
+    if victim == "recorder":
+        old_pid = stack.procs.pid("recorder")
+
+        def recording_again(_killed: float, _started: float) -> float | None:
+            try:
+                status = stack.api("GET", "/recordings/status")
+            except httpx.HTTPError:
+                return None
+            process, manual = status.get("process") or {}, status.get("manual") or {}
+            fresh = process.get("up") and process.get("pid") != old_pid and manual.get("resumed")
+            return now() if fresh else None
+        return "the manual recording going on in a new recorder (dashboard's status)", recording_again
     robot, node = victim.split("/")
     topic = NODE_TOPIC[node]
     if node == "telemetry":
@@ -336,7 +363,9 @@ def kill_and_wait(stack: Stack, victim: str, settle_s: float) -> Outcome:
         out.controllable_s = max(t for t in back if t is not None) - out.killed_at
     time.sleep(settle_s)  # the next kill starts from a calm stack, and this one's aftermath is in the window
     for change in procs.changes:
-        if change.at >= out.killed_at and change.label != victim and change.old_pid == before.get(change.label):
+        # a warm spare taking over and its replacement starting are no crash
+        if (change.at >= out.killed_at and change.label != victim and not change.label.endswith("-spare")
+                and change.old_pid == before.get(change.label)):
             out.crashed.append(f"{change.label} pid {change.old_pid} -> {change.new_pid}")
     return out
 
@@ -432,7 +461,7 @@ def running_stack(tmp: Path, robots: int, token: str) -> Iterator[Stack]:
 
 def victims(robots: list[str], quick: bool) -> list[str]:
     nodes = ["hcm", "telemetry"] if quick else list(NODE_TOPIC)
-    return [f"{r}/{n}" for r in (robots[:1] if quick else robots) for n in nodes] + ["world", "server"]
+    return [f"{r}/{n}" for r in (robots[:1] if quick else robots) for n in nodes] + ["world", "server", "recorder"]
 
 
 def fmt(x: float | None) -> str:
@@ -477,10 +506,14 @@ def main() -> None:
         match_files = [f for f in files if f.name.startswith("match-")]
         recorded, match_recorded = recorded_payloads(manual_files), recorded_payloads(match_files)
         match_lost = match_gap = None
+        recorder_match_lost = recorder_match_gap = None
         for out in outcomes:
             if out.victim == "server":
                 out.lost_s, out.gap_s = server_lost(out, recorded, stack.bus)
                 match_lost, match_gap = server_lost(out, match_recorded, stack.bus)
+            elif out.victim == "recorder":
+                out.lost_s, out.gap_s = server_lost(out, recorded, stack.bus)
+                recorder_match_lost, recorder_match_gap = server_lost(out, match_recorded, stack.bus)
             elif out.flows_s is not None:
                 out.lost_s = node_lost(out, recorded, stack.bus)
         demo_log = stack.demo.output()
@@ -488,9 +521,12 @@ def main() -> None:
           f"flows again means / crashes")
     for out in outcomes:
         print(f"{out.victim:24s} {fmt(out.restarted_s):>11s} {fmt(out.flows_s):>8s} {fmt(out.controllable_s):>7s} "
-              f"{fmt(out.lost_s):>7s} {fmt(out.gap_s) if out.victim == 'server' else '':>6s}  {out.data}"
+              f"{fmt(out.lost_s):>7s} {fmt(out.gap_s) if out.victim in ('server', 'recorder') else '':>6s}  {out.data}"
               f"{'; CRASHED: ' + ', '.join(out.crashed) if out.crashed else ''}")
     server = next(o for o in outcomes if o.victim == "server")
+    recorder = next(o for o in outcomes if o.victim == "recorder")
+    print(f"match recording across the recorder kill: {fmt(recorder_match_lost)} s lost before the kill, "
+          f"resumed after {fmt(recorder_match_gap)} s")
     print(f"match recording across the server kill: {fmt(match_lost)} s lost before the kill, resumed after "
           f"{fmt(match_gap)} s ({len(match_files)} files: {', '.join(f.name for f in match_files)})")
     print(f"manual recording after the faults: {'running' if status['manual'] else 'NOT running'}; files: "
@@ -505,7 +541,9 @@ def main() -> None:
           f"(kills {len(outcomes)}); machine load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
     print(f"RESULT faults node_recovery_max_s={node_max:.2f} server_recovery_s={fmt(server.flows_s)} "
           f"recording_lost_max_s={lost_max:.2f} crashes={crashes} server_recording_gap_s={fmt(server.gap_s)} "
-          f"match_recording_gap_s={fmt(match_gap)} baseline_node_start_s={baseline:.2f}")
+          f"match_recording_gap_s={fmt(match_gap)} recorder_recovery_s={fmt(recorder.flows_s)} "
+          f"recorder_recording_lost_s={fmt(recorder.lost_s)} recorder_recording_gap_s={fmt(recorder.gap_s)} "
+          f"match_recording_gap_recorder_s={fmt(recorder_match_gap)} baseline_node_start_s={baseline:.2f}")
 
 
 if __name__ == "__main__":

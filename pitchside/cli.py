@@ -47,6 +47,8 @@ COMMANDS: dict[str, Command] = {
                               "GameController"),
     "record": Command("pitchside.record:main", "dashboard", "start/stop/list recordings of a running dashboard "
                       "server"),
+    "logs": Command("pitchside.logs:main", "dashboard", "after a game: fetch each robot's own log of a half (bus or "
+                    "SSH) and merge it with the laptop's match log into one timeline"),
     "replay": Command("pitchside.replay:main", "dashboard", "the dashboard with an MCAP log (pitchside or ROS 2 bag) "
                       "in the replay source"),
     "export-rerun": Command("pitchside.export_rerun:main", "dashboard", "a log's numeric fields as rerun scalars "

@@ -14,10 +14,11 @@ from pathlib import Path
 import robots as descriptions
 from pitchside.local_run import (
     ROBOTS_PER_PROCESS,
+    DashboardPlan,
+    dashboard_processes,
     free_port,
     kernel_port,
     run_on_this_machine,
-    server_process,
     telemetry_image_rate,
     telemetry_settings,
     world_first,
@@ -32,14 +33,15 @@ log = logging.getLogger("pitchside.demo")
 DEMO_ROBOT_NODES = [*MOTION_NODES, "walking", "game_controller", "telemetry"]  # cm730: in the world's process
 
 
-def demo_processes(*, robots: int, endpoint: str, http_port: int, telemetry_port: int, model: str,
+def demo_processes(*, robots: int, endpoint: str, http_port: int, dashboard: DashboardPlan, model: str,
                    match: bool, gc_ports: list[int], gc_return_port: int,
                    token: str = "",
                    telemetry_key: Path | None = None, compose: str = "all", cameras: int = 1,
                    robots_per_process: int = 1, server_flags: list[str] | None = None) -> list[NodeProcess]:
     """Every process of the demo.
 
-    token: the dashboard's control token; telemetry_key: a key file the robots and the dashboard share;
+    dashboard: the ports of the dashboard and its recorder; token: the dashboard's control token;
+    telemetry_key: a key file the robots and the dashboard share;
     robots_per_process: with compose "all", that many robots' nodes share a process (shared_process);
     server_flags: more flags of the dashboard (the --ros-* ones: ROS 2 robots of other teams beside the demo's)."""
     py = sys.executable
@@ -59,7 +61,7 @@ def demo_processes(*, robots: int, endpoint: str, http_port: int, telemetry_port
             # the venue"); a real robot hears the GameController's broadcast on every interface
             "game_controller": ["--set", f"player_number={i}", "--set", f"listen_port={gc_ports[i - 1]}",
                                 "--set", "listen_address=127.0.0.1", "--set", f"return_port={gc_return_port}"],
-            "telemetry": telemetry_settings(telemetry_port, telemetry_key),
+            "telemetry": telemetry_settings(dashboard.robots_port, telemetry_key),
         }
         sharing.append(RobotNodes(f"robot{i}", per_robot, extra))
     processes += simulated_robots(sharing, [endpoint], model=model, compose=compose, per_process=robots_per_process)
@@ -68,8 +70,8 @@ def demo_processes(*, robots: int, endpoint: str, http_port: int, telemetry_port
     for port in gc_ports:
         gc += ["--to", f"127.0.0.1:{port}"]
     processes.append(NodeProcess("gamecontroller", gc))
-    processes.append(server_process(http_port=http_port, telemetry_port=telemetry_port, model=model, connect=[endpoint],
-                                    match=match, token=token, telemetry_key=telemetry_key, extra=server_flags or []))
+    processes += dashboard_processes(dashboard, http_port=http_port, model=model, connect=[endpoint], match=match,
+                                     token=token, telemetry_key=telemetry_key, extra=server_flags or [])
     return world_first(processes)
 
 
@@ -102,15 +104,15 @@ def main(argv: list[str] | None = None) -> None:
     http_port = free_port(args.port)
     # the robots' telemetry, the simulated GameController and the robots' receivers talk on this machine only: the
     # kernel's free ports (local_run.kernel_port)
-    telemetry_port = kernel_port()
+    dashboard = DashboardPlan.fresh()
     gc_ports = [kernel_port() for _ in range(args.robots)]
     gc_return_port = kernel_port()
     token = os.environ.get(ENV_TOKEN) or new_token()
     run_on_this_machine("demo", endpoint, http_port, token, lambda key: demo_processes(
-        robots=args.robots, endpoint=endpoint, http_port=http_port, telemetry_port=telemetry_port, model=args.model,
+        robots=args.robots, endpoint=endpoint, http_port=http_port, dashboard=dashboard, model=args.model,
         match=args.match, gc_ports=gc_ports, gc_return_port=gc_return_port, token=token, telemetry_key=key,
         compose=args.compose, cameras=args.cameras, robots_per_process=args.robots_per_process,
-        server_flags=ros2_flags(args)))
+        server_flags=ros2_flags(args)), dashboard=dashboard)
 
 
 if __name__ == "__main__":

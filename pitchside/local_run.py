@@ -7,16 +7,24 @@ settings, and the run itself: the link printed (it signs the browser in), everyt
 
 from __future__ import annotations
 
+import os
 import socket
 import sys
 import tempfile
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import robots as descriptions
 from robot_nodes.launch import Launcher, NodeProcess, run_until_signal
-from server.security.credentials import ENV_TOKEN
+from server.security.credentials import ENV_TOKEN, new_token
 from wire.bus import open_router
+
+RECORDER_TOKEN_ENV = "PITCHSIDE_RECORDER_TOKEN"  # server.recording.service reads it (not imported: a light module)
+SPARE_START_DELAY_S = 20.0
+# a share of the robots' telemetry datagrams the tap drops at random: bench/chaos.py's stand-in for a venue's Wi-Fi
+TELEMETRY_DROP_ENV = "PITCHSIDE_TELEMETRY_DROP"
+STANDBY_LOCKS = {"server": "dashboard.lock", "recorder": "recorder.lock"}
 
 
 def port_is_free(port: int, kind: int = socket.SOCK_STREAM, host: str = "127.0.0.1") -> bool:
@@ -86,6 +94,54 @@ def server_process(*, http_port: int, telemetry_port: int, model: str, connect: 
     return NodeProcess("server", server, env={ENV_TOKEN: token} if token else {})
 
 
+@dataclass(frozen=True, slots=True)
+class DashboardPlan:
+    """The dashboard and its recorder as separate processes: the robots send telemetry to ``robots_port``, where
+    the supervisor's tap (wire.telemetry.tap) copies every datagram to the dashboard's and the recorder's own port;
+    the dashboard controls the recorder on ``control_port`` with ``recorder_token``."""
+
+    robots_port: int
+    dashboard_port: int
+    recorder_port: int
+    control_port: int
+    recorder_token: str = field(default_factory=new_token, repr=False)
+
+    @classmethod
+    def fresh(cls, robots_port: int | None = None) -> DashboardPlan:
+        dashboard_port, recorder_port, spare = kernel_ports(3)
+        return cls(robots_port or spare, dashboard_port, recorder_port, kernel_port(socket.SOCK_STREAM))
+
+
+def dashboard_processes(plan: DashboardPlan, *, http_port: int, model: str, connect: list[str], match: bool,
+                        token: str, telemetry_key: Path | None, extra: Sequence[str] = ()) -> list[NodeProcess]:
+    """The recorder, the dashboard and the dashboard's warm spare (server.standby): a crash of either of the first
+    two never touches the other, and the spare serves within a second of the dashboard's death. extra: more flags
+    of the dashboard."""
+    out = []
+    for role in ("recorder", "server"):
+        # the locks live in the run's own folder (beside the key); without a key file, no spare
+        lock = telemetry_key.parent / STANDBY_LOCKS[role] if telemetry_key else None
+        for name in (role, f"{role}-spare") if lock is not None else (role,):
+            if role == "recorder":
+                process = server_process(http_port=http_port, telemetry_port=plan.recorder_port, model=model,
+                                         connect=connect, match=match, token=token, telemetry_key=telemetry_key)
+                process.argv = [a if a != "server" else "server.recording" for a in process.argv]
+                process.argv += ["--control-port", str(plan.control_port)]
+            else:
+                process = server_process(http_port=http_port, telemetry_port=plan.dashboard_port, model=model,
+                                         connect=connect, match=match, token=token, telemetry_key=telemetry_key,
+                                         extra=extra)
+                process.argv += ["--recorder", f"http://127.0.0.1:{plan.control_port}"]
+            process.name = name
+            if name.endswith("-spare"):  # its imports wait until the run has started: a busy machine starts faster
+                process.start_delay_s = SPARE_START_DELAY_S
+            if lock is not None:
+                process.argv += ["--standby-lock", str(lock)]
+            process.env[RECORDER_TOKEN_ENV] = plan.recorder_token
+            out.append(process)
+    return out
+
+
 # A simulation on this machine: the world (physics, referee, simulated GameController) runs at the normal priority,
 # everything else lower. When the CPU runs short the robots' computers are slow, as on a real pitch, and the physics
 # keeps real time: robots whose walking and get-ups run on the wall clock fall over in a world that lags behind it.
@@ -106,7 +162,7 @@ def world_first(processes: list[NodeProcess], world: str = "world", dashboard: s
     """The world at the launcher's priority, the dashboard at BEHIND_THE_WORLD_NICE, every other process at
     ``others_nice``."""
     for process in processes:
-        if process.name == dashboard:
+        if process.name in (dashboard, f"{dashboard}-spare", "recorder", "recorder-spare"):
             process.nice = BEHIND_THE_WORLD_NICE
         elif process.name != world:
             process.nice = others_nice
@@ -114,15 +170,23 @@ def world_first(processes: list[NodeProcess], world: str = "world", dashboard: s
 
 
 def run_on_this_machine(command: str, zenoh_endpoint: str, http_port: int, token: str,
-                        processes: Callable[[Path], list[NodeProcess]], also: str = "") -> None:
-    """Starts the router and ``processes(telemetry key file)``, prints the link, runs until a signal stops it."""
+                        processes: Callable[[Path], list[NodeProcess]], also: str = "",
+                        dashboard: DashboardPlan | None = None) -> None:
+    """Starts the router, the telemetry tap of ``dashboard`` and ``processes(telemetry key file)``, prints the link,
+    runs until a signal stops it."""
     from wire.telemetry.datagram import write_new_key  # the message types: not for a command's --help
+    from wire.telemetry.tap import TelemetryTap
 
     with tempfile.TemporaryDirectory(prefix=f"pitchside-{command}-") as keys:
         # a fresh team key per run: the robots' telemetry and the dashboard share it, nobody else has it
         key_file = Path(keys) / "telemetry.key"
         write_new_key(key_file)
         router = open_router([zenoh_endpoint])
+        tap = None
+        if dashboard is not None:  # in this process: it outlives the dashboard and the recorder
+            tap = TelemetryTap("127.0.0.1", dashboard.robots_port, [("127.0.0.1", dashboard.dashboard_port),
+                                                                    ("127.0.0.1", dashboard.recorder_port)],
+                               drop_fraction=float(os.environ.get(TELEMETRY_DROP_ENV) or 0.0)).start()
         launcher = Launcher(processes(key_file))
         print(f"\n  pitchside {command}: open http://127.0.0.1:{http_port}/?token={token}  (the link signs the "
               f"browser in; Zenoh router {zenoh_endpoint}{'; ' + also if also else ''}; Ctrl-C stops)\n",
@@ -130,4 +194,6 @@ def run_on_this_machine(command: str, zenoh_endpoint: str, http_port: int, token
         try:
             run_until_signal(launcher)
         finally:
+            if tap is not None:
+                tap.close()
             router.close()

@@ -19,11 +19,12 @@ import robots as descriptions
 from pitchside.local_run import (
     ROBOTS_IN_MATCH_NICE,
     ROBOTS_PER_PROCESS,
+    DashboardPlan,
+    dashboard_processes,
     free_port,
     kernel_port,
     kernel_ports,
     run_on_this_machine,
-    server_process,
     telemetry_settings,
     world_first,
 )
@@ -144,7 +145,8 @@ class MatchPlan:
     robots_per_process: int = 1  # with compose "all": that many robots of a team share a process (shared_process)
 
 
-def match_processes(plan: MatchPlan, *, endpoint: str, http_port: int, telemetry_port: int, gc: GameControllerPlan,
+def match_processes(plan: MatchPlan, *, endpoint: str, http_port: int, dashboard: DashboardPlan,
+                    gc: GameControllerPlan,
                     mitecom_ports: dict[str, int], token: str, telemetry_key: Path | None) -> list[NodeProcess]:
     """Every process of the match: the world (with the referee and a simulated GameController), each robot's
     nodes, the dashboard in match mode."""
@@ -168,7 +170,7 @@ def match_processes(plan: MatchPlan, *, endpoint: str, http_port: int, telemetry
     processes = [NodeProcess("world", world)]
     for team in lineup.teams:
         robots = [RobotNodes(team.robot_id(player), plan.nodes,
-                             robot_settings(team, player, gc, mitecom_ports, telemetry_port, telemetry_key,
+                             robot_settings(team, player, gc, mitecom_ports, dashboard.robots_port, telemetry_key,
                                             plan.half_s))
                   for player in range(1, team.players + 1)]
         for process in simulated_robots(robots, [endpoint], model=plan.model, compose=plan.compose,
@@ -176,8 +178,8 @@ def match_processes(plan: MatchPlan, *, endpoint: str, http_port: int, telemetry
             if plan.sim_time:
                 process.env[SIM_TIME_ENV] = LOCKSTEP if plan.lockstep else "1"
             processes.append(process)
-    processes.append(server_process(http_port=http_port, telemetry_port=telemetry_port, model=plan.model, connect=[],
-                                    match=True, token=token, telemetry_key=telemetry_key))
+    processes += dashboard_processes(dashboard, http_port=http_port, model=plan.model, connect=[], match=True,
+                                     token=token, telemetry_key=telemetry_key)
     return world_first(processes, others_nice=ROBOTS_IN_MATCH_NICE)
 
 
@@ -245,7 +247,7 @@ def main(argv: list[str] | None = None) -> None:
                      robots_per_process=args.robots_per_process)
     endpoint = f"tcp/127.0.0.1:{free_port(7447)}"
     http_port = free_port(args.port)
-    telemetry_port = kernel_port()  # ports inside the run: the kernel's free ones (local_run.kernel_port)
+    dashboard = DashboardPlan.fresh()  # ports inside the run: the kernel's free ones (local_run.kernel_port)
     robots = lineup.robot_ids()
     mitecom_ports = dict(zip(robots, kernel_ports(len(robots)), strict=True))
     if args.gamecontroller == "sim":
@@ -258,8 +260,8 @@ def main(argv: list[str] | None = None) -> None:
         where = f"listening for the GameController on UDP {gc.port}"
     token = os.environ.get(ENV_TOKEN) or new_token()
     run_on_this_machine("match", endpoint, http_port, token, lambda key: match_processes(
-        plan, endpoint=endpoint, http_port=http_port, telemetry_port=telemetry_port, gc=gc, mitecom_ports=mitecom_ports,
-        token=token, telemetry_key=key), also=where)
+        plan, endpoint=endpoint, http_port=http_port, dashboard=dashboard, gc=gc, mitecom_ports=mitecom_ports,
+        token=token, telemetry_key=key), also=where, dashboard=dashboard)
 
 
 if __name__ == "__main__":

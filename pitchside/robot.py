@@ -10,7 +10,9 @@ access control); the nodes join it on loopback as always and never hold the robo
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import logging
+import sys
 from pathlib import Path
 
 import robots
@@ -68,6 +70,18 @@ def simulated_robots(robots: list[RobotNodes], connect: list[str], *, model: str
             processes += robot_nodes(group[0].robot_id, connect, model=model, names=group[0].nodes,
                                      extra=group[0].extra, compose=compose)
     return processes
+
+
+def robot_log_process(robot_id: str, endpoint: str, match: bool, folder: Path | None, cap_bytes: int | None
+                      ) -> NodeProcess:
+    """The robot's own log (robot_nodes.robot_log): records every topic at full rate in a match, and serves the
+    files to `pitchside logs pull` in the lab (where it records nothing: the dashboard records the bus)."""
+    argv = [sys.executable, "-m", "robot_nodes.robot_log", "--robot-id", robot_id, "--connect", endpoint]
+    if folder is not None:
+        argv += ["--folder", str(folder)]
+    if cap_bytes is not None:
+        argv += ["--cap-bytes", str(cap_bytes)]
+    return NodeProcess(f"{robot_id}/robot_log", argv if match else [*argv, "--no-record"])
 
 
 def robot_id_for(robot_id: str | None, zenoh_config: str | None) -> str:
@@ -255,6 +269,11 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--team-comm-address", default=None, metavar="ADDRESS",
                         help="where the team communication listens (default 127.0.0.1 in the lab, 0.0.0.0 with "
                              "--match)")
+    parser.add_argument("--log-folder", type=Path, default=None,
+                        help="where the robot's own log goes in a match (default $PITCHSIDE_ROBOT_LOGS, else "
+                             "./robot_logs); `pitchside logs pull` fetches it after the game")
+    parser.add_argument("--log-cap-bytes", type=int, default=None,
+                        help="the most the robot's log folder holds (default 8 GiB); the oldest halves go first")
     parser.add_argument("--match", action="store_true",
                         help="match configuration: the robot's Zenoh connects to nobody (nothing reaches the team "
                              "PC but the telemetry, nothing needs to come back); needs --telemetry-to and a key")
@@ -297,9 +316,15 @@ def main(argv: list[str] | None = None) -> None:
         parser.error(str(exc))
     router = robot_router(args)
     # the nodes join the robot's router on loopback; a team file (the robot's key) stays with the router
-    launcher = Launcher(robot_nodes(robot_id, [router.local_endpoint], model=args.model, names=names,
-                                    extra={"telemetry": telemetry or [], "mitecom": team_comm}, params=args.params,
-                                    mode=args.mode, compose=args.compose, alone=alone))
+    processes = robot_nodes(robot_id, [router.local_endpoint], model=args.model, names=names,
+                            extra={"telemetry": telemetry or [], "mitecom": team_comm}, params=args.params,
+                            mode=args.mode, compose=args.compose, alone=alone)
+    if importlib.util.find_spec("mcap") is not None:
+        processes.append(robot_log_process(robot_id, router.local_endpoint, args.match, args.log_folder,
+                                           args.log_cap_bytes))
+    else:  # the robot profile without the log writer's packages: the robot plays, unlogged, and says so
+        logging.warning("no robot log: the mcap package is not installed (pip install mcap zstandard)")
+    launcher = Launcher(processes)
     try:
         run_until_signal(launcher)
     finally:

@@ -42,6 +42,7 @@ class NodeProcess:
     given_up: bool = False  # dead and not to be restarted
     members: list[str] = field(default_factory=list)  # the nodes of a composed process, in its order
     nice: int = 0  # added to the launcher's niceness: a lower CPU priority (`nice -n`; raising it needs no root)
+    start_delay_s: float = 0.0  # the first start waits this long (a warm spare: after the others have started)
 
     def start(self) -> None:
         env = {**os.environ, **self.env}
@@ -83,7 +84,10 @@ class Launcher:
 
     def run(self) -> None:
         for node in self.nodes:
-            node.start()
+            if node.start_delay_s > 0:
+                node.restart_at = time.monotonic() + node.start_delay_s
+            else:
+                node.start()
         try:
             while not self._stop.wait(0.05):
                 for node in self.nodes:
@@ -95,7 +99,6 @@ class Launcher:
         self._stop.set()
 
     def _check(self, node: NodeProcess) -> None:
-        assert node.process is not None
         if node.given_up:
             return
         if node.restart_at is not None:
@@ -103,6 +106,7 @@ class Launcher:
                 node.restart_at = None
                 node.start()
             return
+        assert node.process is not None
         code = node.process.poll()
         if code is None:
             return

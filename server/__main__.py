@@ -101,6 +101,13 @@ def arguments(prog: str = "pitchside serve", description: str = "the pitchside d
                    help="the private key of --foxglove-tls CERT (default: in the certificate file)")
     p.add_argument("--recordings", default=None, metavar="DIR", help="recordings folder (default: recordings/)")
     p.add_argument("--no-auto-record", action="store_true", help="do not record matches automatically")
+    p.add_argument("--recorder", default=None, metavar="URL",
+                   help="the recorder process beside this server (http://127.0.0.1:PORT, `python -m server.recording`; "
+                        "its token in $PITCHSIDE_RECORDER_TOKEN): recordings go on when this server dies (default: "
+                        "the recorder runs inside this server)")
+    p.add_argument("--standby-lock", default=None, metavar="FILE",
+                   help="run as one of two copies: the one holding FILE's lock serves, the other waits imported and "
+                        "ready and serves as soon as the first dies (server.standby)")
     p.add_argument("--replay", default=None, metavar="FILE", help="open this MCAP log in the replay source")
     p.add_argument("--log-level", default="INFO")
     return p
@@ -218,8 +225,17 @@ def run(args: argparse.Namespace) -> None:
         config.recordings_dir = Path(args.recordings)
     config.auto_record_matches = not args.no_auto_record
     config.replay_file = Path(args.replay) if args.replay else None
+    if args.recorder:
+        from server.recording.service import RECORDER_TOKEN_ENV
+
+        config.recorder_url, config.recorder_token = args.recorder, os.environ.get(RECORDER_TOKEN_ENV, "")
     app = create_app(config)
     freeze_startup_heap()  # the modules and the app: what each full collection would walk again
+    if args.standby_lock:
+        from server.standby import wait_to_serve
+
+        # a spare that takes over serves first and starts the 3D view and plots (seconds) while it already serves
+        config.views_in_background = wait_to_serve(Path(args.standby_lock))
     print(start_banner(config), flush=True)
     try:
         write_token_file(config.port, dashboard_url(config), config.token or "")

@@ -74,13 +74,19 @@ def create_app(config: ServerConfig) -> FastAPI:
                     await source_set.switch(name, True)
                 except SourceError as exc:
                     log.warning("source %s not started: %s", name, exc)
-        await _start_views(state)
-        await _start_graph(state)
+        views = None
         await recording.start()
-        state.foxglove = await start_foxglove(state)
+        if config.views_in_background:  # a spare taking over: the page and its data first, the rest once it serves
+            views = asyncio.get_running_loop().create_task(_start_the_rest_later(state))
+        else:
+            await _start_views(state)
+            await _start_graph(state)
+            state.foxglove = await start_foxglove(state)
         try:
             yield
         finally:
+            if views is not None and not views.done():
+                views.cancel()
             with contextlib.suppress(Exception):
                 await recording.stop()
             await _stop_views(state)
@@ -114,6 +120,18 @@ def venue_policy(config: ServerConfig) -> VenuePolicy:
     return VenuePolicy(hosts=AllowedHosts(config.host, config.allowed_hosts),
                        credentials=Credentials(config.token, config.port), allowed_origins=frozenset(origins),
                        reads_need_credential=config.beyond_loopback, max_body_bytes=config.max_body_bytes)
+
+
+# a spare that takes over starts the 3D view, the plots, the node graph and the Foxglove endpoint this long after its
+# lifespan (uvicorn binds the port right after it): they block the loop for seconds on a busy machine
+THE_REST_AFTER_S = 1.0
+
+
+async def _start_the_rest_later(state: ServerState) -> None:
+    await asyncio.sleep(THE_REST_AFTER_S)
+    await _start_views(state)
+    await _start_graph(state)
+    state.foxglove = await start_foxglove(state)
 
 
 async def _start_graph(state: ServerState) -> None:

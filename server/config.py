@@ -83,6 +83,13 @@ class ServerConfig:
                                                               or Path.cwd() / "recordings"))
     auto_record_matches: bool = True  # record every match (per half) from the robots' gamestate
     replay_file: Path | None = None  # a log the replay source opens at start (pitchside replay FILE)
+    # the recorder process beside this server (server.recording.service), http://127.0.0.1:PORT, and its token;
+    # None: the recorder runs inside this server
+    recorder_url: str | None = None
+    recorder_token: str = ""
+    # the 3D view and plots start after the server serves (a warm spare taking over, server.standby: the page and
+    # the data first, within a second of the crash)
+    views_in_background: bool = False
 
     def __post_init__(self) -> None:
         if self.live_source is None:

@@ -21,7 +21,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from schemas.logs import LogError
+from schemas.logs import LogError, LogReader, log_series
 from server.config import RobotDescription
 from server.hub import Hub, HubMessage, Subscriber
 from server.recording.files import RecordingsFolder, safe_name, timestamped
@@ -35,6 +35,33 @@ log = logging.getLogger(__name__)
 __all__ = ["GameEvents", "HubRecording", "Recorder", "RecorderError", "RecordingStatus"]
 
 DEFAULT_ROTATE_BYTES = 512 << 20
+GAP_BOOKMARK = "recording gap"
+
+
+async def mark_gap(recording: HubRecording, cut_file: Path) -> None:
+    """A bookmark on the resumed recording's timeline where a crash cut it off: from the last message the cut file
+    kept to now (when this file starts), so replay shows the hole and how long it is."""
+    resumed_ns = time.time_ns()
+
+    def last_kept_ns() -> int | None:
+        with LogReader(cut_file) as reader:  # a crash-cut file: its complete chunks
+            return reader.end_ns if reader.message_count else None
+
+    try:
+        last_ns = await asyncio.to_thread(last_kept_ns)
+    except (LogError, OSError) as exc:
+        log.warning("the gap before %s not bookmarked: %s", recording.path.name, exc)
+        return
+    if last_ns is None or not recording.running:
+        return
+    gap_s = round(max(0.0, (resumed_ns - last_ns) / 1e9), 3)
+    try:
+        recording.bookmark(GAP_BOOKMARK, {"gap_s": gap_s, "from_ns": last_ns, "to_ns": resumed_ns,
+                                          "cut_file": cut_file.name}, log_time_ns=last_ns + 1)
+    except (LogError, OSError) as exc:
+        log.warning("the gap before %s not bookmarked: %s", recording.path.name, exc)
+        return
+    log.warning("recording %s resumed after a gap of %.3f s", recording.path.name, gap_s)
 
 
 class RecorderError(RuntimeError):
@@ -65,6 +92,7 @@ class Recorder:
         self._game_task: asyncio.Task[None] | None = None
         self._journal_task: asyncio.Task[None] | None = None
         self._lock = asyncio.Lock()
+        self._gap_tasks: set[asyncio.Task[None]] = set()
 
     # -- lifetime ---------------------------------------------------------------------------------------
     async def start(self) -> None:
@@ -149,13 +177,24 @@ class Recorder:
     def bookmark(self, name: str, data: dict[str, Any] | None = None) -> list[str]:
         """Marks now in every running recording; the names of the recordings marked."""
         marked = []
+        refused = []
         for recording in (self.manual, self.match):
             if recording is not None:
-                recording.bookmark(name, data)
+                try:
+                    recording.bookmark(name, data)
+                except LogError as exc:  # the disk takes no data (the banner says so)
+                    refused.append(f"{recording.path.name}: {exc}")
+                    continue
                 marked.append(recording.path.name)
+        if refused and not marked:
+            raise RecorderError("; ".join(refused))
         if not marked:
             raise RecorderError("nothing is being recorded")
         return marked
+
+    async def mark(self, name: str, data: dict[str, Any] | None = None) -> list[str]:
+        """``bookmark`` as the routers call it (the same for the recorder process, server.recording.remote)."""
+        return self.bookmark(name, data)
 
     # -- matches ----------------------------------------------------------------------------------------
     async def _watch_game(self) -> None:
@@ -215,12 +254,17 @@ class Recorder:
 
     # -- shared -----------------------------------------------------------------------------------------
     def _open(self, path: Path, reason: str, resume: bool = False) -> HubRecording:
+        before = log_series(path)[-1:] if resume else []  # the file the crash cut off
         try:
             scene = RecordedScene(self.description_for) if self.description_for is not None else None
-            return HubRecording(self.hub, path, reason, rotate_bytes=self.rotate_bytes, chunk_size=self.chunk_size,
-                                resume=resume, scene=scene)
+            recording = HubRecording(self.hub, path, reason, rotate_bytes=self.rotate_bytes,
+                                     chunk_size=self.chunk_size, resume=resume, scene=scene)
         except (LogError, OSError) as exc:
             raise RecorderError(f"cannot record to {path}: {exc}") from exc
+        if before:
+            self._gap_tasks.add(task := asyncio.get_running_loop().create_task(mark_gap(recording, before[0])))
+            task.add_done_callback(self._gap_tasks.discard)
+        return recording
 
     def active_paths(self) -> set[str]:
         return {f for r in (self.manual, self.match) if r is not None for f in r.status.files}

@@ -15,6 +15,7 @@ if TYPE_CHECKING:
     from server.node_graph import NodeGraph
     from server.plots import PlotFeed
     from server.recorder import Recorder
+    from server.recording.remote import RemoteRecorder
     from server.sources.replay import ReplaySource
 
 
@@ -52,7 +53,7 @@ class ServerState:
     sources: SourceSet
     link: ZenohLink
     telemetry_key: str = ""  # what the page shows of the key: "development" or a team key's fingerprint
-    recorder: Recorder | None = None  # set by server.recording.wiring
+    recorder: Recorder | RemoteRecorder | None = None  # set by server.recording.wiring
     replay: ReplaySource | None = None
     robot3d: Robot3D | None = None  # the 3D view (--robot3d), once started
     plots: PlotFeed | None = None  # the plots (--plots), once started

@@ -77,7 +77,7 @@ def _up(process: subprocess.Popen[bytes], log: Path) -> tuple[str, str] | None:
 
 @contextlib.contextmanager
 def running_demo(log_dir: Path, *args: str, program: list[str] | None = None, cwd: Path = REPO,
-                 command: str = "demo") -> Iterator[RunningDemo]:
+                 command: str = "demo", up_timeout_s: float = 90.0) -> Iterator[RunningDemo]:
     """`pitchside demo --port <free> *args` (by default `python -m pitchside.cli` of this checkout; an installed
     program and another folder for the wheel), stopped with SIGTERM (its launcher stops the rest). ``command``:
     "match" runs `pitchside match` the same way."""
@@ -89,7 +89,7 @@ def running_demo(log_dir: Path, *args: str, program: list[str] | None = None, cw
         process = subprocess.Popen([*program_words, command, "--port", str(free_port()), *args],
                                    cwd=cwd, stdout=out, stderr=subprocess.STDOUT, env=env, start_new_session=True)
     try:
-        found = wait_for(lambda: _up(process, log), timeout=90.0, interval=0.2, what=f"{command} dashboard up")
+        found = wait_for(lambda: _up(process, log), timeout=up_timeout_s, interval=0.2, what=f"{command} dashboard up")
         assert found is not None  # wait_for returns only a truthy value
         yield RunningDemo(process, found[0], log, found[1])
     finally:

@@ -17,7 +17,7 @@ import httpx
 import psutil
 import pytest
 
-from pitchside.local_run import BEHIND_THE_WORLD_NICE, ROBOTS_IN_MATCH_NICE
+from pitchside.local_run import BEHIND_THE_WORLD_NICE, ROBOTS_IN_MATCH_NICE, DashboardPlan
 from pitchside.match import (
     MATCH_TELEMETRY_RATES_HZ,
     GameControllerPlan,
@@ -40,6 +40,7 @@ from tests.running_demo import DashboardObserver, running_demo
 from tests.support import free_port
 from tests.waiting import wait_for
 
+PORTS = DashboardPlan(5800, 5801, 5802, 5803)  # the telemetry ports and the recorder's control port of a plan
 INITIAL, READY, SET, PLAYING, FINISHED = range(5)
 ROBOTS = ("home1", "home2", "away1", "away2")
 # the suite plays fast halves (2 x 18 s, READY 3 s: the flow, not the play); PITCHSIDE_MATCH_HALF_MINUTES=2 plays
@@ -177,11 +178,11 @@ def test_the_world_waits_for_every_robot_unless_told_not_to() -> None:
     ports = {r: 4000 + i for i, r in enumerate(lineup.robot_ids())}
 
     def clocks(plan: MatchPlan) -> tuple[list[str], set[str | None]]:
-        processes = match_processes(plan, endpoint="tcp/127.0.0.1:7447", http_port=8080, telemetry_port=5800,
+        processes = match_processes(plan, endpoint="tcp/127.0.0.1:7447", http_port=8080, dashboard=PORTS,
                                     gc=GameControllerPlan("sim", 3838, 3939, 1), mitecom_ports=ports, token="token",
                                     telemetry_key=None)
         world = next(p for p in processes if p.name == "world")
-        robots = [p for p in processes if p.name not in ("world", "server")]
+        robots = [p for p in processes if p.name not in ("world", "server", "recorder")]
         assert len(robots) == 3  # composed: one process a robot
         return [a for a in world.argv if a in ("--sim-time", "--lockstep")], {p.env.get(SIM_TIME_ENV) for p in robots}
 
@@ -190,9 +191,9 @@ def test_the_world_waits_for_every_robot_unless_told_not_to() -> None:
     assert clocks(replace(plan, sim_time=False, lockstep=False)) == ([], {None})
     # a team's robots sharing a process (the command's default): each such process follows the simulated clock too
     shared = match_processes(replace(plan, robots_per_process=4), endpoint="tcp/127.0.0.1:7447", http_port=8080,
-                             telemetry_port=5800, gc=GameControllerPlan("sim", 3838, 3939, 1), mitecom_ports=ports,
+                             dashboard=PORTS, gc=GameControllerPlan("sim", 3838, 3939, 1), mitecom_ports=ports,
                              token="token", telemetry_key=None)
-    robots = [p for p in shared if p.name not in ("world", "server")]
+    robots = [p for p in shared if p.name not in ("world", "server", "recorder")]
     assert [p.name for p in robots] == ["home1+home2", "away1/hcm+walking"]
     assert robots[0].members == ["home1/hcm", "home1/walking", "home2/hcm", "home2/walking"]
     assert {p.env.get(SIM_TIME_ENV) for p in robots} == {"lockstep"}
@@ -219,6 +220,7 @@ def assert_world_first(processes: list[psutil.Process]) -> None:
             modules[command[2]] = nice
     assert modules.pop("robot_nodes.sim.match") == launcher, modules
     assert modules.pop("server") == launcher + BEHIND_THE_WORLD_NICE, modules
+    assert modules.pop("server.recording") == launcher + BEHIND_THE_WORLD_NICE, modules
     assert "robot_nodes.compose" in modules, modules
     assert set(modules.values()) == {launcher + ROBOTS_IN_MATCH_NICE}, modules
 

@@ -140,11 +140,13 @@ def test_token_needed_off_loopback(router_endpoint: str, bus: BusConfig, tmp_pat
 def test_the_demo_in_match_mode_renders_no_more_images_than_telemetry_sends() -> None:
     """The dashboard in match mode sees the head camera only through telemetry (2 images a second by default)."""
     from pitchside.demo import demo_processes
+    from pitchside.local_run import DashboardPlan
     from robot_nodes.telemetry.sender import DEFAULT_TOPICS, IMAGE_TOPIC, parse_topics
 
     def world_argv(match: bool) -> list[str]:
-        processes = demo_processes(robots=2, endpoint="tcp/127.0.0.1:7447", http_port=8080, telemetry_port=5800,
-                                   model="minibot", match=match, gc_ports=[3838, 3839], gc_return_port=3939)
+        processes = demo_processes(robots=2, endpoint="tcp/127.0.0.1:7447", http_port=8080,
+                                   dashboard=DashboardPlan(5800, 5801, 5802, 5803), model="minibot", match=match,
+                                   gc_ports=[3838, 3839], gc_return_port=3939)
         return next(p.argv for p in processes if p.name == "world")
 
     rate = parse_topics(DEFAULT_TOPICS)[IMAGE_TOPIC]

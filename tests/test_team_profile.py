@@ -160,6 +160,7 @@ def test_the_demo_hands_its_ros2_flags_to_its_dashboard(tmp_path: Path) -> None:
     import argparse
 
     from pitchside.demo import demo_processes
+    from pitchside.local_run import DashboardPlan
     from server.__main__ import arguments, config_from
     from server.profiles.flags import add_ros2_arguments, ros2_flags
 
@@ -170,8 +171,10 @@ def test_the_demo_hands_its_ros2_flags_to_its_dashboard(tmp_path: Path) -> None:
     given = parser.parse_args(["--ros-domains", "0,11-12", "--ros-team", str(team), "--ros-profile", "bitbots",
                                "--ros-interfaces", str(INTERFACES)])
     flags = ros2_flags(given)
-    (server,) = [p for p in demo_processes(1, "tcp/127.0.0.1:7447", 8080, 5800, "minibot", False, [3838], 3939,
-                                           server_flags=flags) if p.name == "server"]
+    processes = demo_processes(robots=1, endpoint="tcp/127.0.0.1:7447", http_port=8080,
+                               dashboard=DashboardPlan(5800, 5801, 5802, 5803), model="minibot", match=False,
+                               gc_ports=[3838], gc_return_port=3939, server_flags=flags)
+    (server,) = [p for p in processes if p.name == "server"]
     assert server.argv[-len(flags):] == flags
     config = config_from(arguments().parse_args(server.argv[server.argv.index("server") + 1:]))
     assert config.ros2.listened() == (0, 11, 12) and config.ros2.team == {11: "amy"}

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import threading
@@ -238,6 +239,16 @@ class LogWriter:
         """Writes the summary (statistics, indexes) and closes the file; idempotent."""
         with self._lock:
             self._finish_file()
+
+    def abandon(self) -> None:
+        """Closes the file without its summary, as a crash would leave it (its complete chunks read back): for a
+        disk that is full or read-only, where the summary cannot be written either; idempotent."""
+        with self._lock:
+            if self._file is not None:
+                with contextlib.suppress(OSError):
+                    self._file.close()
+            self._writer = None
+            self._file = None
 
     def __enter__(self) -> LogWriter:
         return self

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import re
 import time
 from dataclasses import dataclass
@@ -29,6 +30,17 @@ def timestamped(folder: Path, label: str) -> Path:
         path = folder / f"{base}-{n}.mcap"
         n += 1
     return path
+
+
+def pulled_robots(path: Path) -> list[str] | None:
+    """The robots whose own logs `pitchside logs pull` merged into this match log's half (its ``.pulled.json``)."""
+    record = path.with_name(path.stem + ".pulled.json")
+    if not record.is_file():
+        return None
+    try:
+        return sorted(json.loads(record.read_text()).get("robots", {}))
+    except (OSError, ValueError, AttributeError):
+        return None
 
 
 @dataclass(slots=True)
@@ -66,6 +78,9 @@ class RecordingsFolder:
                                      "recording": str(path) in active}
             if not entry["recording"]:
                 entry.update(self._summary(path, (stat.st_size, stat.st_mtime_ns)))
+            pulled = pulled_robots(path)
+            if pulled is not None:
+                entry["pulled"] = pulled
             out.append(entry)
         return out
 

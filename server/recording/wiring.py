@@ -5,6 +5,7 @@ from __future__ import annotations
 import logging
 
 from server.recorder import Recorder
+from server.recording.remote import RemoteRecorder
 from server.security import AllowedFolders
 from server.sources import SourceError
 from server.sources.replay import ReplaySource
@@ -21,8 +22,13 @@ class RecordingAndReplay:
         config = state.config
         folder = config.recordings_dir
         self.state = state
-        self.recorder = Recorder(state.hub, folder, auto_match=config.auto_record_matches,
-                                 description_for=config.description_for)
+        self.recorder: Recorder | RemoteRecorder
+        if config.recorder_url:  # the recorder is a process of its own: this server only controls it
+            self.recorder = RemoteRecorder(config.recorder_url, config.recorder_token, folder,
+                                           config.auto_record_matches)
+        else:
+            self.recorder = Recorder(state.hub, folder, auto_match=config.auto_record_matches,
+                                     description_for=config.description_for)
         self.replay = ReplaySource(state.hub, folder, AllowedFolders(config.replay_folders, "logs"))
 
     async def start(self) -> None:

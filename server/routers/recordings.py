@@ -13,13 +13,15 @@ from typing import Any
 
 from fastapi import APIRouter, Depends, HTTPException
 from fastapi.responses import FileResponse, StreamingResponse
-from pydantic import BaseModel
+from pydantic import BaseModel, Field
 
 from schemas.logs import LogError, log_series
 from server.deps import get_state, require_token
 from server.recorder import Recorder
+from server.recording.remote import RemoteRecorder
 from server.state import ServerState
 
+AnyRecorder = Recorder | RemoteRecorder  # in this server, or the recorder process beside it
 router = APIRouter(prefix="/api/recordings", tags=["recordings"])
 
 
@@ -52,12 +54,33 @@ class Recording(BaseModel):
     resumed: bool  # continues a recording that a crash of the server cut off
 
 
+class RecorderOutage(BaseModel):
+    """A time the recorder process did not answer (wall clock): its recordings have a gap about this long."""
+
+    from_: float = Field(alias="from")
+    to: float
+    down_s: float
+
+
+class RecorderProcess(BaseModel):
+    """The recorder process beside the dashboard (None: the recorder runs inside this server)."""
+
+    separate: bool
+    up: bool  # answering now
+    down_since: float | None  # wall clock; None while up
+    pid: int | None
+    restarts: int  # new recorder processes since this dashboard started
+    outages: list[RecorderOutage]
+    error: str  # the running recording's error (disk full, folder read-only), "" when none
+
+
 class RecorderStatus(BaseModel):
     folder: str
     auto_match: bool
     manual: Recording | None
     match: Recording | None
     recent: list[Recording]
+    process: RecorderProcess | None = None
 
 
 class RecordingFile(BaseModel):
@@ -74,6 +97,7 @@ class RecordingFile(BaseModel):
     bookmarks: int | None = None
     error: str | None = None  # a file that cannot be read: why
     series: list[str] | None = None  # the first file of a size-rotated recording (a half): all its files, in order
+    pulled: list[str] | None = None  # a match log's half: the robots whose own logs were pulled and merged
 
 
 class RecordingsListing(RecorderStatus):
@@ -84,14 +108,14 @@ class Bookmarked(BaseModel):
     recordings: list[str]  # the recordings marked
 
 
-def get_recorder(state: ServerState = Depends(get_state)) -> Recorder:
+def get_recorder(state: ServerState = Depends(get_state)) -> AnyRecorder:
     if state.recorder is None:
         raise HTTPException(503, "this server has no recorder")
     return state.recorder
 
 
 @router.get("", response_model=RecordingsListing, response_model_exclude_unset=True)
-def list_recordings(recorder: Recorder = Depends(get_recorder)) -> dict[str, Any]:
+def list_recordings(recorder: AnyRecorder = Depends(get_recorder)) -> dict[str, Any]:
     """The files (newest first, with size_bytes, duration_s, messages) and what is being recorded now; the first
     file of a rotated recording names its series (downloaded at once from /series/<name>)."""
     files = recorder.listing()
@@ -103,7 +127,7 @@ def list_recordings(recorder: Recorder = Depends(get_recorder)) -> dict[str, Any
 
 
 @router.get("/files/{name}", response_class=FileResponse)
-def download_recording(name: str, recorder: Recorder = Depends(get_recorder)) -> FileResponse:
+def download_recording(name: str, recorder: AnyRecorder = Depends(get_recorder)) -> FileResponse:
     """One MCAP file of the recordings folder as a download (by its bare name: nothing outside the folder)."""
     try:
         path = recorder.files.resolve(name)
@@ -113,7 +137,7 @@ def download_recording(name: str, recorder: Recorder = Depends(get_recorder)) ->
 
 
 @router.get("/series/{name}", response_class=StreamingResponse)
-def download_series(name: str, recorder: Recorder = Depends(get_recorder)) -> StreamingResponse:
+def download_series(name: str, recorder: AnyRecorder = Depends(get_recorder)) -> StreamingResponse:
     """A recording with all its rotated files (a half: ``game.mcap``, ``game_001.mcap`` ...) as one zip, streamed
     as it is read (files stored as they are: MCAP chunks are compressed already). By the first file's bare name."""
     try:
@@ -160,12 +184,12 @@ def _zipped(parts: list[Path], chunk: int = 1 << 20) -> Iterator[bytes]:
 
 
 @router.get("/status", response_model=RecorderStatus)
-def recording_status(recorder: Recorder = Depends(get_recorder)) -> dict[str, Any]:
+def recording_status(recorder: AnyRecorder = Depends(get_recorder)) -> dict[str, Any]:
     return recorder.status()
 
 
 @router.post("/start", dependencies=[Depends(require_token)], response_model=Recording)
-async def start_recording(request: StartRequest | None = None, recorder: Recorder = Depends(get_recorder)
+async def start_recording(request: StartRequest | None = None, recorder: AnyRecorder = Depends(get_recorder)
                           ) -> dict[str, Any]:
     """409 if a manual recording runs already (server.http_errors)."""
     status = await recorder.start_manual((request or StartRequest()).name)
@@ -173,7 +197,7 @@ async def start_recording(request: StartRequest | None = None, recorder: Recorde
 
 
 @router.post("/stop", dependencies=[Depends(require_token)], response_model=Recording)
-async def stop_recording(recorder: Recorder = Depends(get_recorder)) -> dict[str, Any]:
+async def stop_recording(recorder: AnyRecorder = Depends(get_recorder)) -> dict[str, Any]:
     status = await recorder.stop_manual()
     if status is None:
         raise HTTPException(409, "no manual recording is running")
@@ -181,6 +205,6 @@ async def stop_recording(recorder: Recorder = Depends(get_recorder)) -> dict[str
 
 
 @router.post("/bookmark", dependencies=[Depends(require_token)])
-async def add_bookmark(request: BookmarkRequest, recorder: Recorder = Depends(get_recorder)) -> Bookmarked:
+async def add_bookmark(request: BookmarkRequest, recorder: AnyRecorder = Depends(get_recorder)) -> Bookmarked:
     """409 when nothing is being recorded (server.http_errors)."""
-    return Bookmarked(recordings=recorder.bookmark(request.name, request.data))
+    return Bookmarked(recordings=await recorder.mark(request.name, request.data))

@@ -30,12 +30,13 @@ function running(status, label) {
 function fileRow(f) {
   const facts = f.recording ? `${size(f.size_bytes)} · recording…`
     : f.error ? `${size(f.size_bytes)} · <span class="bad">${esc(f.error)}</span>` : `${size(f.size_bytes)} · ${clock(f.duration_s)}`;
+  const pulled = f.pulled ? ` · robot logs: ${f.pulled.length ? esc(f.pulled.join(", ")) : "none"}` : "";
   const buttons = f.recording ? "" : `<button type="button" data-open="${esc(f.name)}">replay</button>
     <a class="button" data-download="${esc(f.name)}" href="api/recordings/files/${esc(encodeURIComponent(f.name))}"
       download="${esc(f.name)}">download</a>${f.series ? `<a class="button" data-download-series="${esc(f.name)}"
       href="api/recordings/series/${esc(encodeURIComponent(f.name))}" title="${esc(f.series.join(", "))}"
       >all ${f.series.length} files (zip)</a>` : ""}`;
-  return `<td class="rec-file"><span class="rec-file-name">${esc(f.name)}</span><span class="rec-facts">${facts}</span></td>
+  return `<td class="rec-file"><span class="rec-file-name">${esc(f.name)}</span><span class="rec-facts">${facts}${pulled}</span></td>
     <td class="rec-actions-cell"><div class="rec-actions">${buttons}</div></td>`;
 }
 
@@ -123,6 +124,20 @@ export default {
       }
     }
 
+    /** The recorder process beside the dashboard: down (its spare takes over), a disk error, the gaps it left. */
+    function recorderBanner(process, listing) {
+      const error = process?.error || listing.manual?.error || listing.match?.error || "";
+      let html = error ? `<div class="rec-banner bad" role="alert">recording: ${esc(error)}</div>` : "";
+      if (process && !process.up) {
+        const since = process.down_since ? ` for ${Math.max(0, Date.now() / 1000 - process.down_since).toFixed(1)} s` : "";
+        html += `<div class="rec-banner bad" role="alert">the recorder does not answer${since}: it is restarted, the recording will have a gap</div>`;
+      } else if (process?.outages?.length) {
+        const gaps = process.outages.map((o) => `${o.down_s.toFixed(2)} s`).join(", ");
+        html += `<div class="rec-banner warn">the recorder was restarted (gaps of ${esc(gaps)}, bookmarked "recording gap" on the timeline)</div>`;
+      }
+      return html;
+    }
+
     async function refresh() {
       let listing;
       try {
@@ -130,8 +145,9 @@ export default {
         listing = files;
         replaying = replay && !["closed", "loading"].includes(replay.state) ? replay : null;
       } catch (err) { fail(err); return; }
-      setHtml($(".rec-status"), running(listing.manual, "manual") + running(listing.match, "match") ||
-        `<div class="empty">not recording${listing.auto_match ? " (matches are recorded automatically)" : ""}</div>`);
+      setHtml($(".rec-status"), recorderBanner(listing.process, listing) + (running(listing.manual, "manual") +
+        running(listing.match, "match") ||
+        `<div class="empty">not recording${listing.auto_match ? " (matches are recorded automatically)" : ""}</div>`));
       $(".rec-start").disabled = !!listing.manual;
       $(".rec-stop").disabled = !listing.manual;
       const mark = $(".rec-mark");
