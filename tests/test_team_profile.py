@@ -13,10 +13,11 @@ from PIL import Image
 
 from schemas import codec
 from schemas.interface_folder import register_interfaces
-from server.profiles import ProfileError, Refusal, Ros2Setup, RouteRefused, load_profile, load_team, parse_domains
-from server.profiles import route as route_of
 from server.profiles.images import ImageEncodingError, jpeg_of
-from server.profiles.profile import profile_from
+from server.profiles.profile import ProfileError, load_profile, profile_from
+from server.profiles.routes import Refusal, RouteRefused
+from server.profiles.routes import route as route_of
+from server.profiles.team import Ros2Setup, load_team, parse_domains
 from server.profiles.translate import translate
 from server.sources.live import robot_of_log
 from tests.support import TESTDATA
@@ -181,3 +182,11 @@ def test_the_demo_hands_its_ros2_flags_to_its_dashboard(tmp_path: Path) -> None:
     assert config.ros2.profile.name == "bitbots" and config.ros2.interfaces == INTERFACES.resolve()
     with pytest.raises(SystemExit, match="not a folder"):
         config_from(arguments().parse_args(["--ros-interfaces", str(tmp_path / "absent")]))
+
+
+def test_the_flags_name_the_shipped_profiles() -> None:
+    """flags.py (read by --help, so without the profiles' code) names the same shipped profiles as profile.py."""
+    from server.profiles import flags, profile
+
+    assert flags.SHIPPED_NAMES == profile.SHIPPED
+    assert all((Path(profile.__file__).parent / f"{name}.yaml").is_file() for name in profile.SHIPPED)

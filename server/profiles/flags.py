@@ -5,9 +5,13 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from server.profiles.profile import SHIPPED, ProfileError, load_profile
-from server.profiles.team import Ros2Setup, load_team, parse_domains
+if TYPE_CHECKING:
+    from server.profiles.team import Ros2Setup
+
+# the profiles shipped in server/profiles/ (a name, not a file); profile.SHIPPED lists the same, checked by a test
+SHIPPED_NAMES = ("pitchside", "bitbots")
 
 
 def add_ros2_arguments(p: argparse.ArgumentParser) -> None:
@@ -25,7 +29,7 @@ def add_ros2_arguments(p: argparse.ArgumentParser) -> None:
 
 def ros2_flags(args: argparse.Namespace) -> list[str]:
     """The --ros-* flags given, to hand on to a server process (files as absolute paths)."""
-    flags = ["--ros-profile", str(Path(args.ros_profile).resolve()) if args.ros_profile not in SHIPPED
+    flags = ["--ros-profile", str(Path(args.ros_profile).resolve()) if args.ros_profile not in SHIPPED_NAMES
              else args.ros_profile]
     for flag, value in (("--ros-domains", args.ros_domains), ("--ros-team", args.ros_team),
                         ("--ros-interfaces", args.ros_interfaces)):
@@ -36,6 +40,9 @@ def ros2_flags(args: argparse.Namespace) -> list[str]:
 
 def ros2_setup(args: argparse.Namespace) -> Ros2Setup:
     """The ROS 2 side of the live source from the --ros-* flags; SystemExit naming a bad flag or file."""
+    from server.profiles.profile import ProfileError, load_profile  # the profiles' code: not for --help
+    from server.profiles.team import Ros2Setup, load_team, parse_domains
+
     try:
         domains = parse_domains(args.ros_domains) if args.ros_domains else None
         team = load_team(Path(args.ros_team)) if args.ros_team else {}

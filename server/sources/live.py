@@ -22,9 +22,10 @@ import zenoh.ext
 import schemas
 from schemas.interface_folder import InterfaceFolderError, register_interfaces
 from server.hub import Hub, HubMessage
-from server.profiles import Refusal, Ros2Setup, Route, RouteRefused, route, translate
 from server.profiles.images import CONVERTERS
-from server.profiles.routes import ROSOUT
+from server.profiles.routes import ROSOUT, Refusal, Route, RouteRefused, route
+from server.profiles.team import Ros2Setup
+from server.profiles.translate import translate
 from server.sources import Source, SourceError
 from server.sources.ros2_robots import Ros2Robots
 from server.sources.stamps import stamp_of
