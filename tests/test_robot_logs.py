@@ -183,3 +183,21 @@ def test_kill_9_of_every_writer_at_once_leaves_files_that_open_to_within_a_secon
         with LogReader(path) as log:  # opens as it is: the index rebuilt from its complete chunks
             last = max(m.log_time_ns for m in log.messages(topics=["joint_states"], decode=False)) / 1e9
         assert last >= killed_at - 1.0, (path.name, killed_at - last)
+
+
+def test_the_lab_may_pull_a_robots_log_on_a_secured_bus_and_nobody_else_serves_it() -> None:
+    """The robot log's keys lie in the robot's namespace of the domain: the team's access rules let the lab laptop
+    ask for them and the robot answer, and a robot cannot answer for another robot's log."""
+    from pitchside.team_access import Role, access_control
+    from robot_nodes.robot_log.files import file_key, list_key
+
+    rules = {rule["id"]: rule for rule in access_control({"laptop": Role.LAPTOP, "robot1": Role.ROBOT,
+                                                          "robot2": Role.ROBOT, "router": Role.ROUTER})["rules"]}
+    lab = [zenoh.KeyExpr(key) for key in rules["lab-requests"]["key_exprs"]]
+    robot2 = [zenoh.KeyExpr(key) for key in rules["robot-robot2"]["key_exprs"]]
+    for key in (zenoh.KeyExpr(list_key("robot1")), zenoh.KeyExpr(file_key("robot1"))):
+        assert any(rule.includes(key) for rule in lab), key
+        assert not any(rule.includes(key) for rule in robot2), key  # robot2 cannot serve robot1's log
+    assert list_key("robot1").endswith("/robot1/_robot_log/list")
+    with pytest.raises(ValueError, match="list or file"):
+        keys.robot_log_key("robot1", "delete")

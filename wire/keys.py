@@ -16,6 +16,7 @@
                                                    feedback, status, in rmw_zenoh's layout (wire/ros2/actions.py)
     @ros2_lv/<domain>/...                          rmw_zenoh's liveliness tokens: the ROS 2 graph (wire/ros2)
     <domain>/<robot>/_doctor/clock                 pitchside doctor's clock probe through the laptop's router
+    <domain>/<robot>/_robot_log/list, /file        the robot's own log files, for pitchside logs pull (queries)
 
 Robot ids and topic names come from the network (a Zenoh key, a telemetry header, a log file) and end up in
 keys, file names and the dashboard's page: the rules below are checked where they enter, the same everywhere.
@@ -184,6 +185,16 @@ def is_topic_key(key: str) -> bool:
     parts = key.rsplit("/", 2)
     return len(parts) == 3 and parts[2].startswith("RIHS01_") and "::msg::dds_::" in parts[1] and \
         "/_action/" not in parts[0]
+
+
+def robot_log_key(robot: str, part: str) -> str:
+    """A robot's log files for ``pitchside logs pull`` (robot_nodes/robot_log/files.py): queries ``list`` and
+    ``file`` in the robot's namespace of the domain, so a secured team's access rules let the lab ask and the robot
+    answer as they do for its services; a hidden name (``_robot_log``) and no type or hash, so no ROS 2 tool and no
+    dashboard takes it for a topic."""
+    if part not in ("list", "file"):
+        raise ValueError(f"a robot log key is list or file, not {part!r}")
+    return f"{domain_id()}/{check_robot_id(robot)}/_robot_log/{part}"
 
 
 def doctor_probe_key(robot: str) -> str:

@@ -5,7 +5,7 @@ the robot itself published, on the robot, and sends nothing (in a match the robo
 ``<folder>/<robot>_<part>_<start>.mcap`` (part: half1, half2 from the robot's gamestate; pregame before one), a new
 file per half and per start of this process (a robot that reboots mid-half continues in a new file; the merge joins
 them), rotated by size, in a bounded ring (robot_nodes.robot_log.ring). After the game, in the lab,
-``pitchside logs pull`` fetches them over the bus (this process answers ``pitchside_logs/<robot>/...`` queries:
+``pitchside logs pull`` fetches them over the bus (this process answers ``<domain>/<robot>/_robot_log/...`` queries:
 robot_nodes.robot_log.files) or over SSH.
 """
 

@@ -1,9 +1,10 @@
 """The robot's log files over the bus, for ``pitchside logs pull`` in the lab: a listing and the files in pieces.
 
-Keys (Zenoh queries, answered only when asked: in a match nobody asks, and the robot's bus connects to nobody):
-``pitchside_logs/<robot>/list`` answers JSON ``[{"name", "size_bytes", "writing"}]``; ``pitchside_logs/<robot>/file``
-with the query payload JSON ``{"name", "offset", "length"}`` answers those bytes of that file (at most PIECE_BYTES; a
-name is a bare file name of the folder, nothing else is served).
+Keys (Zenoh queries in the robot's namespace of the domain, wire.keys.robot_log_key; answered only when asked: in a
+match nobody asks, and the robot's bus connects to nobody): ``.../_robot_log/list`` answers JSON
+``[{"name", "size_bytes", "writing"}]``; ``.../_robot_log/file`` with the query payload JSON
+``{"name", "offset", "length"}`` answers those bytes of that file (at most PIECE_BYTES; a name is a bare file name
+of the folder, nothing else is served).
 """
 
 from __future__ import annotations
@@ -15,18 +16,19 @@ from pathlib import Path
 
 import zenoh
 
+from wire import keys
+
 log = logging.getLogger(__name__)
 
 PIECE_BYTES = 4 << 20
-ROOT = "pitchside_logs"
 
 
 def list_key(robot: str) -> str:
-    return f"{ROOT}/{robot}/list"
+    return keys.robot_log_key(robot, "list")
 
 
 def file_key(robot: str) -> str:
-    return f"{ROOT}/{robot}/file"
+    return keys.robot_log_key(robot, "file")
 
 
 class LogFileServer:
