@@ -30,9 +30,10 @@ import recordings from "./panels/recordings.js";
 import nodeLog from "./panels/node_log.js";
 import gameState from "./panels/game_state.js";
 import linkHealth from "./panels/link_health.js";
+import ros2Robots from "./panels/ros2_robots.js";
 
 const PANELS = [teamOverview, fieldView, relativeView, hcmGraph, camera, diagnostics, robot3d, plots, parameters,
-  animationEditor, teleop, replay, recordings, nodeLog, gameState, linkHealth];
+  animationEditor, teleop, replay, recordings, nodeLog, gameState, linkHealth, ros2Robots];
 const PRESET_KEY = KEYS.preset;
 
 async function main() {
