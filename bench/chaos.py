@@ -166,7 +166,11 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--drop", type=float, default=0.2, help="share of telemetry datagrams dropped")
     parser.add_argument("--every", type=float, nargs=2, default=(10.0, 20.0), metavar=("MIN_S", "MAX_S"))
+    parser.add_argument("--players", type=int, default=4, help="robots per team (the issue's half: 4)")
+    parser.add_argument("--smoke", action="store_true", help="a short 1 v 1 half with a kill or two: that it runs")
     args = parser.parse_args()
+    if args.smoke:
+        args.players, args.half_minutes, args.every = 1, 0.25, (5.0, 8.0)
     rng = random.Random(args.seed)
     token = "chaos-" + str(rng.randrange(10**9))
     kills: list[Kill] = []
@@ -175,7 +179,7 @@ def main() -> None:
         recordings, robot_logs = tmp / "recordings", tmp / "robot_logs"
         os.environ.update({"PITCHSIDE_TOKEN": token, "PITCHSIDE_RECORDINGS": str(recordings),
                            "PITCHSIDE_TELEMETRY_DROP": str(args.drop)})
-        match_args = ("--players", "4", "--half-minutes", str(args.half_minutes), "--seed", str(args.seed),
+        match_args = ("--players", str(args.players), "--half-minutes", str(args.half_minutes), "--seed", str(args.seed),
                       "--initial-seconds", "2", "--ready-seconds", "15", "--set-seconds", "2")
         with running_demo(tmp, *match_args, command="match", up_timeout_s=600) as match:
             endpoint = ROUTER.search(match.output())

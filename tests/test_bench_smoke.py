@@ -36,9 +36,11 @@ HEAVY = {  # bench -> why it is slow or needs more than Python
     "replay": "a log written and replayed",
     "latency": "node processes for each publisher kind",
     "telemetry": "the sender against a budget, several rounds",
+    "chaos": "a 1 v 1 match with processes killed",
+    "plots_lag": "the demo and a browser",
 }
 RESULT_NAME = {"network": "net"}  # a bench whose RESULT line names it otherwise
-BROWSER = {"plots_memory", "server", "demo"}
+BROWSER = {"plots_memory", "server", "demo", "plots_lag"}
 TIMEOUT_S = 600
 
 
