@@ -179,7 +179,8 @@ def main() -> None:
         recordings, robot_logs = tmp / "recordings", tmp / "robot_logs"
         os.environ.update({"PITCHSIDE_TOKEN": token, "PITCHSIDE_RECORDINGS": str(recordings),
                            "PITCHSIDE_TELEMETRY_DROP": str(args.drop)})
-        match_args = ("--players", str(args.players), "--half-minutes", str(args.half_minutes), "--seed", str(args.seed),
+        match_args = ("--players", str(args.players), "--half-minutes", str(args.half_minutes),
+                      "--seed", str(args.seed),
                       "--initial-seconds", "2", "--ready-seconds", "15", "--set-seconds", "2")
         with running_demo(tmp, *match_args, command="match", up_timeout_s=600) as match:
             endpoint = ROUTER.search(match.output())
