@@ -71,7 +71,8 @@ def demo_processes(*, robots: int, endpoint: str, http_port: int, dashboard: Das
         gc += ["--to", f"127.0.0.1:{port}"]
     processes.append(NodeProcess("gamecontroller", gc))
     processes += dashboard_processes(dashboard, http_port=http_port, model=model, connect=[endpoint], match=match,
-                                     token=token, telemetry_key=telemetry_key, extra=server_flags or [])
+                                     token=token, telemetry_key=telemetry_key, extra=server_flags or [],
+                                     spares=False)
     return world_first(processes)
 
 

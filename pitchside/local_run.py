@@ -113,14 +113,16 @@ class DashboardPlan:
 
 
 def dashboard_processes(plan: DashboardPlan, *, http_port: int, model: str, connect: list[str], match: bool,
-                        token: str, telemetry_key: Path | None, extra: Sequence[str] = ()) -> list[NodeProcess]:
+                        token: str, telemetry_key: Path | None, extra: Sequence[str] = (),
+                        spares: bool = True) -> list[NodeProcess]:
     """The recorder, the dashboard and the dashboard's warm spare (server.standby): a crash of either of the first
     two never touches the other, and the spare serves within a second of the dashboard's death. extra: more flags
-    of the dashboard."""
+    of the dashboard; spares: the warm spares too (a match, where a crash must cost nothing; the demo goes without:
+    two idle copies of the whole dashboard would cost a laptop more than a restart saves it)."""
     out = []
     for role in ("recorder", "server"):
         # the locks live in the run's own folder (beside the key); without a key file, no spare
-        lock = telemetry_key.parent / STANDBY_LOCKS[role] if telemetry_key else None
+        lock = telemetry_key.parent / STANDBY_LOCKS[role] if telemetry_key and spares else None
         for name in (role, f"{role}-spare") if lock is not None else (role,):
             if role == "recorder":
                 process = server_process(http_port=http_port, telemetry_port=plan.recorder_port, model=model,

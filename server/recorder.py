@@ -193,7 +193,7 @@ class Recorder:
         return marked
 
     async def mark(self, name: str, data: dict[str, Any] | None = None) -> list[str]:
-        """``bookmark`` as the routers call it (the same for the recorder process, server.recording.remote)."""
+        """``bookmark`` as the routers call it (the same for the recorder process, server.recorder_remote)."""
         return self.bookmark(name, data)
 
     # -- matches ----------------------------------------------------------------------------------------

@@ -15,7 +15,7 @@ if TYPE_CHECKING:
     from server.node_graph import NodeGraph
     from server.plots import PlotFeed
     from server.recorder import Recorder
-    from server.recording.remote import RemoteRecorder
+    from server.recorder_remote import RemoteRecorder
     from server.sources.replay import ReplaySource
 
 

@@ -30,10 +30,17 @@ def _module_file(name: str) -> Path | None:
 
 @cache
 def _imports(path: Path) -> frozenset[str]:
-    """Dotted names a file imports anywhere in it (relative imports resolved), and the names imported from them
-    (``from wire import bus`` may be a module)."""
+    """Dotted names a file imports anywhere in it but under ``if TYPE_CHECKING:`` (relative imports resolved), and
+    the names imported from them (``from wire import bus`` may be a module)."""
     names: set[str] = set()
-    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+    tree = ast.parse(path.read_text(), str(path))
+    # what only a type checker reads (``if TYPE_CHECKING:``) never runs: a lazy package's names for mypy
+    type_only = {id(inner) for block in ast.walk(tree) if isinstance(block, ast.If)
+                 and getattr(block.test, "id", getattr(block.test, "attr", None)) == "TYPE_CHECKING"
+                 for stmt in block.body for inner in ast.walk(stmt)}
+    for node in ast.walk(tree):
+        if id(node) in type_only:
+            continue
         if isinstance(node, ast.Import):
             names |= {alias.name for alias in node.names}
         elif isinstance(node, ast.ImportFrom):

@@ -176,7 +176,8 @@ def test_the_demo_hands_its_ros2_flags_to_its_dashboard(tmp_path: Path) -> None:
                                dashboard=DashboardPlan(5800, 5801, 5802, 5803), model="minibot", match=False,
                                gc_ports=[3838], gc_return_port=3939, server_flags=flags)
     (server,) = [p for p in processes if p.name == "server"]
-    assert server.argv[-len(flags):] == flags
+    at = server.argv.index(flags[0])
+    assert server.argv[at:at + len(flags)] == flags
     config = config_from(arguments().parse_args(server.argv[server.argv.index("server") + 1:]))
     assert config.ros2.listened() == (0, 11, 12) and config.ros2.team == {11: "amy"}
     assert config.ros2.profile.name == "bitbots" and config.ros2.interfaces == INTERFACES.resolve()

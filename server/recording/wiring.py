@@ -5,7 +5,7 @@ from __future__ import annotations
 import logging
 
 from server.recorder import Recorder
-from server.recording.remote import RemoteRecorder
+from server.recorder_remote import RemoteRecorder
 from server.security import AllowedFolders
 from server.sources import SourceError
 from server.sources.replay import ReplaySource

@@ -55,7 +55,7 @@ from wire.animation.animation_file import animation_to_dict
 from wire.parameters import ParameterClient, ParameterError
 
 router = APIRouter(prefix="/api/robots/{robot}", tags=["animations"], dependencies=[Depends(valid_robot)])
-TIMEOUT_S = 3.0
+TIMEOUT_S = 10.0  # as server.lab.GOAL_TIMEOUT_S: on a busy laptop the answer comes late
 WAIT_RESULT_S = 60.0  # play with wait: longer than any animation
 PREVIEW_FILE = "_editor_preview"  # the editor's draft (or a file cut at "play up to keyframe k") plays from this file
 FOLDER_CACHE_S = 10.0

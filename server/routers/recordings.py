@@ -18,7 +18,7 @@ from pydantic import BaseModel, Field
 from schemas.logs import LogError, log_series
 from server.deps import get_state, require_token
 from server.recorder import Recorder
-from server.recording.remote import RemoteRecorder
+from server.recorder_remote import RemoteRecorder
 from server.state import ServerState
 
 AnyRecorder = Recorder | RemoteRecorder  # in this server, or the recorder process beside it

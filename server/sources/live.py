@@ -206,7 +206,7 @@ class LiveZenohSource(Source):
             if isinstance(found, RouteRefused):
                 self._refuse(key, found)
                 continue
-            if found.table:  # a pitchside robot's topic: decoded when a consumer first needs it
+            if found.table and found.robot:  # a pitchside robot's topic: decoded when a consumer first needs it
                 self.received += 1
                 self.hub.publish(HubMessage(found.robot, found.topic, found.typename, stamp_of(payload, found.typename),
                                             payload, self.name, sent=sent))

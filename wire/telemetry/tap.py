@@ -36,6 +36,7 @@ class TelemetryTap:
         self._in.bind((host, port))
         self.port = int(self._in.getsockname()[1])
         self._out = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self._out.bind(("127.0.0.1", 0))  # it only sends, to loopback: bound there, never reachable from outside
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="telemetry-tap", daemon=True)
 
