@@ -156,10 +156,11 @@ def test_a_hidden_camera_panel_receives_no_images(browser: Any, scene: RunningSe
         page.goto(scene.page_url("all"))
         page.evaluate("localStorage.clear(); localStorage.setItem('pitchside.focus', 'r3')")
         page.reload()
-        counts = "window.pitchside.conn?.counts ?? {images: 0, robots: 0}"
+        counts = "window.pitchside?.conn?.counts ?? {images: 0, robots: 0}"  # undefined until the app has run
         wait_for(lambda: page.evaluate(counts)["images"] > 5, 30.0, 0.2, "camera images arriving at 10 Hz")
         page.click('[data-panel="camera"] button[data-act="hide"]')
-        assert page.evaluate("window.pitchside.conn.book.rate('*|camera/image/compressed')") is None
+        rate = "window.pitchside?.conn ? window.pitchside.conn.book.rate('*|camera/image/compressed') ?? 'none' : null"
+        assert wait_for(lambda: page.evaluate(rate), 10.0, 0.1, "the page's connection") == "none"
         # the server sends a robots frame every 0.5 s after what it had queued: two of them, and every image
         # queued before the unsubscribe has arrived; from then on, none may come
         robots = page.evaluate(counts)["robots"]

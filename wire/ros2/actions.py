@@ -141,21 +141,26 @@ class ActionInterface:
         return codec.decode(data, f"{self.action_type}_{envelope}")
 
 
-@functools.cache
 def action_interface(action_type: str) -> ActionInterface:
-    """The interface of an action type of the typestore (its _Goal, _Result and _Feedback registered)."""
+    """The interface of an action type of the typestore (its _Goal, _Result and _Feedback registered). The protocol's
+    envelopes go into the store each time (a dict lookup when they are there): the store may be made anew."""
+    _register({**_CANCEL_DEFS, **_envelopes(action_type)})
+    return ActionInterface(action_type)
+
+
+@functools.cache
+def _envelopes(action_type: str) -> dict[str, Any]:
+    """The types ROS 2's action protocol wraps around an action's parts (SendGoal, GetResult, FeedbackMessage)."""
     store = codec.typestore()
     parts = [f"{action_type}_{part}" for part in ("Goal", "Result", "Feedback")]
     missing = [name for name in parts if name not in store.fielddefs]
     if missing:
         raise Ros2WireError(f"action type {action_type!r}: no definition of {', '.join(missing)}")
     derived = with_interface_types({name: store.fielddefs[name] for name in parts})
-    envelopes = {name: derived[name] for name in derived
-                 if name.startswith(f"{action_type}_") and name.endswith(
-                     ("_SendGoal_Request", "_SendGoal_Response", "_GetResult_Request", "_GetResult_Response",
-                      "_FeedbackMessage"))}
-    _register({**_CANCEL_DEFS, **envelopes})
-    return ActionInterface(action_type)
+    return {name: derived[name] for name in derived
+            if name.startswith(f"{action_type}_") and name.endswith(
+                ("_SendGoal_Request", "_SendGoal_Response", "_GetResult_Request", "_GetResult_Response",
+                 "_FeedbackMessage"))}
 
 
 def _register(defs: dict[str, Any]) -> None:

@@ -125,7 +125,9 @@ class RequestClient:
                 return  # a second server's answer (two servers of one name): the first counts, as in rmw_zenoh
             answered.set()
             if reply.ok is None:
-                on_fail(f"{name}: {reply.err.payload.to_string() if reply.err is not None else 'an empty reply'}", True)
+                why = reply.err.payload.to_string() if reply.err is not None else "an empty reply"
+                # a router's "Timeout": no server answered in time (a busy machine), not a server's refusal
+                on_fail(f"{name}: {why}", why != "Timeout")
                 return
             sample = reply.ok
             try:
