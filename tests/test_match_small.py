@@ -42,8 +42,11 @@ def test_a_small_division_match_plays_both_halves(players: int, half_minutes: fl
         with watch:
             wait_for(lambda: all(watch.newest(r) for r in robots), 300,
                      what=lambda: missing_gamestate(watch, robots, match.output()))
-            wait_for(lambda: watch.states(robots[0])[-1:] == [(FINISHED, False)], 4 * half_minutes * 60 + 600,
-                     what="the end of the game")
+            # every robot's last telemetry of the game (each robot's datagrams come on their own)
+            END = [(FINISHED, False)]
+            wait_for(lambda: all(watch.states(r)[-1:] == END for r in robots),
+                     4 * half_minutes * 60 + 600,
+                     what=lambda: f"the end of the game at {[r for r in robots if watch.states(r)[-1:] != END]}")
             assert watch.error == "" and watch.sources == {"telemetry"}  # match mode: one-way telemetry only
             for robot in robots:  # every robot saw the game, its halves in the HSL order
                 states = watch.states(robot)
